@@ -1,4 +1,54 @@
 """Turski's conformal camera: geometry, exp-polar retina, DPFT, remapping and cortex.
 
 Pure math on numpy arrays; never imports MuJoCo, so it works on any image.
+Equation names refer to the ``\\label``s of the paper (J. Turski, *Geometric Analysis of the
+Conformal Camera for Intermediate-Level Vision and Perisaccadic Perception*).
 """
+
+from .cortex import BinocularCortex, binocular_cortex, cortical_map, hemifields, schwartz_map
+from .dpft import (
+    OffGridEvaluator,
+    dpft,
+    dpft_direct,
+    evaluate,
+    evaluate_direct,
+    idpft,
+    idpft_direct,
+    pft_frequencies,
+    transform,
+    warp,
+)
+from .fovea import fovea_dft, fovea_idft, fovea_image, fovea_indices
+from .geometry import (
+    SPHERE_CENTRE,
+    act,
+    apply_homography,
+    check_sl2,
+    compose,
+    euler_rotation,
+    h_matrix,
+    inverse,
+    k_matrix,
+    lift_to_sphere,
+    mobius_from_points,
+    project,
+    rotation_from_su2,
+    rotation_homography,
+    su2_from_rotation,
+    transform_image,
+)
+from .grid import RetinaGrid
+from .remap import homography_map, mobius_for_rotation, mobius_map, predict, rotation_matrix, target_shift_map
+from .sampling import Retina, RetinaSamples, pixel_points
+from .shift import log_radius_shift
+
+__all__ = [
+    "BinocularCortex", "OffGridEvaluator", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
+    "act", "apply_homography", "binocular_cortex", "check_sl2", "compose", "cortical_map", "dpft",
+    "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "fovea_dft", "fovea_idft",
+    "fovea_image", "fovea_indices", "h_matrix", "hemifields", "homography_map", "idpft",
+    "idpft_direct", "inverse", "k_matrix", "lift_to_sphere", "log_radius_shift", "mobius_for_rotation",
+    "mobius_from_points", "mobius_map", "pft_frequencies", "pixel_points", "predict", "project",
+    "rotation_from_su2", "rotation_homography", "rotation_matrix", "schwartz_map", "su2_from_rotation",
+    "target_shift_map", "transform", "transform_image", "warp",
+]

@@ -1,0 +1,275 @@
+"""Geometry of the conformal camera (paper §3-§4).
+
+Eye frame: x2 is the optical axis, x3 points right, x1 up; the image plane is x2 = 1 and
+a point projects to z = (x3 + i x1) / x2 (eq. ``proj``). The group SL(2, C) acts on the
+image plane by the paper's linear-fractional action (eq. ``lft1``)
+
+    g . z = (d z + c) / (b z + a),   g = [[a, b], [c, d]],
+
+which is a homomorphism: (g1 @ g2) . z = g1 . (g2 . z). Images transform as
+f(g^{-1} . z) (eq. ``IPT``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "project",
+    "lift_to_sphere",
+    "act",
+    "transform_image",
+    "k_matrix",
+    "h_matrix",
+    "compose",
+    "inverse",
+    "check_sl2",
+    "euler_rotation",
+    "su2_from_rotation",
+    "mobius_from_points",
+    "apply_homography",
+    "rotation_from_su2",
+    "rotation_homography",
+    "SPHERE_CENTRE",
+]
+
+SPHERE_CENTRE = np.array([0.0, 1.0, 0.0])
+"""Centre (x1, x2, x3) of the unit sphere S^2_(0,1,0) on which j is the stereographic projection."""
+
+_POLE_TOL = 1e-12
+
+
+def _as_points(x: ArrayLike, name: str) -> NDArray[np.float64]:
+    p = np.asarray(x, dtype=float)
+    if p.shape[-1:] != (3,):
+        raise ValueError(f"{name} must have shape (..., 3) as (x1, x2, x3); got {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} contains NaN or infinite coordinates")
+    return p
+
+
+def _as_z(z: ArrayLike, name: str = "z") -> NDArray[np.complex128]:
+    zz = np.asarray(z)
+    if zz.dtype.kind not in "biufc":
+        raise ValueError(f"{name} must be numeric (complex image-plane points); got dtype {zz.dtype}")
+    zz = zz.astype(complex)
+    if not np.all(np.isfinite(zz)):
+        raise ValueError(f"{name} contains NaN or infinite points; the point at infinity is not a valid input")
+    return zz
+
+
+def project(points: ArrayLike) -> NDArray[np.complex128]:
+    """The conformal camera's projection j(x1, x2, x3) = (x3 + i x1) / x2 (eq. ``proj``).
+
+    ``points`` has shape (..., 3) in (x1, x2, x3) order. Points with x2 = 0 project to
+    infinity and raise ``ValueError``.
+    """
+    p = _as_points(points, "points")
+    x2 = p[..., 1]
+    if np.any(np.abs(x2) < _POLE_TOL):
+        raise ValueError("points with x2 = 0 project to infinity (they lie in the plane of the nodal point)")
+    return (p[..., 2] + 1j * p[..., 0]) / x2
+
+
+def lift_to_sphere(z: ArrayLike) -> NDArray[np.float64]:
+    """Inverse of j restricted to the unit sphere centred at (0, 1, 0): (j|S^2)^{-1}(z).
+
+    The ray t (Im z, 1, Re z) meets the sphere (which passes through the nodal point 0)
+    again at t = 2 / (1 + |z|^2). Returns points (..., 3) as (x1, x2, x3).
+    """
+    zz = _as_z(z)
+    t = 2.0 / (1.0 + np.abs(zz) ** 2)
+    return np.stack([t * zz.imag, t, t * zz.real], axis=-1)
+
+
+def check_sl2(g: ArrayLike, name: str = "g", tol: float = 1e-9) -> NDArray[np.complex128]:
+    """Validate a 2x2 complex matrix of determinant 1 (an element of SL(2, C))."""
+    m = np.asarray(g)
+    if m.shape != (2, 2):
+        raise ValueError(f"{name} must be a 2x2 matrix; got shape {m.shape}")
+    if m.dtype.kind not in "biufc":
+        raise ValueError(f"{name} must be numeric; got dtype {m.dtype}")
+    m = m.astype(complex)
+    if not np.all(np.isfinite(m)):
+        raise ValueError(f"{name} contains NaN or infinite entries")
+    det = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+    if abs(det - 1.0) > tol:
+        raise ValueError(
+            f"{name} is not unimodular (det = {det:.6g}, must be 1); divide it by sqrt(det) to normalise"
+        )
+    return m
+
+
+def act(g: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:
+    """The paper's action of SL(2, C) on the image plane, g . z = (d z + c)/(b z + a) (eq. ``lft1``).
+
+    Vectorised over ``z``. Raises ``ValueError`` for non-unimodular ``g``, NaN or infinite
+    ``z``, and for points sent to infinity (b z + a = 0).
+    """
+    a, b, c, d = check_sl2(g).ravel()
+    zz = _as_z(z)
+    den = b * zz + a
+    if np.any(np.abs(den) < _POLE_TOL):
+        raise ValueError("some points are sent to infinity by g (b z + a = 0, i.e. z = -a/b)")
+    return (d * zz + c) / den
+
+
+def transform_image(f, g: ArrayLike):
+    """The image projective transformation f -> f(g^{-1} . z) (eq. ``IPT``), as a new function of z."""
+    g_inv = inverse(g)
+
+    def transformed(z: ArrayLike):
+        return f(act(g_inv, z))
+
+    return transformed
+
+
+def compose(*gs: ArrayLike) -> NDArray[np.complex128]:
+    """Composition in PSL(2, C): ``compose(g1, g2)`` acts as g1 . (g2 . z)."""
+    out = np.eye(2, dtype=complex)
+    for i, g in enumerate(gs):
+        out = out @ check_sl2(g, f"g{i + 1}")
+    return out
+
+
+def inverse(g: ArrayLike) -> NDArray[np.complex128]:
+    """Inverse in SL(2, C): [[d, -b], [-c, a]] (used in eq. ``IPT``)."""
+    a, b, c, d = check_sl2(g).ravel()
+    return np.array([[d, -b], [-c, a]], dtype=complex)
+
+
+def k_matrix(psi: float, phi: float, psi2: float) -> NDArray[np.complex128]:
+    """The SU(2) element of eq. ``k`` for Euler angles (psi, phi, psi').
+
+    Under the action of eq. ``lft1`` it equals j o R o (j|S^2)^{-1}, with
+    R = ``euler_rotation(psi, phi, psi2)`` a rotation of S^2 about its centre (0, 1, 0).
+    (The printed linear-fractional form, eq. ``lfk``, is not used: it disagrees with eq. ``k``.)
+    """
+    for name, v in (("psi", psi), ("phi", phi), ("psi2", psi2)):
+        if not np.isfinite(v):
+            raise ValueError(f"{name} must be finite; got {v}")
+    cp, sp = np.cos(phi / 2), np.sin(phi / 2)
+    return np.array(
+        [
+            [np.exp(1j * (psi + psi2) / 2) * cp, 1j * np.exp(1j * (psi - psi2) / 2) * sp],
+            [1j * np.exp(-1j * (psi - psi2) / 2) * sp, np.exp(-1j * (psi + psi2) / 2) * cp],
+        ]
+    )
+
+
+def h_matrix(b1: float, b2: float, b3: float) -> NDArray[np.complex128]:
+    """The SL(2, C) element of eq. ``h`` for the translation b = (b1, b2, b3), b2 != -1.
+
+    Under eq. ``lft1`` it equals j o T_b o (j|_{x2=1})^{-1}: z -> (z + b3 + i b1) / (1 + b2).
+    For 1 + b2 < 0 the square root is imaginary (the paper's epsilon A N-bar coset).
+    """
+    for name, v in (("b1", b1), ("b2", b2), ("b3", b3)):
+        if not np.isfinite(v):
+            raise ValueError(f"{name} must be finite; got {v}")
+    if abs(1.0 + b2) < _POLE_TOL:
+        raise ValueError("b2 = -1 translates the image plane into the nodal plane (x2 = 0); not allowed")
+    s = np.sqrt(complex(1.0 + b2))
+    return np.array([[s, 0.0], [(b3 + 1j * b1) / s, 1.0 / s]], dtype=complex)
+
+
+def _axis_rotation(axis: int, angle: float) -> NDArray[np.float64]:
+    """Right-handed rotation by ``angle`` about coordinate axis ``axis`` (0: x1, 1: x2, 2: x3)."""
+    c, s = np.cos(angle), np.sin(angle)
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    r = np.eye(3)
+    r[i, i] = c
+    r[j, j] = c
+    r[i, j] = -s
+    r[j, i] = s
+    return r
+
+
+def euler_rotation(psi: float, phi: float, psi2: float) -> NDArray[np.float64]:
+    """The rotation R(psi, phi, psi') of S^2 about its centre that eq. ``k`` represents.
+
+    Coordinates (x1, x2, x3). Rotation psi about the x2 axis, then phi about the y3 axis
+    (parallel to x3 through (0, 1, 0)), then psi' about the rotated x2 axis; with the paper's
+    action (eq. ``lft1``) the senses are clockwise (negative) when viewed along the axis, so
+    R = Rot_x2(-psi) Rot_x3(-phi) Rot_x2(-psi') (intrinsic composition).
+    """
+    return _axis_rotation(1, -psi) @ _axis_rotation(2, -phi) @ _axis_rotation(1, -psi2)
+
+
+def _apply_sphere_rotation(R: NDArray[np.float64], z: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    p = lift_to_sphere(z) - SPHERE_CENTRE
+    q = p @ R.T + SPHERE_CENTRE
+    return project(q)
+
+
+def mobius_from_points(z: ArrayLike, w: ArrayLike) -> NDArray[np.complex128]:
+    """The unique g in SL(2, C) (up to sign) with g . z_i = w_i for three distinct finite points.
+
+    Returned in the paper's convention (eq. ``lft1``), so ``act(g, z) == w``.
+    """
+    zz, ww = _as_z(z, "z"), _as_z(w, "w")
+    if zz.shape != (3,) or ww.shape != (3,):
+        raise ValueError("mobius_from_points needs exactly three points z and three images w")
+    for name, p in (("z", zz), ("w", ww)):
+        if min(abs(p[0] - p[1]), abs(p[1] - p[2]), abs(p[0] - p[2])) < 1e-12:
+            raise ValueError(f"the three points {name} must be distinct")
+
+    def to_standard(p):  # standard matrix sending p0 -> 0, p1 -> 1, p2 -> infinity
+        return np.array([[p[1] - p[2], -p[0] * (p[1] - p[2])], [p[1] - p[0], -p[2] * (p[1] - p[0])]])
+
+    m = np.linalg.solve(to_standard(ww), to_standard(zz))  # standard w = (m00 z + m01)/(m10 z + m11)
+    m = m / np.sqrt(np.linalg.det(m))
+    return np.array([[m[1, 1], m[1, 0]], [m[0, 1], m[0, 0]]])
+
+
+def su2_from_rotation(R: ArrayLike) -> NDArray[np.complex128]:
+    """The element k of SU(2) (up to sign) with k . z = j(R (j|S^2)^{-1}(z)), R rotating S^2 about (0,1,0)."""
+    r = np.asarray(R, dtype=float)
+    if r.shape != (3, 3) or not np.all(np.isfinite(r)):
+        raise ValueError(f"R must be a finite 3x3 rotation matrix; got shape {r.shape}")
+    if not np.allclose(r @ r.T, np.eye(3), atol=1e-8) or np.linalg.det(r) < 0:
+        raise ValueError("R must be a proper rotation (orthogonal, det +1)")
+    z = np.array([0.0, 1.0, 1j, -1.0, -1j])
+    q = (lift_to_sphere(z) - SPHERE_CENTRE) @ r.T + SPHERE_CENTRE
+    finite = np.abs(q[:, 1]) > 1e-6  # images away from the nodal point (z = infinity)
+    idx = np.flatnonzero(finite)[:3]
+    return mobius_from_points(z[idx], project(q[idx]))
+
+
+def rotation_from_su2(k: ArrayLike) -> NDArray[np.float64]:
+    """The rotation of S^2 about (0, 1, 0) that an SU(2) element induces (inverse of ``su2_from_rotation``)."""
+    kk = check_sl2(k, "k")
+    if not np.allclose(kk @ kk.conj().T, np.eye(2), atol=1e-9):
+        raise ValueError("k must be unitary (an element of SU(2))")
+    # Images of three points determine the rotation: sphere points for z = 0, 1, i.
+    z = np.array([0.0, 1.0, 1j, -1.0])
+    p = lift_to_sphere(z) - SPHERE_CENTRE
+    q = lift_to_sphere(act(kk, z)) - SPHERE_CENTRE
+    u, _, vt = np.linalg.svd(q.T @ p)
+    d = np.sign(np.linalg.det(u @ vt))
+    return u @ np.diag([1.0, 1.0, d]) @ vt
+
+
+def rotation_homography(R: ArrayLike) -> NDArray[np.float64]:
+    """Homography of a pinhole eye rotating about its nodal point, in homogeneous (x3, x1, x2).
+
+    ``R`` maps a direction in the *new* eye frame to the *old* eye frame (columns: the new
+    axes x1, x2, x3 in old coordinates). Then a point seen at z_new is seen at
+    z_old = H . z_new with H acting on (Re z, Im z, 1). Use ``apply_homography``.
+    """
+    r = np.asarray(R, dtype=float)
+    if r.shape != (3, 3) or not np.all(np.isfinite(r)):
+        raise ValueError(f"R must be a finite 3x3 rotation matrix; got shape {r.shape}")
+    perm = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], dtype=float)  # (x3, x1, x2) <- (x1, x2, x3)
+    return perm @ r @ perm.T
+
+
+def apply_homography(H: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:
+    """Apply a 3x3 homography acting on (Re z, Im z, 1) to image-plane points ``z``."""
+    h = np.asarray(H, dtype=float)
+    zz = _as_z(z)
+    x, y = zz.real, zz.imag
+    w = h[2, 0] * x + h[2, 1] * y + h[2, 2]
+    if np.any(np.abs(w) < _POLE_TOL):
+        raise ValueError("some points are sent to infinity by the homography (they leave the eye's front)")
+    return ((h[0, 0] * x + h[0, 1] * y + h[0, 2]) + 1j * (h[1, 0] * x + h[1, 1] * y + h[1, 2])) / w

@@ -1,0 +1,154 @@
+"""Efference-copy remapping: predicting the post-saccadic retina from pre-saccadic coefficients.
+
+An eye rotation is given as R, the new eye axes in old eye coordinates (x1, x2, x3): a
+direction v seen in the new frame is R v in the old one. Three point maps send a
+post-saccadic image-plane point z to where the same content lay before the saccade:
+
+* ``homography_map(R)``: the exact pinhole map of a rotation about the nodal point
+  (distant-scene approximation: no parallax from the nodal point's own motion).
+* ``mobius_map(R)``: the conformal camera's k-transform (eq. ``k``): S^2 rotated about its
+  centre (0, 1, 0) about R's axis by twice R's angle (the inscribed-angle relation), so the
+  fixation point moves exactly as under R; other points move conformally, not projectively.
+* ``target_shift_map(z_target, shift, delta)``: the paper's §6.5 remapping: translation
+  into the target-centred frame and a log-radius shift by ``shift`` rings around the target,
+  w = z_target + e^{shift delta} z (shift > 0 compresses space towards the target).
+
+``predict`` evaluates the pre-saccadic DPFT series (eq. ``dppcc'``) at w(z) for the
+peripheral grid and the foveal lattice; points that fall in the old fovea take the foveal
+samples (bilinear on the lattice), points beyond r_b are reported in the mask.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .dpft import OffGridEvaluator
+from .fovea import fovea_image
+from .geometry import apply_homography, rotation_homography, su2_from_rotation, act
+from .grid import RetinaGrid
+from .sampling import RetinaSamples
+
+__all__ = ["homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "rotation_matrix"]
+
+PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
+
+
+def _check_rotation(R: ArrayLike) -> NDArray[np.float64]:
+    r = np.asarray(R, dtype=float)
+    if r.shape != (3, 3) or not np.all(np.isfinite(r)):
+        raise ValueError(f"R must be a finite 3x3 rotation matrix; got shape {r.shape}")
+    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
+        raise ValueError("R must be a proper rotation matrix (orthogonal, det +1)")
+    return r
+
+
+def rotation_matrix(axis: ArrayLike, angle: float) -> NDArray[np.float64]:
+    """Right-handed rotation by ``angle`` about unit ``axis`` (Rodrigues), coordinates (x1, x2, x3)."""
+    n = np.asarray(axis, dtype=float)
+    norm = np.linalg.norm(n)
+    if not np.isfinite(angle) or norm == 0 or not np.isfinite(norm):
+        raise ValueError("axis must be a finite non-zero vector and angle finite")
+    n = n / norm
+    K = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+def homography_map(R: ArrayLike) -> PointMap:
+    """z_new -> z_old for a pinhole eye rotating about its nodal point (see module docstring)."""
+    H = rotation_homography(_check_rotation(R))
+    return lambda z: apply_homography(H, z)
+
+
+def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
+    """The SU(2) element of the sphere rotation that corresponds to the eye rotation R."""
+    r = _check_rotation(R)
+    angle = math.acos(max(-1.0, min(1.0, (np.trace(r) - 1) / 2)))
+    if angle < 1e-12:
+        return np.eye(2, dtype=complex)
+    axis = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    if np.linalg.norm(axis) < 1e-9:  # angle = pi: axis from the symmetric part
+        w, v = np.linalg.eigh(r + r.T)
+        axis = v[:, -1]
+    return su2_from_rotation(rotation_matrix(axis, 2 * angle))
+
+
+def mobius_map(R: ArrayLike) -> PointMap:
+    """z_new -> z_old under the conformal camera's k-transform for the eye rotation R."""
+    g = mobius_for_rotation(R)
+    return lambda z: act(g, z)
+
+
+def target_shift_map(z_target: complex, shift: float, delta: float) -> PointMap:
+    """z_new -> z_old = z_target + e^{shift delta} z: §6.5's remap into the target-centred frame."""
+    zt = complex(z_target)
+    if not (math.isfinite(zt.real) and math.isfinite(zt.imag) and math.isfinite(shift) and math.isfinite(delta)):
+        raise ValueError("z_target, shift and delta must be finite")
+    scale = math.exp(shift * delta)
+    return lambda z: zt + scale * np.asarray(z, dtype=complex)
+
+
+def _fovea_lookup(fovea: NDArray, grid: RetinaGrid, w: NDArray[np.complex128]) -> NDArray:
+    """Bilinear interpolation of the foveal lattice picture at points w (inside the fovea)."""
+    img = fovea_image(fovea, grid)
+    size = img.shape[0]
+    half = size / 2
+    col = w.real / grid.fovea_spacing + half - 0.5
+    row = half - 0.5 - w.imag / grid.fovea_spacing
+    c0 = np.clip(np.floor(col).astype(int), 0, size - 2)
+    r0 = np.clip(np.floor(row).astype(int), 0, size - 2)
+    fc = np.clip(col - c0, 0, 1)
+    fr = np.clip(row - r0, 0, 1)
+    ex = (slice(None),) + (None,) * (img.ndim - 2)
+    return (
+        img[r0, c0] * ((1 - fr) * (1 - fc))[ex]
+        + img[r0, c0 + 1] * ((1 - fr) * fc)[ex]
+        + img[r0 + 1, c0] * (fr * (1 - fc))[ex]
+        + img[r0 + 1, c0 + 1] * (fr * fc)[ex]
+    )
+
+
+def predict(coeffs: ArrayLike, fovea: ArrayLike, grid: RetinaGrid, point_map: PointMap) -> RetinaSamples:
+    """Predicted samples of the image f(w(z)) on the whole retina from pre-saccadic data only.
+
+    ``coeffs``: the pre-saccadic DPFT (M, N[, C]); ``fovea``: the pre-saccadic foveal samples.
+    The peripheral part comes from the DPFT series (eq. ``dppcc'``, NUFFT); points landing in
+    the old fovea from the foveal samples. ``mask`` / ``fovea_mask`` flag points whose source
+    lies beyond r_b or behind the eye (unknown before the saccade).
+    """
+    F = np.asarray(coeffs)
+    fov = np.asarray(fovea, dtype=float)
+    z = np.concatenate([grid.fovea_points, grid.points.ravel()])
+    with np.errstate(all="ignore"):
+        try:
+            w = np.asarray(point_map(z), dtype=complex)
+        except ValueError:
+            w = np.full(z.shape, np.nan + 0j)
+            for i, zi in enumerate(z):
+                try:
+                    w[i] = complex(np.asarray(point_map(np.array([zi])))[0])
+                except ValueError:
+                    pass
+    finite = np.isfinite(w)
+    r = np.where(finite, np.abs(w), np.inf)
+    in_fovea = finite & (r < grid.r0)
+    edge = grid.ring_edges[-1]
+    in_periph = finite & (r >= grid.r0) & (r < edge)
+    chans = F.shape[2:]
+    out = np.zeros((len(z),) + chans)
+    if np.any(in_periph):
+        ev = OffGridEvaluator(grid, w[in_periph])
+        out[in_periph] = ev(F)
+    if np.any(in_fovea):
+        out[in_fovea] = _fovea_lookup(fov, grid, w[in_fovea])
+    valid = in_fovea | in_periph
+    n_f = grid.n_fovea
+    return RetinaSamples(
+        fovea=out[:n_f],
+        periphery=out[n_f:].reshape((grid.M, grid.N) + chans),
+        mask=valid[n_f:].reshape(grid.M, grid.N),
+        fovea_mask=valid[:n_f],
+    )
