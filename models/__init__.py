@@ -1,1 +1,24 @@
-"""models package."""
+"""models: the MuJoCo binocular head, its scenes, off-screen eye rendering and the saccade plant.
+
+``MUJOCO_GL`` defaults to ``egl`` when unset (set before MuJoCo is imported).
+"""
+
+from ._gl import GLBackendError
+from .build import (DEFAULT_FOVY_DEG, DEFAULT_IPD, HEAD_XML, QUALITIES, ModelFileError, build_model,
+                    build_spec, export_xml, load_model)
+from .oculomotor import (MAX_PEAK_VELOCITY, MainSequence, OculomotorRangeError, SaccadePlan, fick_angles,
+                         fick_matrix, fixation_angles, gaze_direction, listing_torsion, rotation_vector)
+from .render import EYES, EyeImage, EyeRenderer, StereoFrame
+from .scenes import CYCLOPEAN_EYE, SCENES, SceneInfo, screen_point
+from .simulation import EyeState, EyeTrace, Head
+
+__all__ = [
+    "SCENES", "QUALITIES", "EYES", "DEFAULT_FOVY_DEG", "DEFAULT_IPD", "HEAD_XML", "CYCLOPEAN_EYE",
+    "MAX_PEAK_VELOCITY",
+    "build_model", "build_spec", "export_xml", "load_model", "screen_point",
+    "Head", "EyeState", "EyeTrace", "SceneInfo",
+    "EyeRenderer", "EyeImage", "StereoFrame",
+    "MainSequence", "SaccadePlan", "fixation_angles", "listing_torsion", "fick_matrix", "fick_angles",
+    "gaze_direction", "rotation_vector",
+    "GLBackendError", "ModelFileError", "OculomotorRangeError",
+]

@@ -1,0 +1,39 @@
+"""Import MuJoCo with an off-screen GL backend chosen before the import.
+
+``MUJOCO_GL`` defaults to ``egl`` (Mesa's software EGL works without a GPU); set
+``MUJOCO_GL=osmesa`` to use OSMesa instead. This only takes effect if ``mujoco`` has not been
+imported yet by someone else.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+if os.environ["MUJOCO_GL"].lower() == "osmesa":
+    os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+elif os.environ["MUJOCO_GL"].lower() == "egl":
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+
+import mujoco  # noqa: E402
+
+__all__ = ["mujoco", "GLBackendError", "gl_install_hint"]
+
+_HINTS = {
+    "egl": "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri",
+    "osmesa": "apt-get install libosmesa6",
+}
+
+
+def gl_install_hint(backend: str | None = None) -> str:
+    """Which Debian packages provide the off-screen GL backend ``backend`` (default: MUJOCO_GL)."""
+    backend = (backend or os.environ.get("MUJOCO_GL", "egl")).lower()
+    return _HINTS.get(
+        backend,
+        f"MUJOCO_GL={backend!r} is not an off-screen backend; use MUJOCO_GL=egl ({_HINTS['egl']}) "
+        f"or MUJOCO_GL=osmesa ({_HINTS['osmesa']})",
+    )
+
+
+class GLBackendError(RuntimeError):
+    """No usable off-screen OpenGL context; the message says which Debian packages to install."""

@@ -1,0 +1,469 @@
+"""``Head``: the binocular head simulation (MjModel/MjData, eye renderer, saccade plant).
+
+Time advances in whole milliseconds (``step_ms``); each millisecond is ``1 ms / timestep``
+physics steps (10 at the default 0.1 ms). Eye joints are driven by actuators: a position servo
+plus a velocity feed-forward per joint, whose set-points follow the active :class:`SaccadePlan`
+at every physics step (the plant's natural frequency is 2000 rad/s, critically damped).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator, Sequence
+
+import numpy as np
+
+from ._gl import mujoco
+from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, build_spec
+from .oculomotor import (
+    MainSequence,
+    OculomotorRangeError,
+    SaccadePlan,
+    _check_point,
+    eye_frame_basis,
+    fixation_angles,
+    gaze_direction,
+)
+from .render import EYES, EyeRenderer, StereoFrame, focal_pixels
+from .scenes import SceneInfo
+
+__all__ = ["Head", "EyeState", "EyeTrace"]
+
+_JOINTS = tuple(f"{side}_eye_{a}" for side in ("left", "right") for a in "hvt")
+# camera frame (x right, y up, z back) -> DESIGN.md eye axes (x1 up, x2 optical axis, x3 right)
+_CAM_TO_EYE = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+
+@dataclass(frozen=True)
+class EyeState:
+    """One eye at one instant. ``angles`` = Fick (h, v, t) in radians (h > 0 right, v > 0 up,
+    see :mod:`models.oculomotor`); ``eye_axes`` columns are the world directions of x1 (up),
+    x2 (optical axis), x3 (right)."""
+
+    name: str
+    angles: np.ndarray
+    camera_position: np.ndarray
+    camera_xmat: np.ndarray
+    eye_axes: np.ndarray
+
+    def project(self, points) -> np.ndarray:
+        """Image-plane points ``z = (x3 + i x1)/x2`` of world ``points`` (N, 3) (NaN if behind)."""
+        d = np.atleast_2d(np.asarray(points, float)) - self.camera_position
+        x = d @ self.eye_axes  # columns x1, x2, x3
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = (x[:, 2] + 1j * x[:, 0]) / x[:, 1]
+        return np.where(x[:, 1] > 0, z, np.nan + 1j * np.nan)
+
+
+@dataclass(frozen=True)
+class EyeTrace:
+    """Eye joint angles/velocities sampled at every physics step (``times_ms`` absolute)."""
+
+    times_ms: np.ndarray  #: (K,)
+    angles: np.ndarray  #: (K, 2, 3) measured Fick angles, radians
+    velocities: np.ndarray  #: (K, 2, 3) measured joint rates, rad/s
+    planned: np.ndarray  #: (K, 2, 3) planned angles at the same instants
+
+
+class Head:
+    """The binocular head in a scene.
+
+    Args:
+        scene: one of ``models.SCENES`` (``"bar"``, ``"dots"``, ``"natural"``, ``"search"``).
+        image_size: eye image size, ``int`` (square) or ``(height, width)``.
+        fovy_deg: vertical field of view of each eye (default 70 deg: +-35 deg).
+        ipd: interpupillary distance, metres.
+        quality: ``"fast"`` (default: no shadows/multisampling) or ``"default"`` (MuJoCo's).
+        seed: seeds scene layouts (``search``) and saccade endpoint noise.
+        endpoint_noise: s.d. of saccade endpoint error as a fraction of amplitude, applied to the
+            cyclopean direction (signal-dependent noise; 0 = none; ~0.05-0.1 is human-like).
+        main_sequence: saccade kinematics (defaults: Van Wetter & Van Opstal 2008).
+
+    Usage::
+
+        with Head("dots", image_size=128, seed=0) as head:
+            head.reset()                                  # fixating the fixation point
+            plan = head.plan_saccade_to(head.object_position("target"), latency_ms=50)
+            plan.efference_copy                           # known before the eyes move
+            for t in head.run_saccade(plan, before_ms=50, after_ms=50):
+                if t == -20: head.flash("flash_07", duration_ms=8)
+                frame = head.render()                     # StereoFrame at t ms re onset
+    """
+
+    def __init__(self, scene: str = "dots", image_size: int | tuple[int, int] = 128, *,
+                 fovy_deg: float = DEFAULT_FOVY_DEG, ipd: float = DEFAULT_IPD, quality: str = "fast",
+                 seed: int | None = None, endpoint_noise: float = 0.0,
+                 main_sequence: MainSequence | None = None):
+        h, w = (image_size, image_size) if np.isscalar(image_size) else tuple(image_size)
+        self.image_shape = (int(h), int(w))
+        if not (np.isfinite(endpoint_noise) and endpoint_noise >= 0):
+            raise ValueError("endpoint_noise must be a finite fraction >= 0")
+        self.endpoint_noise = float(endpoint_noise)
+        self.main_sequence = main_sequence or MainSequence()
+        self.spec, info = build_spec(scene, ipd=ipd, fovy_deg=fovy_deg, quality=quality,
+                                     offscreen_size=(self.image_shape[1], self.image_shape[0]))
+        self.scene: SceneInfo = info
+        self.model: mujoco.MjModel = self.spec.compile()
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._substeps = int(round(1e-3 / m.opt.timestep))
+        if abs(self._substeps * m.opt.timestep - 1e-3) > 1e-9:
+            raise ValueError("model timestep must divide 1 ms")
+        jid = [m.joint(n).id for n in _JOINTS]
+        self._qadr = np.array([m.jnt_qposadr[j] for j in jid])
+        self._vadr = np.array([m.jnt_dofadr[j] for j in jid])
+        self._pos_act = np.array([m.actuator(f"{n}_pos").id for n in _JOINTS])
+        self._vel_act = np.array([m.actuator(f"{n}_vel").id for n in _JOINTS])
+        self._ff_act = np.array([m.actuator(f"{n}_ff").id for n in _JOINTS])
+        self._acc = np.zeros(m.nv)
+        self._tau = np.zeros(m.nv)
+        self._neck_act = np.array([m.actuator("neck_pan_pos").id, m.actuator("neck_tilt_pos").id])
+        self._head_body = m.body("head").id
+        self._eye_centres_head = np.array([m.body_pos[m.body(f"{s}_eyeball").id] for s in ("left", "right")])
+        self._cam_ids = [m.camera(e).id for e in EYES]
+        self._renderer: EyeRenderer | None = None
+        self._seed = seed
+        self.reset(seed=seed)
+
+    # ------------------------------------------------------------------ lifecycle
+    def reset(self, seed: int | None = None, fixate: str | Sequence[float] | None = None,
+              settle_ms: int = 10) -> None:
+        """Reset physics and time to 0, hide flashes, re-draw the scene layout from ``seed`` and
+        fixate ``fixate`` (an object name or world point; default: the scene's fixation)."""
+        if seed is not None:
+            self._seed = seed
+        self._rng = np.random.default_rng(self._seed)
+        mujoco.mj_resetData(self.model, self.data)
+        self.time_ms = 0
+        self._plan: SaccadePlan | None = None
+        self.last_plan: SaccadePlan | None = None
+        self._flash_off: dict[int, int] = {}
+        for name in self.scene.flashes:
+            self.model.geom_rgba[self.model.geom(name).id, 3] = 0.0
+        if self.scene.layout is not None:
+            for name, pos in self.scene.layout(self._rng).items():
+                self._set_mocap(name, pos)
+        mujoco.mj_forward(self.model, self.data)
+        target = self.scene.default_fixation if fixate is None else fixate
+        self.set_gaze(target, settle_ms=settle_ms)
+
+    def close(self) -> None:
+        """Release the GL context (the simulation itself stays usable)."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __enter__(self) -> "Head":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ geometry
+    def _head_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.data.xpos[self._head_body].copy(), self.data.xmat[self._head_body].reshape(3, 3).copy()
+
+    def to_head(self, point) -> np.ndarray:
+        """World point -> head frame (x forward, y left, z up; origin at the head body)."""
+        x, R = self._head_pose()
+        return R.T @ (_check_point(point) - x)
+
+    def to_world(self, point_head) -> np.ndarray:
+        x, R = self._head_pose()
+        return x + R @ np.asarray(point_head, float)
+
+    @property
+    def cyclopean_position(self) -> np.ndarray:
+        """World position of the cyclopean eye (midway between the eyes' rotation centres)."""
+        return self.to_world(self._eye_centres_head.mean(axis=0))
+
+    def _resolve(self, target) -> np.ndarray:
+        if isinstance(target, str):
+            return self.object_position(target)
+        return _check_point(target)
+
+    def fixation_angles(self, point) -> np.ndarray:
+        """Fick angles (2, 3) [left, right] fixating world ``point`` (Listing torsion)."""
+        return fixation_angles(self.to_head(point), self._eye_centres_head)
+
+    # ------------------------------------------------------------------ eye state
+    @property
+    def eye_angles(self) -> np.ndarray:
+        """Measured Fick angles (2, 3) [eye, (h, v, t)], radians."""
+        return self.data.qpos[self._qadr].reshape(2, 3).copy()
+
+    @property
+    def commanded_angles(self) -> np.ndarray:
+        """Planned Fick angles (2, 3) at the current time (what the servo is tracking)."""
+        return self._command_at(np.array([float(self.time_ms)]))[0]
+
+    def eye_states(self) -> tuple[EyeState, EyeState]:
+        """(left, right) :class:`EyeState` from the simulation's current kinematics."""
+        q = self.eye_angles
+        out = []
+        for i, (eye, cid) in enumerate(zip(EYES, self._cam_ids)):
+            xmat = self.data.cam_xmat[cid].reshape(3, 3).copy()
+            out.append(EyeState(eye, q[i], self.data.cam_xpos[cid].copy(), xmat, xmat @ _CAM_TO_EYE))
+        return out[0], out[1]
+
+    def project(self, points) -> np.ndarray:
+        """Image-plane points z (complex), shape (2, N) [left, right], of world ``points``."""
+        return np.stack([s.project(points) for s in self.eye_states()])
+
+    def project_to_pixels(self, points) -> np.ndarray:
+        """Pixel (row, col) positions (2, N, 2) of world ``points`` in this head's eye images."""
+        z = self.project(points)
+        h, w = self.image_shape
+        f = self.pixels_per_unit
+        return np.stack([(h - 1) / 2 - z.imag * f, (w - 1) / 2 + z.real * f], axis=-1)
+
+    @property
+    def pixels_per_unit(self) -> float:
+        """f_px of the eye images (same for both eyes)."""
+        return focal_pixels(self.image_shape[0], np.deg2rad(self.model.cam_fovy[self._cam_ids[0]]))
+
+    # ------------------------------------------------------------------ scene objects
+    def object_position(self, name: str) -> np.ndarray:
+        """World position of the scene object (geom) ``name``."""
+        gid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
+        if gid < 0:
+            raise KeyError(f"scene {self.scene.name!r} has no object {name!r}; objects: {', '.join(self.scene.objects)}")
+        return self.data.geom_xpos[gid].copy()
+
+    def object_positions(self, group: str) -> dict[str, np.ndarray]:
+        """Positions of all objects in ``group`` (e.g. ``"flashes"``, ``"distractors"``)."""
+        if group not in self.scene.groups:
+            raise KeyError(f"scene {self.scene.name!r} has no group {group!r}; groups: {', '.join(self.scene.groups)}")
+        return {n: self.object_position(n) for n in self.scene.groups[group]}
+
+    def _set_mocap(self, name: str, pos) -> None:
+        bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
+        if bid < 0 or self.model.body_mocapid[bid] < 0:
+            raise KeyError(f"{name!r} is not a movable object of scene {self.scene.name!r}; movable: {', '.join(self.scene.movable)}")
+        self.data.mocap_pos[self.model.body_mocapid[bid]] = _check_point(pos, name)
+
+    def set_object_position(self, name: str, pos) -> None:
+        """Move a movable scene object (mocap body) to world ``pos``."""
+        self._set_mocap(name, pos)
+        mujoco.mj_forward(self.model, self.data)
+
+    def flash(self, names: str | Sequence[str], duration_ms: int = 8) -> None:
+        """Show flash object(s) now for ``duration_ms`` whole milliseconds of simulation time."""
+        names = [names] if isinstance(names, str) else list(names)
+        if int(duration_ms) < 1:
+            raise ValueError("duration_ms must be >= 1")
+        for n in names:
+            if n not in self.scene.flashes:
+                raise KeyError(f"{n!r} is not a flash of scene {self.scene.name!r}")
+            gid = self.model.geom(n).id
+            self.model.geom_rgba[gid, 3] = 1.0
+            self._flash_off[gid] = self.time_ms + int(duration_ms)
+
+    def hide_flashes(self) -> None:
+        for gid in self._flash_off:
+            self.model.geom_rgba[gid, 3] = 0.0
+        self._flash_off.clear()
+
+    @property
+    def visible_flashes(self) -> tuple[str, ...]:
+        return tuple(self.model.geom(g).name for g in self._flash_off)
+
+    # ------------------------------------------------------------------ gaze & saccades
+    def set_gaze(self, target, settle_ms: int = 10) -> np.ndarray:
+        """Instantly fixate ``target`` (object name or world point): set joints and servo
+        set-points, then let the physics settle for ``settle_ms``. Returns the Fick angles."""
+        p = self._resolve(target)
+        ang = self.fixation_angles(p)
+        self._plan = None
+        self._hold = ang
+        self._fix_head = self.to_head(p)
+        self.data.qpos[self._qadr] = ang.ravel()
+        self.data.qvel[self._vadr] = 0.0
+        self.data.ctrl[self._pos_act] = ang.ravel()
+        self.data.ctrl[self._vel_act] = 0.0
+        self.data.ctrl[self._ff_act] = 0.0
+        mujoco.mj_forward(self.model, self.data)
+        if settle_ms:
+            self.step_ms(settle_ms)
+        return ang
+
+    def set_neck(self, pan: float, tilt: float) -> None:
+        """Neck pan (> 0 left) / tilt (> 0 up) servo set-points, radians (the head then moves)."""
+        for v, aid in zip((pan, tilt), self._neck_act):
+            lo, hi = self.model.actuator_ctrlrange[aid]
+            if not (np.isfinite(v) and lo <= v <= hi):
+                raise OculomotorRangeError(f"neck angle {v} outside [{lo:.3f}, {hi:.3f}] rad")
+        self.data.ctrl[self._neck_act] = [pan, tilt]
+
+    def _cyclopean_dir(self, p_head) -> np.ndarray:
+        d = np.asarray(p_head) - self._eye_centres_head.mean(axis=0)
+        return d / np.linalg.norm(d)
+
+    def plan_saccade_to(self, target, latency_ms: int = 0) -> SaccadePlan:
+        """Plan a binocular saccade to ``target`` (object name or world point) starting
+        ``latency_ms`` from now. Vergence follows from depth, torsion from Listing's law; with
+        ``endpoint_noise`` the executed endpoint is perturbed (``plan.target`` vs
+        ``plan.intended_target``). Nothing moves until :meth:`start_saccade`."""
+        p = self._resolve(target)
+        return self._plan_head(self.to_head(p), latency_ms, intended_world=p)
+
+    def plan_saccade(self, horizontal: float, vertical: float, latency_ms: int = 0) -> SaccadePlan:
+        """Plan a saccade by a retinotopic (cyclopean) displacement: ``horizontal`` (> 0 right)
+        and ``vertical`` (> 0 up) Fick angles in radians relative to the current gaze, at the
+        current fixation distance."""
+        hv = np.array([horizontal, vertical], float)
+        if not np.all(np.isfinite(hv)):
+            raise OculomotorRangeError(f"saccade angles must be finite, got {hv.tolist()}")
+        c = self._eye_centres_head.mean(axis=0)
+        d = self._fix_head - c
+        dist = np.linalg.norm(d)
+        g = d / dist
+        H, V = np.arctan2(-g[1], g[0]), np.arcsin(g[2])
+        p_head = c + dist * gaze_direction(H + hv[0], V + hv[1])
+        return self._plan_head(p_head, latency_ms, intended_world=self.to_world(p_head))
+
+    def _plan_head(self, p_head, latency_ms, intended_world) -> SaccadePlan:
+        if self._plan is not None:
+            raise RuntimeError("a saccade is in flight; step until it ends (plan.end_ms) before planning the next")
+        if int(latency_ms) < 0:
+            raise ValueError("latency_ms must be >= 0")
+        start = self._hold.copy()
+        c = self._eye_centres_head.mean(axis=0)
+        amp = float(np.arccos(np.clip(self._cyclopean_dir(self._fix_head) @ self._cyclopean_dir(p_head), -1, 1)))
+        end_point = np.asarray(p_head, float)
+        end = fixation_angles(end_point, self._eye_centres_head)  # validates the intended target
+        if self.endpoint_noise > 0 and amp > 0:
+            d = end_point - c
+            dist = np.linalg.norm(d)
+            g = d / dist
+            H, V = np.arctan2(-g[1], g[0]), np.arcsin(g[2])
+            dH, dV = self._rng.normal(0.0, self.endpoint_noise * amp, size=2)
+            end_point = c + dist * gaze_direction(H + dH, V + dV)
+            try:
+                end = fixation_angles(end_point, self._eye_centres_head)
+            except OculomotorRangeError:
+                end_point, end = np.asarray(p_head, float), fixation_angles(p_head, self._eye_centres_head)
+            amp = float(np.arccos(np.clip(self._cyclopean_dir(self._fix_head) @ self._cyclopean_dir(end_point), -1, 1)))
+        return SaccadePlan(onset_ms=self.time_ms + int(latency_ms), start_angles=start, end_angles=end,
+                           amplitude=amp, main_sequence=self.main_sequence,
+                           target=self.to_world(end_point), intended_target=np.asarray(intended_world, float))
+
+    def start_saccade(self, plan: SaccadePlan) -> None:
+        """Make ``plan`` the active eye command; the eyes move from ``plan.onset_ms`` on."""
+        if self._plan is not None:
+            raise RuntimeError("a saccade is already in flight")
+        if plan.onset_ms < self.time_ms:
+            raise ValueError(f"plan onset {plan.onset_ms} ms is in the past (now {self.time_ms} ms)")
+        if not np.allclose(plan.start_angles, self._hold, atol=1e-9):
+            raise ValueError("plan does not start from the current eye position; plan it again")
+        self._plan = plan
+        self.last_plan = plan
+        self._fix_head = self.to_head(plan.target)
+
+    @property
+    def saccade_in_flight(self) -> bool:
+        """True from :meth:`start_saccade` until the plan's endpoint is reached."""
+        return self._plan is not None
+
+    def run_saccade(self, plan: SaccadePlan, before_ms: int = 0, after_ms: int = 0) -> Iterator[int]:
+        """Start ``plan`` and step 1 ms at a time from ``before_ms`` before onset to ``after_ms``
+        after ``plan.end_ms``, yielding the time relative to onset at each instant (render, flash
+        or act there; the state is that of the yielded instant)."""
+        self.start_saccade(plan)
+        t0 = plan.onset_ms - int(before_ms)
+        if self.time_ms < t0:
+            self.step_ms(t0 - self.time_ms)
+        stop = plan.end_ms + int(after_ms)
+        while True:
+            yield self.time_ms - plan.onset_ms
+            if self.time_ms >= stop:
+                break
+            self.step_ms(1)
+
+    def saccade_to(self, target, latency_ms: int = 0, after_ms: int = 0) -> SaccadePlan:
+        """Plan, execute and finish a saccade to ``target`` (one RL step); returns the plan."""
+        plan = self.plan_saccade_to(target, latency_ms)
+        for _ in self.run_saccade(plan, after_ms=after_ms):
+            pass
+        return plan
+
+    # ------------------------------------------------------------------ stepping
+    def _command_at(self, t_ms: np.ndarray) -> np.ndarray:
+        if self._plan is None:
+            return np.broadcast_to(self._hold, t_ms.shape + (2, 3)).copy()
+        return self._plan.angles(t_ms)
+
+    def step_ms(self, n: int = 1, record: bool = False) -> EyeTrace | None:
+        """Advance the simulation by ``n`` whole milliseconds, the eye servos following the active
+        plan at every physics step; flashes expire. With ``record`` returns an :class:`EyeTrace`."""
+        n = int(n)
+        if n < 0:
+            raise ValueError("n must be >= 0")
+        m, d, k = self.model, self.data, self._substeps
+        rec = [] if record else None
+        for _ in range(n):
+            t = self.time_ms + np.arange(0, k + 1) / k
+            plan = self._plan
+            if plan is not None and plan.onset_ms <= t[-1]:
+                q_all = plan.angles(t)
+                q_d = q_all[:-1]  # the position servo acts on the state at the start of the step
+                v_all = plan.velocities(t) * 1000.0  # rad/s
+                v_d = v_all[1:]
+                a_d = np.diff(v_all, axis=0) / m.opt.timestep  # rad/s^2, per physics step
+            else:
+                q_all = np.broadcast_to(self._command_at(t[1:2])[0], (k + 1, 2, 3))
+                q_d = q_all[:-1]
+                v_d = a_d = None
+                d.ctrl[self._vel_act] = 0.0
+                d.ctrl[self._ff_act] = 0.0
+            for i in range(k):
+                d.ctrl[self._pos_act] = q_d[i].ravel()
+                if v_d is not None:
+                    d.ctrl[self._vel_act] = v_d[i].ravel()
+                    # inverse-dynamics feed-forward: tau = M(q) qdd_plan (qM from the last step)
+                    self._acc[self._vadr] = a_d[i].ravel()
+                    mujoco.mj_mulM(m, d, self._tau, self._acc)
+                    d.ctrl[self._ff_act] = self._tau[self._vadr]
+                mujoco.mj_step(m, d)
+                if rec is not None:
+                    rec.append((t[i + 1], d.qpos[self._qadr].copy(), d.qvel[self._vadr].copy(), q_all[i + 1].ravel().copy()))
+            self.time_ms += 1
+            if self._plan is not None and self.time_ms >= self._plan.end_ms:
+                self._hold = self._plan.end_angles.copy()
+                self._plan = None
+            if self._flash_off:
+                for gid, off in list(self._flash_off.items()):
+                    if self.time_ms >= off:
+                        m.geom_rgba[gid, 3] = 0.0
+                        del self._flash_off[gid]
+        mujoco.mj_forward(m, d)
+        if rec is None:
+            return None
+        if not rec:
+            z = np.zeros((0, 2, 3))
+            return EyeTrace(np.zeros(0), z, z, z)
+        ts, qs, vs, ps = zip(*rec)
+        return EyeTrace(np.array(ts), np.array(qs).reshape(-1, 2, 3), np.array(vs).reshape(-1, 2, 3),
+                        np.array(ps).reshape(-1, 2, 3))
+
+    # ------------------------------------------------------------------ rendering
+    @property
+    def renderer(self) -> EyeRenderer:
+        """The eye renderer (GL context created on first use)."""
+        if self._renderer is None:
+            self._renderer = EyeRenderer(self.model, *self.image_shape)
+        return self._renderer
+
+    def render(self, depth: bool = False) -> StereoFrame:
+        """Render both eyes now (see :mod:`models.render` for the pixel convention)."""
+        return self.renderer.render(self.data, depth=depth, time_ms=self.time_ms)
+
+    def export_xml(self, path) -> None:
+        """Write this head+scene model as one MJCF file (textures beside it)."""
+        from pathlib import Path
+
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        for name, data in self.spec.assets.items():
+            (path.parent / name).write_bytes(data)
+        path.write_text(self.spec.to_xml())
