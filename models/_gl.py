@@ -15,8 +15,6 @@ if os.environ["MUJOCO_GL"].lower() == "osmesa":
 elif os.environ["MUJOCO_GL"].lower() == "egl":
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-import mujoco  # noqa: E402
-
 __all__ = ["mujoco", "GLBackendError", "gl_install_hint"]
 
 _HINTS = {
@@ -37,3 +35,12 @@ def gl_install_hint(backend: str | None = None) -> str:
 
 class GLBackendError(RuntimeError):
     """No usable off-screen OpenGL context; the message says which Debian packages to install."""
+
+
+try:
+    import mujoco  # noqa: E402
+except (ImportError, AttributeError, OSError) as _exc:  # PyOpenGL fails inside mujoco's import
+    raise GLBackendError(
+        f"cannot import mujoco with MUJOCO_GL={os.environ['MUJOCO_GL']!r} ({type(_exc).__name__}: {_exc}). "
+        f"Install the backend's Debian packages: {gl_install_hint()}"
+    ) from _exc

@@ -1,0 +1,183 @@
+"""models: rendering geometry (pixel convention), scenes, determinism, backends, export."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import models
+from models import Head
+
+ROOT = Path(__file__).resolve().parents[1]
+YELLOW = lambda im: (im[..., 0] > 120) & (im[..., 1] > 120) & (im[..., 2] < 80)  # noqa: E731
+
+
+def _centroid(img: np.ndarray, mask_fn) -> tuple[float, float]:
+    im = img.astype(float)
+    mask = mask_fn(img)
+    assert mask.sum() >= 1, "dot not visible"
+    w = im.sum(axis=2) * mask
+    rows, cols = np.indices(mask.shape)
+    return float((w * rows).sum() / w.sum()), float((w * cols).sum() / w.sum())
+
+
+def _expected_pixel(cam_pos, cam_xmat, point, shape, fovy):
+    """Independent pinhole construction from MuJoCo's camera pose (looks along -z, y up)."""
+    x = cam_xmat.T @ (np.asarray(point) - cam_pos)
+    f = 0.5 * shape[0] / np.tan(fovy / 2)
+    u, v = x[0] / -x[2], x[1] / -x[2]
+    return (shape[0] - 1) / 2 - f * v, (shape[1] - 1) / 2 + f * u
+
+
+@pytest.fixture(scope="module")
+def head256():
+    with Head("dots", image_size=256, seed=0) as h:
+        yield h
+
+
+def test_dot_renders_where_camera_geometry_predicts(head256):
+    h = head256
+    h.reset(fixate=models.screen_point(np.deg2rad(-4), np.deg2rad(3), 1.0))  # eyes not at primary
+    p = models.screen_point(np.deg2rad(12), np.deg2rad(-7), 0.6)
+    h.set_object_position("target", p)
+    frame = h.render()
+    pix = h.project_to_pixels(p)
+    for i, eye in enumerate(frame):
+        got = _centroid(eye.image, YELLOW)
+        want = _expected_pixel(eye.camera_position, eye.camera_xmat, p, eye.shape, eye.fovy)
+        assert np.allclose(got, want, atol=0.5), (eye.name, got, want)
+        assert np.allclose(pix[i, 0], want, atol=1e-6)
+        # the documented mapping z = ((col - (W-1)/2) - i (row - (H-1)/2)) / f
+        z = eye.pixel_to_plane(*want)
+        assert np.isclose(z, h.project(p)[i, 0])
+        assert eye.principal_point == (127.5, 127.5)
+        assert np.isclose(eye.pixels_per_unit, 128 / np.tan(np.deg2rad(models.DEFAULT_FOVY_DEG) / 2))
+    # the two eyes see the dot at different columns (binocular disparity)
+    assert abs(pix[0, 0, 1] - pix[1, 0, 1]) > 1
+
+
+def test_row0_is_up_and_columns_increase_rightward(head256):
+    h = head256
+    h.reset()
+    up_right = models.screen_point(np.deg2rad(15), np.deg2rad(15), 1.0)
+    h.set_object_position("target", up_right)
+    r, c = _centroid(h.render().left.image, YELLOW)
+    assert r < 127.5 - 20 and c > 127.5 + 20
+
+
+def test_saccade_brings_dot_to_image_centre(head256):
+    h = head256
+    h.reset()
+    p = models.screen_point(np.deg2rad(14), np.deg2rad(9), 0.8)
+    h.set_object_position("target", p)
+    h.saccade_to("target", after_ms=5)
+    for eye in h.render():
+        r, c = _centroid(eye.image, YELLOW)
+        assert abs(r - 127.5) < 1 and abs(c - 127.5) < 1, (eye.name, r, c)
+
+
+@pytest.mark.parametrize("scene", models.SCENES)
+def test_each_scene_loads_and_renders(scene):
+    m = models.build_model(scene)
+    assert m.camera("left_eye").id >= 0 and m.camera("right_eye").id >= 0
+    assert m.vis.quality.shadowsize == 0 and m.vis.quality.offsamples == 0
+    with Head(scene, image_size=48, seed=1) as h:
+        frame = h.render()
+        for eye in frame:
+            assert eye.image.shape == (48, 48, 3) and eye.image.dtype == np.uint8
+            assert eye.image.std() > 3, f"{scene} renders a blank image"
+        for name in h.scene.objects:
+            assert np.all(np.isfinite(h.object_position(name)))
+
+
+def test_dots_scene_objects_and_flash_timing():
+    with Head("dots", image_size=128, seed=0) as h:
+        flashes = h.object_positions("flashes")
+        assert len(flashes) == 24
+        name = "flash_03"
+        green = lambda im: (im[..., 1] > 150) & (im[..., 0] < 120)  # noqa: E731
+        assert green(h.render().left.image).sum() == 0
+        h.flash(name, duration_ms=8)
+        r, c = _centroid(h.render().left.image, green)
+        want = h.project_to_pixels(flashes[name])[0, 0]
+        assert np.allclose((r, c), want, atol=1.0)
+        h.step_ms(7)
+        assert green(h.render().left.image).sum() > 0
+        h.step_ms(1)
+        assert green(h.render().left.image).sum() == 0
+        assert h.visible_flashes == ()
+
+
+def test_same_seed_same_renders_and_layouts():
+    with Head("search", image_size=32, seed=5) as a, Head("search", image_size=32, seed=5) as b:
+        assert np.array_equal(a.render().left.image, b.render().left.image)
+        pa = a.object_position("target")
+        a.reset(seed=6)
+        assert not np.allclose(pa, a.object_position("target"))
+        a.reset(seed=5)
+        assert np.allclose(pa, a.object_position("target"))
+        assert np.array_equal(a.render().right.image, b.render().right.image)
+
+
+def test_default_quality_option_and_fov_parameters():
+    m = models.build_model("bar", quality="default", fovy_deg=80, ipd=0.07)
+    assert m.vis.quality.shadowsize > 0
+    assert np.allclose(m.cam_fovy, 80)
+    d = np.diff(m.body_pos[[m.body("left_eyeball").id, m.body("right_eyeball").id]], axis=0)
+    assert np.isclose(np.linalg.norm(d), 0.07)
+
+
+def test_ten_thousand_renders_do_not_grow_memory():
+    def rss_kb():
+        return int(Path("/proc/self/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE") // 1024
+
+    h = Head("dots", image_size=16)
+    for _ in range(1000):
+        h.render()
+    before = rss_kb()
+    for _ in range(5000):  # two eyes each: 10,000 renders
+        h.render()
+    assert rss_kb() - before < 4096
+    h.close()
+    h.close()  # idempotent
+    assert h._renderer is None
+
+
+def test_export_xml_round_trip(tmp_path):
+    for scene in models.SCENES:
+        path = models.export_xml(scene, tmp_path / scene / "model.xml")
+        m = models.load_model(path)
+        ref = models.build_model(scene)
+        assert (m.ngeom, m.nbody, m.nu, m.ntex) == (ref.ngeom, ref.nbody, ref.nu, ref.ntex)
+
+
+def test_bad_inputs_raise_clear_errors(tmp_path):
+    with pytest.raises(ValueError, match="unknown scene 'nope'.*bar"):
+        models.build_model("nope")
+    with pytest.raises(ValueError, match="quality"):
+        models.build_model("bar", quality="ultra")
+    with pytest.raises(ValueError, match="fovy"):
+        models.build_model("bar", fovy_deg=float("nan"))
+    with pytest.raises(models.ModelFileError, match="cannot read"):
+        models.build_spec("bar", head_xml=tmp_path / "missing.xml")
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<mujoco><worldbody><geom type='nonsense'/></worldbody></mujoco>")
+    with pytest.raises(models.ModelFileError):
+        models.load_model(bad)
+    with pytest.raises(ValueError, match="off-screen buffer"):
+        models.EyeRenderer(models.build_model("bar"), 2000)
+
+
+def test_missing_gl_backend_names_debian_packages():
+    code = "import models; models.Head('bar', 16).render()"
+    env = dict(os.environ, MUJOCO_GL="osmesa", PYTHONPATH=str(ROOT))
+    env.pop("PYOPENGL_PLATFORM", None)
+    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    if res.returncode == 0:
+        pytest.skip("OSMesa is installed here; cannot simulate a missing backend")
+    assert "GLBackendError" in res.stderr and "apt-get install libosmesa6" in res.stderr
