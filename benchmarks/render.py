@@ -1,0 +1,57 @@
+"""Cost of rendering both eyes (128, 256, 512 px; fast and default quality) beside one physics
+millisecond and one physics step. Prints a table; never used as a timed assertion.
+
+    python benchmarks/render.py [--scene dots] [--repeats 30]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+try:
+    import models
+except ImportError:  # running from a checkout without `pip install -e .`
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import models
+from models._gl import mujoco
+
+
+def _time(fn, repeats: int) -> float:
+    fn()  # warm-up
+    ts = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return float(np.median(ts)) * 1e3
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--scene", default="dots", choices=models.SCENES)
+    ap.add_argument("--repeats", type=int, default=30)
+    args = ap.parse_args()
+    rows = []
+    for quality in models.QUALITIES:
+        for size in (128, 256, 512):
+            with models.Head(args.scene, image_size=size, quality=quality) as head:
+                rows.append((f"render both eyes {size}x{size}", quality, _time(head.render, args.repeats)))
+    head = models.Head(args.scene, image_size=16)
+    rows.append(("physics: 1 ms (10 steps + servo)", "-", _time(lambda: head.step_ms(1), args.repeats * 10)))
+    rows.append(("physics: one mj_step", "-",
+                 _time(lambda: mujoco.mj_step(head.model, head.data), args.repeats * 10)))
+    print(f"scene={args.scene}  MUJOCO_GL={__import__('os').environ.get('MUJOCO_GL')}  (median ms)")
+    print(f"{'operation':<36}{'quality':<10}{'ms':>10}")
+    print("-" * 56)
+    for name, q, ms in rows:
+        print(f"{name:<36}{q:<10}{ms:>10.3f}")
+
+
+if __name__ == "__main__":
+    main()
