@@ -156,9 +156,9 @@ def _natural(spec, seed: int = 0) -> SceneInfo:
         "cylinder_far": (2.6, 0.6, -0.2, _G.mjGEOM_CYLINDER, [0.12, 0.35, 0], ((0.4, 0.4, 0.1), (1, 1, 0.6))),
         "box_far": (3.2, -0.9, 0.2, _G.mjGEOM_BOX, [0.25, 0.25, 0.25], ((0.3, 0.1, 0.4), (0.9, 0.7, 1))),
     }
-    _static(spec, "backdrop", CYCLOPEAN_EYE + [4.0, 0, 0.3], type=_G.mjGEOM_PLANE, size=[3.0, 2.0, 0.1],
+    _static(spec, "backdrop", CYCLOPEAN_EYE + [4.0, 0, 0.3], type=_G.mjGEOM_PLANE, size=[6.0, 3.0, 0.1],
             zaxis=[-1, 0, 0], material=back)
-    _static(spec, "floor", [2.0, 0, 0], type=_G.mjGEOM_PLANE, size=[2.5, 3.0, 0.1], material=floor)
+    _static(spec, "floor", [2.1, 0, 0], type=_G.mjGEOM_PLANE, size=[2.0, 6.0, 0.1], material=floor)
     for name, (dx, dy, dz, gtype, size, cols) in objs.items():
         mat = _texture(spec, f"{name}_tex", rng, *cols, size=128)
         _static(spec, name, CYCLOPEAN_EYE + [dx, dy, dz], type=gtype, size=size, material=mat)
