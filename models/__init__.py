@@ -10,11 +10,11 @@ from .oculomotor import (MAX_PEAK_VELOCITY, MainSequence, OculomotorRangeError, 
                          fick_matrix, fixation_angles, gaze_direction, listing_torsion, rotation_vector)
 from .render import EYES, EyeImage, EyeRenderer, StereoFrame
 from .scenes import CYCLOPEAN_EYE, SCENES, SceneInfo, screen_point
-from .simulation import EyeState, EyeTrace, Head
+from .simulation import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, EyeState, EyeTrace, Head
 
 __all__ = [
     "SCENES", "QUALITIES", "EYES", "DEFAULT_FOVY_DEG", "DEFAULT_IPD", "HEAD_XML", "CYCLOPEAN_EYE",
-    "MAX_PEAK_VELOCITY",
+    "MAX_PEAK_VELOCITY", "DEFAULT_TIMESTEP_MS", "DEFAULT_SACCADE_TIMESTEP_MS",
     "build_model", "build_spec", "export_xml", "load_model", "screen_point",
     "Head", "EyeState", "EyeTrace", "SceneInfo",
     "EyeRenderer", "EyeImage", "StereoFrame",
