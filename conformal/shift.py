@@ -4,10 +4,11 @@ A shift by j rings (integer or fractional) multiplies the u-spectrum of e^u f by
 e^{i 2 pi m j / L} (signed m) and re-weights by e^{-(u_k + j delta)}. Positive j brings
 content from larger radii inwards, f'(z) = f(e^{j delta} z): the compression of §6.5.
 
-``wrap=True`` is the paper's circular version (L = M): content pushed through the inner
-edge re-enters from the periphery, the artefact the paper reports in §6.5.1. The default
-zero-pads the log-radial axis so nothing wraps; rings whose source lies outside the
-sampled annulus become 0.
+``wrap=True`` is the paper's circular version (L = M, the series of e^u f): content pushed
+through the inner edge re-enters from the periphery, the artefact the paper reports in
+§6.5.1. The default does not wrap: it shifts the series of f extended evenly about both
+edges of the annulus (L = 2M, no jump at the seams, so fractional shifts do not ring), and
+rings whose source lies outside the sampled annulus become 0.
 """
 
 from __future__ import annotations
@@ -36,15 +37,22 @@ def log_radius_shift(samples: ArrayLike, grid: RetinaGrid, shift: float, *, wrap
     if not math.isfinite(j):
         raise ValueError(f"shift must be finite; got {shift!r}")
     m = grid.M
-    length = m if wrap else m + 2 * (int(math.ceil(abs(j))) + 2)
-    u = grid.u[0] + grid.delta * np.arange(length)
-    weighted = np.zeros((length,) + f.shape[1:])
-    weighted[:m] = _expand(np.exp(u[:m]), f.ndim) * f
-    spec = np.fft.fft(weighted, axis=0)
+    if wrap:
+        length = m
+        u = grid.u
+        seq = _expand(np.exp(u), f.ndim) * f
+    else:
+        length = 2 * m
+        seq = np.concatenate([f, f[::-1]], axis=0)
+    spec = np.fft.fft(seq, axis=0)
     freq = np.fft.fftfreq(length, 1.0 / length)
     if length % 2 == 0:
         freq[length // 2] = 0.0  # split the Nyquist term symmetrically: keeps real data real
         spec[length // 2] *= math.cos(math.pi * j)
     spec *= _expand(np.exp(2j * math.pi * freq * j / length), f.ndim)
     out = np.fft.ifft(spec, axis=0).real[:m]
-    return out * _expand(np.exp(-(u[:m] + j * grid.delta)), f.ndim)
+    if wrap:
+        return out * _expand(np.exp(-(grid.u + j * grid.delta)), f.ndim)
+    src = np.arange(m) + j
+    out[(src < -0.5) | (src > m - 0.5)] = 0.0
+    return out
