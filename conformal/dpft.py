@@ -21,6 +21,7 @@ evaluates the evenly extended series of f instead (see ``OffGridEvaluator``).
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -64,11 +65,21 @@ def _weight(grid: RetinaGrid) -> float:
     return 2 * math.pi * grid.T / (grid.M * grid.N)
 
 
-def _phase(grid: RetinaGrid) -> NDArray[np.complex128]:
-    """e^{-i (2 pi m u_0 / T + n theta_0)} for m = 0..M-1, n = 0..N-1, shape (M, N)."""
+@lru_cache(maxsize=32)
+def _tables(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Per-grid constants, computed once: phase (M, N), its conjugate, e^{u_k}, e^{-u_k}."""
     m = np.arange(grid.M)[:, None]
     n = np.arange(grid.N)[None, :]
-    return np.exp(-1j * (2 * math.pi * m * grid.u[0] / grid.T + n * grid.theta[0]))
+    phase = np.exp(-1j * (2 * math.pi * m * grid.u[0] / grid.T + n * grid.theta[0]))
+    out = (phase, np.conj(phase), np.exp(grid.u), np.exp(-grid.u))
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+def _phase(grid: RetinaGrid) -> NDArray[np.complex128]:
+    """e^{-i (2 pi m u_0 / T + n theta_0)} for m = 0..M-1, n = 0..N-1, shape (M, N)."""
+    return _tables(grid)[0]
 
 
 def pft_frequencies(grid: RetinaGrid) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -83,7 +94,7 @@ def dpft(samples: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
     Accepts (M, N) or (M, N, C); transforms over the first two axes.
     """
     f = _check_samples(samples, grid, "samples")
-    weighted = _weight(grid) * _expand(np.exp(grid.u), f.ndim) * f
+    weighted = _weight(grid) * _expand(_tables(grid)[2], f.ndim) * f
     return np.fft.fft2(weighted, axes=(0, 1)) * _expand(_phase(grid), f.ndim)
 
 
@@ -93,8 +104,8 @@ def idpft(coeffs: ArrayLike, grid: RetinaGrid, *, real: bool = True) -> NDArray:
     With ``real=True`` (default) returns the real part, as for real images.
     """
     F = _check_samples(coeffs, grid, "coeffs", complex_ok=True)
-    lp = np.fft.ifft2(F * _expand(np.conj(_phase(grid)), F.ndim), axes=(0, 1))
-    f = lp * _expand(np.exp(-grid.u), F.ndim) / _weight(grid)
+    lp = np.fft.ifft2(F * _expand(_tables(grid)[1], F.ndim), axes=(0, 1))
+    f = lp * _expand(_tables(grid)[3], F.ndim) / _weight(grid)
     return f.real if real else f
 
 
@@ -143,7 +154,7 @@ def _check_points(z: ArrayLike) -> NDArray[np.complex128]:
 
 def _centred(coeffs: NDArray, grid: RetinaGrid) -> NDArray[np.complex128]:
     """Origin-relative coefficients A (eq. ``lpdft``), fft-shifted to signed frequencies."""
-    A = coeffs * _expand(np.conj(_phase(grid)), coeffs.ndim)
+    A = coeffs * _expand(_tables(grid)[1], coeffs.ndim)
     return np.fft.fftshift(A, axes=(0, 1))
 
 
@@ -230,7 +241,7 @@ class OffGridEvaluator:
         else:
             self._scale = np.full(u.shape, 1.0 / (self._rows * grid.N))
         if method == "auto":  # small problems: two dense factor matrices beat NUFFT's set-up
-            method = "matrix" if zf.size * self._rows * grid.N <= 4_000_000 else "nufft"
+            method = "matrix" if zf.size * self._rows * grid.N <= 120_000 else "nufft"
         self.method = method
         if method == "matrix":  # separable exact sum: e^{i m x} and e^{i n y}, signed m, n
             self._em = _exp_ramp(x, self._rows)

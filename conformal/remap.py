@@ -32,7 +32,7 @@ from .geometry import apply_homography, rotation_homography, su2_from_rotation, 
 from .grid import RetinaGrid
 from .sampling import RetinaSamples
 
-__all__ = ["homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "rotation_matrix"]
+__all__ = ["homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix"]
 
 PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
 
@@ -119,12 +119,14 @@ def predict(coeffs: ArrayLike, fovea: ArrayLike, grid: RetinaGrid, point_map: Po
     the old fovea from the foveal samples. ``mask`` / ``fovea_mask`` flag points whose source
     lies beyond r_b or behind the eye (unknown before the saccade).
     """
-    F = np.asarray(coeffs)
-    fov = np.asarray(fovea, dtype=float)
-    z = np.concatenate([grid.fovea_points, grid.points.ravel()])
+    return predict_many(coeffs, fovea, grid, [point_map])[0]
+
+
+def _map_points(point_map: PointMap, z: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """w(z), with NaN where the map sends a point to infinity (behind the eye)."""
     with np.errstate(all="ignore"):
         try:
-            w = np.asarray(point_map(z), dtype=complex)
+            return np.asarray(point_map(z), dtype=complex)
         except ValueError:
             w = np.full(z.shape, np.nan + 0j)
             for i, zi in enumerate(z):
@@ -132,23 +134,37 @@ def predict(coeffs: ArrayLike, fovea: ArrayLike, grid: RetinaGrid, point_map: Po
                     w[i] = complex(np.asarray(point_map(np.array([zi])))[0])
                 except ValueError:
                     pass
+            return w
+
+
+def predict_many(coeffs: ArrayLike, fovea: ArrayLike, grid: RetinaGrid, point_maps: list[PointMap]) -> list[RetinaSamples]:
+    """``predict`` for several point maps at once, sharing one evaluation of the series."""
+    F = np.asarray(coeffs)
+    fov = np.asarray(fovea, dtype=float)
+    z = np.concatenate([grid.fovea_points, grid.points.ravel()])
+    n_pts, n_f = len(z), grid.n_fovea
+    w = np.concatenate([_map_points(pm, z) for pm in point_maps])
     finite = np.isfinite(w)
     r = np.where(finite, np.abs(w), np.inf)
     in_fovea = finite & (r < grid.r0)
-    edge = grid.ring_edges[-1]
-    in_periph = finite & (r >= grid.r0) & (r < edge)
+    in_periph = finite & (r >= grid.r0) & (r < grid.ring_edges[-1])
     chans = F.shape[2:]
-    out = np.zeros((len(z),) + chans)
+    out = np.zeros((len(w),) + chans)
     if np.any(in_periph):
-        ev = OffGridEvaluator(grid, w[in_periph])
-        out[in_periph] = ev(F)
+        out[in_periph] = OffGridEvaluator(grid, w[in_periph])(F)
     if np.any(in_fovea):
         out[in_fovea] = _fovea_lookup(fov, grid, w[in_fovea])
     valid = in_fovea | in_periph
-    n_f = grid.n_fovea
-    return RetinaSamples(
-        fovea=out[:n_f],
-        periphery=out[n_f:].reshape((grid.M, grid.N) + chans),
-        mask=valid[n_f:].reshape(grid.M, grid.N),
-        fovea_mask=valid[:n_f],
-    )
+    results = []
+    for i in range(len(point_maps)):
+        sl = slice(i * n_pts, (i + 1) * n_pts)
+        o, v = out[sl], valid[sl]
+        results.append(
+            RetinaSamples(
+                fovea=o[:n_f],
+                periphery=o[n_f:].reshape((grid.M, grid.N) + chans),
+                mask=v[n_f:].reshape(grid.M, grid.N),
+                fovea_mask=v[:n_f],
+            )
+        )
+    return results

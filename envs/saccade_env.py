@@ -1,0 +1,291 @@
+"""``BinocularSaccade-v0``: saccades in, conformal-camera cortical observations out."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+import conformal as C
+import models
+
+from .tasks import Task, gaze_errors_deg, make_task
+from .vision import REMAP_MODELS, EyeView, Vision, normalized_error
+
+__all__ = ["BinocularSaccadeEnv"]
+
+
+class BinocularSaccadeEnv(gym.Env):
+    """A binocular head whose eyes are conformal cameras, making one saccade per step.
+
+    **One step = one saccade and the fixation that follows it.** The agent picks the next
+    saccade; the env plans it on the main sequence, computes the predicted post-saccadic
+    retina of each eye from the *pre*-saccadic DPFT coefficients and the efference copy
+    (before the eyes move), runs the physics through the saccade and ``fixation_ms`` of
+    fixation, renders both eyes, samples them on the exp-polar retina and takes the DPFT.
+
+    **Action space.**
+    ``action_mode="vector"`` (default): ``Box(-1, 1, (2,))``, the saccade (horizontal > 0
+    right, vertical > 0 up) as Fick-angle increments relative to the current gaze, scaled by
+    ``max_amplitude_deg``; with ``vergence=True`` a third component in [-1, 1] changes the
+    fixation distance by a factor 2**a. ``action_mode="cell"``: ``Discrete(M * N)``, a
+    peripheral retina cell ``k * N + l`` (a superior-colliculus-like motor map): saccade to
+    the direction of that cell's centre. Saccades that would leave the oculomotor range are
+    shortened to its edge (``info["clipped"]``). NaN or out-of-space actions raise ValueError.
+
+    **Observation space** (``spaces.Dict``, float32; M rings, N sectors, N_f foveal samples,
+    C = 3, or 1 with ``grayscale=True``; values are intensities in [0, 1]):
+
+    - ``cortical``: both eyes' peripheral log-polar samples, ``(2, M, N, C)`` [eye, ring, sector];
+      with ``cortex="hemispheres"`` the binocular cortical map ``(2, 2, M, N/2, C)``
+      [hemisphere (left, right), eye (left, right), ring, sector-in-hemifield].
+    - ``fovea``: both eyes' foveal samples, ``(2, N_f, C)``.
+    - ``remapped``: the predicted post-saccadic cortical samples of ``remap_model``, computed
+      from the pre-saccadic coefficients and the efference copy; same shape as ``cortical``
+      (cells whose source is unknown, e.g. beyond the old picture, are 0; values clipped to [0, 1]).
+      At reset it equals ``cortical``.
+    - ``eyes``: both eyes' Fick angles ``(2, 3)`` [eye, (horizontal, vertical, torsion)], radians.
+    - ``coeffs`` (``include_coeffs=True``): the DPFT coefficients ``(2, M, N, C, 2)`` (real, imag).
+
+    **Reward and episode end**: from the task. ``fixate``: exp(-(e/tol)^2/2) - 0.05 per
+    saccade with e the gaze error to the target; ends when the target is foveated (both eyes
+    within ``tolerance_deg``), truncated after ``max_saccades``. ``search``: 1 for foveating
+    the target, -0.05 per saccade.
+
+    **info**: ``sim_time_ms``; ``remap_error`` {model: normalized RMS error of its prediction
+    against the actual post-saccadic samples, mean of both eyes} for every model in
+    ``remap_models``; ``saccade_amplitude_deg``, ``saccade_duration_ms``,
+    ``peak_velocity_deg_s``, ``landing_error_deg`` (gaze vs the intended endpoint),
+    ``target_error_deg``, ``success``, ``clipped``.
+
+    **Arguments**: ``scene`` (default: the task's), ``task`` (``"fixate"``, ``"search"`` or a
+    ``Task``), ``action_mode``, ``image_size`` (pixels per side of each eye's image),
+    ``render_mode`` (``"rgb_array"``), ``fixation_ms`` (250), ``max_amplitude_deg`` (30),
+    ``vergence``, ``remap_model`` (``"homography"``, ``"mobius"``, ``"shift"``),
+    ``remap_models`` (models whose error ``info`` reports; default all three), ``shift_rings``
+    (the shift model's log-radius compression), ``grayscale``, ``cortex`` (``"eyes"`` or
+    ``"hemispheres"``), ``include_coeffs``, ``fovea_deg`` (3), ``n_sectors``, ``sampling``
+    (``"pool"``), ``fovy_deg`` (70), ``endpoint_noise`` (0), ``quality`` (``"fast"``),
+    ``task_kwargs``.
+
+    **Version history**: v0 — initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        scene: str | None = None,
+        task: str | Task = "fixate",
+        action_mode: str = "vector",
+        image_size: int = 128,
+        render_mode: str | None = None,
+        *,
+        fixation_ms: int = 250,
+        max_amplitude_deg: float = 30.0,
+        vergence: bool = False,
+        remap_model: str = "homography",
+        remap_models: tuple[str, ...] | None = None,
+        shift_rings: float = 0.0,
+        grayscale: bool = False,
+        cortex: str = "eyes",
+        include_coeffs: bool = False,
+        fovea_deg: float = 3.0,
+        n_sectors: int | None = None,
+        sampling: str = "pool",
+        fovy_deg: float = models.DEFAULT_FOVY_DEG,
+        endpoint_noise: float = 0.0,
+        quality: str = "fast",
+        task_kwargs: dict | None = None,
+    ) -> None:
+        super().__init__()
+        if action_mode not in ("vector", "cell"):
+            raise ValueError(f"action_mode must be 'vector' or 'cell'; got {action_mode!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array'; got {render_mode!r}")
+        if cortex not in ("eyes", "hemispheres"):
+            raise ValueError(f"cortex must be 'eyes' or 'hemispheres'; got {cortex!r}")
+        if remap_model not in REMAP_MODELS:
+            raise ValueError(f"remap_model must be one of {REMAP_MODELS}; got {remap_model!r}")
+        remap_models = REMAP_MODELS if remap_models is None else tuple(remap_models)
+        for m in remap_models:
+            if m not in REMAP_MODELS:
+                raise ValueError(f"unknown remapping model {m!r}; choose from {REMAP_MODELS}")
+        if remap_model not in remap_models:
+            remap_models = remap_models + (remap_model,)
+        if int(image_size) != image_size or not 16 <= image_size <= 1024:
+            raise ValueError(f"image_size must be an integer in 16..1024; got {image_size!r}")
+        if int(fixation_ms) != fixation_ms or fixation_ms < 0:
+            raise ValueError(f"fixation_ms must be a whole number of ms >= 0; got {fixation_ms!r}")
+        if not (math.isfinite(max_amplitude_deg) and 0 < max_amplitude_deg <= 60):
+            raise ValueError(f"max_amplitude_deg must be in (0, 60]; got {max_amplitude_deg!r}")
+        self.task = make_task(task, **(task_kwargs or {}))
+        self.scene = scene or self.task.scene
+        if self.scene not in models.SCENES:
+            raise ValueError(f"unknown scene {self.scene!r}; choose one of {', '.join(models.SCENES)}")
+        self.action_mode = action_mode
+        self.render_mode = render_mode
+        self.fixation_ms = int(fixation_ms)
+        self.max_amplitude = math.radians(max_amplitude_deg)
+        self.vergence = bool(vergence)
+        self.remap_model = remap_model
+        self.remap_models = remap_models
+        self.cortex = cortex
+        self.include_coeffs = bool(include_coeffs)
+
+        self.head = models.Head(self.scene, image_size=int(image_size), fovy_deg=fovy_deg,
+                                quality=quality, seed=0, endpoint_noise=endpoint_noise)
+        self.vision = Vision(self.head.image_shape, self.head.pixels_per_unit, fovea_deg=fovea_deg,
+                             n_sectors=n_sectors, grayscale=grayscale, sampling=sampling, shift_rings=shift_rings)
+        g = self.vision.grid
+        if cortex == "hemispheres" and g.N % 4:
+            raise ValueError(f"cortex='hemispheres' needs N divisible by 4; got n_sectors={g.N}")
+        c = self.vision.channels
+        cort_shape = (2, g.M, g.N, c) if cortex == "eyes" else (2, 2, g.M, g.N // 2, c)
+        obs = {
+            "cortical": spaces.Box(0.0, 1.0, cort_shape, np.float32),
+            "fovea": spaces.Box(0.0, 1.0, (2, g.n_fovea, c), np.float32),
+            "remapped": spaces.Box(0.0, 1.0, cort_shape, np.float32),
+            "eyes": spaces.Box(-math.pi, math.pi, (2, 3), np.float32),
+        }
+        if include_coeffs:
+            obs["coeffs"] = spaces.Box(-np.inf, np.inf, (2, g.M, g.N, c, 2), np.float32)
+        self.observation_space = spaces.Dict(obs)
+        if action_mode == "vector":
+            self.action_space = spaces.Box(-1.0, 1.0, (3 if vergence else 2,), np.float32)
+        else:
+            self.action_space = spaces.Discrete(g.M * g.N)
+        self._views: tuple[EyeView, EyeView] | None = None
+        self._remapped: np.ndarray | None = None
+        self._frame = None
+        self._saccades = 0
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        head_seed = int(self.np_random.integers(2**31 - 1))
+        self.head.reset(seed=head_seed)
+        self.task.initialize_episode(self.head, self.np_random)
+        self._saccades = 0
+        self._see()
+        self._remapped = self._cortical([v.periphery for v in self._views])
+        info = {"sim_time_ms": self.head.time_ms, "remap_error": {m: 0.0 for m in self.remap_models}}
+        return self._observation(), info
+
+    def step(self, action):
+        if self._views is None:
+            raise RuntimeError("call reset() before step()")
+        h, v, dist_factor = self._decode(action)
+        plan, clipped = self._plan(h, v, dist_factor)
+        pre = self._views
+        R = plan.efference_copy_eye
+        per_eye = [self.vision.predict_models(pre[e], self.remap_models, R[e]) for e in (0, 1)]
+        predictions = {m: [per_eye[0][m], per_eye[1][m]] for m in self.remap_models}
+        self.head.start_saccade(plan)
+        self.head.step_ms(plan.end_ms - self.head.time_ms + self.fixation_ms)
+        self._see()
+        errors = {m: float(np.mean([normalized_error(p[e], self._views[e]) for e in (0, 1)]))
+                  for m, p in predictions.items()}
+        chosen = predictions[self.remap_model]
+        self._remapped = self._cortical([np.where(p.mask[..., None], p.periphery, 0.0) for p in chosen])
+        reward, success, tinfo = self.task.score(self.head)
+        self._saccades += 1
+        terminated = bool(success)
+        truncated = bool(not terminated and self._saccades >= self.task.max_saccades)
+        landing = gaze_errors_deg(self.head, plan.intended_target).mean()
+        info: dict[str, Any] = {
+            "sim_time_ms": self.head.time_ms,
+            "remap_error": errors,
+            "saccade_amplitude_deg": plan.amplitude_deg,
+            "saccade_duration_ms": plan.duration_ms,
+            "peak_velocity_deg_s": math.degrees(plan.peak_velocity),
+            "landing_error_deg": float(landing),
+            "clipped": clipped,
+            **tinfo,
+        }
+        return self._observation(), float(reward), terminated, truncated, info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._frame is None:
+            raise RuntimeError("call reset() before render()")
+        from .display import compose_frame
+
+        return compose_frame(self._frame, self._views, self.vision)
+
+    def close(self) -> None:
+        self.head.close()
+
+    # ------------------------------------------------------------------ helpers
+    def _see(self) -> None:
+        self._frame = self.head.render()
+        self._views = (self.vision.see(self._frame.left.image), self.vision.see(self._frame.right.image))
+
+    def _cortical(self, per_eye: list[np.ndarray]) -> np.ndarray:
+        if self.cortex == "eyes":
+            out = np.stack(per_eye)
+        else:
+            bc = C.binocular_cortex(per_eye[0], per_eye[1], self.vision.grid)
+            out = np.stack([bc.left_hemisphere, bc.right_hemisphere])
+        return np.clip(out, 0.0, 1.0).astype(np.float32)
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        views = self._views
+        obs = {
+            "cortical": self._cortical([v.periphery for v in views]),
+            "fovea": np.clip(np.stack([v.fovea for v in views]), 0.0, 1.0).astype(np.float32),
+            "remapped": self._remapped.copy(),
+            "eyes": self.head.eye_angles.astype(np.float32),
+        }
+        if self.include_coeffs:
+            cf = np.stack([v.coeffs for v in views])
+            obs["coeffs"] = np.stack([cf.real, cf.imag], axis=-1).astype(np.float32)
+        return obs
+
+    def _decode(self, action) -> tuple[float, float, float]:
+        """Action -> (horizontal, vertical) Fick increments (rad) and a fixation-distance factor."""
+        if self.action_mode == "cell":
+            if isinstance(action, (float, np.floating)) and not np.isfinite(action):
+                raise ValueError(f"action must be a cell index; got {action!r}")
+            a = np.asarray(action)
+            if a.shape != () or a.dtype.kind not in "iu" or not self.action_space.contains(a.astype(np.int64)):
+                raise ValueError(f"action must be an integer cell index in [0, {self.action_space.n}); got {action!r}")
+            k, l = divmod(int(a), self.vision.grid.N)
+            z = self.vision.grid.points[k, l]
+            return math.atan(z.real), math.atan2(z.imag, math.hypot(1.0, z.real)), 1.0
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"action must have shape {self.action_space.shape}; got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action contains NaN or infinity: {a.tolist()}")
+        if np.any(np.abs(a) > 1.0 + 1e-6):
+            raise ValueError(f"action components must lie in [-1, 1]; got {a.tolist()}")
+        factor = 2.0 ** float(a[2]) if self.vergence else 1.0
+        return float(a[0]) * self.max_amplitude, float(a[1]) * self.max_amplitude, factor
+
+    def _plan(self, h: float, v: float, factor: float):
+        """Plan the saccade; one that would leave the oculomotor range is shortened to its edge."""
+
+        def attempt(scale: float):
+            plan = self.head.plan_saccade(h * scale, v * scale)
+            if factor != 1.0:
+                c = self.head.cyclopean_position
+                plan = self.head.plan_saccade_to(c + factor * (plan.intended_target - c))
+            return plan
+
+        try:
+            return attempt(1.0), False
+        except models.OculomotorRangeError:
+            pass
+        lo, hi, best = 0.0, 1.0, None
+        for _ in range(10):  # bisection on the saccade's length
+            mid = (lo + hi) / 2
+            try:
+                best, lo = attempt(mid), mid
+            except models.OculomotorRangeError:
+                hi = mid
+        return (best if best is not None else self.head.plan_saccade(0.0, 0.0)), True

@@ -1,0 +1,117 @@
+"""Tasks: what an episode asks of the head (dm_control style: task separate from the body).
+
+A task chooses its scene, places its objects at the start of an episode (random under the
+env's seed), and scores each saccade. The gaze error of an eye is the angle between its
+optical axis and the direction from its nodal point to the target; a target is *foveated*
+when both eyes' errors are below ``tolerance_deg``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+import models
+
+__all__ = ["Task", "FixateTask", "SearchTask", "TASKS", "gaze_errors_deg", "make_task"]
+
+
+def gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
+    """Angle (deg) between each eye's optical axis and its line of sight to ``point``: shape (2,)."""
+    out = []
+    for state in head.eye_states():
+        d = np.asarray(point, float) - state.camera_position
+        d /= np.linalg.norm(d)
+        axis = state.eye_axes[:, 1]
+        out.append(math.degrees(math.acos(float(np.clip(axis @ d, -1.0, 1.0)))))
+    return np.array(out)
+
+
+@dataclass
+class Task:
+    """Base task. ``scene`` is the ``models`` scene it runs in; ``max_saccades`` the budget."""
+
+    scene: str = "dots"
+    max_saccades: int = 5
+    tolerance_deg: float = 2.0
+    saccade_cost: float = 0.05
+
+    name = "task"
+
+    def __post_init__(self) -> None:
+        if int(self.max_saccades) < 1:
+            raise ValueError(f"max_saccades must be >= 1; got {self.max_saccades!r}")
+        if not (math.isfinite(self.tolerance_deg) and self.tolerance_deg > 0):
+            raise ValueError(f"tolerance_deg must be positive; got {self.tolerance_deg!r}")
+
+    def initialize_episode(self, head: "models.Head", rng: np.random.Generator) -> None:
+        """Place the task's objects (the head has just been reset)."""
+
+    def target_position(self, head: "models.Head") -> np.ndarray:
+        return head.object_position("target")
+
+    def score(self, head: "models.Head") -> tuple[float, bool, dict]:
+        """(reward, terminated, info) after a saccade has landed."""
+        raise NotImplementedError
+
+
+@dataclass
+class FixateTask(Task):
+    """``fixate``: a salient target appears in the periphery of the ``dots`` screen, at an
+    eccentricity uniform in [min_ecc_deg, max_ecc_deg] and a direction uniform on the circle.
+
+    Reward per saccade: exp(-(e / tolerance)^2 / 2) - saccade_cost, e the mean gaze error (deg);
+    the episode ends when the target is foveated or after ``max_saccades`` saccades.
+    """
+
+    scene: str = "dots"
+    min_ecc_deg: float = 5.0
+    max_ecc_deg: float = 20.0
+    name = "fixate"
+
+    def initialize_episode(self, head, rng) -> None:
+        ecc = math.radians(rng.uniform(self.min_ecc_deg, self.max_ecc_deg))
+        ang = rng.uniform(0, 2 * math.pi)
+        az, el = math.atan(math.tan(ecc) * math.cos(ang)), math.atan(math.tan(ecc) * math.sin(ang))
+        head.set_object_position("target", models.screen_point(az, el, 1.0))
+
+    def score(self, head) -> tuple[float, bool, dict]:
+        err = gaze_errors_deg(head, self.target_position(head))
+        e = float(err.mean())
+        success = bool(np.all(err <= self.tolerance_deg))
+        reward = math.exp(-0.5 * (e / self.tolerance_deg) ** 2) - self.saccade_cost
+        return reward, success, {"target_error_deg": e, "success": success}
+
+
+@dataclass
+class SearchTask(Task):
+    """``search``: find the red sphere among green spheres and red cubes (``search`` scene,
+    layout re-drawn from the seed each episode). Reward 1 for foveating the target, minus
+    ``saccade_cost`` per saccade; ends on success or after ``max_saccades``."""
+
+    scene: str = "search"
+    max_saccades: int = 10
+    tolerance_deg: float = 2.5
+    name = "search"
+
+    def score(self, head) -> tuple[float, bool, dict]:
+        err = gaze_errors_deg(head, self.target_position(head))
+        success = bool(np.all(err <= self.tolerance_deg))
+        return (1.0 if success else 0.0) - self.saccade_cost, success, {
+            "target_error_deg": float(err.mean()),
+            "success": success,
+        }
+
+
+TASKS = {"fixate": FixateTask, "search": SearchTask}
+
+
+def make_task(task: "str | Task", **kwargs) -> Task:
+    """A task by name (``"fixate"``, ``"search"``) or a ready ``Task`` instance."""
+    if isinstance(task, Task):
+        return task
+    if task not in TASKS:
+        raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASKS)}")
+    return TASKS[task](**kwargs)

@@ -1,0 +1,130 @@
+"""The eyes' visual pipeline: rendered pixels -> retina samples -> DPFT -> remapped predictions.
+
+``Vision`` is built once per image geometry (one ``conformal.Retina`` and grid shared by both
+eyes) and then processes frames cheaply. It knows nothing of MuJoCo: it takes images and the
+pinhole mapping (``pixels_per_unit``) and eye rotations as plain arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+import conformal as C
+
+__all__ = ["EyeView", "Vision", "REMAP_MODELS", "normalized_error"]
+
+REMAP_MODELS: tuple[str, ...] = ("homography", "mobius", "shift")
+
+
+@dataclass(frozen=True)
+class EyeView:
+    """One eye's retinal and cortical representation of one frame.
+
+    fovea (N_f, C) and periphery (M, N, C) samples (float, image values scaled to [0, 1]),
+    coeffs (M, N, C) the DPFT of the periphery, mask (M, N) cells inside the picture.
+    """
+
+    fovea: NDArray[np.float64]
+    periphery: NDArray[np.float64]
+    coeffs: NDArray[np.complex128]
+    mask: NDArray[np.bool_]
+    fovea_mask: NDArray[np.bool_]
+
+
+def normalized_error(pred: C.RetinaSamples, actual: EyeView) -> float:
+    """RMS difference over cells valid in both, divided by the RMS contrast of the actual samples.
+
+    0 is a perfect prediction; 1 is as bad as predicting the mean. NaN when no cell is valid.
+    """
+    m = pred.mask & actual.mask
+    fm = pred.fovea_mask & actual.fovea_mask
+    a = np.concatenate([actual.periphery[m].ravel(), actual.fovea[fm].ravel()])
+    p = np.concatenate([pred.periphery[m].ravel(), pred.fovea[fm].ravel()])
+    if a.size == 0:
+        return float("nan")
+    contrast = float(np.sqrt(np.mean((a - a.mean()) ** 2)))
+    return float(np.sqrt(np.mean((p - a) ** 2)) / max(contrast, 1e-12))
+
+
+class Vision:
+    """Retina + DPFT + efference-copy remapping for both eyes at one image geometry.
+
+    Parameters
+    ----------
+    image_shape : (H, W) of each eye's image.
+    pixels_per_unit : the renderer's f_px (pixels per image-plane unit).
+    fovea_deg : foveal radius (the retina's r0 = tan(fovea_deg)).
+    n_sectors : sectors N; default from the paper's rule N = [2 pi r0 K + pi] with K the
+        pixel density, rounded up to a multiple of 4 (for the vertical-meridian split).
+    grayscale : average the colour channels (C = 1) instead of keeping RGB (C = 3).
+    sampling : ``"pool"`` (receptive-field averages) or ``"bilinear"``/``"nearest"``.
+    shift_rings : log-radius shift (rings) of the ``shift`` remapping model; > 0 compresses.
+    """
+
+    def __init__(
+        self,
+        image_shape: tuple[int, int],
+        pixels_per_unit: float,
+        *,
+        fovea_deg: float = 3.0,
+        n_sectors: int | None = None,
+        grayscale: bool = False,
+        sampling: str = "pool",
+        shift_rings: float = 0.0,
+    ) -> None:
+        h, w = (int(image_shape[0]), int(image_shape[1]))
+        if not (math.isfinite(fovea_deg) and 0 < fovea_deg < 30):
+            raise ValueError(f"fovea_deg must be in (0, 30); got {fovea_deg!r}")
+        r0 = math.tan(math.radians(fovea_deg))
+        rb = min(h, w) / 2 / pixels_per_unit  # inscribed: every cell lies inside the picture
+        if n_sectors is None:
+            n_sectors = 4 * math.ceil(round(2 * math.pi * r0 * pixels_per_unit + math.pi) / 4)
+        self.grid = C.RetinaGrid.from_field_of_view(rb, r0, int(n_sectors))
+        self.channels = 1 if grayscale else 3
+        self.grayscale = bool(grayscale)
+        self.retina = C.Retina(self.grid, (h, w, 3), pixels_per_unit, mode=sampling)
+        self.image_shape = (h, w)
+        self.pixels_per_unit = float(pixels_per_unit)
+        self.shift_rings = float(shift_rings)
+
+    # ------------------------------------------------------------------ frames
+    def see(self, image: NDArray) -> EyeView:
+        """Sample one eye's (H, W, 3) uint8 (or float in [0, 1]) image and take its DPFT."""
+        img = np.asarray(image)
+        if img.dtype == np.uint8:
+            img = img.astype(np.float64) * (1.0 / 255.0)
+        s = self.retina.sample(img)
+        fov, per = s.fovea, s.periphery
+        if self.grayscale:
+            fov, per = fov.mean(axis=-1, keepdims=True), per.mean(axis=-1, keepdims=True)
+        return EyeView(fov, per, C.dpft(per, self.grid), s.mask, s.fovea_mask)
+
+    # ------------------------------------------------------------------ remapping
+    def point_map(self, model: str, rotation_eye: NDArray[np.float64]):
+        """The point map z_new -> z_old of ``model`` for an eye rotation (new axes in old eye
+        coordinates (x1, x2, x3): the efference copy)."""
+        R = np.asarray(rotation_eye, dtype=float)
+        if model == "homography":
+            return C.homography_map(R)
+        if model == "mobius":
+            return C.mobius_map(R)
+        if model == "shift":
+            axis = R[:, 1]  # the new optical axis in old eye coordinates -> the target
+            z_target = (axis[2] + 1j * axis[0]) / axis[1]
+            return C.target_shift_map(z_target, self.shift_rings, self.grid.delta)
+        raise ValueError(f"unknown remapping model {model!r}; choose one of {', '.join(REMAP_MODELS)}")
+
+    def predict(self, view: EyeView, model: str, rotation_eye: NDArray[np.float64]) -> C.RetinaSamples:
+        """Predicted post-saccadic samples from the pre-saccadic coefficients and the efference copy."""
+        return C.predict(view.coeffs, view.fovea, self.grid, self.point_map(model, rotation_eye))
+
+    def predict_models(
+        self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64]
+    ) -> dict[str, C.RetinaSamples]:
+        """``predict`` for several remapping models at once (one shared series evaluation)."""
+        maps = [self.point_map(m, rotation_eye) for m in models]
+        return dict(zip(models, C.predict_many(view.coeffs, view.fovea, self.grid, maps)))
