@@ -8,12 +8,12 @@ import gymnasium as gym
 
 from .display import compose_frame, grid_overlay
 from .saccade_env import BinocularSaccadeEnv
-from .tasks import TASKS, FixateTask, SearchTask, Task, gaze_errors_deg, make_task
+from .tasks import TASKS, FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors_deg, make_task
 from .vision import REMAP_MODELS, EyeView, Vision, normalized_error
 
 __all__ = [
     "BinocularSaccadeEnv", "Vision", "EyeView", "REMAP_MODELS", "normalized_error",
-    "Task", "FixateTask", "SearchTask", "TASKS", "make_task", "gaze_errors_deg",
+    "Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "make_task", "gaze_errors_deg",
     "compose_frame", "grid_overlay", "ENV_IDS",
 ]
 

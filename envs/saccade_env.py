@@ -53,7 +53,7 @@ class BinocularSaccadeEnv(gym.Env):
     **Reward and episode end**: from the task. ``fixate``: exp(-(e/tol)^2/2) - 0.05 per
     saccade with e the gaze error to the target; ends when the target is foveated (both eyes
     within ``tolerance_deg``), truncated after ``max_saccades``. ``search``: 1 for foveating
-    the target, -0.05 per saccade.
+    the target, -0.05 per saccade. ``free``: free viewing of any scene, reward 0.
 
     **info**: ``sim_time_ms``; ``remap_error`` {model: normalized RMS error of its prediction
     against the actual post-saccadic samples, mean of both eyes} for every model in
@@ -61,7 +61,7 @@ class BinocularSaccadeEnv(gym.Env):
     ``peak_velocity_deg_s``, ``landing_error_deg`` (gaze vs the intended endpoint),
     ``target_error_deg``, ``success``, ``clipped``.
 
-    **Arguments**: ``scene`` (default: the task's), ``task`` (``"fixate"``, ``"search"`` or a
+    **Arguments**: ``scene`` (default: the task's), ``task`` (``"fixate"``, ``"search"``, ``"free"`` or a
     ``Task``), ``action_mode``, ``image_size`` (pixels per side of each eye's image),
     ``render_mode`` (``"rgb_array"``), ``fixation_ms`` (250), ``max_amplitude_deg`` (30),
     ``vergence``, ``remap_model`` (``"homography"``, ``"mobius"``, ``"shift"``),
@@ -138,6 +138,11 @@ class BinocularSaccadeEnv(gym.Env):
 
         self.head = models.Head(self.scene, image_size=int(image_size), fovy_deg=fovy_deg,
                                 quality=quality, seed=0, endpoint_noise=endpoint_noise)
+        try:
+            self.task.check_scene(self.head)
+        except ValueError:
+            self.head.close()
+            raise
         self.vision = Vision(self.head.image_shape, self.head.pixels_per_unit, fovea_deg=fovea_deg,
                              n_sectors=n_sectors, grayscale=grayscale, sampling=sampling, shift_rings=shift_rings)
         g = self.vision.grid

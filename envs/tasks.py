@@ -15,7 +15,7 @@ import numpy as np
 
 import models
 
-__all__ = ["Task", "FixateTask", "SearchTask", "TASKS", "gaze_errors_deg", "make_task"]
+__all__ = ["Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "gaze_errors_deg", "make_task"]
 
 
 def gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
@@ -46,6 +46,12 @@ class Task:
         if not (math.isfinite(self.tolerance_deg) and self.tolerance_deg > 0):
             raise ValueError(f"tolerance_deg must be positive; got {self.tolerance_deg!r}")
 
+    def check_scene(self, head: "models.Head") -> None:
+        """Raise ValueError if ``head``'s scene lacks what this task needs."""
+        if "target" not in head.scene.objects:
+            raise ValueError(f"task {self.name!r} needs a 'target' object; scene {head.scene.name!r} has none "
+                             f"(use scene 'dots' or 'search', or task 'free')")
+
     def initialize_episode(self, head: "models.Head", rng: np.random.Generator) -> None:
         """Place the task's objects (the head has just been reset)."""
 
@@ -70,6 +76,11 @@ class FixateTask(Task):
     min_ecc_deg: float = 5.0
     max_ecc_deg: float = 20.0
     name = "fixate"
+
+    def check_scene(self, head) -> None:
+        super().check_scene(head)
+        if "target" not in head.scene.movable:
+            raise ValueError(f"task 'fixate' moves the target; in scene {head.scene.name!r} it is fixed")
 
     def initialize_episode(self, head, rng) -> None:
         ecc = math.radians(rng.uniform(self.min_ecc_deg, self.max_ecc_deg))
@@ -105,7 +116,23 @@ class SearchTask(Task):
         }
 
 
-TASKS = {"fixate": FixateTask, "search": SearchTask}
+@dataclass
+class FreeViewingTask(Task):
+    """``free``: free viewing of any scene (e.g. ``bar`` or ``natural``): no target, reward 0,
+    never terminates; truncated after ``max_saccades``. For experiments and visualisation."""
+
+    scene: str = "natural"
+    max_saccades: int = 20
+    name = "free"
+
+    def check_scene(self, head) -> None:
+        pass
+
+    def score(self, head) -> tuple[float, bool, dict]:
+        return 0.0, False, {"target_error_deg": float("nan"), "success": False}
+
+
+TASKS = {"fixate": FixateTask, "search": SearchTask, "free": FreeViewingTask}
 
 
 def make_task(task: "str | Task", **kwargs) -> Task:
