@@ -91,8 +91,12 @@ def test_nufft_agrees_with_direct_sum_on_64x128():
         fast = C.OffGridEvaluator(g, z, method="nufft", extension=ext)(F)
         slow = C.evaluate_direct(F, g, z, extension=ext)
         assert np.abs(fast - slow).max() < 1e-6 * np.abs(slow).max()
-    small = C.OffGridEvaluator(g, z[:4, :8], method="matrix")(F)
+    small = C.OffGridEvaluator(g, z[:4, :8], method="matrix")(F)  # real data: DCT / rfft path
     assert np.allclose(small, C.evaluate_direct(F, g, z[:4, :8]), atol=1e-9)
+    go = C.RetinaGrid.from_field_of_view(1.0, 0.05, 18)  # odd M or N: no Nyquist terms
+    fo = C.dpft(rng.normal(size=(go.M, go.N, 2)), go)
+    zo = go.points * np.exp(0.3 * go.delta + 0.2j)
+    assert np.allclose(C.OffGridEvaluator(go, zo, method="matrix")(fo), C.evaluate_direct(fo, go, zo), atol=1e-9)
 
 
 def test_rotation_by_one_sector_rolls_and_dilation_shifts_a_ring():
