@@ -1,0 +1,43 @@
+"""``python -m experiments COMMAND``: the project's commands.
+
+run        perisaccadic flash-localization study (table, figures, summary, Rerun recording)
+visualize  record a run of the environment in Rerun (``--out FILE.rrd`` or ``--spawn``)
+train      train a saccade agent on a task
+evaluate   evaluate a saved, random or heuristic policy
+
+Each command is defined in its own module by ``add_subcommand(subparsers)``, which registers
+its arguments and sets ``func`` to the function that runs it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+# command modules, in the order shown by --help
+COMMAND_MODULES = ("experiments.study", "experiments.recording", "experiments.rl")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments",
+        description="Conformal-camera binocular head: psychophysics, visualization and RL commands.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).add_subcommand(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    return int(args.func(args) or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
