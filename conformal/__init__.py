@@ -23,6 +23,7 @@ from .geometry import (
     SPHERE_CENTRE,
     act,
     apply_homography,
+    check_rotation,
     check_sl2,
     compose,
     euler_rotation,
@@ -52,7 +53,7 @@ from .shift import log_radius_shift
 
 __all__ = [
     "BinocularCortex", "OffGridEvaluator", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
-    "act", "apply_homography", "binocular_cortex", "check_sl2", "compose", "cortical_map", "dpft",
+    "act", "apply_homography", "binocular_cortex", "check_rotation", "check_sl2", "compose", "cortical_map", "dpft",
     "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "fovea_dft", "fovea_idft",
     "fovea_image", "fovea_indices", "h_matrix", "hemifields", "homography_map", "idpft",
     "idpft_direct", "inverse", "k_matrix", "lift_to_sphere", "log_radius_shift", "mobius_for_rotation",

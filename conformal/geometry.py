@@ -25,6 +25,7 @@ __all__ = [
     "compose",
     "inverse",
     "check_sl2",
+    "check_rotation",
     "euler_rotation",
     "su2_from_rotation",
     "mobius_from_points",
@@ -222,13 +223,19 @@ def mobius_from_points(z: ArrayLike, w: ArrayLike) -> NDArray[np.complex128]:
     return np.array([[m[1, 1], m[1, 0]], [m[0, 1], m[0, 0]]])
 
 
-def su2_from_rotation(R: ArrayLike) -> NDArray[np.complex128]:
-    """The element k of SU(2) (up to sign) with k . z = j(R (j|S^2)^{-1}(z)), R rotating S^2 about (0,1,0)."""
+def check_rotation(R: ArrayLike, name: str = "R") -> NDArray[np.float64]:
+    """Validate a proper 3x3 rotation matrix (finite, orthogonal to 1e-6, det +1)."""
     r = np.asarray(R, dtype=float)
     if r.shape != (3, 3) or not np.all(np.isfinite(r)):
-        raise ValueError(f"R must be a finite 3x3 rotation matrix; got shape {r.shape}")
-    if not np.allclose(r @ r.T, np.eye(3), atol=1e-8) or np.linalg.det(r) < 0:
-        raise ValueError("R must be a proper rotation (orthogonal, det +1)")
+        raise ValueError(f"{name} must be a finite 3x3 rotation matrix; got shape {r.shape}")
+    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
+        raise ValueError(f"{name} must be a proper rotation matrix (orthogonal, det +1)")
+    return r
+
+
+def su2_from_rotation(R: ArrayLike) -> NDArray[np.complex128]:
+    """The element k of SU(2) (up to sign) with k . z = j(R (j|S^2)^{-1}(z)), R rotating S^2 about (0,1,0)."""
+    r = check_rotation(R)
     z = np.array([0.0, 1.0, 1j, -1.0, -1j])
     q = (lift_to_sphere(z) - SPHERE_CENTRE) @ r.T + SPHERE_CENTRE
     finite = np.abs(q[:, 1]) > 1e-6  # images away from the nodal point (z = infinity)
@@ -257,9 +264,7 @@ def rotation_homography(R: ArrayLike) -> NDArray[np.float64]:
     axes x1, x2, x3 in old coordinates). Then a point seen at z_new is seen at
     z_old = H . z_new with H acting on (Re z, Im z, 1). Use ``apply_homography``.
     """
-    r = np.asarray(R, dtype=float)
-    if r.shape != (3, 3) or not np.all(np.isfinite(r)):
-        raise ValueError(f"R must be a finite 3x3 rotation matrix; got shape {r.shape}")
+    r = check_rotation(R)
     perm = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], dtype=float)  # (x3, x1, x2) <- (x1, x2, x3)
     return perm @ r @ perm.T
 

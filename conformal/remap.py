@@ -28,22 +28,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from .dpft import OffGridEvaluator
 from .fovea import fovea_image
-from .geometry import apply_homography, rotation_homography, su2_from_rotation, act
+from .geometry import act, apply_homography, check_rotation, rotation_homography, su2_from_rotation
 from .grid import RetinaGrid
 from .sampling import RetinaSamples
 
 __all__ = ["homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix"]
 
 PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
-
-
-def _check_rotation(R: ArrayLike) -> NDArray[np.float64]:
-    r = np.asarray(R, dtype=float)
-    if r.shape != (3, 3) or not np.all(np.isfinite(r)):
-        raise ValueError(f"R must be a finite 3x3 rotation matrix; got shape {r.shape}")
-    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
-        raise ValueError("R must be a proper rotation matrix (orthogonal, det +1)")
-    return r
 
 
 def rotation_matrix(axis: ArrayLike, angle: float) -> NDArray[np.float64]:
@@ -59,13 +50,13 @@ def rotation_matrix(axis: ArrayLike, angle: float) -> NDArray[np.float64]:
 
 def homography_map(R: ArrayLike) -> PointMap:
     """z_new -> z_old for a pinhole eye rotating about its nodal point (see module docstring)."""
-    H = rotation_homography(_check_rotation(R))
+    H = rotation_homography(check_rotation(R))
     return lambda z: apply_homography(H, z)
 
 
 def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
     """The SU(2) element of the sphere rotation that corresponds to the eye rotation R."""
-    r = _check_rotation(R)
+    r = check_rotation(R)
     angle = math.acos(max(-1.0, min(1.0, (np.trace(r) - 1) / 2)))
     if angle < 1e-12:
         return np.eye(2, dtype=complex)
