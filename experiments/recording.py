@@ -27,7 +27,7 @@ Entity tree (``{eye}`` is ``left`` or ``right``; images are uint8 RGB, or L for 
 ``cortex/right_hemisphere``                left hemifield of both eyes, (N/2, 2M), same layout
 ``remap/{eye}/predicted``                  predicted post-saccadic cortical map of one eye (``conformal.cortical_map``, (N/2, 2M)); unknown cells 0
 ``remap/{eye}/actual``                     the rendered post-saccadic cortical map, (N/2, 2M)
-``remap/{eye}/difference``                 abs(predicted - actual) where both are valid, (N/2, 2M)
+``remap/{eye}/difference``                 abs(predicted - actual) (both clipped to [0, 1]) where both are valid, (N/2, 2M)
 ``remap/error/{model}``                    normalized RMS error of each remapping model (Scalars)
 ``flash/true``, ``flash/perceived``        flash positions (x = azimuth_deg, y = -elevation_deg: up is up in the 2-D view) (Points2D)
 ``flash/shift``                            arrow from true to perceived (Arrows2D)
@@ -216,8 +216,8 @@ class Recorder:
         for name, p, a in zip(EYE_NAMES, predicted, actual):
             pm = np.asarray(p.mask, bool)[..., None]
             both = pm & np.asarray(a.mask, bool)[..., None]
-            pred = np.where(pm, p.periphery, 0.0)
-            diff = np.where(both, np.abs(np.asarray(p.periphery) - np.asarray(a.periphery)), 0.0)
+            pred = np.where(pm, np.clip(p.periphery, 0.0, 1.0), 0.0)  # as the env's ``remapped``
+            diff = np.where(both, np.abs(pred - np.clip(a.periphery, 0.0, 1.0)), 0.0)
             self.rec.log(f"remap/{name}/predicted", rr.Image(_to_uint8(C.cortical_map(pred, grid))))
             self.rec.log(f"remap/{name}/actual", rr.Image(_to_uint8(C.cortical_map(a.periphery, grid))))
             self.rec.log(f"remap/{name}/difference", rr.Image(_to_uint8(C.cortical_map(diff, grid))))
