@@ -1,0 +1,139 @@
+"""RL agents: features, baselines, CEM training improves on random, save/reload/evaluate, CLI."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from experiments import rl
+from experiments.agents import (BrightestCellPolicy, CEMConfig, LinearCellPolicy, RandomPolicy, cell_features,
+                                episode_seeds, evaluate, load_policy, make_env, train_cem)
+
+
+def _fake_obs(M=4, N=6, cell=(2, 3), colour=(1.0, 1.0, 0.0)):
+    c = np.full((2, M, N, 3), 0.1, np.float32)
+    c[:, cell[0], cell[1]] = colour
+    return {"cortical": c}
+
+
+def test_features_single_yellow_cell_ground_truth():
+    M, N = 4, 6
+    phi = cell_features(_fake_obs(M, N))
+    assert phi.shape == (M * N, 4 + M)
+    idx = 2 * N + 3
+    # yellow opponency (R+G)/2 - B: 1.0 in the cell vs 0 elsewhere; minus the ring mean 1/6; x10
+    assert phi[idx, 1] == pytest.approx(10 * (1 - 1 / 6), rel=1e-6)
+    assert phi[0, 1] == pytest.approx(0.0, abs=1e-6)  # another ring: no contrast
+    assert phi[2 * N, 1] == pytest.approx(-10 / 6, rel=1e-6)
+    np.testing.assert_array_equal(phi[idx, 4:], np.eye(M)[2])
+    w = np.zeros(4 + M)
+    w[1] = 1.0
+    assert LinearCellPolicy(w).act(_fake_obs(M, N), np.random.default_rng(0)) == idx
+    assert BrightestCellPolicy().act(_fake_obs(M, N), np.random.default_rng(0)) == idx
+
+
+def test_policies_reject_bad_input(tmp_path):
+    with pytest.raises(ValueError):
+        cell_features({"cortical": np.zeros((2, 4, 6, 1))})
+    with pytest.raises(ValueError):
+        LinearCellPolicy(np.array([np.nan] * 8))
+    with pytest.raises(ValueError):  # 8 weights = 4 rings, observation has 5
+        LinearCellPolicy(np.zeros(8)).act(_fake_obs(5, 6), np.random.default_rng(0))
+    with pytest.raises(FileNotFoundError):
+        load_policy(tmp_path)
+    with pytest.raises(ValueError):
+        CEMConfig(population=0).validate()
+
+
+def test_softmax_sampling_follows_logits():
+    w = np.zeros(8)
+    w[1] = 1.0
+    pol = LinearCellPolicy(w, temperature=0.5)
+    obs = _fake_obs()
+    rng = np.random.default_rng(1)
+    acts = np.array([pol.act(obs, rng) for _ in range(4000)])
+    z = cell_features(obs) @ w / 0.5
+    p = np.exp(z - z.max())
+    p /= p.sum()
+    assert np.mean(acts == 15) == pytest.approx(p[15], abs=0.03)
+
+
+def test_episode_seeds_are_deterministic_and_streams_disjoint():
+    a, b = episode_seeds(3, 10), episode_seeds(3, 10)
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(episode_seeds(3, 5, start=5), a[5:])
+    assert not set(a) & set(episode_seeds(3, 10, stream=1))
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    out = tmp_path_factory.mktemp("policy")
+    policy, meta = train_cem(out, config=CEMConfig.quick(), seed=0, progress=False)
+    return out, policy, meta
+
+
+def test_short_training_beats_random_by_a_clear_margin(trained):
+    out, policy, meta = trained
+    env = make_env("fixate")
+    try:
+        seeds = episode_seeds(11, 24)  # held out: not the training or validation episodes
+        g = env.vision.grid
+        rand = evaluate(env, RandomPolicy(g.M * g.N), seeds, rng_seed=11)
+        agent = evaluate(env, policy, seeds, rng_seed=11)
+    finally:
+        env.close()
+    assert agent.success_rate >= rand.success_rate + 0.4, (agent, rand)
+    assert agent.mean_reward > rand.mean_reward + 0.4
+    # the log was written incrementally, one row per iteration
+    rows = (out / "training_log.csv").read_text().strip().splitlines()
+    assert len(rows) == 1 + CEMConfig.quick().iterations
+    assert len(meta["curve"]) == CEMConfig.quick().iterations
+
+
+def test_saved_policy_reloads_and_evaluates_identically(trained, capsys):
+    out, policy, _ = trained
+    loaded = load_policy(out)
+    np.testing.assert_array_equal(loaded.weights, policy.weights)
+    assert loaded.metadata["env_kwargs"]["image_size"] == 96
+    results = []
+    for _ in range(2):
+        parser = __import__("experiments.__main__", fromlist=["build_parser"]).build_parser()
+        args = parser.parse_args(["evaluate", "--task", "fixate", "--policy", str(out), "--episodes", "6", "--seed", "5"])
+        assert args.func(args) == 0
+        lines = capsys.readouterr().out.strip().splitlines()
+        assert len(lines) == 1
+        results.append(json.loads(lines[0]))
+    assert results[0] == results[1]
+    for key in ("success_rate", "mean_reward", "mean_saccades", "episodes", "seed", "policy"):
+        assert key in results[0]
+    env = make_env("fixate")
+    try:
+        direct = evaluate(env, policy, episode_seeds(5, 6), rng_seed=5)
+    finally:
+        env.close()
+    assert direct.mean_reward == results[0]["mean_reward"]
+
+
+def test_cli_bad_options_fail_clearly(tmp_path):
+    cmd = [sys.executable, "-m", "experiments", "evaluate", "--policy", str(tmp_path), "--episodes", "1"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 2 and "not a saved policy" in r.stderr
+    r = subprocess.run([sys.executable, "-m", "experiments", "evaluate", "--policy", "random", "--episodes", "0"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "positive integer" in r.stderr
+
+
+@pytest.mark.skipif(importlib.util.find_spec("stable_baselines3") is None,
+                    reason="needs the optional 'rl' extra (stable-baselines3 + CPU torch)")
+def test_sb3_recipe_runs(tmp_path):
+    from experiments import sb3_recipe
+
+    path = sb3_recipe.train_ppo(tmp_path, total_timesteps=64, n_envs=2, n_steps=32, vec="dummy", seed=0)
+    assert path.exists()
+    res = sb3_recipe.evaluate_ppo(path, episodes=2, seed=0)
+    assert 0.0 <= res["success_rate"] <= 1.0
