@@ -1,0 +1,101 @@
+"""Summary of a flash-localization table: compression index and mean error direction.
+
+Compression index (Morrone, Ross & Burr 1997; Kaiser & Lappe 2004): for one saccade amplitude
+and one flash time, 1 - (spread of the perceived positions) / (spread of the true positions),
+spread = RMS distance of the positions from their mean. 0: veridical layout; 1: all flashes
+seen at one point. The per-amplitude summary gives the peak index, its time, the full width at
+half maximum of the index-vs-time curve, and the mean error towards the target along the
+saccade (x) and orthogonal to it (y), over flashes within +-50 ms of onset.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .timecourse import RemapTimeCourse
+
+__all__ = ["compression_index", "summary", "format_summary", "sampling_error"]
+
+
+def _spread(x: np.ndarray, y: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((x - x.mean()) ** 2 + (y - y.mean()) ** 2)))
+
+
+def compression_index(table: dict[str, np.ndarray]) -> dict[float, tuple[np.ndarray, np.ndarray]]:
+    """{amplitude: (flash times (ms), compression index)} from a trials table (columns)."""
+    out = {}
+    amp, t = table["saccade_amplitude_deg"], table["flash_time_ms"]
+    for a in np.unique(amp):
+        times = np.unique(t[amp == a])
+        ci = []
+        for s in times:
+            m = (amp == a) & (t == s)
+            ci.append(1 - _spread(table["perceived_x_deg"][m], table["perceived_y_deg"][m])
+                      / _spread(table["true_x_deg"][m], table["true_y_deg"][m]))
+        out[float(a)] = (times, np.array(ci))
+    return out
+
+
+def _fwhm(times: np.ndarray, values: np.ndarray) -> float:
+    """Width (ms) of the region where ``values`` exceed half their maximum (linear interpolation)."""
+    if len(times) < 2 or not np.max(values) > 0:
+        return float("nan")
+    i = int(np.argmax(values))
+    half = values[i] / 2
+
+    def cross(rng):
+        prev = i
+        for j in rng:
+            if values[j] < half:
+                f = (values[prev] - half) / (values[prev] - values[j])
+                return times[prev] + f * (times[j] - times[prev])
+            prev = j
+        return float("nan")
+
+    return float(cross(range(i + 1, len(times))) - cross(range(i - 1, -1, -1)))
+
+
+def summary(table: dict[str, np.ndarray], window_ms: float = 50.0) -> list[dict]:
+    """One row per saccade amplitude: peak compression, time of peak, width, mean error direction."""
+    rows = []
+    ci = compression_index(table)
+    amp, t = table["saccade_amplitude_deg"], table["flash_time_ms"]
+    for a, (times, vals) in ci.items():
+        i = int(np.argmax(vals))
+        near = (amp == a) & (np.abs(t) <= window_ms)
+        far = (amp == a) & (np.abs(t) >= 150)
+        rows.append({
+            "saccade_amplitude_deg": a, "peak_compression": float(vals[i]), "peak_time_ms": float(times[i]),
+            "fwhm_ms": _fwhm(times, vals),
+            "mean_toward_x_deg": float(np.mean(table["error_toward_x_deg"][near])) if near.any() else float("nan"),
+            "mean_toward_y_deg": float(np.mean(table["error_toward_y_deg"][near])) if near.any() else float("nan"),
+            "far_rms_error_deg": float(np.sqrt(np.mean(table["error_x_deg"][far] ** 2 + table["error_y_deg"][far] ** 2)))
+            if far.any() else float("nan"),
+            "n_trials": int(np.sum(amp == a)),
+        })
+    return rows
+
+
+def sampling_error(table: dict[str, np.ndarray]) -> dict[str, float]:
+    """Bias and RMS of the localization error (deg), for a table run with gain 0."""
+    ex, ey = table["error_x_deg"], table["error_y_deg"]
+    return {"bias_x_deg": float(ex.mean()), "bias_y_deg": float(ey.mean()), "rms_x_deg": float(np.sqrt(np.mean(ex**2))),
+            "rms_y_deg": float(np.sqrt(np.mean(ey**2))), "max_deg": float(np.max(np.hypot(ex, ey)))}
+
+
+def format_summary(rows: list[dict], timecourse: RemapTimeCourse | None = None, n_trials: int | None = None) -> str:
+    """A short text report of ``summary`` rows."""
+    lines = ["Perisaccadic flash localization (conformal camera, log-radius remapping, paper §6.5)"]
+    if n_trials is not None:
+        lines.append(f"trials: {n_trials}")
+    if timecourse is not None:
+        tc = timecourse
+        lines.append(f"gain time course: peak {tc.peak_gain:.3f} (compression {1 - np.exp(-tc.peak_gain):.0%}) at "
+                     f"{tc.peak_time_ms:+.0f} ms, rise {tc.rise_ms:.0f} ms, decay {tc.decay_ms:.0f} ms")
+    lines.append("amplitude  peak CI  at (ms)  FWHM (ms)  toward-target x / y (deg, |t|<=50 ms)  rms error |t|>=150 ms")
+    for r in rows:
+        lines.append(f"{r['saccade_amplitude_deg']:7.1f}    {r['peak_compression']:6.3f}  {r['peak_time_ms']:+7.0f}"
+                     f"  {r['fwhm_ms']:9.1f}  {r['mean_toward_x_deg']:+8.2f} / {r['mean_toward_y_deg']:+6.2f}"
+                     f"                    {r['far_rms_error_deg']:6.2f}")
+    lines.append("CI = 1 - perceived spread / true spread; toward-target > 0 means errors point at the target.")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,206 @@
+"""One flash trial through the real pipeline (the paper's §6.5, Fig. 11).
+
+Per trial: place fixation, target and one flash dot on the ``dots`` scene's screen, fixate,
+start the saccade, step the simulation to the flash time, render a flash-free and a flash frame
+(both eyes, same instant), and per eye:
+
+1. the retina samples the difference frame (the flash's activity) and the DPFT transforms it
+   (``envs.Vision.see``);
+2. the efference copy gives the eye orientation planned for the flash time (``plan.angles``),
+   hence the target's predicted image position z_T(t) (not measured from the image);
+3. the DPFT series is evaluated at z_T(t) + z on a log-polar grid centred on the target
+   (``conformal.predict`` with ``target_shift_map(z_T, 0, delta)``): the target-centred map;
+4. ``conformal.log_radius_shift`` by gain(t)/delta rings compresses that map towards the target
+   (§6.5: f(e^{g} z), distances shrink by e^{-g});
+5. the activity centroid of the shifted map (``decode.activity_centroid``) is the perceived
+   position relative to the target; z_T(t) + centroid is the perceived image point, which the
+   planned eye orientation turns into a ray, intersected with the screen plane and expressed
+   as head-centred (cyclopean) azimuth/elevation.
+
+The perceived position is the mean of the two eyes' estimates. The closed-form prediction (the
+true image point moved towards z_T by e^{-g}, through the same geometry) is reported beside it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+import conformal as C
+import envs
+import models
+
+from .decode import DEFAULT_THRESHOLD, activity_centroid
+from .design import Trial
+from .targetmap import TargetCentredMap
+from .timecourse import RemapTimeCourse
+
+__all__ = ["TrialConfig", "TrialRunner", "head_angles_deg", "ROW_COLUMNS"]
+
+#: Eye-frame axes (x1 up, x2 optical axis, x3 right) in the head frame (x forward, y left, z up)
+#: at zero Fick angles (DESIGN.md's eye frame; ``models.oculomotor``'s primary position).
+_PRIMARY_EYE_BASIS = np.column_stack([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+SCREEN_DISTANCE = 1.0  # the dots scene's screen, metres ahead of the cyclopean eye
+_FLASH = "flash_00"
+#: Fixation before saccade onset (ms; longer if a flash comes earlier): onset at the same sim time in every trial.
+FIXATION_MS = 200
+
+ROW_COLUMNS = (
+    "trial_id", "repetition", "seed", "saccade_amplitude_deg", "flash_time_ms", "flash_dx_deg", "flash_dy_deg",
+    "gain", "true_x_deg", "true_y_deg", "perceived_x_deg", "perceived_y_deg", "target_x_deg", "target_y_deg",
+    "error_x_deg", "error_y_deg", "error_toward_x_deg", "error_toward_y_deg", "closed_form_x_deg",
+    "closed_form_y_deg", "perceived_left_x_deg", "perceived_left_y_deg", "perceived_right_x_deg",
+    "perceived_right_y_deg", "eye_h_left_deg", "eye_h_right_deg", "saccade_duration_ms", "flash_sim_ms",
+)
+
+
+@dataclass(frozen=True)
+class TrialConfig:
+    """Everything but the trial that fixes the result: head, retina, time course, read-out.
+
+    image_size : eye image side (pixels). fovy_deg : each eye's vertical field of view.
+    fovea_deg : foveal radius of the retina (and of the target-centred map).
+    timecourse : the remapping gain time course. threshold : centroid threshold (fraction of peak).
+    endpoint_noise : saccade endpoint noise (fraction of amplitude; 0 = none), seeded per trial.
+    """
+
+    image_size: int = 256
+    fovy_deg: float = 90.0
+    fovea_deg: float = 2.0
+    timecourse: RemapTimeCourse = RemapTimeCourse()
+    threshold: float = DEFAULT_THRESHOLD
+    endpoint_noise: float = 0.0
+    oversample: int = 3
+    flash_radius_deg: float = 1.0
+
+    def __post_init__(self) -> None:
+        if int(self.image_size) != self.image_size or not 32 <= self.image_size <= 1024:
+            raise ValueError(f"image_size must be an integer in [32, 1024]; got {self.image_size!r}")
+        if not 20 <= self.fovy_deg <= 120:
+            raise ValueError(f"fovy_deg must be in [20, 120]; got {self.fovy_deg!r}")
+        if not 0 < self.fovea_deg < 10:
+            raise ValueError(f"fovea_deg must be in (0, 10); got {self.fovea_deg!r}")
+        if not 0 <= self.threshold < 1:
+            raise ValueError(f"threshold must be in [0, 1); got {self.threshold!r}")
+        if int(self.oversample) != self.oversample or not 1 <= self.oversample <= 8:
+            raise ValueError(f"oversample must be an integer in [1, 8]; got {self.oversample!r}")
+        if not 0.1 <= self.flash_radius_deg <= 5:
+            raise ValueError(f"flash_radius_deg must be in [0.1, 5]; got {self.flash_radius_deg!r}")
+        if not (math.isfinite(self.endpoint_noise) and self.endpoint_noise >= 0):
+            raise ValueError(f"endpoint_noise must be >= 0; got {self.endpoint_noise!r}")
+
+
+def head_angles_deg(head: models.Head, points_world) -> np.ndarray:
+    """Head-centred (azimuth > 0 right, elevation > 0 up) angles in degrees of world points
+    (N, 3) from the cyclopean eye, along the screen axes (the inverse of ``models.screen_point``)."""
+    p = np.atleast_2d(np.asarray(points_world, float))
+    d = np.stack([head.to_head(q) for q in p]) - head.to_head(head.cyclopean_position)
+    return np.degrees(np.column_stack([np.arctan2(-d[:, 1], d[:, 0]), np.arctan2(d[:, 2], d[:, 0])]))
+
+
+def _screen_world(az_deg: float, el_deg: float) -> np.ndarray:
+    return models.screen_point(math.radians(az_deg), math.radians(el_deg), SCREEN_DISTANCE)
+
+
+class TrialRunner:
+    """One Head (``dots`` scene) and one ``envs.Vision`` reused for many trials (one per process)."""
+
+    def __init__(self, config: TrialConfig = TrialConfig()) -> None:
+        self.config = config
+        self.head = models.Head("dots", int(config.image_size), fovy_deg=config.fovy_deg,
+                                endpoint_noise=config.endpoint_noise)
+        h, w = self.head.image_shape
+        self.vision = envs.Vision((h, w), self.head.pixels_per_unit, fovea_deg=config.fovea_deg, grayscale=True)
+        self.retina_grid = self.vision.grid
+        self.map = TargetCentredMap(self.retina_grid, config.oversample)
+        self.grid = self.map.grid  # the target-centred (read-out) grid
+        gid = self.head.model.geom(_FLASH).id  # flash dot size (the scene's default is ~0.46 deg)
+        self.head.model.geom_size[gid, 0] = SCREEN_DISTANCE * math.tan(math.radians(config.flash_radius_deg))
+        self.last = None  # the last trial's frames and maps (for recordings)
+
+    def close(self) -> None:
+        self.head.close()
+
+    # ------------------------------------------------------------------ geometry helpers
+    def _planned_axes(self, plan: models.SaccadePlan, t_abs_ms: float) -> np.ndarray:
+        """Head-frame eye axes (2, 3, 3) (columns x1, x2, x3) for the planned angles at ``t_abs_ms``."""
+        a = plan.angles(float(t_abs_ms))
+        return models.fick_matrix(a[:, 0], a[:, 1], a[:, 2]) @ _PRIMARY_EYE_BASIS
+
+    def _ray_to_screen_deg(self, origin_head: np.ndarray, axes: np.ndarray, z: complex) -> np.ndarray:
+        """Head-centred angles (deg) where the ray of image point z (eye axes ``axes``) meets the screen."""
+        d = axes @ np.array([z.imag, 1.0, z.real])
+        c = self.head.to_head(self.head.cyclopean_position)
+        s = (c[0] + SCREEN_DISTANCE - origin_head[0]) / d[0]
+        p = origin_head + s * d - c
+        return np.degrees([math.atan2(-p[1], p[0]), math.atan2(p[2], p[0])])
+
+    # ------------------------------------------------------------------ one trial
+    def run(self, trial: Trial) -> dict:
+        """Run one trial; returns its table row (see ``ROW_COLUMNS``)."""
+        head, grid, cfg = self.head, self.grid, self.config
+        fix_w = _screen_world(*trial.fixation_deg)
+        tgt_w = _screen_world(*trial.target_deg)
+        fl_w = _screen_world(*trial.flash_deg)
+        latency = max(FIXATION_MS, 1 - int(trial.flash_time_ms))
+        head.reset(seed=trial.seed, fixate=fix_w)
+        head.set_object_position("fixation", fix_w)
+        head.set_object_position("target", tgt_w)
+        head.set_object_position(_FLASH, fl_w)
+        plan = head.plan_saccade_to(tgt_w, latency_ms=latency)
+        head.start_saccade(plan)
+        t_abs = plan.onset_ms + int(trial.flash_time_ms)
+        head.step_ms(t_abs - head.time_ms)
+        ref = head.render()
+        head.flash(_FLASH, 8)
+        frame = head.render()
+        head.hide_flashes()
+
+        gain = float(cfg.timecourse.gain(trial.flash_time_ms))
+        axes = self._planned_axes(plan, t_abs)
+        states = head.eye_states()
+        tgt_h = head.to_head(plan.target)
+        fl_h = head.to_head(fl_w)
+        perceived, closed = [], []
+        maps = []
+        for e, (img, img0) in enumerate(((frame.left, ref.left), (frame.right, ref.right))):
+            diff = np.clip(img.image.astype(float) - img0.image.astype(float), 0, None) / 255.0
+            view = self.vision.see(diff)
+            origin = head.to_head(states[e].camera_position)
+            ex = axes[e]
+            xt = ex.T @ (tgt_h - origin)
+            z_t = complex(xt[2], xt[0]) / xt[1]
+            centred = self.map.sample(view.coeffs, view.fovea, z_t)
+            per = centred.periphery
+            shifted = C.log_radius_shift(per, grid, gain / grid.delta)
+            z_rel = activity_centroid(shifted, centred.fovea, grid, fovea_mask=centred.fovea_mask,
+                                      threshold=cfg.threshold)
+            perceived.append(self._ray_to_screen_deg(origin, ex, z_t + z_rel))
+            xf = ex.T @ (fl_h - origin)
+            z_f = complex(xf[2], xf[0]) / xf[1]
+            closed.append(self._ray_to_screen_deg(origin, ex, z_t + (z_f - z_t) * math.exp(-gain)))
+            maps.append((view, centred, shifted, z_t, z_rel))
+        self.last = dict(frame=frame, reference=ref, maps=maps, plan=plan)
+
+        true = head_angles_deg(head, fl_w)[0]
+        target = head_angles_deg(head, tgt_w)[0]
+        p = np.nanmean(np.array(perceived), axis=0)
+        cf = np.mean(np.array(closed), axis=0)
+        err = p - true
+        toward = np.sign(target - true) * err
+        return {
+            "trial_id": trial.trial_id, "repetition": trial.repetition, "seed": trial.seed,
+            "saccade_amplitude_deg": trial.amplitude_deg, "flash_time_ms": int(trial.flash_time_ms),
+            "flash_dx_deg": trial.flash_dx_deg, "flash_dy_deg": trial.flash_dy_deg, "gain": gain,
+            "true_x_deg": true[0], "true_y_deg": true[1], "perceived_x_deg": p[0], "perceived_y_deg": p[1],
+            "target_x_deg": target[0], "target_y_deg": target[1], "error_x_deg": err[0], "error_y_deg": err[1],
+            "error_toward_x_deg": toward[0], "error_toward_y_deg": toward[1],
+            "closed_form_x_deg": cf[0], "closed_form_y_deg": cf[1],
+            "perceived_left_x_deg": perceived[0][0], "perceived_left_y_deg": perceived[0][1],
+            "perceived_right_x_deg": perceived[1][0], "perceived_right_y_deg": perceived[1][1],
+            "eye_h_left_deg": math.degrees(head.eye_angles[0, 0]), "eye_h_right_deg": math.degrees(head.eye_angles[1, 0]),
+            "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": t_abs,
+        }
