@@ -86,7 +86,7 @@ def test_gain_zero_is_veridical_up_to_sampling_error(tables):
     t = tables["none"]
     err = sampling_error(t)
     print("sampling error (gain 0):", err)
-    assert abs(err["bias_x_deg"]) < 0.5 and abs(err["bias_y_deg"]) < 0.5
+    assert abs(err["bias_x_deg"]) < 0.75 and abs(err["bias_y_deg"]) < 0.75  # measured 0.20, 0.49
     assert err["rms_x_deg"] < 1.5 and err["rms_y_deg"] < 1.5 and err["max_deg"] < 3.5
     # the closed form with g = 0 is the true position (geometry round trip, independent of the retina)
     assert np.allclose(t["closed_form_x_deg"], t["true_x_deg"], atol=1e-6)

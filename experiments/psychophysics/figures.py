@@ -59,8 +59,10 @@ def fig11(table: dict[str, np.ndarray], window_ms: float = 25.0):
         ax.set_ylabel("elevation (deg)")
         ax.set_title(f"{a:g} deg saccade, flashes {-window_ms:+.0f}..{window_ms:+.0f} ms re onset", fontsize=9)
     axes[-1, 0].set_xlabel("azimuth (deg, head-centred)")
-    axes[0, 0].legend(fontsize=7, loc="upper left", ncol=4)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=4, bbox_to_anchor=(0.5, -0.01))
     fig.suptitle("Perisaccadic compression towards the saccade target (cf. paper Fig. 11)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.03, 1, 0.98))
     return fig
 
 
