@@ -21,7 +21,8 @@ def _image_view(origin: str, name: str) -> rrb.Spatial2DView:
 
 
 def blueprint() -> rrb.Blueprint:
-    """The layout of the whole pipeline; the time panel follows the ``sim_time`` timeline."""
+    """The layout of the whole pipeline; the time panel shows the ``sim_time`` timeline, following
+    the latest data (so a finished recording opens at its end)."""
     eyes = [
         rrb.Spatial2DView(origin=f"eyes/{e}", name=f"{e} eye image + retina grid",
                           contents=[f"eyes/{e}/image", f"eyes/{e}/grid", f"eyes/{e}/target"])
@@ -53,4 +54,5 @@ def blueprint() -> rrb.Blueprint:
         rrb.TimeSeriesView(origin="saccades", name="saccades: amplitude (deg), peak velocity (deg/s), duration (ms)"),
     )
     layout = rrb.Vertical(top, middle, plots, row_shares=[1.2, 1.3, 1])
-    return rrb.Blueprint(layout, rrb.TimePanel(timeline="sim_time"), collapse_panels=True)
+    time_panel = rrb.TimePanel(timeline="sim_time", play_state="following", state="collapsed")
+    return rrb.Blueprint(layout, time_panel, collapse_panels=True)

@@ -31,6 +31,7 @@ Entity tree (``{eye}`` is ``left`` or ``right``; images are uint8 RGB, or L for 
 ``remap/error/{model}``                    normalized RMS error of each remapping model (Scalars)
 ``flash/true``, ``flash/perceived``        flash positions (x = azimuth_deg, y = -elevation_deg: up is up in the 2-D view) (Points2D)
 ``flash/shift``                            arrow from true to perceived (Arrows2D)
+``flash/target``, ``flash/fixation``       the saccade target, and the fixation point (0, 0) (static), same frame
 ``eyes/{eye}/angle/{h,v,t}``               Fick angles, deg (Scalars; h > 0 right, v > 0 up, t torsion)
 ``eyes/{eye}/velocity/{h,v,t}``            joint rates, deg/s (Scalars)
 ``saccades/{amplitude_deg,peak_velocity_deg_s,duration_ms}``  per saccade, at its onset (Scalars)
@@ -190,7 +191,7 @@ class Recorder:
             self.rec.log(f"eyes/{name}/image", rr.Image(img))
             if name not in self._grid_logged:
                 strips = grid_strips(grid, img.shape[:2], eye.pixels_per_unit)
-                self.rec.log(f"eyes/{name}/grid", rr.LineStrips2D(strips, colors=[[0, 200, 200]], radii=0.3),
+                self.rec.log(f"eyes/{name}/grid", rr.LineStrips2D(strips, colors=[[0, 200, 200, 110]], radii=0.25),
                              static=True)
                 self._grid_logged.add(name)
             if tp is not None:
@@ -225,15 +226,24 @@ class Recorder:
             self.rec.log(f"remap/error/{model}", rr.Scalars(float(err)))
 
     # ------------------------------------------------------------------ flashes
-    def log_flash(self, true_deg: Sequence[float], perceived_deg: Sequence[float]) -> None:
-        """A flash's true and perceived (azimuth_deg, elevation_deg); shown with up = up."""
-        t = np.asarray(true_deg, float).reshape(2)
-        p = np.asarray(perceived_deg, float).reshape(2)
-        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(p))):
+    def log_flash(self, true_deg: Sequence[float], perceived_deg: Sequence[float],
+                  target_deg: Sequence[float] | None = None) -> None:
+        """A flash's true and perceived (azimuth_deg, elevation_deg), and optionally the saccade
+        target's, in one frame of visual angle (fixation at 0, 0); shown with up = up."""
+        pts = [np.asarray(x, float).reshape(2) for x in (true_deg, perceived_deg)]
+        if target_deg is not None:
+            pts.append(np.asarray(target_deg, float).reshape(2))
+        if not all(np.all(np.isfinite(x)) for x in pts):
             raise ValueError("flash positions must be finite (azimuth_deg, elevation_deg)")
         flip = np.array([1.0, -1.0])
-        self.rec.log("flash/true", rr.Points2D([t * flip], radii=0.4, colors=[[40, 200, 40]]))
-        self.rec.log("flash/perceived", rr.Points2D([p * flip], radii=0.4, colors=[[230, 40, 40]]))
+        t, p = pts[0], pts[1]
+        self.rec.log("flash/fixation", rr.Points2D([[0.0, 0.0]], radii=0.25, colors=[[220, 220, 220]],
+                                                   labels=["fixation"]), static=True)
+        if target_deg is not None:
+            self.rec.log("flash/target", rr.Points2D([pts[2] * flip], radii=0.25, colors=[[255, 160, 0]],
+                                                     labels=["saccade target"]))
+        self.rec.log("flash/true", rr.Points2D([t * flip], radii=0.25, colors=[[40, 200, 40]]))
+        self.rec.log("flash/perceived", rr.Points2D([p * flip], radii=0.25, colors=[[230, 40, 40]]))
         self.rec.log("flash/shift", rr.Arrows2D(vectors=[(p - t) * flip], origins=[t * flip],
                                                 colors=[[200, 200, 200]]))
 
@@ -291,8 +301,8 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
     """Record ``steps`` saccades of ``envs.BinocularSaccadeEnv`` (one env step each, driven through
     ``env.head`` and ``env.vision`` to see inside the saccade).
 
-    Each step: plan a saccade (with ``latency_ms``) to a scene object chosen at random (the task's
-    target half the time); predict both eyes' post-saccadic samples with every remapping model
+    Each step: plan a saccade (with ``latency_ms``): even steps to a scene object chosen at random
+    (the task's target half the time), odd steps 3-20 deg in a random direction; predict both eyes' post-saccadic samples with every remapping model
     from the pre-saccadic DPFT and the efference copy; step the physics 1 ms at a time through
     the saccade, logging the eye trace (every physics step) and the 3-D head each ms; in the
     ``dots`` scene flash a random flash ``flash_lead_ms`` before onset (images logged at that
@@ -340,8 +350,9 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
             log_images(views, frame)
             rec.log_eye_angles(head.eye_angles, np.zeros((2, 3)))
             previous = None
-            for _ in range(int(steps)):
-                name = _choose_target(head, rng, previous)
+            for step in range(int(steps)):
+                # alternate object saccades with random ones of 3-20 deg (the main sequence's range)
+                name = _choose_target(head, rng, previous) if step % 2 == 0 else None
                 plan = None
                 if name is not None:
                     try:
@@ -349,9 +360,13 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                         previous = name
                     except models.OculomotorRangeError:
                         plan = None
-                if plan is None:
-                    h, v = np.radians(rng.uniform(-10, 10, 2))
-                    plan = head.plan_saccade(h, v, latency_ms=latency_ms)
+                while plan is None:
+                    amp, direction = np.radians(rng.uniform(3.0, 20.0)), rng.uniform(0.0, 2 * np.pi)
+                    try:
+                        plan = head.plan_saccade(amp * math.cos(direction), amp * math.sin(direction),
+                                                 latency_ms=latency_ms)
+                    except models.OculomotorRangeError:
+                        plan = None
                 R = plan.efference_copy_eye
                 preds = [vision.predict_models(views[e], envs.REMAP_MODELS, R[e]) for e in (0, 1)]
                 flash_ms = plan.onset_ms - int(flash_lead_ms) if head.scene.flashes else None
@@ -369,7 +384,7 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                         zf = complex(z_pre.project(head.object_position(fname)[None])[0])
                         zt = complex(z_pre.project(np.asarray(plan.intended_target)[None])[0])
                         zp = zt + math.exp(-shift_rings * grid.delta) * (zf - zt)
-                        rec.log_flash(_angles_deg(zf), _angles_deg(zp))
+                        rec.log_flash(_angles_deg(zf), _angles_deg(zp), _angles_deg(zt))
                     trace = head.step_ms(1, record=True)
                     rec.log_eye_trace(trace)
                     rec.set_time_ms(head.time_ms)
