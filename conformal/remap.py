@@ -102,15 +102,18 @@ def _fovea_lookup(fovea: NDArray, grid: RetinaGrid, w: NDArray[np.complex128]) -
     )
 
 
-def predict(coeffs: ArrayLike, fovea: ArrayLike, grid: RetinaGrid, point_map: PointMap) -> RetinaSamples:
+def predict(
+    coeffs: ArrayLike, fovea: ArrayLike, grid: RetinaGrid, point_map: PointMap, *, on: RetinaGrid | None = None
+) -> RetinaSamples:
     """Predicted samples of the image f(w(z)) on the whole retina from pre-saccadic data only.
 
-    ``coeffs``: the pre-saccadic DPFT (M, N[, C]); ``fovea``: the pre-saccadic foveal samples.
-    The peripheral part comes from the DPFT series (eq. ``dppcc'``, NUFFT); points landing in
-    the old fovea from the foveal samples. ``mask`` / ``fovea_mask`` flag points whose source
-    lies beyond r_b or behind the eye (unknown before the saccade).
+    ``coeffs``: the pre-saccadic DPFT (M, N[, C]) on ``grid``; ``fovea``: the pre-saccadic foveal
+    samples. The result is sampled at the points z of ``on`` (default: ``grid`` itself; another
+    grid, e.g. a finer one, for read-outs). The peripheral part comes from the DPFT series
+    (eq. ``dppcc'``); points landing in the old fovea from the foveal samples. ``mask`` /
+    ``fovea_mask`` flag points whose source lies beyond r_b or behind the eye (unknown).
     """
-    return predict_many(coeffs, fovea, grid, [point_map])[0]
+    return predict_many(coeffs, fovea, grid, [point_map], on=on)[0]
 
 
 def _map_points(point_map: PointMap, z: NDArray[np.complex128]) -> NDArray[np.complex128]:
@@ -128,12 +131,20 @@ def _map_points(point_map: PointMap, z: NDArray[np.complex128]) -> NDArray[np.co
             return w
 
 
-def predict_many(coeffs: ArrayLike, fovea: ArrayLike, grid: RetinaGrid, point_maps: list[PointMap]) -> list[RetinaSamples]:
+def predict_many(
+    coeffs: ArrayLike,
+    fovea: ArrayLike,
+    grid: RetinaGrid,
+    point_maps: list[PointMap],
+    *,
+    on: RetinaGrid | None = None,
+) -> list[RetinaSamples]:
     """``predict`` for several point maps at once, sharing one evaluation of the series."""
     F = np.asarray(coeffs)
     fov = np.asarray(fovea, dtype=float)
-    z = np.concatenate([grid.fovea_points, grid.points.ravel()])
-    n_pts, n_f = len(z), grid.n_fovea
+    out_grid = grid if on is None else on
+    z = np.concatenate([out_grid.fovea_points, out_grid.points.ravel()])
+    n_pts, n_f = len(z), out_grid.n_fovea
     w = np.concatenate([_map_points(pm, z) for pm in point_maps])
     finite = np.isfinite(w)
     r = np.where(finite, np.abs(w), np.inf)
@@ -153,8 +164,8 @@ def predict_many(coeffs: ArrayLike, fovea: ArrayLike, grid: RetinaGrid, point_ma
         results.append(
             RetinaSamples(
                 fovea=o[:n_f],
-                periphery=o[n_f:].reshape((grid.M, grid.N) + chans),
-                mask=v[n_f:].reshape(grid.M, grid.N),
+                periphery=o[n_f:].reshape((out_grid.M, out_grid.N) + chans),
+                mask=v[n_f:].reshape(out_grid.M, out_grid.N),
                 fovea_mask=v[:n_f],
             )
         )

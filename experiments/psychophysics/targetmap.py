@@ -41,19 +41,6 @@ class TargetCentredMap:
             self.grid = retina_grid
         else:
             self.grid = C.RetinaGrid.from_field_of_view(retina_grid.rb, retina_grid.r0, retina_grid.N * int(oversample))
-        self._z = np.concatenate([self.grid.fovea_points, self.grid.points.ravel()])
-
-    def _fovea_lookup(self, fovea: NDArray, w: NDArray[np.complex128]) -> NDArray:
-        g = self.source
-        img = C.fovea_image(fovea, g)
-        size = img.shape[0]
-        col = w.real / g.fovea_spacing + size / 2 - 0.5
-        row = size / 2 - 0.5 - w.imag / g.fovea_spacing
-        c0 = np.clip(np.floor(col).astype(int), 0, size - 2)
-        r0 = np.clip(np.floor(row).astype(int), 0, size - 2)
-        fc, fr = np.clip(col - c0, 0, 1), np.clip(row - r0, 0, 1)
-        return (img[r0, c0] * (1 - fr) * (1 - fc) + img[r0, c0 + 1] * (1 - fr) * fc
-                + img[r0 + 1, c0] * fr * (1 - fc) + img[r0 + 1, c0 + 1] * fr * fc)
 
     def sample(self, coeffs: NDArray, fovea: NDArray, centre: complex) -> CentredSamples:
         """The map f(centre + z) for single-channel coeffs (M, N[, 1]) and foveal samples (N_f[, 1])."""
@@ -61,18 +48,6 @@ class TargetCentredMap:
         F = F[..., 0] if F.ndim == 3 else F
         fov = np.asarray(fovea, float)
         fov = fov[..., 0] if fov.ndim == 2 else fov
-        g = self.source
-        w = complex(centre) + self._z
-        r = np.abs(w)
-        in_fovea = r < g.r0
-        in_periph = (r >= g.r0) & (r < g.ring_edges[-1])
-        out = np.zeros(len(w))
-        if np.any(in_periph):
-            out[in_periph] = C.OffGridEvaluator(g, w[in_periph])(F)
-        if np.any(in_fovea):
-            out[in_fovea] = self._fovea_lookup(fov, w[in_fovea])
-        valid = in_fovea | in_periph
-        out[~valid] = 0.0
-        nf = self.grid.n_fovea
-        shape = (self.grid.M, self.grid.N)
-        return CentredSamples(self.grid, out[nf:].reshape(shape), out[:nf], valid[nf:].reshape(shape), valid[:nf])
+        c = complex(centre)
+        s = C.predict(F, fov, self.source, lambda z: c + z, on=self.grid)
+        return CentredSamples(self.grid, s.periphery, s.fovea, s.mask, s.fovea_mask)
