@@ -111,9 +111,7 @@ class Recorder:
         self.rec = rr.RecordingStream(app_id, recording_id=rid)
         bp = blueprint()
         if self.path is not None:
-            parent = os.path.dirname(os.path.abspath(self.path))
-            if not os.path.isdir(parent):
-                raise FileNotFoundError(f"directory of {self.path!r} does not exist")
+            os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
         if spawn:
             rr.spawn(connect=False, recording=self.rec)
             sinks = [rr.GrpcSink()]
