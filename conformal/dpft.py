@@ -205,6 +205,10 @@ class OffGridEvaluator:
 
     ``method``: ``"nufft"`` (finufft type 2, plan built once), ``"matrix"`` (exact separable
     sum with precomputed factors, faster for small grids) or ``"auto"`` (by size).
+    ``dtype``: ``np.float64`` (default) or ``np.float32``, the precision of the matrix path's
+    factor tables and sums for real images with the mirror extension (about 1e-6 relative
+    instead of 1e-12; a few times faster to build, since single-precision cosines are
+    vectorised). The NUFFT and complex paths always run in double precision.
     ``inside`` marks points whose log-radius lies within the sampled annulus (half a ring
     beyond the first and last sample centres); outside it the series is not the image.
     """
@@ -217,9 +221,14 @@ class OffGridEvaluator:
         eps: float = 1e-9,
         method: str = "auto",
         extension: str = "mirror",
+        dtype: type = np.float64,
     ) -> None:
         if method not in ("auto", "nufft", "matrix"):
             raise ValueError(f"method must be 'auto', 'nufft' or 'matrix'; got {method!r}")
+        dtype = np.dtype(dtype)
+        if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
+            raise ValueError(f"dtype must be float64 or float32; got {dtype}")
+        self.dtype = dtype
         _check_extension(extension)
         zp = _check_points(points)
         self.grid = grid
@@ -242,22 +251,13 @@ class OffGridEvaluator:
             self._scale = np.full(u.shape, 1.0 / (self._rows * grid.N))
         if method == "auto":  # small problems: dense factor matrices beat NUFFT's fixed cost
             per_point = grid.M * (grid.N // 2 + 1) if extension == "mirror" else self._rows * grid.N
-            method = "matrix" if zf.size * per_point <= 150_000 else "nufft"
+            # single-precision tables are ~10x cheaper to build (vectorised cosines)
+            limit = 1_500_000 if (dtype == np.float32 and extension == "mirror") else 150_000
+            method = "matrix" if zf.size * per_point <= limit else "nufft"
         self.method = method
         self._em = self._en = None
-        if method == "matrix":
-            if extension == "mirror":  # real data: cosine series in u (DCT-II), half spectrum in theta
-                t = (u - grid.u[0]) / grid.delta  # fractional ring index
-                m = np.arange(grid.M)
-                cu = np.cos(np.pi * np.outer(2 * t + 1, m) / (2 * grid.M)) / grid.M
-                cu[:, 0] *= 0.5
-                nh = grid.N // 2 + 1
-                wn = np.full(nh, 2.0)
-                wn[0] = 1.0
-                if grid.N % 2 == 0:
-                    wn[-1] = 1.0
-                self._cu = cu
-                self._eh = _exp_ramp(y, 2 * nh)[:, nh:] * (wn / grid.N)  # e^{i n y}, n = 0..N/2
+        if method == "matrix" and extension == "mirror":
+            self._cu, self._cs = _mirror_tables(grid, u, y, dtype)
 
     def _plan(self, n_trans: int):
         if n_trans not in self._plans:
@@ -291,17 +291,48 @@ class OffGridEvaluator:
 
 
     def _real_mirror(self, F: NDArray) -> NDArray[np.float64]:
-        """The mirror series for real images: DCT-II in u, real FFT in theta (a quarter of the work)."""
+        """The mirror series for real images: DCT-II in u, real FFT in theta (a quarter of the work).
+
+        value[p, c] = sum_m cu[p, m] sum_n (cos(n y_p) Re D[m, n, c] - sin(n y_p) Im D[m, n, c])
+        with D the DCT-II (in u) of the real FFT (in theta) of the samples: one real matrix
+        product over n, then a per-point dot product over m.
+        """
         import scipy.fft
 
         f = idpft(F, self.grid)
         chans = f.shape[2:]
         c = int(np.prod(chans)) if chans else 1
-        m, nh = self.grid.M, self.grid.N // 2 + 1
-        D = scipy.fft.dct(np.fft.rfft(f.reshape(m, self.grid.N, c), axis=1), type=2, axis=0)
-        t = (self._eh @ D.transpose(1, 0, 2).reshape(nh, m * c)).real.reshape(-1, m, c)
-        vals = np.einsum("pm,pmc->pc", self._cu, t)
+        m = self.grid.M
+        D = scipy.fft.dct(np.fft.rfft(f.reshape(m, self.grid.N, c), axis=1), type=2, axis=0)  # (M, nh, C)
+        Dr = np.concatenate([D.real, D.imag], axis=1).transpose(1, 2, 0).reshape(-1, c * m)  # (2 nh, C M)
+        t = (self._cs @ Dr.astype(self.dtype, copy=False)).reshape(-1, c, m)
+        vals = np.einsum("pcm,pm->pc", t, self._cu).astype(np.float64, copy=False)
         return vals.reshape(self.shape + chans)
+
+
+def _mirror_tables(
+    grid: RetinaGrid, u: NDArray[np.float64], y: NDArray[np.float64], dtype: np.dtype
+) -> tuple[NDArray, NDArray]:
+    """Factor tables of the mirror series at points (u, y): the DCT-II basis in the fractional
+    ring index (with its 1/M and half weight at m = 0), and [cos(n y), -sin(n y)] (n = 0..N/2,
+    with the Hermitian weights 2 (1 at n = 0 and N/2) and 1/N). One cosine call builds both."""
+    m_, n_ = grid.M, grid.N
+    nh = n_ // 2 + 1
+    t = ((u - grid.u[0]) * (math.pi / (m_ * grid.delta)) + math.pi / (2 * m_)).astype(dtype)  # pi (2t+1)/2M
+    ang = np.empty((len(u), grid.M + 2 * nh), dtype=dtype)
+    np.multiply.outer(t, np.arange(m_, dtype=dtype), out=ang[:, :m_])
+    np.multiply.outer(y.astype(dtype), np.arange(nh, dtype=dtype), out=ang[:, m_ : m_ + nh])
+    np.add(ang[:, m_ : m_ + nh], dtype.type(math.pi / 2), out=ang[:, m_ + nh :])  # cos(x + pi/2) = -sin(x)
+    np.cos(ang, out=ang)
+    wm = np.full(m_, 1.0 / m_)
+    wm[0] *= 0.5
+    wn = np.full(nh, 2.0 / n_)
+    wn[0] = 1.0 / n_
+    if n_ % 2 == 0:
+        wn[-1] = 1.0 / n_
+    ang[:, :m_] *= wm.astype(dtype)
+    ang[:, m_:] *= np.concatenate([wn, wn]).astype(dtype)
+    return ang[:, :m_], np.ascontiguousarray(ang[:, m_:])
 
 
 def evaluate(

@@ -39,6 +39,7 @@ SPHERE_CENTRE = np.array([0.0, 1.0, 0.0])
 """Centre (x1, x2, x3) of the unit sphere S^2_(0,1,0) on which j is the stereographic projection."""
 
 _POLE_TOL = 1e-12
+_EYE3 = np.eye(3)
 
 
 def _as_points(x: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -228,7 +229,9 @@ def check_rotation(R: ArrayLike, name: str = "R") -> NDArray[np.float64]:
     r = np.asarray(R, dtype=float)
     if r.shape != (3, 3) or not np.all(np.isfinite(r)):
         raise ValueError(f"{name} must be a finite 3x3 rotation matrix; got shape {r.shape}")
-    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
+    (a, b, c), (d, e, f), (g, h, i) = r.tolist()
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    if det < 0 or np.abs(r @ r.T - _EYE3).max() > 1e-6:
         raise ValueError(f"{name} must be a proper rotation matrix (orthogonal, det +1)")
     return r
 

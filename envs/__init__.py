@@ -9,10 +9,10 @@ import gymnasium as gym
 from .display import compose_frame, grid_overlay
 from .saccade_env import BinocularSaccadeEnv
 from .tasks import TASKS, FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors_deg, make_task
-from .vision import REMAP_MODELS, EyeView, Vision, normalized_error
+from .vision import REMAP_MODELS, EyeView, Vision, model_errors, normalized_error
 
 __all__ = [
-    "BinocularSaccadeEnv", "Vision", "EyeView", "REMAP_MODELS", "normalized_error",
+    "BinocularSaccadeEnv", "Vision", "EyeView", "REMAP_MODELS", "normalized_error", "model_errors",
     "Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "make_task", "gaze_errors_deg",
     "compose_frame", "grid_overlay", "ENV_IDS",
 ]

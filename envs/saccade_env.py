@@ -13,7 +13,7 @@ import conformal as C
 import models
 
 from .tasks import Task, gaze_errors_deg, make_task
-from .vision import REMAP_MODELS, EyeView, Vision, normalized_error
+from .vision import REMAP_MODELS, EyeView, Vision, model_errors
 
 __all__ = ["BinocularSaccadeEnv"]
 
@@ -187,14 +187,12 @@ class BinocularSaccadeEnv(gym.Env):
         plan, clipped = self._plan(h, v, dist_factor)
         pre = self._views
         R = plan.efference_copy_eye
-        per_eye = [self.vision.predict_models(pre[e], self.remap_models, R[e]) for e in (0, 1)]
-        predictions = {m: [per_eye[0][m], per_eye[1][m]] for m in self.remap_models}
+        per_eye = self.vision.predict_eyes(pre, self.remap_models, R)
         self.head.start_saccade(plan)
         self.head.step_ms(plan.end_ms - self.head.time_ms + self.fixation_ms)
         self._see()
-        errors = {m: float(np.mean([normalized_error(p[e], self._views[e]) for e in (0, 1)]))
-                  for m, p in predictions.items()}
-        chosen = predictions[self.remap_model]
+        errors = model_errors(per_eye, self._views)
+        chosen = [p[self.remap_model] for p in per_eye]
         self._remapped = self._cortical([np.where(p.mask[..., None], p.periphery, 0.0) for p in chosen])
         reward, success, tinfo = self.task.score(self.head)
         self._saccades += 1

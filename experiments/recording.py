@@ -366,7 +366,7 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                     except models.OculomotorRangeError:
                         plan = None
                 R = plan.efference_copy_eye
-                preds = [vision.predict_models(views[e], envs.REMAP_MODELS, R[e]) for e in (0, 1)]
+                preds = vision.predict_eyes(views, envs.REMAP_MODELS, R)
                 flash_ms = plan.onset_ms - int(flash_lead_ms) if head.scene.flashes else None
                 z_pre = head.eye_states()[0]
                 head.start_saccade(plan)
@@ -392,8 +392,7 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                 rec.set_time_ms(head.time_ms)
                 rec.log_head(head)
                 frame, new_views = look()
-                errors = {m: float(np.mean([envs.normalized_error(preds[e][m], new_views[e]) for e in (0, 1)]))
-                          for m in envs.REMAP_MODELS}
+                errors = envs.model_errors(preds, new_views)
                 log_images(new_views, frame)
                 rec.log_remap((preds[0][remap_model], preds[1][remap_model]), new_views, grid, errors)
                 views = new_views

@@ -99,6 +99,25 @@ def test_nufft_agrees_with_direct_sum_on_64x128():
     assert np.allclose(C.OffGridEvaluator(go, zo, method="matrix")(fo), C.evaluate_direct(fo, go, zo), atol=1e-9)
 
 
+def test_single_precision_tables_agree_with_direct_sum():
+    """dtype=float32 (the env's fast path) is the same series to single precision, on even and
+    odd grids, for RGB and single-channel data, and is chosen by "auto" for env-sized problems."""
+    rng = np.random.default_rng(7)
+    for g in (C.RetinaGrid.from_field_of_view(0.7, 0.0524, 36), C.RetinaGrid.from_field_of_view(1.0, 0.05, 18)):
+        for shape in ((g.M, g.N, 3), (g.M, g.N)):
+            F = C.dpft(rng.uniform(size=shape), g)
+            r = np.exp(rng.uniform(g.u[0] - g.delta / 2, g.u[-1] + g.delta / 2, 2000))
+            z = r * np.exp(1j * rng.uniform(-np.pi, np.pi, 2000))
+            ev = C.OffGridEvaluator(g, z, dtype=np.float32)
+            assert ev.method == "matrix"
+            got = ev(F)
+            assert got.dtype == np.float64 and got.shape == z.shape + shape[2:]
+            ref = C.evaluate_direct(F, g, z)
+            assert np.abs(got - ref).max() < 2e-5
+    with pytest.raises(ValueError, match="float64 or float32"):
+        C.OffGridEvaluator(g, z, dtype=np.int32)
+
+
 def test_rotation_by_one_sector_rolls_and_dilation_shifts_a_ring():
     g = small_grid(16)
     f = np.random.default_rng(3).normal(size=(g.M, g.N))
