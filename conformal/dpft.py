@@ -293,9 +293,9 @@ class OffGridEvaluator:
     def _real_mirror(self, F: NDArray) -> NDArray[np.float64]:
         """The mirror series for real images: DCT-II in u, real FFT in theta (a quarter of the work).
 
-        value[p, c] = sum_m cu[p, m] sum_n (cos(n y_p) Re D[m, n, c] - sin(n y_p) Im D[m, n, c])
+        value[p, c] = sum_m cu[m, p] sum_n (cos(n y_p) Re D[m, n, c] - sin(n y_p) Im D[m, n, c])
         with D the DCT-II (in u) of the real FFT (in theta) of the samples: one real matrix
-        product over n, then a per-point dot product over m.
+        product over n, then a sum over m along rows of length P (points last: contiguous).
         """
         import scipy.fft
 
@@ -304,25 +304,27 @@ class OffGridEvaluator:
         c = int(np.prod(chans)) if chans else 1
         m = self.grid.M
         D = scipy.fft.dct(np.fft.rfft(f.reshape(m, self.grid.N, c), axis=1), type=2, axis=0)  # (M, nh, C)
-        Dr = np.concatenate([D.real, D.imag], axis=1).transpose(1, 2, 0).reshape(-1, c * m)  # (2 nh, C M)
-        t = (self._cs @ Dr.astype(self.dtype, copy=False)).reshape(-1, c, m)
-        vals = np.einsum("pcm,pm->pc", t, self._cu).astype(np.float64, copy=False)
+        Dr = np.concatenate([D.real, D.imag], axis=1).transpose(2, 0, 1).reshape(c * m, -1)  # (C M, 2 nh)
+        t = (Dr.astype(self.dtype, copy=False) @ self._cs).reshape(c, m, -1)  # (C, M, P)
+        t *= self._cu
+        vals = t.sum(axis=1).T.astype(np.float64)  # (P, C)
         return vals.reshape(self.shape + chans)
 
 
 def _mirror_tables(
     grid: RetinaGrid, u: NDArray[np.float64], y: NDArray[np.float64], dtype: np.dtype
 ) -> tuple[NDArray, NDArray]:
-    """Factor tables of the mirror series at points (u, y): the DCT-II basis in the fractional
-    ring index (with its 1/M and half weight at m = 0), and [cos(n y), -sin(n y)] (n = 0..N/2,
-    with the Hermitian weights 2 (1 at n = 0 and N/2) and 1/N). One cosine call builds both."""
+    """Factor tables of the mirror series at points (u, y), points last: the DCT-II basis in the
+    fractional ring index (M, P) (with its 1/M and half weight at m = 0), and [cos(n y); -sin(n y)]
+    (2 (N/2 + 1), P) with the Hermitian weights 2 (1 at n = 0 and N/2) and 1/N. One cosine call
+    builds both."""
     m_, n_ = grid.M, grid.N
     nh = n_ // 2 + 1
     t = ((u - grid.u[0]) * (math.pi / (m_ * grid.delta)) + math.pi / (2 * m_)).astype(dtype)  # pi (2t+1)/2M
-    ang = np.empty((len(u), grid.M + 2 * nh), dtype=dtype)
-    np.multiply.outer(t, np.arange(m_, dtype=dtype), out=ang[:, :m_])
-    np.multiply.outer(y.astype(dtype), np.arange(nh, dtype=dtype), out=ang[:, m_ : m_ + nh])
-    np.add(ang[:, m_ : m_ + nh], dtype.type(math.pi / 2), out=ang[:, m_ + nh :])  # cos(x + pi/2) = -sin(x)
+    ang = np.empty((m_ + 2 * nh, len(u)), dtype=dtype)
+    np.multiply.outer(np.arange(m_, dtype=dtype), t, out=ang[:m_])
+    np.multiply.outer(np.arange(nh, dtype=dtype), y.astype(dtype), out=ang[m_ : m_ + nh])
+    np.add(ang[m_ : m_ + nh], dtype.type(math.pi / 2), out=ang[m_ + nh :])  # cos(x + pi/2) = -sin(x)
     np.cos(ang, out=ang)
     wm = np.full(m_, 1.0 / m_)
     wm[0] *= 0.5
@@ -330,9 +332,8 @@ def _mirror_tables(
     wn[0] = 1.0 / n_
     if n_ % 2 == 0:
         wn[-1] = 1.0 / n_
-    ang[:, :m_] *= wm.astype(dtype)
-    ang[:, m_:] *= np.concatenate([wn, wn]).astype(dtype)
-    return ang[:, :m_], np.ascontiguousarray(ang[:, m_:])
+    ang *= np.concatenate([wm, wn, wn]).astype(dtype)[:, None]
+    return ang[:m_], ang[m_:]
 
 
 def evaluate(

@@ -158,9 +158,9 @@ def predict_batch(
 
     ``coeffs[i]``, ``fovea[i]`` are source i's pre-saccadic DPFT (M, N[, C]) and foveal samples
     on ``grid`` (all with the same channels); ``point_maps[i]`` its point maps. Returns
-    ``out[i][j]``: source i predicted under its map j. The sources' coefficients are stacked as
-    channels so that one set of factor tables serves every point (``OffGridEvaluator``);
-    ``dtype=np.float32`` evaluates the series in single precision (~1e-6 relative), faster.
+    ``out[i][j]``: source i predicted under its map j; all of a source's maps share one series
+    evaluation (``OffGridEvaluator``). ``dtype=np.float32`` evaluates the series in single
+    precision (~1e-6 relative), a few times faster.
     """
     if not (len(coeffs) == len(fovea) == len(point_maps)) or not coeffs:
         raise ValueError("coeffs, fovea and point_maps must be non-empty lists of the same length")
@@ -181,13 +181,10 @@ def predict_batch(
     in_fovea = finite & (r < grid.r0)
     in_periph = finite & (r >= grid.r0) & (r < grid.ring_edges[-1])
     out = np.zeros((len(w), c))
-    if np.any(in_periph):
-        stacked = np.concatenate([F.reshape(grid.M, grid.N, c) for F in Fs], axis=2)  # (M, N, S C)
-        vals = OffGridEvaluator(grid, w[in_periph], dtype=dtype)(stacked)  # (P, S C)
-        s_idx = src[in_periph]
-        out[in_periph] = np.take_along_axis(
-            vals.reshape(len(s_idx), len(Fs), c), s_idx[:, None, None], axis=1)[:, 0]
-    for i, fov in enumerate(fovs):
+    for i, (F, fov) in enumerate(zip(Fs, fovs)):
+        sel = in_periph & (src == i)
+        if np.any(sel):
+            out[sel] = OffGridEvaluator(grid, w[sel], dtype=dtype)(F.reshape(grid.M, grid.N, c))
         sel = in_fovea & (src == i)
         if np.any(sel):
             out[sel] = _fovea_lookup(fov.reshape(len(fov), c), grid, w[sel])
