@@ -70,6 +70,7 @@ class RetinaGrid:
         foveal_pixels: int,
         *,
         extent: str = "diagonal",
+        r0_decimals: int | None = None,
     ) -> "RetinaGrid":
         """The paper's design rules (§6.2) for an A x B picture shown at K dots per unit length.
 
@@ -77,12 +78,20 @@ class RetinaGrid:
         M = [ln(r_b / r0) / delta] with r_b = sqrt(A^2 + B^2) / (2K) (``extent="diagonal"``,
         as in the paper's Example) or min(A, B) / (2K) (``extent="inscribed"``).
         The outer radius is then r_M = r0 e^{M delta} (``rb``).
+        ``r0_decimals``: round r0 to this many decimals before the other rules, as the paper's
+        Example does (r0 = 2.427, giving its delta = 0.09804); default: unrounded (0.098053).
         """
         for name, v in (("width", width), ("height", height), ("foveal_pixels", foveal_pixels)):
             if int(v) != v or v < 1:
                 raise ValueError(f"{name} must be a positive integer; got {v!r}")
         k = _positive("dots_per_unit", dots_per_unit)
         r0 = math.sqrt(foveal_pixels / math.pi) / k
+        if r0_decimals is not None:
+            if int(r0_decimals) != r0_decimals or not 0 <= r0_decimals <= 15:
+                raise ValueError(f"r0_decimals must be an integer in 0..15 or None; got {r0_decimals!r}")
+            r0 = round(r0, int(r0_decimals))
+            if r0 <= 0:
+                raise ValueError(f"r0 rounds to 0 at {r0_decimals} decimals; use more decimals")
         if extent == "diagonal":
             rb = math.hypot(width, height) / (2 * k)
         elif extent == "inscribed":

@@ -56,6 +56,19 @@ def test_hemifields_route_contralaterally(grid):
     assert np.all(upper[0][:, -1] < 0) and np.all(upper[1][:, -1] < 0)
 
 
+def test_binocular_cortex_keeps_the_eyes_apart(grid):
+    """Different pictures in the two eyes: each hemisphere holds the contralateral hemifield of
+    the left eye at eye index 0 and of the right eye at index 1, sample by sample."""
+    x3, x1 = grid.points.real, grid.points.imag
+    left_eye = 10.0 + x1  # each eye's samples are recognisable by value
+    right_eye = -10.0 + x1
+    bc = C.binocular_cortex(left_eye, right_eye, grid)
+    for hemi, field in ((bc.left_hemisphere, x3 > 0), (bc.right_hemisphere, x3 < 0)):
+        assert hemi.shape == (2, grid.M, grid.N // 2)
+        for eye, picture in ((0, left_eye), (1, right_eye)):
+            assert np.array_equal(np.sort(hemi[eye].ravel()), np.sort(picture[field]))
+
+
 def test_cortical_map_layout(grid):
     ecc = np.broadcast_to(np.arange(grid.M)[:, None], (grid.M, grid.N)).astype(float)
     cm = C.cortical_map(ecc, grid)

@@ -34,6 +34,18 @@ def test_paper_example(paper_grid):
     assert np.abs(fp).max() < g.r0 + 0.5 / 4
 
 
+def test_paper_example_with_the_papers_rounding_comes_out_exactly():
+    """The Example's printed numbers, every one to the digits printed: r0 = 2.427, N = 64,
+    delta = 0.09804, M = 37, first sample radius 2.552, 2,664 samples."""
+    g = C.RetinaGrid.from_picture(512, 512, dots_per_unit=4, foveal_pixels=296, r0_decimals=3)
+    assert g.r0 == 2.427 and g.N == 64 and g.M == 37 and g.n_samples == 2664
+    assert round(g.delta, 5) == 0.09804
+    assert round(g.radii[0], 3) == 2.552  # r_0 + rho_0 / 2 = r0 (1 + e^delta) / 2
+    assert round(math.sqrt(512**2 + 512**2) / 8, 1) == 90.5  # the Example's r_b
+    with pytest.raises(ValueError, match="r0_decimals"):
+        C.RetinaGrid.from_picture(512, 512, 4, 296, r0_decimals=1.5)
+
+
 def test_from_angles_covers_field():
     g = C.RetinaGrid.from_angles(40.0, 1.0, 64)
     assert g.r0 == pytest.approx(math.tan(math.radians(1)))
@@ -142,6 +154,32 @@ def test_render_back_shows_cell_values(retina_128):
     back = retina_128.render(s, background=-1)
     assert back.shape == (128, 128)
     assert np.allclose(back, 3.0)  # the inscribed-or-larger grid covers every pixel here
+
+
+def test_render_back_puts_each_cell_where_its_geometry_is(retina_128):
+    """Cell values k * N + l rendered back: every peripheral pixel shows the ring and sector
+    computed from its own radius and angle (ln(r / r0) / delta, theta N / 2 pi)."""
+    g = retina_128.grid
+    per = np.arange(g.M * g.N, dtype=float).reshape(g.M, g.N)
+    fov = -1.0 - np.arange(g.n_fovea)
+    back = retina_128.render(C.RetinaSamples(fov, per, np.ones((g.M, g.N), bool), np.ones(g.n_fovea, bool)),
+                             background=-1e9)
+    z = C.pixel_points((128, 128), retina_128.pixels_per_unit)
+    ring = np.floor(np.log(np.abs(z) / g.r0) / g.delta)
+    sector = np.floor(np.mod(np.angle(z), 2 * np.pi) / (2 * np.pi / g.N))
+    inside = (ring >= 0) & (ring < g.M)
+    # away from cell borders (floating point decides the border pixels either way)
+    frac_r = np.log(np.abs(z) / g.r0) / g.delta - ring
+    frac_s = np.mod(np.angle(z), 2 * np.pi) / (2 * np.pi / g.N) - sector
+    clear = inside & (np.minimum(frac_r, 1 - frac_r) > 1e-6) & (np.minimum(frac_s, 1 - frac_s) > 1e-6)
+    assert clear.sum() > 0.5 * inside.sum()
+    assert np.array_equal(back[clear], (ring * g.N + sector)[clear])
+    fovea = np.abs(z) < g.r0 - g.fovea_spacing
+    assert np.all(back[fovea] < 0) and np.all(back[fovea] > -1e9)  # foveal samples, not background
+    # the nearest foveal sample: the lattice point closest to the pixel
+    fp = g.fovea_points
+    nearest = np.argmin(np.abs(z[fovea][:, None] - fp[None, :]), axis=1)
+    assert np.array_equal(back[fovea], fov[nearest])
 
 
 @pytest.mark.parametrize(
