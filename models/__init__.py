@@ -3,7 +3,7 @@
 ``MUJOCO_GL`` defaults to ``egl`` when unset (set before MuJoCo is imported).
 """
 
-from ._gl import GLBackendError
+from ._gl import GLBackendError, gl_install_hint
 from .build import (DEFAULT_FOVY_DEG, DEFAULT_IPD, HEAD_XML, QUALITIES, ModelFileError, build_model,
                     build_spec, export_xml, load_model)
 from .oculomotor import (MAX_PEAK_VELOCITY, MainSequence, OculomotorRangeError, SaccadePlan, fick_angles,
@@ -20,5 +20,5 @@ __all__ = [
     "EyeRenderer", "EyeImage", "StereoFrame",
     "MainSequence", "SaccadePlan", "fixation_angles", "listing_torsion", "fick_matrix", "fick_angles",
     "gaze_direction", "rotation_vector",
-    "GLBackendError", "ModelFileError", "OculomotorRangeError",
+    "GLBackendError", "ModelFileError", "OculomotorRangeError", "gl_install_hint",
 ]

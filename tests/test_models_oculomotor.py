@@ -51,8 +51,8 @@ def test_main_sequence_peak_velocity_and_duration(head, amp_deg):
     dv = np.rad2deg(plan.end_angles[:, 0].mean() - plan.start_angles[:, 0].mean())
     assert np.allclose(version / dv, published_E(t, amp_deg) / amp_deg, atol=0.003)
     assert abs(dv - amp_deg) < 0.1
-    # physics tracks the plan during the saccade (joint error < 0.2 deg)
-    assert np.rad2deg(np.abs(tr.angles - tr.planned).max()) < 0.2
+    # physics tracks the plan during the saccade (the issue asks < 0.2 deg; the README says < 0.01)
+    assert np.rad2deg(np.abs(tr.angles - tr.planned).max()) < 0.01
     if amp_deg == 10:
         assert 390 < v_pub.max() < 410 and 55 < plan.duration_ms < 60  # ~400 deg/s, ~57 ms
 

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import models
-from models import Head
+from models import Head, build_model
+from models._gl import mujoco
 
 ROOT = Path(__file__).resolve().parents[1]
 YELLOW = lambda im: (im[..., 0] > 120) & (im[..., 1] > 120) & (im[..., 2] < 80)  # noqa: E731
@@ -132,6 +133,32 @@ def test_default_quality_option_and_fov_parameters():
     assert np.isclose(np.linalg.norm(d), 0.07)
 
 
+def test_eye_geometry_nodal_point_and_joint_ranges():
+    """Each camera sits 6 mm in front of its eyeball's rotation centre on the optical axis, the
+    eyes are 6.4 cm apart, and the hinges have human ranges (+-45 h, +-35 v, small torsion)."""
+    m = build_model("dots")
+    d = mujoco.MjData(m)
+    for qh, qv in ((0.0, 0.0), (0.4, -0.3), (-0.6, 0.5)):
+        d.qpos[:] = 0
+        for side in ("left", "right"):
+            d.qpos[m.joint(f"{side}_eye_h").qposadr[0]] = qh
+            d.qpos[m.joint(f"{side}_eye_v").qposadr[0]] = qv
+        mujoco.mj_forward(m, d)
+        for side in ("left", "right"):
+            centre = d.xpos[m.body(f"{side}_eyeball").id]
+            cam = m.camera(f"{side}_eye").id
+            offset = d.cam_xpos[cam] - centre
+            axis = -d.cam_xmat[cam].reshape(3, 3)[:, 2]  # MuJoCo cameras look along -z
+            assert np.isclose(np.linalg.norm(offset), 0.006, atol=1e-9)
+            assert np.allclose(offset / 0.006, axis, atol=1e-9)  # the nodal point is on the optical axis
+    c = [d.xpos[m.body(f"{s}_eyeball").id] for s in ("left", "right")]
+    assert np.isclose(np.linalg.norm(c[0] - c[1]), 0.064)
+    for side in ("left", "right"):
+        rng = {k: np.rad2deg(m.jnt_range[m.joint(f"{side}_eye_{k}").id]) for k in "hvt"}
+        assert np.allclose(rng["h"], [-45, 45]) and np.allclose(rng["v"], [-35, 35])
+        assert 0 < rng["t"][1] <= 20 and np.isclose(rng["t"][0], -rng["t"][1])
+
+
 def test_ten_thousand_renders_do_not_grow_memory():
     def rss_kb():
         return int(Path("/proc/self/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE") // 1024
@@ -181,3 +208,14 @@ def test_missing_gl_backend_names_debian_packages():
     if res.returncode == 0:
         pytest.skip("OSMesa is installed here; cannot simulate a missing backend")
     assert "GLBackendError" in res.stderr and "apt-get install libosmesa6" in res.stderr
+
+
+def test_egl_is_the_default_backend_and_its_hint_names_the_packages():
+    code = "import os, models; print(os.environ['MUJOCO_GL'], os.environ.get('PYOPENGL_PLATFORM'))"
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    env["PYTHONPATH"] = str(ROOT)
+    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split() == ["egl", "egl"]
+    assert models.gl_install_hint("egl") == "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri"
+    assert "MUJOCO_GL=egl" in models.gl_install_hint("glfw")  # not off-screen: points to the ones that are
