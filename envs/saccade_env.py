@@ -59,7 +59,7 @@ class BinocularSaccadeEnv(gym.Env):
     against the actual post-saccadic samples, mean of both eyes} for every model in
     ``remap_models``; ``saccade_amplitude_deg``, ``saccade_duration_ms``,
     ``peak_velocity_deg_s``, ``landing_error_deg`` (gaze vs the intended endpoint),
-    ``target_error_deg``, ``success``, ``clipped``.
+    ``target_error_deg`` (tasks with a target), ``success``, ``clipped``.
 
     **Arguments**: ``scene`` (default: the task's), ``task`` (``"fixate"``, ``"search"``, ``"free"`` or a
     ``Task``), ``action_mode``, ``image_size`` (pixels per side of each eye's image),
@@ -260,7 +260,10 @@ class BinocularSaccadeEnv(gym.Env):
             k, l = divmod(int(a), self.vision.grid.N)
             z = self.vision.grid.points[k, l]
             return math.atan(z.real), math.atan2(z.imag, math.hypot(1.0, z.real)), 1.0
-        a = np.asarray(action, dtype=np.float64)
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"action must be {self.action_space.shape[0]} numbers in [-1, 1]; got {action!r}") from None
         if a.shape != self.action_space.shape:
             raise ValueError(f"action must have shape {self.action_space.shape}; got {a.shape}")
         if not np.all(np.isfinite(a)):

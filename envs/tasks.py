@@ -129,7 +129,7 @@ class FreeViewingTask(Task):
         pass
 
     def score(self, head) -> tuple[float, bool, dict]:
-        return 0.0, False, {"target_error_deg": float("nan"), "success": False}
+        return 0.0, False, {"success": False}  # no target: no target_error_deg
 
 
 TASKS = {"fixate": FixateTask, "search": SearchTask, "free": FreeViewingTask}

@@ -33,11 +33,14 @@ def env():
         ("BinocularSaccade-v0", {"vergence": True, "remap_model": "mobius"}),
         ("BinocularSaccadeSearch-v0", {}),
         ("BinocularSaccadeSearch-v0", {"action_mode": "cell", "cortex": "hemispheres"}),
+        ("BinocularSaccade-v0", {"render_mode": "rgb_array", "remap_model": "shift", "shift_rings": 1.5}),
+        ("BinocularSaccadeSearch-v0", {"render_mode": "rgb_array", "action_mode": "cell", "grayscale": True}),
+        ("BinocularSaccade-v0", {"task": "free", "scene": "natural", "render_mode": "rgb_array"}),
     ],
 )
 def test_check_env_passes(env_id, kwargs):
     e = gym.make(env_id, image_size=64, fixation_ms=50, **kwargs)
-    check_env(e.unwrapped, skip_render_check=True)
+    check_env(e.unwrapped, skip_render_check="render_mode" not in kwargs)
     e.close()
 
 
@@ -106,14 +109,17 @@ def test_step_before_reset_and_bad_actions_raise():
     with pytest.raises(RuntimeError, match="reset"):
         e.step(np.zeros(2, np.float32))
     e.reset(seed=0)
-    for bad in (np.array([np.nan, 0.0]), np.array([1.5, 0.0]), np.zeros(3), "left"):
-        with pytest.raises(ValueError):
+    for bad, says in ((np.array([np.nan, 0.0]), "NaN"), (np.array([1.5, 0.0]), r"\[-1, 1\]"),
+                      (np.zeros(3), "shape"), ("left", "numbers in")):
+        with pytest.raises(ValueError, match=says):
             e.step(bad)
     e.close()
-    c = envs.BinocularSaccadeEnv(image_size=48, action_mode="cell")
+    c = envs.BinocularSaccadeEnv(image_size=48, action_mode="cell", render_mode="rgb_array")
+    with pytest.raises(RuntimeError, match="reset"):
+        c.render()
     c.reset(seed=0)
     for bad in (-1, c.action_space.n, 2.5, np.nan):
-        with pytest.raises(ValueError):
+        with pytest.raises(ValueError, match="cell index"):
             c.step(bad)
     c.close()
 
@@ -154,6 +160,66 @@ def test_fixating_the_target_succeeds_and_ends_the_episode(env):
     assert info["target_error_deg"] < 1.0 and r > 0.8
 
 
+def test_fixate_targets_lie_5_to_20_deg_out_and_the_budget_truncates():
+    e = envs.BinocularSaccadeEnv(image_size=32, fixation_ms=0)
+    for seed in range(12):
+        e.reset(seed=seed)
+        ecc = envs.gaze_errors_deg(e.head, e.head.object_position("target"))  # gaze starts at the centre
+        assert np.all((ecc > 5.0 - 0.5) & (ecc < 20.0 + 0.5)), ecc  # +- parallax of the 1 m screen
+    e.reset(seed=0)
+    away = np.array([0.0, 0.0], np.float32)  # null saccades: the target is never foveated
+    for i in range(e.task.max_saccades):
+        _, r, term, trunc, info = e.step(away)
+        assert not term and trunc == (i == e.task.max_saccades - 1)
+        err = info["target_error_deg"]
+        assert r == pytest.approx(math.exp(-0.5 * (err / e.task.tolerance_deg) ** 2) - e.task.saccade_cost)
+    e.close()
+
+
+def test_search_rewards_foveating_the_target_and_charges_each_saccade():
+    e = envs.BinocularSaccadeEnv(task="search", image_size=32, fixation_ms=0)
+    e.reset(seed=5)
+    _, r, term, trunc, info = e.step(np.zeros(2, np.float32))  # stay: the target is elsewhere
+    assert r == pytest.approx(-e.task.saccade_cost) and not term and not info["success"]
+    d = e.head.object_position("target") - e.head.cyclopean_position
+    a = np.array([math.atan2(-d[1], d[0]), math.atan2(d[2], math.hypot(d[0], d[1]))]) / math.radians(30)
+    _, r, term, trunc, info = e.step(a.astype(np.float32))
+    assert info["success"] and term and r == pytest.approx(1.0 - e.task.saccade_cost)
+    e.close()
+
+
+def test_vergence_action_changes_the_fixation_distance():
+    e = envs.BinocularSaccadeEnv(image_size=32, fixation_ms=50, vergence=True)
+    e.reset(seed=0)
+
+    def vergence_deg():  # angle between the two optical axes
+        a, b = (s.eye_axes[:, 1] for s in e.head.eye_states())
+        return math.degrees(math.acos(np.clip(a @ b, -1, 1)))
+
+    v0 = vergence_deg()
+    e.step(np.array([0.0, 0.0, -1.0], np.float32))  # fixation distance x 1/2: converge
+    v1 = vergence_deg()
+    e.step(np.array([0.0, 0.0, 1.0], np.float32))  # x 2: back
+    v2 = vergence_deg()
+    # the geometric vergence of a point at distance D straight ahead: 2 atan(IPD / 2 / D)
+    assert v1 == pytest.approx(2 * v0, rel=0.05) and v2 == pytest.approx(v0, abs=0.05)
+    e.close()
+
+
+def test_same_seed_same_observations_in_cell_mode_through_gym_make():
+    def run():
+        e = gym.make("BinocularSaccade-v0", action_mode="cell", image_size=48, fixation_ms=20)
+        obs, _ = e.reset(seed=11)
+        acts = np.random.default_rng(1).integers(0, e.action_space.n, 3)
+        out = [obs] + [e.step(int(a))[0] for a in acts]
+        e.close()
+        return out
+
+    for oa, ob in zip(run(), run()):
+        for k in oa:
+            assert np.array_equal(oa[k], ob[k]), k
+
+
 def test_remapping_errors_are_honest_for_horizontal_saccades():
     """Pure horizontal saccades in the bar scene: the exact rotation warp (homography) predicts
     the rendered post-saccadic samples better than the translation-plus-shift model."""
@@ -168,6 +234,12 @@ def test_remapping_errors_are_honest_for_horizontal_saccades():
         assert err["homography"] < err["shift"]
         assert 0 < err["homography"] < 0.5  # reported, not zero: resolution is lost in the periphery
     e.close()
+    # ... and with the shift model's compression gain on (§6.5's log-radius shift) too
+    g = envs.BinocularSaccadeEnv(scene="bar", task="free", image_size=128, shift_rings=1.0)
+    g.reset(seed=0)
+    _, _, _, _, info = g.step(np.array([20.0 / 30.0, 0.0], np.float32))
+    assert info["remap_error"]["homography"] < info["remap_error"]["shift"]
+    g.close()
 
 
 def test_remapped_observation_predicts_the_next_cortical_one():
