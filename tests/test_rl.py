@@ -119,6 +119,42 @@ def test_saved_policy_reloads_and_evaluates_identically(trained, capsys):
     assert direct.mean_reward == results[0]["mean_reward"]
 
 
+def test_train_and_evaluate_commands_end_to_end(tmp_path, capsys):
+    """``train --quick`` (shrunk further) through the command line writes the policy, the log,
+    the baselines (random and brightest-cell heuristic) and the learning curve; ``evaluate``
+    runs the heuristic and random policies, and the heuristic beats random."""
+    from experiments.__main__ import main
+
+    out = tmp_path / "cem"
+    assert main(["train", "--task", "fixate", "--out", str(out), "--quick", "--iterations", "1", "--population", "4",
+                 "--episodes", "1", "--eval-episodes", "4", "--no-progress"]) == 0
+    line = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert line["iterations"] == 1 and {"random", "heuristic"} <= set(line["baselines"])
+    for name in ("policy.npz", "policy.json", "training_log.csv", "baselines.json", "learning_curve.png"):
+        assert (out / name).stat().st_size > 0, name
+    assert (out / "learning_curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    res = {}
+    for pol in ("heuristic", "random"):
+        assert main(["evaluate", "--task", "fixate", "--policy", pol, "--episodes", "8", "--seed", "2"]) == 0
+        res[pol] = json.loads(capsys.readouterr().out.strip())
+        assert res[pol]["policy"] == pol and res[pol]["episodes"] == 8
+    assert res["heuristic"]["success_rate"] > res["random"]["success_rate"] + 0.4
+
+
+@pytest.mark.parametrize("command", ["run", "visualize", "train", "evaluate"])
+def test_every_command_has_help(command, capsys):
+    from experiments.__main__ import main
+
+    with pytest.raises(SystemExit) as e:
+        main([command, "--help"])
+    assert e.value.code == 0
+    text = capsys.readouterr().out
+    assert text.startswith("usage:") and "--" in text
+    for opt in {"run": ["--out", "--quick"], "visualize": ["--out", "--spawn"], "train": ["--task", "--out", "--quick"],
+                "evaluate": ["--task", "--policy", "--episodes", "--seed"]}[command]:
+        assert opt in text
+
+
 def test_cli_bad_options_fail_clearly(tmp_path):
     cmd = [sys.executable, "-m", "experiments", "evaluate", "--policy", str(tmp_path), "--episodes", "1"]
     r = subprocess.run(cmd, capture_output=True, text=True)
