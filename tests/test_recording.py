@@ -117,6 +117,34 @@ def test_time_range_and_resolution(run):
     assert data["/eyes/left/grid"]["static"]
 
 
+def test_every_timed_entity_lies_in_the_run_and_3d_shapes(run):
+    """Every non-static entity is logged inside [start, end] of simulated time; the 3-D scene has
+    the head, both eyes 6.4 cm apart with unit gaze rays starting at them, and scene objects."""
+    data, summary = run
+    start, end = summary["start_ms"], summary["end_ms"]
+    for p in EXPECTED:
+        e = data["/" + p]
+        if not e["static"]:
+            assert len(e["times_ms"]) and start - 1e-9 <= e["times_ms"][0] and e["times_ms"][-1] <= end + 1e-9, p
+    for p in ("cortex/left_hemisphere", "dpft/left/log_magnitude", "retina/right/logpolar"):
+        t = data["/" + p]["times_ms"]
+        assert t[0] == pytest.approx(start) and t[-1] == pytest.approx(end), p  # reset and last fixation
+    assert len(data["/remap/right/actual"]["times_ms"]) == 2  # one per saccade
+    assert np.shape(data["/world/head/origin"]["cols"]["Points3D:positions"][-1]) == (1, 3)
+    assert np.shape(data["/world/head/axes"]["cols"]["Arrows3D:vectors"][-1]) == (3, 3)
+    assert np.shape(data["/world/objects"]["cols"]["Points3D:positions"][-1])[1:] == (3,)
+    eyes = {}
+    for e in ("left", "right"):
+        pos = np.asarray(data[f"/world/eyes/{e}/position"]["cols"]["Points3D:positions"][-1])
+        ray = data[f"/world/eyes/{e}/gaze"]["cols"]
+        origin, vec = np.asarray(ray["Arrows3D:origins"][-1]), np.asarray(ray["Arrows3D:vectors"][-1])
+        assert pos.shape == origin.shape == vec.shape == (1, 3)
+        assert origin == pytest.approx(pos, abs=1e-6)
+        eyes[e] = pos[0]
+    # camera (nodal point) positions: 6.4 cm apart up to the 6 mm nodal offsets' vergence turn
+    assert np.linalg.norm(eyes["left"] - eyes["right"]) == pytest.approx(0.064, abs=0.006)
+
+
 def test_saccades_visible_in_velocity(run):
     data, summary = run
     onsets = data["/saccades/amplitude_deg"]["times_ms"]
