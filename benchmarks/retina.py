@@ -5,7 +5,8 @@ Run: ``python benchmarks/retina.py [--quick]`` (about 15 s on 2 cores; ``--quick
 Setting: a 512x512 RGB picture on the paper's grid ``RetinaGrid.from_picture(512, 512, 4, 296)``
 (M = 37 rings, N = 64 sectors, r0 = 2.427, pixels_per_unit = K = 4). Timings are medians of
 repeated ``time.perf_counter`` measurements after a warm-up, with ``cv2.setNumThreads(1)``
-(conformal runs single-threaded; finufft is planned with ``nthreads=1``), on one uint8 RGB frame
+(conformal runs single-threaded; finufft is planned with ``nthreads=1``; BLAS, used by the direct
+sums, is limited to one thread through ``OPENBLAS_NUM_THREADS=1``), on one uint8 RGB frame
 shared by all methods. The dense OpenCV route is also timed with OpenCV's default thread count.
 
 Methods compared (all give one value per periphery cell, indexed [ring k, sector l]):
@@ -66,11 +67,17 @@ from __future__ import annotations
 import argparse
 import inspect
 import math
+import os
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
+# One core for every method: BLAS (the direct sums) must not get the second core that finufft
+# (nthreads=1) and OpenCV (setNumThreads(1)) do not use. Set before numpy loads its BLAS.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
 
 try:
     import conformal
