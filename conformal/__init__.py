@@ -44,7 +44,6 @@ from .remap import (
     mobius_for_rotation,
     mobius_map,
     predict,
-    predict_batch,
     predict_many,
     rotation_matrix,
     target_shift_map,
@@ -58,7 +57,7 @@ __all__ = [
     "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "fovea_dft", "fovea_idft",
     "fovea_image", "fovea_indices", "h_matrix", "hemifields", "homography_map", "idpft",
     "idpft_direct", "inverse", "k_matrix", "lift_to_sphere", "log_radius_shift", "mobius_for_rotation",
-    "mobius_from_points", "mobius_map", "pft_frequencies", "pixel_points", "predict", "predict_batch", "predict_many", "project",
+    "mobius_from_points", "mobius_map", "pft_frequencies", "pixel_points", "predict", "predict_many", "project",
     "rotation_from_su2", "rotation_homography", "rotation_matrix", "schwartz_map", "su2_from_rotation",
     "target_shift_map", "transform", "transform_image", "warp",
 ]

@@ -32,8 +32,7 @@ from .geometry import act, apply_homography, check_rotation, rotation_homography
 from .grid import RetinaGrid
 from .sampling import RetinaSamples
 
-__all__ = ["homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "predict_batch",
-           "rotation_matrix"]
+__all__ = ["homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix"]
 
 PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
 
@@ -141,69 +140,37 @@ def predict_many(
     on: RetinaGrid | None = None,
     dtype: type = np.float64,
 ) -> list[RetinaSamples]:
-    """``predict`` for several point maps at once, sharing one evaluation of the series."""
-    return predict_batch([coeffs], [fovea], grid, [point_maps], on=on, dtype=dtype)[0]
+    """``predict`` for several point maps at once, sharing one evaluation of the series.
 
-
-def predict_batch(
-    coeffs: list[ArrayLike],
-    fovea: list[ArrayLike],
-    grid: RetinaGrid,
-    point_maps: list[list[PointMap]],
-    *,
-    on: RetinaGrid | None = None,
-    dtype: type = np.float64,
-) -> list[list[RetinaSamples]]:
-    """``predict_many`` for several sources (e.g. both eyes) in one series evaluation.
-
-    ``coeffs[i]``, ``fovea[i]`` are source i's pre-saccadic DPFT (M, N[, C]) and foveal samples
-    on ``grid`` (all with the same channels); ``point_maps[i]`` its point maps. Returns
-    ``out[i][j]``: source i predicted under its map j; all of a source's maps share one series
-    evaluation (``OffGridEvaluator``). ``dtype=np.float32`` evaluates the series in single
-    precision (~1e-6 relative), a few times faster.
-    """
-    if not (len(coeffs) == len(fovea) == len(point_maps)) or not coeffs:
-        raise ValueError("coeffs, fovea and point_maps must be non-empty lists of the same length")
-    Fs = [np.asarray(F) for F in coeffs]
-    fovs = [np.asarray(f, dtype=float) for f in fovea]
-    chans = Fs[0].shape[2:]
-    if any(F.shape != Fs[0].shape for F in Fs) or any(f.shape[1:] != chans for f in fovs):
-        raise ValueError(f"all sources must have coefficients of one shape; got {[F.shape for F in Fs]}")
-    c = int(np.prod(chans)) if chans else 1
+    ``dtype=np.float32`` evaluates the series in single precision (~1e-6 relative; a few times
+    faster, see ``OffGridEvaluator``)."""
+    F = np.asarray(coeffs)
+    fov = np.asarray(fovea, dtype=float)
     out_grid = grid if on is None else on
     z = np.concatenate([out_grid.fovea_points, out_grid.points.ravel()])
     n_pts, n_f = len(z), out_grid.n_fovea
-    ws = [np.concatenate([_map_points(pm, z) for pm in maps]) for maps in point_maps]
-    src = np.concatenate([np.full(len(w), i) for i, w in enumerate(ws)])
-    w = np.concatenate(ws)
+    w = np.concatenate([_map_points(pm, z) for pm in point_maps])
     finite = np.isfinite(w)
     r = np.where(finite, np.abs(w), np.inf)
     in_fovea = finite & (r < grid.r0)
     in_periph = finite & (r >= grid.r0) & (r < grid.ring_edges[-1])
-    out = np.zeros((len(w), c))
-    for i, (F, fov) in enumerate(zip(Fs, fovs)):
-        sel = in_periph & (src == i)
-        if np.any(sel):
-            out[sel] = OffGridEvaluator(grid, w[sel], dtype=dtype)(F.reshape(grid.M, grid.N, c))
-        sel = in_fovea & (src == i)
-        if np.any(sel):
-            out[sel] = _fovea_lookup(fov.reshape(len(fov), c), grid, w[sel])
+    chans = F.shape[2:]
+    out = np.zeros((len(w),) + chans)
+    if np.any(in_periph):
+        out[in_periph] = OffGridEvaluator(grid, w[in_periph], dtype=dtype)(F)
+    if np.any(in_fovea):
+        out[in_fovea] = _fovea_lookup(fov, grid, w[in_fovea])
     valid = in_fovea | in_periph
-    results: list[list[RetinaSamples]] = []
-    start = 0
-    for maps in point_maps:
-        per_source = []
-        for _ in maps:
-            sl = slice(start, start + n_pts)
-            o, v = out[sl], valid[sl]
-            per_source.append(
-                RetinaSamples(
-                    fovea=o[:n_f].reshape((n_f,) + chans),
-                    periphery=o[n_f:].reshape((out_grid.M, out_grid.N) + chans),
-                    mask=v[n_f:].reshape(out_grid.M, out_grid.N),
-                    fovea_mask=v[:n_f],
-                )
+    results = []
+    for i in range(len(point_maps)):
+        sl = slice(i * n_pts, (i + 1) * n_pts)
+        o, v = out[sl], valid[sl]
+        results.append(
+            RetinaSamples(
+                fovea=o[:n_f],
+                periphery=o[n_f:].reshape((out_grid.M, out_grid.N) + chans),
+                mask=v[n_f:].reshape(out_grid.M, out_grid.N),
+                fovea_mask=v[:n_f],
             )
-            start += n_pts
-        results.append(per_source)
+        )
     return results

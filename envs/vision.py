@@ -131,15 +131,16 @@ class Vision:
     def predict_eyes(
         self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye
     ) -> list[dict[str, C.RetinaSamples]]:
-        """``predict_models`` for several eyes (each with its own efference copy) in one batch.
+        """``predict_models`` for several eyes, each with its own efference copy.
 
         The series is evaluated in single precision (~1e-6 relative: far below the retina's
         sampling error, and a few times faster than double).
         """
-        maps = [[self.point_map(m, R) for m in models] for R in rotations_eye]
-        preds = C.predict_batch([v.coeffs for v in views], [v.fovea for v in views], self.grid, maps,
-                                dtype=np.float32)
-        return [dict(zip(models, p)) for p in preds]
+        out = []
+        for view, R in zip(views, rotations_eye):
+            maps = [self.point_map(m, R) for m in models]
+            out.append(dict(zip(models, C.predict_many(view.coeffs, view.fovea, self.grid, maps, dtype=np.float32))))
+        return out
 
 
 def model_errors(

@@ -127,28 +127,24 @@ def test_predict_identity_and_translation(grid):
     assert not shifted.mask.all() and shifted.mask.any()
 
 
-def test_predict_batch_is_each_source_under_its_own_maps(grid):
-    """Two eyes with different pictures and efference copies in one batch: every peripheral
-    prediction is the source's own series (direct sum) at its own mapped point, every foveal
-    landing its own foveal samples."""
+def test_predict_many_is_the_series_at_each_maps_points(grid):
+    """Two efference copies' maps in one evaluation, in double and single precision: every
+    peripheral prediction is the series (direct sum) at its own mapped point, and foveal
+    landings are the foveal samples as ``predict`` gives them map by map."""
     rng = np.random.default_rng(4)
-    fs = [rng.uniform(size=(grid.M, grid.N, 3)) for _ in range(2)]
-    fovs = [rng.uniform(size=(grid.n_fovea, 3)) for _ in range(2)]
-    Fs = [C.dpft(f, grid) for f in fs]
+    f = rng.uniform(size=(grid.M, grid.N, 3))
+    fov = rng.uniform(size=(grid.n_fovea, 3))
+    F = C.dpft(f, grid)
     Rs = [C.rotation_matrix([0.1, 0.0, 1.0], np.radians(8)), C.rotation_matrix([1.0, 0.0, 0.3], np.radians(-6))]
-    maps = [[C.homography_map(R), C.mobius_map(R)] for R in Rs]
+    maps = [C.homography_map(Rs[0]), C.mobius_map(Rs[1])]
     for dtype, tol in ((np.float64, 1e-9), (np.float32, 2e-5)):
-        out = C.predict_batch(Fs, fovs, grid, maps, dtype=dtype)
-        for i in range(2):
-            for j in range(2):
-                p = out[i][j]
-                w = maps[i][j](grid.points)
-                assert np.array_equal(p.mask, np.abs(w) < grid.ring_edges[-1])
-                per = p.mask & (np.abs(w) >= grid.r0)
-                assert per.sum() > 100
-                ref = C.evaluate_direct(Fs[i], grid, w[per])
-                assert np.abs(p.periphery[per] - ref).max() < tol
-                single = C.predict(Fs[i], fovs[i], grid, maps[i][j])  # the one-source path
-                assert np.allclose(p.fovea[p.fovea_mask], single.fovea[single.fovea_mask], atol=tol)
-    with pytest.raises(ValueError, match="same length"):
-        C.predict_batch(Fs, fovs[:1], grid, maps)
+        out = C.predict_many(F, fov, grid, maps, dtype=dtype)
+        for pm, p in zip(maps, out):
+            w = pm(grid.points)
+            assert np.array_equal(p.mask, np.abs(w) < grid.ring_edges[-1])
+            per = p.mask & (np.abs(w) >= grid.r0)
+            assert per.sum() > 100
+            ref = C.evaluate_direct(F, grid, w[per])
+            assert np.abs(p.periphery[per] - ref).max() < tol
+            single = C.predict(F, fov, grid, pm)
+            assert np.allclose(p.fovea[p.fovea_mask], single.fovea[single.fovea_mask], atol=tol)
