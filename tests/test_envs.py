@@ -62,6 +62,19 @@ def test_observation_shapes_and_info(env):
     assert info["landing_error_deg"] < 0.1
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+    # top: the left and right eye images with the retina grid drawn on them in cyan
+    h, w = env.head.image_shape
+    assert frame.shape == (h + 4 + h // 2, 2 * w, 3)
+    for i, eye in enumerate((env._frame.left, env._frame.right)):
+        top = frame[:h, i * w:(i + 1) * w]
+        grid = envs.grid_overlay(g, (h, w), eye.pixels_per_unit)
+        assert np.all(top[grid] == (0, 200, 200)) and np.array_equal(top[~grid], eye.image[~grid])
+    # bottom: each eye's cut-and-paste cortical map (N/2 x 2M cells stretched to h/2 x w)
+    for i, v in enumerate(env._views):
+        cm = np.clip(C.cortical_map(v.periphery, g), 0, 1)
+        bottom = frame[h + 4:, i * w:(i + 1) * w].astype(float) / 255
+        assert bottom[0, 0] == pytest.approx(cm[0, 0], abs=1 / 255)
+        assert bottom[-1, -1] == pytest.approx(cm[-1, -1], abs=1 / 255)
 
 
 def test_same_seed_same_observations():

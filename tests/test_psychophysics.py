@@ -235,3 +235,19 @@ def test_cli_small_study_writes_outputs(tmp_path):
 
     paths = RrdReader(str(out / "study.rrd")).store().schema().entity_paths()
     assert any("study/perceived" in p for p in paths) and any("flash/perceived" in p for p in paths)
+
+
+def test_quick_study_through_the_command_line(tmp_path):
+    """``run --quick``: the reduced design (one 20 deg saccade, 8 dots, 7 times) writes every output,
+    and its summary shows compression near onset."""
+    from experiments.__main__ import main
+
+    out = tmp_path / "quick"
+    assert main(["run", "--quick", "--out", str(out), "--no-progress"]) == 0
+    t = read_table(out / "trials.csv")
+    assert len(t["trial_id"]) == 8 * 7 and set(np.asarray(t["saccade_amplitude_deg"], float)) == {20.0}
+    for name in ("trials.parquet", "summary.txt", "summary.csv", "study.rrd", "run.json", "fig11.png", "fig11.svg",
+                 "perceived_vs_time.png", "compression_vs_time.png"):
+        assert (out / name).stat().st_size > 0, name
+    row = summary(t)[0]
+    assert row["peak_compression"] > 0.3 and abs(row["peak_time_ms"]) <= 25
