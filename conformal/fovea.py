@@ -8,6 +8,8 @@ ordinary 2-D DFT, the Fourier transform of the Euclidean subgroup the paper prop
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -16,13 +18,17 @@ from .grid import RetinaGrid
 __all__ = ["fovea_indices", "fovea_image", "fovea_dft", "fovea_idft"]
 
 
+@lru_cache(maxsize=32)
 def fovea_indices(grid: RetinaGrid) -> tuple[NDArray[np.intp], NDArray[np.intp], int]:
-    """(row, col) of each foveal sample in the P x P lattice picture (row 0 on top), and P."""
+    """(row, col) of each foveal sample in the P x P lattice picture (row 0 on top), and P.
+    Computed once per grid (read-only arrays)."""
     p = grid.fovea_points / grid.fovea_spacing
     half = int(np.ceil(max(np.abs(p.real).max(), np.abs(p.imag).max())))
     size = 2 * half
     col = np.round(p.real + half - 0.5).astype(np.intp)
     row = np.round(half - 0.5 - p.imag).astype(np.intp)
+    row.setflags(write=False)
+    col.setflags(write=False)
     return row, col, size
 
 

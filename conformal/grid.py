@@ -43,6 +43,7 @@ class RetinaGrid:
     fovea_spacing: float
     n_fovea: int
     _fovea_points: NDArray[np.complex128] = field(init=False, repr=False, compare=False)
+    _derived: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         _positive("r0", self.r0)
@@ -59,6 +60,15 @@ class RetinaGrid:
         object.__setattr__(self, "n_fovea", int(self.n_fovea))
         object.__setattr__(self, "_fovea_points", self._make_fovea_points())
         self._fovea_points.setflags(write=False)
+        # the sample geometry, computed once (read-only: a grid is immutable)
+        edges = self.r0 * np.exp(self.delta * np.arange(self.M + 1))
+        radii = edges[:-1] * (1 + math.exp(self.delta)) / 2
+        theta = (2 * np.arange(self.N) + 1) * math.pi / self.N
+        derived = {"ring_edges": edges, "radii": radii, "u": np.log(radii), "theta": theta,
+                   "points": radii[:, None] * np.exp(1j * theta[None, :])}
+        for a in derived.values():
+            a.setflags(write=False)
+        object.__setattr__(self, "_derived", derived)
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -157,27 +167,27 @@ class RetinaGrid:
     @property
     def ring_edges(self) -> NDArray[np.float64]:
         """Radii r_k = r0 e^{k delta}, k = 0..M (M + 1 edges)."""
-        return self.r0 * np.exp(self.delta * np.arange(self.M + 1))
+        return self._derived["ring_edges"]
 
     @property
     def radii(self) -> NDArray[np.float64]:
         """Sample radii at mid-ring, r_k + rho_k / 2 = r_k (1 + e^delta) / 2 (the paper's Example)."""
-        return self.ring_edges[:-1] * (1 + math.exp(self.delta)) / 2
+        return self._derived["radii"]
 
     @property
     def u(self) -> NDArray[np.float64]:
         """Log-radii of the samples, u_k = ln(radii[k]) (uniform, spacing delta)."""
-        return np.log(self.radii)
+        return self._derived["u"]
 
     @property
     def theta(self) -> NDArray[np.float64]:
         """Sample angles at mid-sector, theta_l + pi/N = (2l + 1) pi / N."""
-        return (2 * np.arange(self.N) + 1) * math.pi / self.N
+        return self._derived["theta"]
 
     @property
     def points(self) -> NDArray[np.complex128]:
         """Peripheral sample positions z_{k,l}, shape (M, N)."""
-        return self.radii[:, None] * np.exp(1j * self.theta[None, :])
+        return self._derived["points"]
 
     @property
     def fovea_points(self) -> NDArray[np.complex128]:
