@@ -26,13 +26,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as e:  # a command module not written yet
-            if e.name != name:
-                raise
-            continue
-        module.add_subcommand(sub)
+        importlib.import_module(name).add_subcommand(sub)
     return parser
 
 

@@ -153,6 +153,15 @@ def test_every_command_has_help(command, capsys):
     for opt in {"run": ["--out", "--quick"], "visualize": ["--out", "--spawn"], "train": ["--task", "--out", "--quick"],
                 "evaluate": ["--task", "--policy", "--episodes", "--seed"]}[command]:
         assert opt in text
+    # every option of the command is documented: listed in --help with a help text of its own
+    import argparse
+
+    from experiments.__main__ import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for action in sub.choices[command]._actions:
+        if action.option_strings and action.help != argparse.SUPPRESS:
+            assert action.help and action.option_strings[-1] in text, action.option_strings
 
 
 def test_cli_bad_options_fail_clearly(tmp_path):
