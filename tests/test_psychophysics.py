@@ -235,6 +235,16 @@ def test_cli_small_study_writes_outputs(tmp_path):
 
     paths = RrdReader(str(out / "study.rrd")).store().schema().entity_paths()
     assert any("study/perceived" in p for p in paths) and any("flash/perceived" in p for p in paths)
+    # one frame per flash time on the sim_time line (offsets as the flash times), holding every trial's
+    # true and perceived position of that time
+    from test_recording import read  # tests/ is on sys.path under pytest's default import mode
+
+    rec = read(out / "study.rrd")
+    for name in ("/study/true", "/study/perceived"):
+        times = rec[name]["times_ms"]
+        assert np.allclose(np.diff(times), np.diff([-100, 0, 150])), times
+        assert [len(p) for p in rec[name]["cols"]["Points2D:positions"]] == [8, 8, 8]  # 24 trials / 3 times
+    assert np.asarray(rec["/study/true"]["cols"]["Points2D:positions"][0]).shape == (8, 2)
 
 
 def test_quick_study_through_the_command_line(tmp_path):
