@@ -161,6 +161,13 @@ def test_interrupted_run_resumes_to_the_same_table(tmp_path):
         run_trials(Design(amplitudes_deg=(12.0,)), CFG, part_dir, workers=1, progress=False)
 
 
+def test_progress_bar_counts_the_trials(tmp_path, capsys):
+    d = Design(amplitudes_deg=(16.0,), flash_offsets_deg=OFFSETS[:2], flash_times_ms=(-50, 0), seed=3)
+    run_trials(d, CFG, tmp_path / "bar", workers=1, progress=True)
+    err = capsys.readouterr().err
+    assert "flash trials" in err and f"{d.n_trials}/{d.n_trials}" in err
+
+
 _KILL_SCRIPT = """
 import sys
 from experiments.psychophysics import Design, TrialConfig, run_trials
