@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .dpft import OffGridEvaluator
 from .fovea import fovea_image
-from .geometry import act, apply_homography, check_rotation, rotation_homography, su2_from_rotation
+from .geometry import act, apply_homography, check_rotation, rotation_homography
 from .grid import RetinaGrid
 from .sampling import RetinaSamples
 
@@ -55,16 +55,22 @@ def homography_map(R: ArrayLike) -> PointMap:
 
 
 def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
-    """The SU(2) element of the sphere rotation that corresponds to the eye rotation R."""
+    """The SU(2) element of the sphere rotation that corresponds to the eye rotation R.
+
+    The sphere S^2_(0,1,0) turns about R's axis n by twice R's angle theta, so its SU(2) element
+    has half-angle theta (eq. ``k`` up to the choice of axes): with s = sin(theta) n read off R's
+    antisymmetric part and cos(theta) = (tr R - 1)/2, k = [[conj(a), -conj(b)], [b, a]] with
+    a = cos(theta) + i s_2, b = s_1 - i s_3 (x1, x2, x3 components; j projects from the sphere's
+    point (0, 0, 0), hence the axes' order). Tested against the 3-D construction
+    ``su2_from_rotation(rotation_matrix(n, 2 theta))``. An eye turned by pi gives the identity.
+    """
     r = check_rotation(R)
-    angle = math.acos(max(-1.0, min(1.0, (np.trace(r) - 1) / 2)))
-    if angle < 1e-12:
-        return np.eye(2, dtype=complex)
-    axis = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    if np.linalg.norm(axis) < 1e-9:  # angle = pi: axis from the symmetric part
-        w, v = np.linalg.eigh(r + r.T)
-        axis = v[:, -1]
-    return su2_from_rotation(rotation_matrix(axis, 2 * angle))
+    cos_t = (r[0, 0] + r[1, 1] + r[2, 2] - 1.0) / 2.0
+    s1, s2, s3 = (r[2, 1] - r[1, 2]) / 2.0, (r[0, 2] - r[2, 0]) / 2.0, (r[1, 0] - r[0, 1]) / 2.0
+    a, b = complex(cos_t, s2), complex(s1, -s3)
+    norm = math.sqrt(abs(a) ** 2 + abs(b) ** 2)  # 1 up to R's rounding
+    a, b = a / norm, b / norm
+    return np.array([[a.conjugate(), -b.conjugate()], [b, a]])
 
 
 def mobius_map(R: ArrayLike) -> PointMap:

@@ -131,7 +131,7 @@ class Retina:
         lut = -np.ones((2 * off, 2 * off), dtype=np.int64)
         lut[fj + off, fi + off] = np.arange(n_f)
         sub = (np.arange(s) + 0.5) / s - 0.5  # subpixel offsets in pixels
-        rows_out, cols_out, vals_out = [], [], []
+        rows_out, cols_out = [], []
         r_max = g.rb * ppu + 2.0
         chunk = max(1, 2_000_000 // (w * s * s))
         for r0 in range(0, h, chunk):

@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import conformal as C
 
@@ -98,6 +100,23 @@ def test_schwartz_map_limits():
     z = np.array([0.3 + 0.7j, 2.0 - 1.0j])
     assert np.allclose(C.schwartz_map(-z.conj(), a), -C.schwartz_map(z, a).conj())  # mirror half-maps
     assert C.schwartz_map(np.array([0j]), a)[0] == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(1e-4, 3.1))
+def test_mobius_for_rotation_is_the_sphere_rotated_by_twice_the_angle(a1, a2, a3, angle):
+    """The closed form against the 3-D construction: lift to S^2, rotate about (0, 1, 0) about the
+    eye's axis by twice its angle, project (``su2_from_rotation``, itself tested by construction)."""
+    axis = np.array([a1, a2, a3])
+    assume(np.linalg.norm(axis) > 1e-3)
+    R = C.rotation_matrix(axis, angle)
+    k = C.mobius_for_rotation(R)
+    ref = C.su2_from_rotation(C.rotation_matrix(axis, 2 * angle))
+    assert np.allclose(k @ k.conj().T, np.eye(2), atol=1e-12) and np.isclose(np.linalg.det(k), 1)
+    z = np.array([0.0, 0.3 - 0.2j, -1.5 + 0.7j, 2.0j])
+    wk, wr = C.act(k, z), C.act(ref, z)
+    fin = np.isfinite(wk) & np.isfinite(wr) & (np.abs(wr) < 1e6)
+    assert np.allclose(wk[fin], wr[fin], rtol=1e-8, atol=1e-9)
 
 
 def test_eye_rotation_maps_send_target_to_fovea():

@@ -10,7 +10,6 @@ import sys
 import numpy as np
 import pytest
 
-from experiments import rl
 from experiments.agents import (BrightestCellPolicy, CEMConfig, LinearCellPolicy, RandomPolicy, cell_features,
                                 episode_seeds, evaluate, load_policy, make_env, train_cem)
 
