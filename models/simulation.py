@@ -37,7 +37,6 @@ from .oculomotor import (
     OculomotorRangeError,
     SaccadePlan,
     _check_point,
-    eye_frame_basis,
     fixation_angles,
     gaze_direction,
 )
