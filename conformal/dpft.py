@@ -21,7 +21,7 @@ evaluates the evenly extended series of f instead (see ``OffGridEvaluator``).
 from __future__ import annotations
 
 import math
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -235,20 +235,14 @@ class OffGridEvaluator:
         self.extension = extension
         self.shape = zp.shape
         self._rows = grid.M if extension == "paper" else 2 * grid.M
-        period = grid.delta * self._rows
         zf = zp.ravel()
         u = np.log(np.abs(zf))
         self.u = u
-        x = np.mod(2 * math.pi * (u - grid.u[0]) / period + math.pi, 2 * math.pi) - math.pi
         y = np.mod(np.angle(zf) - grid.theta[0] + math.pi, 2 * math.pi) - math.pi
         self.inside = ((u >= grid.u[0] - grid.delta / 2) & (u <= grid.u[-1] + grid.delta / 2)).reshape(zp.shape)
-        self._x, self._y = x, y
+        self._y = y
         self._eps = eps
         self._plans: dict[int, object] = {}
-        if extension == "paper":
-            self._scale = np.exp(-u) / (grid.M * grid.N * _weight(grid))
-        else:
-            self._scale = np.full(u.shape, 1.0 / (self._rows * grid.N))
         if method == "auto":  # small problems: dense factor matrices beat NUFFT's fixed cost
             per_point = grid.M * (grid.N // 2 + 1) if extension == "mirror" else self._rows * grid.N
             # single-precision tables are ~10x cheaper to build (vectorised cosines)
@@ -258,6 +252,20 @@ class OffGridEvaluator:
         self._em = self._en = None
         if method == "matrix" and extension == "mirror":
             self._cu, self._cs = _mirror_tables(grid, u, y, dtype)
+
+    @cached_property
+    def _x(self) -> NDArray[np.float64]:
+        """Log-radius of the points as an angle of the series' period (NUFFT and complex paths)."""
+        period = self.grid.delta * self._rows
+        return np.mod(2 * math.pi * (self.u - self.grid.u[0]) / period + math.pi, 2 * math.pi) - math.pi
+
+    @cached_property
+    def _scale(self) -> NDArray[np.float64]:
+        """Per-point factor of the complex series: e^{-u} / (M N w) (paper) or 1 / (rows N) (mirror)."""
+        g = self.grid
+        if self.extension == "paper":
+            return np.exp(-self.u) / (g.M * g.N * _weight(g))
+        return np.full(self.u.shape, 1.0 / (self._rows * g.N))
 
     def _plan(self, n_trans: int):
         if n_trans not in self._plans:
