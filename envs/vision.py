@@ -120,7 +120,7 @@ class Vision:
 
     def predict(self, view: EyeView, model: str, rotation_eye: NDArray[np.float64]) -> C.RetinaSamples:
         """Predicted post-saccadic samples from the pre-saccadic coefficients and the efference copy."""
-        return C.predict(view.coeffs, view.fovea, self.grid, self.point_map(model, rotation_eye))
+        return self.predict_models(view, (model,), rotation_eye)[model]
 
     def predict_models(
         self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64]
