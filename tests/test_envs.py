@@ -1,11 +1,8 @@
 """BinocularSaccade-v0: API conformance, determinism, errors, and honest remapping errors."""
 
-import ctypes
 import gc
 import math
-import os
 import tracemalloc
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -15,6 +12,7 @@ from gymnasium.utils.env_checker import check_env
 import conformal as C
 import envs
 import models
+from memory import rss_kb  # tests/memory.py
 
 
 @pytest.fixture(scope="module")
@@ -267,16 +265,6 @@ def test_remapped_observation_predicts_the_next_cortical_one():
     e.close()
 
 
-def _rss_kb() -> int:
-    """Resident memory after returning the C heap's free pages to the OS (glibc's malloc_trim),
-    so that allocator fragmentation does not pass for growth."""
-    try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):
-        pass
-    return int(Path("/proc/self/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE") // 1024
-
-
 def test_memory_does_not_grow_over_ten_thousand_steps():
     e = envs.BinocularSaccadeEnv(image_size=32, fixation_ms=0)
     e.reset(seed=0)
@@ -290,10 +278,10 @@ def test_memory_does_not_grow_over_ten_thousand_steps():
 
     run(1_000)  # warm up caches and allocator
     gc.collect()
-    before = _rss_kb()
+    before = rss_kb()
     run(8_650)  # 10,000 steps in all with the ones below
     gc.collect()
-    assert _rss_kb() - before < 4096  # kB over 8,650 steps: < 0.5 kB a step (C allocations included)
+    assert rss_kb() - before < 4096  # kB over 8,650 steps: < 0.5 kB a step (C allocations included)
     tracemalloc.start()
     run(50)
     first, _ = tracemalloc.get_traced_memory()

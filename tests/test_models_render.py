@@ -13,6 +13,7 @@ import pytest
 import models
 from models import Head, build_model
 from models._gl import mujoco
+from memory import rss_kb  # tests/memory.py
 
 ROOT = Path(__file__).resolve().parents[1]
 YELLOW = lambda im: (im[..., 0] > 120) & (im[..., 1] > 120) & (im[..., 2] < 80)  # noqa: E731
@@ -160,9 +161,6 @@ def test_eye_geometry_nodal_point_and_joint_ranges():
 
 
 def test_ten_thousand_renders_do_not_grow_memory():
-    def rss_kb():
-        return int(Path("/proc/self/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE") // 1024
-
     h = Head("dots", image_size=16)
     for _ in range(1000):
         h.render()
