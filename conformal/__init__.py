@@ -39,7 +39,10 @@ from .geometry import (
     transform_image,
 )
 from .grid import RetinaGrid
+from . import kernels
 from .remap import (
+    MobiusMap,
+    ProjectiveMap,
     homography_map,
     mobius_for_rotation,
     mobius_map,
@@ -48,11 +51,12 @@ from .remap import (
     rotation_matrix,
     target_shift_map,
 )
+from .remap_plan import RemapPlan
 from .sampling import Retina, RetinaSamples, pixel_points
 from .shift import log_radius_shift
 
 __all__ = [
-    "BinocularCortex", "OffGridEvaluator", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
+    "BinocularCortex", "MobiusMap", "OffGridEvaluator", "ProjectiveMap", "RemapPlan", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
     "act", "apply_homography", "binocular_cortex", "check_rotation", "check_sl2", "compose", "cortical_map", "dpft",
     "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "fovea_dft", "fovea_idft",
     "fovea_image", "fovea_indices", "h_matrix", "hemifields", "homography_map", "idpft",

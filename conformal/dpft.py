@@ -24,6 +24,7 @@ import math
 from functools import cached_property, lru_cache
 
 import numpy as np
+import scipy.fft
 from numpy.typing import ArrayLike, NDArray
 
 from .geometry import act, inverse
@@ -95,7 +96,7 @@ def dpft(samples: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
     """
     f = _check_samples(samples, grid, "samples")
     weighted = _weight(grid) * _expand(_tables(grid)[2], f.ndim) * f
-    return np.fft.fft2(weighted, axes=(0, 1)) * _expand(_phase(grid), f.ndim)
+    return scipy.fft.fft2(weighted, axes=(0, 1)) * _expand(_phase(grid), f.ndim)
 
 
 def idpft(coeffs: ArrayLike, grid: RetinaGrid, *, real: bool = True) -> NDArray:
@@ -104,7 +105,7 @@ def idpft(coeffs: ArrayLike, grid: RetinaGrid, *, real: bool = True) -> NDArray:
     With ``real=True`` (default) returns the real part, as for real images.
     """
     F = _check_samples(coeffs, grid, "coeffs", complex_ok=True)
-    lp = np.fft.ifft2(F * _expand(_tables(grid)[1], F.ndim), axes=(0, 1))
+    lp = scipy.fft.ifft2(F * _expand(_tables(grid)[1], F.ndim), axes=(0, 1))
     f = lp * _expand(_tables(grid)[3], F.ndim) / _weight(grid)
     return f.real if real else f
 
@@ -305,7 +306,6 @@ class OffGridEvaluator:
         with D the DCT-II (in u) of the real FFT (in theta) of the samples: one real matrix
         product over n, then a sum over m along rows of length P (points last: contiguous).
         """
-        import scipy.fft
 
         f = idpft(F, self.grid)
         chans = f.shape[2:]

@@ -268,8 +268,8 @@ def rotation_homography(R: ArrayLike) -> NDArray[np.float64]:
     z_old = H . z_new with H acting on (Re z, Im z, 1). Use ``apply_homography``.
     """
     r = check_rotation(R)
-    perm = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], dtype=float)  # (x3, x1, x2) <- (x1, x2, x3)
-    return perm @ r @ perm.T
+    perm = [2, 0, 1]  # (x3, x1, x2) <- (x1, x2, x3): P R P^T
+    return r[perm][:, perm]
 
 
 def apply_homography(H: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:

@@ -28,11 +28,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .dpft import OffGridEvaluator
 from .fovea import fovea_image
-from .geometry import act, apply_homography, check_rotation, rotation_homography
+from .geometry import _POLE_TOL, check_rotation, rotation_homography
 from .grid import RetinaGrid
+from .kernels import KIND_MOBIUS, KIND_PROJECTIVE
 from .sampling import RetinaSamples
 
-__all__ = ["homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix"]
+__all__ = ["ProjectiveMap", "MobiusMap", "homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix"]
 
 PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
 
@@ -48,10 +49,63 @@ def rotation_matrix(axis: ArrayLike, angle: float) -> NDArray[np.float64]:
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
-def homography_map(R: ArrayLike) -> PointMap:
+class ProjectiveMap:
+    """z -> H . z for a real 3x3 homography H acting on (Re z, Im z, 1) (see ``apply_homography``).
+
+    A point whose homogeneous weight is <= 0 maps to NaN: for an eye rotation
+    (``homography_map``) it is a direction behind the old eye, which the old image never saw.
+    ``kind`` and ``params`` describe the map to the compiled ``RemapPlan``.
+    """
+
+    kind = KIND_PROJECTIVE
+
+    def __init__(self, H: ArrayLike) -> None:
+        h = np.array(H, dtype=float)
+        if h.shape != (3, 3) or not np.all(np.isfinite(h)):
+            raise ValueError(f"H must be a finite 3x3 matrix; got shape {h.shape}")
+        h.setflags(write=False)
+        self.matrix = h
+        self.params = h.ravel().copy()
+
+    def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
+        h = self.matrix
+        zz = np.asarray(z, dtype=complex)
+        x, y = zz.real, zz.imag
+        w = h[2, 0] * x + h[2, 1] * y + h[2, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = ((h[0, 0] * x + h[0, 1] * y + h[0, 2]) + 1j * (h[1, 0] * x + h[1, 1] * y + h[1, 2])) / w
+        return np.where(w > _POLE_TOL, out, np.nan + 0j)
+
+
+class MobiusMap:
+    """z -> g . z = (d z + c) / (b z + a) for g = [[a, b], [c, d]] (eq. ``lft1``, as ``act``).
+
+    Poles (b z + a = 0) map to NaN. ``kind`` and ``params`` describe the map to ``RemapPlan``.
+    """
+
+    kind = KIND_MOBIUS
+
+    def __init__(self, g: ArrayLike) -> None:
+        m = np.array(g, dtype=complex)
+        if m.shape != (2, 2) or not np.all(np.isfinite(m)):
+            raise ValueError(f"g must be a finite 2x2 matrix; got shape {m.shape}")
+        m.setflags(write=False)
+        self.matrix = m
+        a, b, c, d = m.ravel()
+        self.params = np.array([a.real, a.imag, b.real, b.imag, c.real, c.imag, d.real, d.imag, 0.0])
+
+    def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
+        a, b, c, d = self.matrix.ravel()
+        zz = np.asarray(z, dtype=complex)
+        den = b * zz + a
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = (d * zz + c) / den
+        return np.where(np.abs(den) >= _POLE_TOL, out, np.nan + 0j)
+
+
+def homography_map(R: ArrayLike) -> ProjectiveMap:
     """z_new -> z_old for a pinhole eye rotating about its nodal point (see module docstring)."""
-    H = rotation_homography(check_rotation(R))
-    return lambda z: apply_homography(H, z)
+    return ProjectiveMap(rotation_homography(R))
 
 
 def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
@@ -73,19 +127,20 @@ def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
     return np.array([[a.conjugate(), -b.conjugate()], [b, a]])
 
 
-def mobius_map(R: ArrayLike) -> PointMap:
+def mobius_map(R: ArrayLike) -> MobiusMap:
     """z_new -> z_old under the conformal camera's k-transform for the eye rotation R."""
-    g = mobius_for_rotation(R)
-    return lambda z: act(g, z)
+    return MobiusMap(mobius_for_rotation(R))
 
 
-def target_shift_map(z_target: complex, shift: float, delta: float) -> PointMap:
-    """z_new -> z_old = z_target + e^{shift delta} z: §6.5's remap into the target-centred frame."""
+def target_shift_map(z_target: complex, shift: float, delta: float) -> MobiusMap:
+    """z_new -> z_old = z_target + e^{shift delta} z: §6.5's remap into the target-centred frame.
+
+    An affine map, so a ``MobiusMap`` (normalised to determinant 1)."""
     zt = complex(z_target)
     if not (math.isfinite(zt.real) and math.isfinite(zt.imag) and math.isfinite(shift) and math.isfinite(delta)):
         raise ValueError("z_target, shift and delta must be finite")
-    scale = math.exp(shift * delta)
-    return lambda z: zt + scale * np.asarray(z, dtype=complex)
+    root = math.exp(shift * delta / 2)  # sqrt of the scale
+    return MobiusMap(np.array([[1 / root, 0], [zt / root, root]]))
 
 
 def _fovea_lookup(fovea: NDArray, grid: RetinaGrid, w: NDArray[np.complex128]) -> NDArray:

@@ -23,6 +23,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from .grid import RetinaGrid
+from .kernels import pool_picture
 
 __all__ = ["Retina", "RetinaSamples", "pixel_points"]
 
@@ -207,11 +208,7 @@ class Retina:
 
     def sample(self, image: NDArray) -> RetinaSamples:
         """Sample one picture: foveal and peripheral receptive-field values (float64)."""
-        img = self._check_image(image)
-        flat = img.reshape(self._n_pixels, -1)
-        out = self._op @ flat.astype(np.float64, copy=False)
-        if self.fill != 0.0:
-            out[self._empty] = self.fill
+        out = self.sample_many((image,))[0]
         g = self.grid
         chans = self.image_shape[2:]
         return RetinaSamples(
@@ -220,6 +217,22 @@ class Retina:
             mask=self.mask,
             fovea_mask=self.fovea_mask,
         )
+
+    def sample_many(self, images, scale: float = 1.0) -> NDArray[np.float64]:
+        """Sample several pictures into one array (E, N_f + M N[, C]) in retina order (the
+        rows of ``operator``: fovea, then periphery [k, l]), each value times ``scale``."""
+        imgs = [self._check_image(im) for im in images]
+        chans = self.image_shape[2:]
+        out = np.empty((len(imgs), self._op.shape[0], int(np.prod(chans))))
+        op = self._op
+        for img, o in zip(imgs, out):
+            flat = img.reshape(self._n_pixels, -1)
+            if flat.dtype == np.bool_:
+                flat = flat.astype(np.uint8)
+            pool_picture(op.indptr, op.indices, op.data, np.ascontiguousarray(flat), scale, o)  # op @ flat, in place
+        if self.fill != 0.0:
+            out[:, self._empty] = self.fill
+        return out.reshape((len(imgs), self._op.shape[0]) + chans)
 
     @property
     def operator(self) -> sp.csr_matrix:

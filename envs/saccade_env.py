@@ -13,7 +13,7 @@ import conformal as C
 import models
 
 from .tasks import Task, gaze_errors_deg, make_task
-from .vision import REMAP_MODELS, EyeView, Vision, model_errors
+from .vision import REMAP_MODELS, EyeView, Vision
 
 __all__ = ["BinocularSaccadeEnv"]
 
@@ -187,13 +187,15 @@ class BinocularSaccadeEnv(gym.Env):
         plan, clipped = self._plan(h, v, dist_factor)
         pre = self._views
         R = plan.efference_copy_eye
-        per_eye = self.vision.predict_eyes(pre, self.remap_models, R)
+        values, valid = self.vision.predict_arrays(pre, self.remap_models, R)
         self.head.start_saccade(plan)
         self.head.step_ms(plan.end_ms - self.head.time_ms + self.fixation_ms)
         self._see()
-        errors = model_errors(per_eye, self._views)
-        chosen = [p[self.remap_model] for p in per_eye]
-        self._remapped = self._cortical([np.where(p.mask[..., None], p.periphery, 0.0) for p in chosen])
+        per_eye_errors = self.vision.errors(values, valid, self._views)
+        errors = {m: float(e) for m, e in zip(self.remap_models, per_eye_errors.mean(axis=0))}
+        g = self.vision.grid
+        chosen = values[:, self.remap_models.index(self.remap_model), g.n_fovea:]  # invalid cells hold 0
+        self._remapped = self._cortical(list(chosen.reshape(2, g.M, g.N, -1)))
         reward, success, tinfo = self.task.score(self.head)
         self._saccades += 1
         terminated = bool(success)
@@ -226,7 +228,7 @@ class BinocularSaccadeEnv(gym.Env):
     # ------------------------------------------------------------------ helpers
     def _see(self) -> None:
         self._frame = self.head.render()
-        self._views = (self.vision.see(self._frame.left.image), self.vision.see(self._frame.right.image))
+        self._views = self.vision.see_eyes((self._frame.left.image, self._frame.right.image))
 
     def _cortical(self, per_eye: list[np.ndarray]) -> np.ndarray:
         if self.cortex == "eyes":

@@ -34,20 +34,39 @@ class EyeView:
     mask: NDArray[np.bool_]
     fovea_mask: NDArray[np.bool_]
 
+    @property
+    def samples(self) -> NDArray[np.float64]:
+        """All samples in retina order, (N_f + M N, C): the fovea, then the periphery [k, l]."""
+        return _retina_vector(self.fovea, self.periphery)
+
+    @property
+    def valid(self) -> NDArray[np.bool_]:
+        """``fovea_mask`` then ``mask``, in retina order (N_f + M N,)."""
+        return np.concatenate([self.fovea_mask, self.mask.ravel()])
+
+
+def _retina_vector(fovea: NDArray, periphery: NDArray) -> NDArray:
+    m, n = periphery.shape[:2]
+    c = int(np.prod(periphery.shape[2:]))
+    return np.concatenate([fovea.reshape(-1, c), periphery.reshape(m * n, c)])
+
 
 def normalized_error(pred: C.RetinaSamples, actual: EyeView) -> float:
     """RMS difference over cells valid in both, divided by the RMS contrast of the actual samples.
 
     0 is a perfect prediction; 1 is as bad as predicting the mean. NaN when no cell is valid.
     """
-    m = pred.mask & actual.mask
-    fm = pred.fovea_mask & actual.fovea_mask
-    a = np.concatenate([actual.periphery[m].ravel(), actual.fovea[fm].ravel()])
-    p = np.concatenate([pred.periphery[m].ravel(), pred.fovea[fm].ravel()])
-    if a.size == 0:
-        return float("nan")
-    contrast = float(np.sqrt(np.mean((a - a.mean()) ** 2)))
-    return float(np.sqrt(np.mean((p - a) ** 2)) / max(contrast, 1e-12))
+    values = _retina_vector(np.asarray(pred.fovea), np.asarray(pred.periphery))[None, None]
+    valid = np.concatenate([pred.fovea_mask, pred.mask.ravel()])[None, None]
+    return float(_errors(values, valid, actual.samples[None], actual.valid)[0, 0])
+
+
+def _errors(values: NDArray, valid: NDArray, actual: NDArray, actual_valid: NDArray) -> NDArray[np.float64]:
+    """``normalized_error`` for (E, K) predictions at once (compiled): values (E, K, P, C),
+    valid (E, K, P), actual (E, P, C), actual_valid (P,)."""
+    out = np.empty(values.shape[:2])
+    C.kernels.normalized_errors(values, valid, actual, actual_valid, out)
+    return out
 
 
 class Vision:
@@ -90,18 +109,32 @@ class Vision:
         self.image_shape = (h, w)
         self.pixels_per_unit = float(pixels_per_unit)
         self.shift_rings = float(shift_rings)
+        self.plan = C.RemapPlan(self.grid)
 
     # ------------------------------------------------------------------ frames
     def see(self, image: NDArray) -> EyeView:
         """Sample one eye's (H, W, 3) uint8 (or float in [0, 1]) image and take its DPFT."""
-        img = np.asarray(image)
-        s = self.retina.sample(img)
-        fov, per = s.fovea, s.periphery
-        if img.dtype == np.uint8:  # scale the few samples, not the whole picture (sampling is linear)
-            fov, per = fov * (1.0 / 255.0), per * (1.0 / 255.0)
+        return self.see_eyes((image,))[0]
+
+    def see_eyes(self, images) -> tuple[EyeView, ...]:
+        """``see`` for several eyes' images at once (one DPFT call for all of them)."""
+        imgs = [np.asarray(im) for im in images]
+        if not imgs:
+            raise ValueError("see_eyes needs at least one image")
+        # scale the few samples, not the whole picture (sampling is linear)
+        scale = 1.0 / 255.0 if imgs[0].dtype == np.uint8 else 1.0
+        if any((im.dtype == np.uint8) != (scale != 1.0) for im in imgs):
+            raise ValueError("the eyes' images must all be uint8 or all be float")
+        samples = self.retina.sample_many(imgs, scale)  # (E, N_f + M N, 3)
         if self.grayscale:
-            fov, per = fov.mean(axis=-1, keepdims=True), per.mean(axis=-1, keepdims=True)
-        return EyeView(fov, per, C.dpft(per, self.grid), s.mask, s.fovea_mask)
+            samples = samples.mean(axis=-1, keepdims=True)
+        g, n_f = self.grid, self.grid.n_fovea
+        n_eyes, chans = len(imgs), samples.shape[-1]
+        periphery = samples[:, n_f:].reshape(n_eyes, g.M, g.N, chans)
+        stacked = periphery.transpose(1, 2, 0, 3).reshape(g.M, g.N, n_eyes * chans)  # eyes side by side as channels
+        coeffs = C.dpft(stacked, g).reshape(g.M, g.N, n_eyes, chans)
+        mask, fovea_mask = self.retina.mask, self.retina.fovea_mask
+        return tuple(EyeView(samples[e, :n_f], periphery[e], coeffs[:, :, e], mask, fovea_mask) for e in range(n_eyes))
 
     # ------------------------------------------------------------------ remapping
     def point_map(self, model: str, rotation_eye: NDArray[np.float64]):
@@ -125,22 +158,33 @@ class Vision:
     def predict_models(
         self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64]
     ) -> dict[str, C.RetinaSamples]:
-        """``predict`` for several remapping models at once (one shared series evaluation)."""
+        """``predict`` for several remapping models at once."""
         return self.predict_eyes((view,), models, (rotation_eye,))[0]
 
     def predict_eyes(
         self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye
     ) -> list[dict[str, C.RetinaSamples]]:
-        """``predict_models`` for several eyes, each with its own efference copy.
+        """``predict_models`` for several eyes, each with its own efference copy: [eye]{model: samples}."""
+        values, valid = self.predict_arrays(views, models, rotations_eye)
+        return [dict(zip(models, per_eye)) for per_eye in self.plan.samples(values, valid)]
 
-        The series is evaluated in single precision (~1e-6 relative: far below the retina's
-        sampling error, and a few times faster than double).
-        """
-        out = []
-        for view, R in zip(views, rotations_eye):
-            maps = [self.point_map(m, R) for m in models]
-            out.append(dict(zip(models, C.predict_many(view.coeffs, view.fovea, self.grid, maps, dtype=np.float32))))
-        return out
+    def predict_arrays(
+        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye
+    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+        """The predictions as arrays in retina order: values (E, K, N_f + M N, C) float32 and
+        valid (E, K, N_f + M N), for E eyes and the K ``models`` (``conformal.RemapPlan``).
+
+        The series is evaluated exactly in single precision (~1e-6 relative: far below the
+        retina's sampling error)."""
+        maps = [[self.point_map(m, R) for m in models] for R in rotations_eye]
+        coeffs = np.stack([v.coeffs for v in views])
+        fovea = np.stack([v.fovea for v in views])
+        return self.plan(coeffs, fovea, maps)
+
+    def errors(self, values: NDArray, valid: NDArray, views: tuple[EyeView, ...]) -> NDArray[np.float64]:
+        """(E, K) ``normalized_error`` of ``predict_arrays``' output against the actual views."""
+        actual = np.stack([v.samples for v in views])
+        return _errors(values, valid, actual, views[0].valid)
 
 
 def model_errors(

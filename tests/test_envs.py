@@ -253,6 +253,33 @@ def test_remapping_errors_are_honest_for_horizontal_saccades():
     g.close()
 
 
+def test_reported_remap_errors_are_the_double_precision_reference():
+    """``info["remap_error"]`` (compiled, single precision) equals the errors recomputed with the
+    numpy path: ``predict_many`` in double precision and the error formula written out."""
+    e = envs.BinocularSaccadeEnv(scene="natural", task="free", image_size=64)
+    e.reset(seed=3)
+    action = np.array([0.25, -0.1], np.float32)
+    pre = e._views
+    plan, _ = e._plan(*e._decode(action))
+    _, _, _, _, info = e.step(action)
+    post = e._views
+    ref = {}
+    for k, model in enumerate(e.remap_models):
+        per_eye = []
+        for eye in range(2):
+            pm = e.vision.point_map(model, plan.efference_copy_eye[eye])
+            p = C.predict_many(pre[eye].coeffs, pre[eye].fovea, e.vision.grid, [pm])[0]
+            m = p.mask & post[eye].mask
+            fm = p.fovea_mask & post[eye].fovea_mask
+            a = np.concatenate([post[eye].periphery[m].ravel(), post[eye].fovea[fm].ravel()])
+            q = np.concatenate([p.periphery[m].ravel(), p.fovea[fm].ravel()])
+            per_eye.append(np.sqrt(np.mean((q - a) ** 2)) / np.sqrt(np.mean((a - a.mean()) ** 2)))
+        ref[model] = np.mean(per_eye)
+    for model in e.remap_models:
+        assert abs(info["remap_error"][model] - ref[model]) < 1e-5 * max(1.0, ref[model]), model
+    e.close()
+
+
 def test_remapped_observation_predicts_the_next_cortical_one():
     e = envs.BinocularSaccadeEnv(scene="natural", task="free", image_size=64)
     e.reset(seed=0)
