@@ -56,7 +56,7 @@ from .sampling import Retina, RetinaSamples, pixel_points
 from .shift import log_radius_shift
 
 __all__ = [
-    "BinocularCortex", "MobiusMap", "OffGridEvaluator", "ProjectiveMap", "RemapPlan", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
+    "BinocularCortex", "MobiusMap", "kernels", "OffGridEvaluator", "ProjectiveMap", "RemapPlan", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
     "act", "apply_homography", "binocular_cortex", "check_rotation", "check_sl2", "compose", "cortical_map", "dpft",
     "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "fovea_dft", "fovea_idft",
     "fovea_image", "fovea_indices", "h_matrix", "hemifields", "homography_map", "idpft",
