@@ -1,18 +1,18 @@
 """Compiled inner loops (numba) of the per-frame pipeline.
 
-Each kernel is the tight loop of an operation whose plain numpy form stays in the package as
-the reference the tests compare it with:
+Each kernel is the tight loop of an operation that the tests check against an independent
+reference:
 
 * ``pool_picture``: one sparse receptive-field operator times a picture of any dtype, read in
   place (scipy would first copy a uint8 picture to float64, which costs more than the product).
-  Reference: ``Retina.operator @ picture``.
-* ``map_points``, ``tabulate_angles``, ``contract_rings``: the efference-copy point maps and
-  the mirror series of eq. ``dppcc'`` at the mapped points: the angular sum as one BLAS
-  product with a factor table, the sum over rings by a recurrence (points last throughout,
-  so the loops vectorise).
-  Reference: ``predict_many`` (numpy point maps, ``OffGridEvaluator``).
+  Reference: scipy's ``Retina.operator @ picture``.
+* ``series_table``, ``map_points``, ``tabulate_angles``, ``contract_rings``: the efference-copy
+  point maps and the mirror series of eq. ``dppcc'`` at the mapped points (for
+  ``RemapPlan``): the angular sum as one BLAS product with a factor table, the sum over rings
+  by a recurrence (points last throughout, so the loops vectorise). Reference: the direct sum
+  ``evaluate_direct`` at the maps' images, and ``predict_many``.
 * ``normalized_errors``: the normalized RMS error of predictions against actual samples.
-  Reference: ``envs.vision.normalized_error``.
+  Reference: the formula written out in numpy (``tests/test_remap_plan.py``).
 
 Kernels are compiled on first use and cached on disk (numba ``cache=True``), so a new process
 pays only for loading them. They hold no Python objects and release the GIL.
