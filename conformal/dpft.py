@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .geometry import act, inverse
 from .grid import RetinaGrid
+from .kernels import series_table
 
 __all__ = [
     "dpft",
@@ -303,29 +304,71 @@ class OffGridEvaluator:
         """The mirror series for real images: DCT-II in u, real FFT in theta (a quarter of the work).
 
         value[p, c] = sum_m cu[m, p] sum_n (cos(n y_p) Re D[m, n, c] - sin(n y_p) Im D[m, n, c])
-        with D the DCT-II (in u) of the real FFT (in theta) of the samples: one real matrix
-        product over n, then a sum over m along rows of length P (points last: contiguous).
+        with D the weighted DCT-II (in u) of the real FFT (in theta) of the samples
+        (``_mirror_series``): one real matrix product over n, then a sum over m along rows of
+        length P (points last: contiguous).
         """
-
-        f = idpft(F, self.grid)
-        chans = f.shape[2:]
+        chans = F.shape[2:]
         c = int(np.prod(chans)) if chans else 1
         m = self.grid.M
-        D = scipy.fft.dct(np.fft.rfft(f.reshape(m, self.grid.N, c), axis=1), type=2, axis=0)  # (M, nh, C)
-        Dr = np.concatenate([D.real, D.imag], axis=1).transpose(2, 0, 1).reshape(c * m, -1)  # (C M, 2 nh)
-        t = (Dr.astype(self.dtype, copy=False) @ self._cs).reshape(c, m, -1)  # (C, M, P)
-        t *= self._cu
-        vals = t.sum(axis=1).T.astype(np.float64)  # (P, C)
+        D = _mirror_series(F.reshape(1, m, self.grid.N, c), self.grid, self.dtype)[0]  # (M C, 2 nh)
+        t = (D @ self._cs).reshape(m, c, -1)  # (M, C, P)
+        t *= self._cu[:, None, :]
+        vals = t.sum(axis=0).T.astype(np.float64)  # (P, C)
         return vals.reshape(self.shape + chans)
+
+
+@lru_cache(maxsize=32)
+def _mirror_map(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """The linear map from DPFT coefficients F to the weighted mirror-series coefficients, per grid.
+
+    The series of the samples f = Re idpft(F) takes their real FFT in theta and their DCT-II in
+    u. Composed: with H = A F (A = DCT-II . diag(e^{-u_k} / w) . IDFT_M . diag(conj alpha_m),
+    alpha_m beta_n the DPFT phase of eq. ``dpft``), D[m, q] = (H[m, q] conj(beta_q) +
+    conj(H[m, -q]) beta_{-q}) / 2 for q = 0..N/2, with the series weights (1/M, 1/2M at m = 0;
+    2/N, 1/N at q = 0 and N/2) folded in. Returns A, the two q-factors and the indices -q mod N.
+    """
+    m_, n_ = grid.M, grid.N
+    nh = n_ // 2 + 1
+    k = np.arange(m_)
+    dct = 2 * np.cos(np.pi * np.outer(k, 2 * k + 1) / (2 * m_))  # scipy's DCT-II, rows m, columns k
+    idft = np.exp(2j * np.pi * np.outer(k, k) / m_) / m_  # rows k, columns m'
+    alpha = np.exp(-2j * np.pi * k * grid.u[0] / grid.T)
+    beta = np.exp(-1j * np.arange(n_) * grid.theta[0])
+    scale = _tables(grid)[3] / _weight(grid)  # e^{-u_k} / w
+    wm = np.full(m_, 1.0 / m_)
+    wm[0] *= 0.5
+    A = wm[:, None] * (dct @ (scale[:, None] * idft)) * np.conj(alpha)[None, :]
+    wn = np.full(nh, 2.0 / n_)
+    wn[0] = 1.0 / n_
+    if n_ % 2 == 0:
+        wn[-1] = 1.0 / n_
+    q = np.arange(nh)
+    neg = (-q) % n_
+    out = (A, wn * np.conj(beta[q]) / 2, wn * beta[neg] / 2, neg)
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+def _mirror_series(coeffs: NDArray, grid: RetinaGrid, dtype) -> NDArray:
+    """The weighted real coefficients of the mirror series of E pictures' DPFT coefficients
+    (E, M, N, C): (E, M C, 2 nh) of ``dtype``, row m C + c holding the cosine then the sine
+    coefficients of the angular frequencies q = 0..N/2 (compiled gather: ``kernels.series_table``)."""
+    A, b1, b2, neg = _mirror_map(grid)
+    e, c = coeffs.shape[0], coeffs.shape[3]
+    H = (A @ coeffs.reshape(e, grid.M, grid.N * c)).reshape(e, grid.M, grid.N, c)
+    out = np.empty((e, grid.M * c, 2 * len(b1)), dtype)
+    series_table(H, b1, b2, neg, out)
+    return out
 
 
 def _mirror_tables(
     grid: RetinaGrid, u: NDArray[np.float64], y: NDArray[np.float64], dtype: np.dtype
 ) -> tuple[NDArray, NDArray]:
-    """Factor tables of the mirror series at points (u, y), points last: the DCT-II basis in the
-    fractional ring index (M, P) (with its 1/M and half weight at m = 0), and [cos(n y); -sin(n y)]
-    (2 (N/2 + 1), P) with the Hermitian weights 2 (1 at n = 0 and N/2) and 1/N. One cosine call
-    builds both."""
+    """Factor tables of the mirror series at points (u, y), points last: the DCT-II basis
+    cos(m t) in the fractional ring index (M, P) and [cos(n y); -sin(n y)] (2 (N/2 + 1), P).
+    One cosine call builds both; the series' weights are in ``_mirror_series``."""
     m_, n_ = grid.M, grid.N
     nh = n_ // 2 + 1
     t = ((u - grid.u[0]) * (math.pi / (m_ * grid.delta)) + math.pi / (2 * m_)).astype(dtype)  # pi (2t+1)/2M
@@ -334,13 +377,6 @@ def _mirror_tables(
     np.multiply.outer(np.arange(nh, dtype=dtype), y.astype(dtype), out=ang[m_ : m_ + nh])
     np.add(ang[m_ : m_ + nh], dtype.type(math.pi / 2), out=ang[m_ + nh :])  # cos(x + pi/2) = -sin(x)
     np.cos(ang, out=ang)
-    wm = np.full(m_, 1.0 / m_)
-    wm[0] *= 0.5
-    wn = np.full(nh, 2.0 / n_)
-    wn[0] = 1.0 / n_
-    if n_ % 2 == 0:
-        wn[-1] = 1.0 / n_
-    ang *= np.concatenate([wm, wn, wn]).astype(dtype)[:, None]
     return ang[:m_], ang[m_:]
 
 

@@ -49,6 +49,15 @@ def rotation_matrix(axis: ArrayLike, angle: float) -> NDArray[np.float64]:
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
+def _fixed_matrix(x: ArrayLike, shape: tuple[int, int], dtype: type, name: str) -> NDArray:
+    """A read-only copy of a finite matrix of ``shape`` (a point map's parameters)."""
+    m = np.array(x, dtype=dtype)
+    if m.shape != shape or not np.all(np.isfinite(m)):
+        raise ValueError(f"{name} must be a finite {shape[0]}x{shape[1]} matrix; got shape {m.shape}")
+    m.setflags(write=False)
+    return m
+
+
 class ProjectiveMap:
     """z -> H . z for a real 3x3 homography H acting on (Re z, Im z, 1) (see ``apply_homography``).
 
@@ -60,12 +69,8 @@ class ProjectiveMap:
     kind = KIND_PROJECTIVE
 
     def __init__(self, H: ArrayLike) -> None:
-        h = np.array(H, dtype=float)
-        if h.shape != (3, 3) or not np.all(np.isfinite(h)):
-            raise ValueError(f"H must be a finite 3x3 matrix; got shape {h.shape}")
-        h.setflags(write=False)
-        self.matrix = h
-        self.params = h.ravel().copy()
+        self.matrix = _fixed_matrix(H, (3, 3), float, "H")
+        self.params = self.matrix.ravel().copy()
 
     def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
         h = self.matrix
@@ -86,12 +91,8 @@ class MobiusMap:
     kind = KIND_MOBIUS
 
     def __init__(self, g: ArrayLike) -> None:
-        m = np.array(g, dtype=complex)
-        if m.shape != (2, 2) or not np.all(np.isfinite(m)):
-            raise ValueError(f"g must be a finite 2x2 matrix; got shape {m.shape}")
-        m.setflags(write=False)
-        self.matrix = m
-        a, b, c, d = m.ravel()
+        self.matrix = _fixed_matrix(g, (2, 2), complex, "g")
+        a, b, c, d = self.matrix.ravel()
         self.params = np.array([a.real, a.imag, b.real, b.imag, c.real, c.imag, d.real, d.imag, 0.0])
 
     def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:

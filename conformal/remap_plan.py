@@ -5,7 +5,7 @@ points, the foveal lattice for points landing in the old fovea), organised for a
 frames on one grid:
 
 * everything that depends only on the grid is built once: the output points, the linear map
-  from DPFT coefficients to the series' coefficients, the foveal lattice indices;
+  from DPFT coefficients to the series' coefficients (``dpft._mirror_map``), the foveal lattice indices;
 * per frame, one compiled pass maps the points (``kernels.map_points``), one tabulates the
   angular factors (``kernels.tabulate_angles``), one batched BLAS product sums over the
   angular frequencies and one compiled pass over the rings (``kernels.contract_rings``).
@@ -24,10 +24,10 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .dpft import _tables, _weight
+from .dpft import _mirror_series
 from .fovea import fovea_indices
 from .grid import RetinaGrid
-from .kernels import contract_rings, map_points, series_table, tabulate_angles
+from .kernels import contract_rings, map_points, tabulate_angles
 from .remap import MobiusMap, ProjectiveMap
 from .sampling import RetinaSamples
 
@@ -47,14 +47,13 @@ class RemapPlan:
     """
 
     def __init__(self, grid: RetinaGrid, *, on: RetinaGrid | None = None) -> None:
-        if not isinstance(grid, RetinaGrid) or not isinstance(on if on is not None else grid, RetinaGrid):
-            raise ValueError("grid (and on) must be RetinaGrid objects")
         self.grid = grid
         self.on = grid if on is None else on
+        if not (isinstance(self.grid, RetinaGrid) and isinstance(self.on, RetinaGrid)):
+            raise ValueError("grid (and on) must be RetinaGrid objects")
         z = np.concatenate([self.on.fovea_points, self.on.points.ravel()])
         self._zr, self._zi = np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag)
         self.n_points = len(z)
-        self._series_map = _series_map(grid)
         self._fovea_rows, self._fovea_cols, self._fovea_size = fovea_indices(grid)
         self._scratch: dict[tuple[int, int], tuple[NDArray, ...]] = {}
 
@@ -63,14 +62,7 @@ class RemapPlan:
         """The weighted real coefficients of the mirror series, (E, M C, J) float32 with
         J = 2 (N/2 + 1): row m C + c (ring-frequency m, channel c) holds the cosine then the
         sine coefficients of the angular frequencies (as ``OffGridEvaluator``'s real matrix path)."""
-        A, b1, b2, neg = self._series_map
-        g = self.grid
-        F = np.asarray(coeffs)
-        e, c = F.shape[0], F.shape[3]
-        H = (A @ F.reshape(e, g.M, g.N * c)).reshape(e, g.M, g.N, c)
-        out = np.empty((e, g.M * c, 2 * len(b1)), np.float32)
-        series_table(H, b1, b2, neg, out)
-        return out
+        return _mirror_series(np.asarray(coeffs), self.grid, np.float32)
 
     def __call__(
         self, coeffs: ArrayLike, fovea: ArrayLike, maps: Sequence[Sequence[ProjectiveMap | MobiusMap]]
@@ -153,32 +145,3 @@ class RemapPlan:
             nh = self.grid.N // 2 + 1
             self._scratch[key] = (np.empty((n_eyes, 2 * nh, cols), np.float32), *(np.empty((n_eyes, cols)) for _ in range(3)))
         return self._scratch[key]
-
-
-def _series_map(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """The linear map from DPFT coefficients F to the weighted mirror-series coefficients.
-
-    ``OffGridEvaluator``'s real matrix path takes the samples f = Re idpft(F), their real FFT
-    in theta and their DCT-II in u. Composed: with H = A F (A = DCT-II . diag(e^{-u_k} / w) .
-    IDFT_M . diag(conj alpha_m), alpha_m beta_n the DPFT phase of eq. ``dpft``),
-    D[m, q] = (H[m, q] conj(beta_q) + conj(H[m, -q]) beta_{-q}) / 2 for q = 0..N/2, then the
-    series weights (1/M, 1/2M at m = 0; 2/N, 1/N at q = 0 and N/2) folded in.
-    """
-    m_, n_ = grid.M, grid.N
-    nh = n_ // 2 + 1
-    k = np.arange(m_)
-    dct = 2 * np.cos(np.pi * np.outer(k, 2 * k + 1) / (2 * m_))  # scipy's DCT-II, rows m, columns k
-    idft = np.exp(2j * np.pi * np.outer(k, k) / m_) / m_  # rows k, columns m'
-    alpha = np.exp(-2j * np.pi * k * grid.u[0] / grid.T)
-    beta = np.exp(-1j * np.arange(n_) * grid.theta[0])
-    scale = _tables(grid)[3] / _weight(grid)  # e^{-u_k} / w
-    wm = np.full(m_, 1.0 / m_)
-    wm[0] *= 0.5
-    A = wm[:, None] * (dct @ (scale[:, None] * idft)) * np.conj(alpha)[None, :]
-    wn = np.full(nh, 2.0 / n_)
-    wn[0] = 1.0 / n_
-    if n_ % 2 == 0:
-        wn[-1] = 1.0 / n_
-    q = np.arange(nh)
-    neg = (-q) % n_
-    return A, wn * np.conj(beta[q]) / 2, wn * beta[neg] / 2, neg

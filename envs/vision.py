@@ -122,9 +122,10 @@ class Vision:
         if not imgs:
             raise ValueError("see_eyes needs at least one image")
         # scale the few samples, not the whole picture (sampling is linear)
-        scale = 1.0 / 255.0 if imgs[0].dtype == np.uint8 else 1.0
-        if any((im.dtype == np.uint8) != (scale != 1.0) for im in imgs):
+        is_uint8 = [im.dtype == np.uint8 for im in imgs]
+        if any(is_uint8) and not all(is_uint8):
             raise ValueError("the eyes' images must all be uint8 or all be float")
+        scale = 1.0 / 255.0 if is_uint8[0] else 1.0
         samples = self.retina.sample_many(imgs, scale)  # (E, N_f + M N, 3)
         if self.grayscale:
             samples = samples.mean(axis=-1, keepdims=True)
