@@ -1,6 +1,8 @@
 """Turski's conformal camera: geometry, exp-polar retina, DPFT, remapping and cortex.
 
-Pure math on numpy arrays; never imports MuJoCo, so it works on any image.
+Pure math on numpy arrays; never imports MuJoCo, so it works on any image. Every public function
+checks its arguments (``conformal.checks``): bad input raises a ``ValueError`` or ``TypeError``
+naming the argument, and sizes are bounded.
 Equation names refer to the ``\\label``s of the paper (J. Turski, *Geometric Analysis of the
 Conformal Camera for Intermediate-Level Vision and Perisaccadic Perception*).
 """
@@ -39,7 +41,7 @@ from .geometry import (
     transform_image,
 )
 from .grid import RetinaGrid
-from . import kernels
+from . import checks, kernels
 from .remap import (
     MobiusMap,
     ProjectiveMap,
@@ -54,10 +56,11 @@ from .remap import (
 from .remap_plan import RemapPlan
 from .sampling import Retina, RetinaSamples, pixel_points
 from .shift import log_radius_shift
+from .threads import blas_threads
 
 __all__ = [
-    "BinocularCortex", "MobiusMap", "kernels", "OffGridEvaluator", "ProjectiveMap", "RemapPlan", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
-    "act", "apply_homography", "binocular_cortex", "check_rotation", "check_sl2", "compose", "cortical_map", "dpft",
+    "BinocularCortex", "MobiusMap", "checks", "kernels", "OffGridEvaluator", "ProjectiveMap", "RemapPlan", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
+    "act", "apply_homography", "binocular_cortex", "blas_threads", "check_rotation", "check_sl2", "compose", "cortical_map", "dpft",
     "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "fovea_dft", "fovea_idft",
     "fovea_image", "fovea_indices", "h_matrix", "hemifields", "homography_map", "idpft",
     "idpft_direct", "inverse", "k_matrix", "lift_to_sphere", "log_radius_shift", "mobius_for_rotation",

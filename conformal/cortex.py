@@ -19,17 +19,26 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import checks
 from .grid import RetinaGrid
 
 __all__ = ["hemifields", "cortical_map", "binocular_cortex", "BinocularCortex", "schwartz_map"]
 
 
-def _check(samples: ArrayLike, grid: RetinaGrid) -> NDArray:
-    f = np.asarray(samples)
-    if f.ndim not in (2, 3) or f.shape[:2] != (grid.M, grid.N):
-        raise ValueError(f"samples must have shape (M, N[, C]) = ({grid.M}, {grid.N}[, C]); got {f.shape}")
+def _check_grid(grid: RetinaGrid) -> RetinaGrid:
+    if not isinstance(grid, RetinaGrid):
+        raise checks.InputTypeError(f"grid must be a RetinaGrid; got {type(grid).__name__}")
     if grid.N % 4:
         raise ValueError(f"the vertical-meridian split needs N divisible by 4; got N = {grid.N}")
+    return grid
+
+
+def _check(samples: ArrayLike, grid: RetinaGrid, name: str = "samples") -> NDArray:
+    """Finite numeric (M, N[, C]) samples on ``grid`` (N divisible by 4)."""
+    _check_grid(grid)
+    f = checks.array(name, samples, kinds="biufc", ndim=(2, 3))
+    if f.shape[:2] != (grid.M, grid.N):
+        raise ValueError(f"{name} must have shape (M, N[, C]) = ({grid.M}, {grid.N}[, C]); got {f.shape}")
     return f
 
 
@@ -65,6 +74,15 @@ class BinocularCortex:
     left_hemisphere: NDArray
     right_hemisphere: NDArray
 
+    def __post_init__(self) -> None:
+        lh = checks.array("left_hemisphere", self.left_hemisphere, kinds="biufc", ndim=(3, 4))
+        rh = checks.array("right_hemisphere", self.right_hemisphere, kinds="biufc", ndim=(3, 4))
+        if lh.shape[0] != 2 or lh.shape != rh.shape:
+            raise ValueError("left_hemisphere and right_hemisphere must both have shape (2, M, N/2[, C]) "
+                             f"(axis 0: the eye); got {lh.shape} and {rh.shape}")
+        object.__setattr__(self, "left_hemisphere", lh)
+        object.__setattr__(self, "right_hemisphere", rh)
+
     def image(self) -> NDArray:
         """(2 * N/2, 2M[, C]) picture: the left eye's pasted map above the right eye's."""
         rows = []
@@ -76,9 +94,15 @@ class BinocularCortex:
 
 
 def binocular_cortex(left_eye: ArrayLike, right_eye: ArrayLike, grid: RetinaGrid) -> BinocularCortex:
-    """Route both eyes' samples to the hemispheres (the optic chiasm of §2.2)."""
-    lr, ll = hemifields(left_eye, grid)
-    rr, rl = hemifields(right_eye, grid)
+    """Route both eyes' samples to the hemispheres (the optic chiasm of §2.2).
+
+    Both eyes' samples must be finite and of the same shape (M, N[, C])."""
+    left = _check(left_eye, grid, "left_eye")
+    right = _check(right_eye, grid, "right_eye")
+    if left.shape != right.shape:
+        raise ValueError(f"left_eye and right_eye must have the same shape; got {left.shape} and {right.shape}")
+    lr, ll = hemifields(left, grid)
+    rr, rl = hemifields(right, grid)
     return BinocularCortex(left_hemisphere=np.stack([lr, rr]), right_hemisphere=np.stack([ll, rl]))
 
 
@@ -88,10 +112,8 @@ def schwartz_map(z: ArrayLike, a: float) -> NDArray[np.complex128]:
     The left hemifield is its mirror image, w = -(ln(-z + a) - ln a), so the two half-maps
     meet at w = 0 along the vertical meridian.
     """
-    if not np.isfinite(a) or a <= 0:
-        raise ValueError(f"a must be positive; got {a!r}")
-    zz = np.asarray(z, dtype=complex)
-    if not np.all(np.isfinite(zz)):
-        raise ValueError("z contains NaN or infinite points")
+    a = checks.real("a", a, 0.0, None, lo_open=True)
+    zz = checks.array("z", z, kinds="biufc").astype(complex)
     right = zz.real >= 0
-    return np.where(right, np.log(zz + a) - np.log(a), -(np.log(-zz + a) - np.log(a)))
+    with np.errstate(divide="ignore", invalid="ignore"):  # the branch not taken may hit log(0)
+        return np.where(right, np.log(zz + a) - np.log(a), -(np.log(-zz + a) - np.log(a)))

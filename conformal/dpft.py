@@ -27,6 +27,7 @@ import numpy as np
 import scipy.fft
 from numpy.typing import ArrayLike, NDArray
 
+from . import checks
 from .geometry import act, inverse
 from .grid import RetinaGrid
 from .kernels import series_table
@@ -46,17 +47,30 @@ __all__ = [
 ]
 
 
-def _check_samples(a: ArrayLike, grid: RetinaGrid, name: str, complex_ok: bool = False) -> NDArray:
+def _check_grid(grid: RetinaGrid, name: str = "grid") -> RetinaGrid:
     if not isinstance(grid, RetinaGrid):
-        raise ValueError(f"grid must be a RetinaGrid; got {type(grid).__name__}")
-    x = np.asarray(a)
-    if x.dtype.kind not in ("biufc" if complex_ok else "biuf"):
-        raise ValueError(f"{name} must be a {'complex' if complex_ok else 'real'} numeric array; got dtype {x.dtype}")
-    if x.ndim not in (2, 3) or x.shape[:2] != (grid.M, grid.N):
+        raise checks.InputTypeError(f"{name} must be a RetinaGrid; got {type(grid).__name__}")
+    return grid
+
+
+def _check_samples(a: ArrayLike, grid: RetinaGrid, name: str, complex_ok: bool = False) -> NDArray:
+    _check_grid(grid)
+    x = checks.array(name, a, kinds="biufc" if complex_ok else "biuf", ndim=(2, 3))
+    if x.shape[:2] != (grid.M, grid.N):
         raise ValueError(f"{name} must have shape (M, N[, C]) = ({grid.M}, {grid.N}[, C]); got {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError(f"{name} contains NaN or infinite values")
+    if x.dtype == np.float16:  # scipy.fft and numba work in single or double precision
+        x = x.astype(np.float32)
     return x
+
+
+#: The direct (reference) sums build an (M N) x (M N) kernel: at most this many samples M N.
+MAX_DIRECT_SAMPLES = 3000
+
+
+def _check_direct(grid: RetinaGrid) -> None:
+    if grid.M * grid.N > MAX_DIRECT_SAMPLES:
+        raise ValueError(f"the direct sum builds an (M N)^2 kernel; M N = {grid.M * grid.N} exceeds "
+                         f"{MAX_DIRECT_SAMPLES}: use the FFT version (dpft / idpft) for this grid")
 
 
 def _expand(v: NDArray, ndim: int) -> NDArray:
@@ -86,6 +100,7 @@ def _phase(grid: RetinaGrid) -> NDArray[np.complex128]:
 
 def pft_frequencies(grid: RetinaGrid) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """The PFT arguments (s_m, n) that F_{m,n} approximates: s_m = 2 pi m / T, m = 0..M-1."""
+    _check_grid(grid)
     return 2 * math.pi * np.arange(grid.M) / grid.T, np.arange(grid.N)
 
 
@@ -105,6 +120,7 @@ def idpft(coeffs: ArrayLike, grid: RetinaGrid, *, real: bool = True) -> NDArray:
 
     With ``real=True`` (default) returns the real part, as for real images.
     """
+    real = checks.flag("real", real)
     F = _check_samples(coeffs, grid, "coeffs", complex_ok=True)
     lp = scipy.fft.ifft2(F * _expand(_tables(grid)[1], F.ndim), axes=(0, 1))
     f = lp * _expand(_tables(grid)[3], F.ndim) / _weight(grid)
@@ -112,8 +128,9 @@ def idpft(coeffs: ArrayLike, grid: RetinaGrid, *, real: bool = True) -> NDArray:
 
 
 def dpft_direct(samples: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
-    """Eq. ``dpft`` as a direct O((MN)^2) sum; the slow reference for ``dpft``."""
+    """Eq. ``dpft`` as a direct O((MN)^2) sum; the slow reference for ``dpft`` (M N <= 3000)."""
     f = _check_samples(samples, grid, "samples")
+    _check_direct(grid)
     z = grid.points.ravel()
     m = np.arange(grid.M)
     n = np.arange(grid.N)
@@ -128,8 +145,9 @@ def dpft_direct(samples: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
 
 
 def idpft_direct(coeffs: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
-    """Eq. ``idpft`` as a direct sum (complex result); the slow reference for ``idpft``."""
+    """Eq. ``idpft`` as a direct sum (complex result); the slow reference for ``idpft`` (M N <= 3000)."""
     F = _check_samples(coeffs, grid, "coeffs", complex_ok=True)
+    _check_direct(grid)
     z = grid.points.ravel()
     m = np.arange(grid.M)
     n = np.arange(grid.N)
@@ -142,13 +160,10 @@ def idpft_direct(coeffs: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
 
 
 # ---------------------------------------------------------------------- off-grid evaluation
-def _check_points(z: ArrayLike) -> NDArray[np.complex128]:
-    zz = np.asarray(z)
-    if zz.dtype.kind not in "biufc":
-        raise ValueError(f"points must be numeric; got dtype {zz.dtype}")
-    zz = zz.astype(complex)
+def _check_points(z: ArrayLike, name: str = "points") -> NDArray[np.complex128]:
+    zz = checks.array(name, z, kinds="biufc", finite=False).astype(complex)
     if not np.all(np.isfinite(zz)):
-        raise ValueError("points contain NaN or infinity; the log-polar series is not defined there")
+        raise ValueError(f"{name} contain NaN or infinity; the log-polar series is not defined there")
     if np.any(zz == 0):
         raise ValueError("points contain z = 0, where log-polar coordinates are singular")
     return zz
@@ -185,8 +200,7 @@ def _series(F: NDArray, grid: RetinaGrid, extension: str) -> NDArray[np.complex1
 
 
 def _check_extension(extension: str) -> None:
-    if extension not in EXTENSIONS:
-        raise ValueError(f"extension must be one of {EXTENSIONS}; got {extension!r}")
+    checks.choice("extension", extension, EXTENSIONS)
 
 
 class OffGridEvaluator:
@@ -213,6 +227,7 @@ class OffGridEvaluator:
     vectorised). The NUFFT and complex paths always run in double precision.
     ``inside`` marks points whose log-radius lies within the sampled annulus (half a ring
     beyond the first and last sample centres); outside it the series is not the image.
+    ``eps``: the NUFFT's requested relative precision, in [1e-15, 1e-2].
     """
 
     def __init__(
@@ -225,13 +240,12 @@ class OffGridEvaluator:
         extension: str = "mirror",
         dtype: type = np.float64,
     ) -> None:
-        if method not in ("auto", "nufft", "matrix"):
-            raise ValueError(f"method must be 'auto', 'nufft' or 'matrix'; got {method!r}")
-        dtype = np.dtype(dtype)
-        if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
-            raise ValueError(f"dtype must be float64 or float32; got {dtype}")
+        _check_grid(grid)
+        checks.choice("method", method, ("auto", "nufft", "matrix"))
+        dtype = _check_float_dtype(dtype)
         self.dtype = dtype
         _check_extension(extension)
+        eps = checks.real("eps", eps, 1e-15, 1e-2)
         zp = _check_points(points)
         self.grid = grid
         self.extension = extension
@@ -280,6 +294,7 @@ class OffGridEvaluator:
         return self._plans[n_trans]
 
     def __call__(self, coeffs: ArrayLike, *, real: bool = True) -> NDArray:
+        real = checks.flag("real", real)
         F = _check_samples(coeffs, self.grid, "coeffs", complex_ok=True)
         if real and self.method == "matrix" and self.extension == "mirror":
             return self._real_mirror(F)
@@ -316,6 +331,17 @@ class OffGridEvaluator:
         t *= self._cu[:, None, :]
         vals = t.sum(axis=0).T.astype(np.float64)  # (P, C)
         return vals.reshape(self.shape + chans)
+
+
+def _check_float_dtype(dtype) -> np.dtype:
+    """np.float64 or np.float32 (also as their names or dtypes); anything else raises."""
+    try:
+        dt = np.dtype(dtype) if dtype is not None else None
+    except TypeError:
+        dt = None
+    if dt is None or dt not in (np.dtype(np.float64), np.dtype(np.float32)):  # (np.dtype(float) == None!)
+        raise checks.InputTypeError(f"dtype must be float64 or float32 (np.float64 or np.float32); got {dtype!r}")
+    return dt
 
 
 @lru_cache(maxsize=32)
@@ -395,6 +421,7 @@ def evaluate_direct(
     coeffs: ArrayLike, grid: RetinaGrid, points: ArrayLike, *, real: bool = True, extension: str = "mirror"
 ) -> NDArray:
     """The same series as ``evaluate`` by a direct sum over all (m, n); the slow reference."""
+    real = checks.flag("real", real)
     F = _check_samples(coeffs, grid, "coeffs", complex_ok=True)
     _check_extension(extension)
     zp = _check_points(points)
@@ -420,9 +447,21 @@ def transform(
     coeffs: ArrayLike, grid: RetinaGrid, g: ArrayLike, *, real: bool = True, extension: str = "mirror"
 ) -> NDArray:
     """Samples of the transformed image f(g^{-1} . z) on the grid, from coefficients alone (eq. ``dppcc'``)."""
+    _check_grid(grid)
     return evaluate(coeffs, grid, act(inverse(g), grid.points), real=real, extension=extension)
 
 
 def warp(coeffs: ArrayLike, grid: RetinaGrid, point_map, *, real: bool = True, extension: str = "mirror") -> NDArray:
-    """Samples of f(w(z)) on the grid for any point map ``w`` (e.g. a homography), from coefficients."""
-    return evaluate(coeffs, grid, point_map(grid.points), real=real, extension=extension)
+    """Samples of f(w(z)) on the grid for any point map ``w`` (e.g. a homography), from coefficients.
+
+    ``point_map`` takes the (M, N) complex grid points and must return finite, non-zero points of
+    the same shape (``ValueError`` otherwise: use ``predict`` for maps that leave the image)."""
+    _check_samples(coeffs, grid, "coeffs", complex_ok=True)
+    checks.callable_("point_map", point_map)
+    w = checks.array("point_map's result", point_map(grid.points), kinds="biufc", finite=False)
+    if w.shape != grid.points.shape:
+        raise ValueError(f"point_map must return one point per grid point, shape {grid.points.shape}; got {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise ValueError("point_map returned NaN or infinite points (e.g. behind the eye or at a pole); warp "
+                         "needs a map defined at every grid point: use conformal.predict, which masks them")
+    return evaluate(coeffs, grid, w, real=real, extension=extension)

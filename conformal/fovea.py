@@ -13,15 +13,22 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import checks
 from .grid import RetinaGrid
 
 __all__ = ["fovea_indices", "fovea_image", "fovea_dft", "fovea_idft"]
 
 
-@lru_cache(maxsize=32)
 def fovea_indices(grid: RetinaGrid) -> tuple[NDArray[np.intp], NDArray[np.intp], int]:
     """(row, col) of each foveal sample in the P x P lattice picture (row 0 on top), and P.
     Computed once per grid (read-only arrays)."""
+    if not isinstance(grid, RetinaGrid):
+        raise checks.InputTypeError(f"grid must be a RetinaGrid; got {type(grid).__name__}")
+    return _fovea_indices(grid)
+
+
+@lru_cache(maxsize=32)
+def _fovea_indices(grid: RetinaGrid) -> tuple[NDArray[np.intp], NDArray[np.intp], int]:
     p = grid.fovea_points / grid.fovea_spacing
     half = int(np.ceil(max(np.abs(p.real).max(), np.abs(p.imag).max())))
     size = 2 * half
@@ -33,17 +40,20 @@ def fovea_indices(grid: RetinaGrid) -> tuple[NDArray[np.intp], NDArray[np.intp],
 
 
 def _check(fovea: ArrayLike, grid: RetinaGrid) -> NDArray:
-    f = np.asarray(fovea)
-    if f.dtype.kind not in "biufc" or f.ndim not in (1, 2) or f.shape[0] != grid.n_fovea:
+    if not isinstance(grid, RetinaGrid):
+        raise checks.InputTypeError(f"grid must be a RetinaGrid; got {type(grid).__name__}")
+    f = checks.array("fovea", fovea, kinds="biufc", ndim=(1, 2))
+    if f.shape[0] != grid.n_fovea:
         raise ValueError(f"fovea samples must have shape (N_f[, C]) = ({grid.n_fovea}[, C]); got {f.shape}")
-    if not np.all(np.isfinite(f)):
-        raise ValueError("fovea samples contain NaN or infinite values")
     return f
 
 
 def fovea_image(fovea: ArrayLike, grid: RetinaGrid, *, outside: float = 0.0) -> NDArray:
-    """The foveal samples as a P x P[ x C] picture (lattice points outside the disc hold ``outside``)."""
+    """The foveal samples as a P x P[ x C] picture (lattice points outside the disc hold ``outside``:
+    a finite number, or NaN to mark them)."""
     f = _check(fovea, grid)
+    if not (isinstance(outside, (float, np.floating)) and np.isnan(outside)):
+        outside = checks.real("outside", outside, hint="or NaN")
     row, col, size = fovea_indices(grid)
     img = np.full((size, size) + f.shape[1:], outside, dtype=np.result_type(f.dtype, float))
     img[row, col] = f
@@ -57,8 +67,9 @@ def fovea_dft(fovea: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
 
 def fovea_idft(coeffs: ArrayLike, grid: RetinaGrid, *, real: bool = True) -> NDArray:
     """Inverse of ``fovea_dft``: the N_f foveal samples back."""
-    c = np.asarray(coeffs)
+    real = checks.flag("real", real)
     row, col, size = fovea_indices(grid)
+    c = checks.array("coeffs", coeffs, kinds="biufc", ndim=(2, 3))
     if c.shape[:2] != (size, size):
         raise ValueError(f"foveal coefficients must have shape ({size}, {size}[, C]); got {c.shape}")
     img = np.fft.ifft2(c, axes=(0, 1))

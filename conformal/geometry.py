@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import checks
+
 __all__ = [
     "project",
     "lift_to_sphere",
@@ -36,29 +38,31 @@ __all__ = [
 ]
 
 SPHERE_CENTRE = np.array([0.0, 1.0, 0.0])
-"""Centre (x1, x2, x3) of the unit sphere S^2_(0,1,0) on which j is the stereographic projection."""
+SPHERE_CENTRE.setflags(write=False)
+"""Centre (x1, x2, x3) of the unit sphere S^2_(0,1,0) on which j is the stereographic projection (read-only)."""
 
 _POLE_TOL = 1e-12
 _EYE3 = np.eye(3)
 
 
 def _as_points(x: ArrayLike, name: str) -> NDArray[np.float64]:
-    p = np.asarray(x, dtype=float)
+    p = checks.array(name, x, kinds="biuf")
     if p.shape[-1:] != (3,):
         raise ValueError(f"{name} must have shape (..., 3) as (x1, x2, x3); got {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError(f"{name} contains NaN or infinite coordinates")
-    return p
+    return p.astype(float)
 
 
 def _as_z(z: ArrayLike, name: str = "z") -> NDArray[np.complex128]:
-    zz = np.asarray(z)
-    if zz.dtype.kind not in "biufc":
-        raise ValueError(f"{name} must be numeric (complex image-plane points); got dtype {zz.dtype}")
-    zz = zz.astype(complex)
-    if not np.all(np.isfinite(zz)):
-        raise ValueError(f"{name} contains NaN or infinite points; the point at infinity is not a valid input")
-    return zz
+    """Finite image-plane points as complex (the point at infinity is not a valid input)."""
+    return checks.array(name, z, kinds="biufc").astype(complex)
+
+
+def _finite_result(w: NDArray, what: str) -> NDArray:
+    """``w`` unless some value overflowed the floating-point range (then ``ValueError``)."""
+    if not np.all(np.isfinite(w)):
+        raise ValueError(f"{what} sends some points beyond the floating-point range (|z| > 1e308); "
+                         "use smaller coordinates")
+    return w
 
 
 def project(points: ArrayLike) -> NDArray[np.complex128]:
@@ -71,7 +75,8 @@ def project(points: ArrayLike) -> NDArray[np.complex128]:
     x2 = p[..., 1]
     if np.any(np.abs(x2) < _POLE_TOL):
         raise ValueError("points with x2 = 0 project to infinity (they lie in the plane of the nodal point)")
-    return (p[..., 2] + 1j * p[..., 0]) / x2
+    with np.errstate(over="ignore"):
+        return _finite_result((p[..., 2] + 1j * p[..., 0]) / x2, "the projection")
 
 
 def lift_to_sphere(z: ArrayLike) -> NDArray[np.float64]:
@@ -81,22 +86,31 @@ def lift_to_sphere(z: ArrayLike) -> NDArray[np.float64]:
     again at t = 2 / (1 + |z|^2). Returns points (..., 3) as (x1, x2, x3).
     """
     zz = _as_z(z)
-    t = 2.0 / (1.0 + np.abs(zz) ** 2)
-    return np.stack([t * zz.imag, t, t * zz.real], axis=-1)
+    with np.errstate(over="ignore"):  # |z|^2 = inf gives t = 0: the nodal point, correctly
+        t = 2.0 / (1.0 + np.abs(zz) ** 2)
+        return np.stack([t * zz.imag, t, t * zz.real], axis=-1)
+
+
+#: Rounding allowance of the determinant test, relative to |a d| + |b c| (the size of the two
+#: products whose difference is the determinant): a product of k unimodular matrices (``compose``)
+#: keeps its determinant to about k * 2.2e-16 of that size, so this admits products of ~10^5 factors.
+_DET_RELATIVE_TOL = 1e-10
 
 
 def check_sl2(g: ArrayLike, name: str = "g", tol: float = 1e-9) -> NDArray[np.complex128]:
-    """Validate a 2x2 complex matrix of determinant 1 (an element of SL(2, C))."""
-    m = np.asarray(g)
-    if m.shape != (2, 2):
-        raise ValueError(f"{name} must be a 2x2 matrix; got shape {m.shape}")
-    if m.dtype.kind not in "biufc":
-        raise ValueError(f"{name} must be numeric; got dtype {m.dtype}")
-    m = m.astype(complex)
-    if not np.all(np.isfinite(m)):
-        raise ValueError(f"{name} contains NaN or infinite entries")
-    det = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
-    if abs(det - 1.0) > tol:
+    """Validate a finite 2x2 complex matrix of determinant 1 (an element of SL(2, C)).
+
+    The determinant must be 1 within ``tol`` (in (0, 0.01]) plus a rounding allowance of 1e-10
+    times |a d| + |b c|, so that matrices with large entries (and products of many matrices,
+    see ``compose``) whose determinant is 1 up to floating-point rounding are accepted.
+    """
+    if not isinstance(name, str):
+        raise checks.InputTypeError(f"name must be a string; got {type(name).__name__}")
+    tol = checks.real("tol", tol, 0.0, 0.01, lo_open=True)
+    m = checks.array(name, g, kinds="biufc", shape=(2, 2)).astype(complex)
+    ad, bc = m[0, 0] * m[1, 1], m[0, 1] * m[1, 0]
+    det = ad - bc
+    if not abs(det - 1.0) <= tol + _DET_RELATIVE_TOL * (abs(ad) + abs(bc)):
         raise ValueError(
             f"{name} is not unimodular (det = {det:.6g}, must be 1); divide it by sqrt(det) to normalise"
         )
@@ -111,14 +125,16 @@ def act(g: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:
     """
     a, b, c, d = check_sl2(g).ravel()
     zz = _as_z(z)
-    den = b * zz + a
-    if np.any(np.abs(den) < _POLE_TOL):
-        raise ValueError("some points are sent to infinity by g (b z + a = 0, i.e. z = -a/b)")
-    return (d * zz + c) / den
+    with np.errstate(over="ignore", invalid="ignore"):
+        den = b * zz + a
+        if np.any(np.abs(den) < _POLE_TOL):
+            raise ValueError("some points are sent to infinity by g (b z + a = 0, i.e. z = -a/b)")
+        return _finite_result((d * zz + c) / den, "g")
 
 
 def transform_image(f, g: ArrayLike):
     """The image projective transformation f -> f(g^{-1} . z) (eq. ``IPT``), as a new function of z."""
+    checks.callable_("f", f)
     g_inv = inverse(g)
 
     def transformed(z: ArrayLike):
@@ -128,10 +144,18 @@ def transform_image(f, g: ArrayLike):
 
 
 def compose(*gs: ArrayLike) -> NDArray[np.complex128]:
-    """Composition in PSL(2, C): ``compose(g1, g2)`` acts as g1 . (g2 . z)."""
+    """Composition in PSL(2, C): ``compose(g1, g2)`` acts as g1 . (g2 . z).
+
+    The product's determinant is 1 up to rounding relative to the size of its entries, which
+    ``check_sl2`` (and so ``act``) accepts; a product that overflows raises ``ValueError``.
+    """
     out = np.eye(2, dtype=complex)
-    for i, g in enumerate(gs):
-        out = out @ check_sl2(g, f"g{i + 1}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i, g in enumerate(gs):
+            out = out @ check_sl2(g, f"g{i + 1}")
+    if not np.all(np.isfinite(out)):
+        raise ValueError("the product of the matrices overflows the floating-point range; compose fewer or "
+                         "smaller matrices")
     return out
 
 
@@ -148,9 +172,7 @@ def k_matrix(psi: float, phi: float, psi2: float) -> NDArray[np.complex128]:
     R = ``euler_rotation(psi, phi, psi2)`` a rotation of S^2 about its centre (0, 1, 0).
     (The printed linear-fractional form, eq. ``lfk``, is not used: it disagrees with eq. ``k``.)
     """
-    for name, v in (("psi", psi), ("phi", phi), ("psi2", psi2)):
-        if not np.isfinite(v):
-            raise ValueError(f"{name} must be finite; got {v}")
+    psi, phi, psi2 = (checks.real(n, v) for n, v in (("psi", psi), ("phi", phi), ("psi2", psi2)))
     cp, sp = np.cos(phi / 2), np.sin(phi / 2)
     return np.array(
         [
@@ -166,9 +188,7 @@ def h_matrix(b1: float, b2: float, b3: float) -> NDArray[np.complex128]:
     Under eq. ``lft1`` it equals j o T_b o (j|_{x2=1})^{-1}: z -> (z + b3 + i b1) / (1 + b2).
     For 1 + b2 < 0 the square root is imaginary (the paper's epsilon A N-bar coset).
     """
-    for name, v in (("b1", b1), ("b2", b2), ("b3", b3)):
-        if not np.isfinite(v):
-            raise ValueError(f"{name} must be finite; got {v}")
+    b1, b2, b3 = (checks.real(n, v) for n, v in (("b1", b1), ("b2", b2), ("b3", b3)))
     if abs(1.0 + b2) < _POLE_TOL:
         raise ValueError("b2 = -1 translates the image plane into the nodal plane (x2 = 0); not allowed")
     s = np.sqrt(complex(1.0 + b2))
@@ -195,6 +215,7 @@ def euler_rotation(psi: float, phi: float, psi2: float) -> NDArray[np.float64]:
     action (eq. ``lft1``) the senses are clockwise (negative) when viewed along the axis, so
     R = Rot_x2(-psi) Rot_x3(-phi) Rot_x2(-psi') (intrinsic composition).
     """
+    psi, phi, psi2 = (checks.real(n, v) for n, v in (("psi", psi), ("phi", phi), ("psi2", psi2)))
     return _axis_rotation(1, -psi) @ _axis_rotation(2, -phi) @ _axis_rotation(1, -psi2)
 
 
@@ -226,9 +247,9 @@ def mobius_from_points(z: ArrayLike, w: ArrayLike) -> NDArray[np.complex128]:
 
 def check_rotation(R: ArrayLike, name: str = "R") -> NDArray[np.float64]:
     """Validate a proper 3x3 rotation matrix (finite, orthogonal to 1e-6, det +1)."""
-    r = np.asarray(R, dtype=float)
-    if r.shape != (3, 3) or not np.all(np.isfinite(r)):
-        raise ValueError(f"{name} must be a finite 3x3 rotation matrix; got shape {r.shape}")
+    if not isinstance(name, str):
+        raise checks.InputTypeError(f"name must be a string; got {type(name).__name__}")
+    r = checks.array(name, R, kinds="biuf", shape=(3, 3)).astype(float)
     (a, b, c), (d, e, f), (g, h, i) = r.tolist()
     det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
     if det < 0 or np.abs(r @ r.T - _EYE3).max() > 1e-6:
@@ -273,11 +294,25 @@ def rotation_homography(R: ArrayLike) -> NDArray[np.float64]:
 
 
 def apply_homography(H: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:
-    """Apply a 3x3 homography acting on (Re z, Im z, 1) to image-plane points ``z``."""
-    h = np.asarray(H, dtype=float)
+    """Apply a 3x3 homography acting on (Re z, Im z, 1) to image-plane points ``z``.
+
+    ``H`` must be a finite, real, invertible 3x3 matrix; points sent to infinity (homogeneous
+    weight 0) raise ``ValueError``.
+    """
+    h = _check_homography(H)
     zz = _as_z(z)
     x, y = zz.real, zz.imag
-    w = h[2, 0] * x + h[2, 1] * y + h[2, 2]
-    if np.any(np.abs(w) < _POLE_TOL):
-        raise ValueError("some points are sent to infinity by the homography (they leave the eye's front)")
-    return ((h[0, 0] * x + h[0, 1] * y + h[0, 2]) + 1j * (h[1, 0] * x + h[1, 1] * y + h[1, 2])) / w
+    with np.errstate(over="ignore", invalid="ignore"):
+        w = h[2, 0] * x + h[2, 1] * y + h[2, 2]
+        if np.any(np.abs(w) < _POLE_TOL):
+            raise ValueError("some points are sent to infinity by the homography (they leave the eye's front)")
+        out = ((h[0, 0] * x + h[0, 1] * y + h[0, 2]) + 1j * (h[1, 0] * x + h[1, 1] * y + h[1, 2])) / w
+    return _finite_result(out, "the homography")
+
+
+def _check_homography(H: ArrayLike, name: str = "H") -> NDArray[np.float64]:
+    """Validate a finite, real, invertible 3x3 homography (acting on (Re z, Im z, 1))."""
+    h = checks.array(name, H, kinds="biuf", shape=(3, 3)).astype(float)
+    if not np.linalg.cond(h) < 1e12:  # (cond is inf for a zero matrix)
+        raise ValueError(f"{name} must be invertible (a singular homography collapses the plane onto a line)")
+    return h

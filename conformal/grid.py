@@ -11,16 +11,29 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+from . import checks
 
 __all__ = ["RetinaGrid"]
 
+#: Bounds on a grid's size (so that no argument allocates without limit). The paper's Example
+#: has M = 37 rings, N = 64 sectors and 296 foveal samples; a retina for a 2048-pixel image
+#: with a 30-degree fovea has N of about 5,300.
+MAX_RINGS = 4096
+MAX_SECTORS = 8192
+MAX_PERIPHERAL_SAMPLES = 2**22  # M * N (the (M, N) complex sample positions: 64 MiB)
+MAX_FOVEAL_SAMPLES = 2**20
+#: The log-radial period T = M delta is at most this (r_b / r0 = e^T <= e^100).
+MAX_LOG_PERIOD = 100.0
+#: Lengths (r0, fovea spacing) in image-plane units (|z| = tan(eccentricity)) are at most this.
+MAX_LENGTH = 1e6
+#: Pictures given to ``from_picture`` are at most this many pixels per side.
+MAX_PICTURE_SIDE = 65536
 
-def _positive(name: str, value: float) -> float:
-    v = float(value)
-    if not math.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be a positive finite number; got {value!r}")
-    return v
+
+def _positive(name: str, value: float, hi: float | None = MAX_LENGTH) -> float:
+    return checks.real(name, value, 0.0, hi, lo_open=True)
 
 
 @dataclass(frozen=True)
@@ -29,11 +42,14 @@ class RetinaGrid:
 
     Attributes
     ----------
-    r0 : radius of the foveal disc (= r_a, the removed disc), image-plane units.
-    delta : log-radial spacing, u_{k+1} - u_k.
-    M : number of rings.  N : number of sectors.
-    fovea_spacing : spacing 1/K of the uniform foveal lattice.
-    n_fovea : number of foveal samples N_f.
+    r0 : radius of the foveal disc (= r_a, the removed disc), image-plane units, in (0, 1e6].
+    delta : log-radial spacing, u_{k+1} - u_k, in (0, 100] with M delta <= 100.
+    M : number of rings, an integer in [2, 4096].  N : number of sectors, an integer in [2, 8192];
+        M N <= 2**22.
+    fovea_spacing : spacing 1/K of the uniform foveal lattice, in (0, 1e6].
+    n_fovea : number of foveal samples N_f, an integer in [1, 2**20].
+
+    The bounds (module constants ``MAX_*``) keep every derived array bounded in memory.
     """
 
     r0: float
@@ -46,18 +62,18 @@ class RetinaGrid:
     _derived: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        _positive("r0", self.r0)
-        _positive("delta", self.delta)
-        _positive("fovea_spacing", self.fovea_spacing)
-        for name in ("M", "N"):
-            v = getattr(self, name)
-            if int(v) != v or v < 2:
-                raise ValueError(f"{name} must be an integer >= 2; got {v!r}")
-        if int(self.n_fovea) != self.n_fovea or self.n_fovea < 1:
-            raise ValueError(f"n_fovea must be a positive integer; got {self.n_fovea!r}")
-        object.__setattr__(self, "M", int(self.M))
-        object.__setattr__(self, "N", int(self.N))
-        object.__setattr__(self, "n_fovea", int(self.n_fovea))
+        object.__setattr__(self, "r0", _positive("r0", self.r0))
+        object.__setattr__(self, "delta", _positive("delta", self.delta, MAX_LOG_PERIOD))
+        object.__setattr__(self, "fovea_spacing", _positive("fovea_spacing", self.fovea_spacing))
+        object.__setattr__(self, "M", checks.integer("M (rings)", self.M, 2, MAX_RINGS))
+        object.__setattr__(self, "N", checks.integer("N (sectors)", self.N, 2, MAX_SECTORS))
+        object.__setattr__(self, "n_fovea", checks.integer("n_fovea", self.n_fovea, 1, MAX_FOVEAL_SAMPLES))
+        if self.M * self.N > MAX_PERIPHERAL_SAMPLES:
+            raise ValueError(f"M * N = {self.M} * {self.N} peripheral samples exceeds {MAX_PERIPHERAL_SAMPLES}; "
+                             "use fewer rings or sectors")
+        if self.M * self.delta > MAX_LOG_PERIOD:
+            raise ValueError(f"the log-radial period M * delta = {self.M * self.delta:.4g} exceeds {MAX_LOG_PERIOD:g} "
+                             "(r_b / r0 = e^(M delta)); use fewer rings or a smaller delta")
         object.__setattr__(self, "_fovea_points", self._make_fovea_points())
         self._fovea_points.setflags(write=False)
         # the sample geometry, computed once (read-only: a grid is immutable)
@@ -91,29 +107,27 @@ class RetinaGrid:
         ``r0_decimals``: round r0 to this many decimals before the other rules, as the paper's
         Example does (r0 = 2.427, giving its delta = 0.09804); default: unrounded (0.098053).
         """
-        for name, v in (("width", width), ("height", height), ("foveal_pixels", foveal_pixels)):
-            if int(v) != v or v < 1:
-                raise ValueError(f"{name} must be a positive integer; got {v!r}")
-        k = _positive("dots_per_unit", dots_per_unit)
+        width = checks.integer("width", width, 1, MAX_PICTURE_SIDE)
+        height = checks.integer("height", height, 1, MAX_PICTURE_SIDE)
+        foveal_pixels = checks.integer("foveal_pixels", foveal_pixels, 1, MAX_FOVEAL_SAMPLES)
+        k = _positive("dots_per_unit", dots_per_unit, 1e9)
+        extent = checks.choice("extent", extent, ("diagonal", "inscribed"))
         r0 = math.sqrt(foveal_pixels / math.pi) / k
         if r0_decimals is not None:
-            if int(r0_decimals) != r0_decimals or not 0 <= r0_decimals <= 15:
-                raise ValueError(f"r0_decimals must be an integer in 0..15 or None; got {r0_decimals!r}")
-            r0 = round(r0, int(r0_decimals))
+            r0_decimals = checks.integer("r0_decimals", r0_decimals, 0, 15, hint="or None")
+            r0 = round(r0, r0_decimals)
             if r0 <= 0:
                 raise ValueError(f"r0 rounds to 0 at {r0_decimals} decimals; use more decimals")
         if extent == "diagonal":
             rb = math.hypot(width, height) / (2 * k)
-        elif extent == "inscribed":
-            rb = min(width, height) / (2 * k)
         else:
-            raise ValueError(f"extent must be 'diagonal' or 'inscribed'; got {extent!r}")
+            rb = min(width, height) / (2 * k)
         if r0 >= rb:
             raise ValueError(f"the fovea (r0 = {r0:.4g}) must be smaller than the picture (r_b = {rb:.4g})")
         n = int(round(2 * math.pi * r0 * k + math.pi))
         delta = math.log(1 + 1 / (r0 * k))
-        m = int(round(math.log(rb / r0) / delta))
-        return cls(r0=r0, delta=delta, M=max(m, 2), N=n, fovea_spacing=1 / k, n_fovea=int(foveal_pixels))
+        m = int(round((math.log(rb) - math.log(r0)) / delta))
+        return cls(r0=r0, delta=delta, M=max(m, 2), N=n, fovea_spacing=1 / k, n_fovea=foveal_pixels)
 
     @classmethod
     def from_field_of_view(cls, rb: float, r0: float, n_sectors: int = 64) -> "RetinaGrid":
@@ -123,25 +137,22 @@ class RetinaGrid:
         (N = 2 pi r0 K + pi), so cells at the fovea's edge are about square and the foveal
         lattice has the same density: N_f = [pi r0^2 K^2].
         """
-        rb = _positive("rb", rb)
+        rb = _positive("rb", rb, None)
         r0 = _positive("r0", r0)
         if r0 >= rb:
             raise ValueError(f"r0 = {r0:.4g} must be smaller than rb = {rb:.4g}")
-        if int(n_sectors) != n_sectors or n_sectors < 4:
-            raise ValueError(f"n_sectors must be an integer >= 4; got {n_sectors!r}")
+        n_sectors = checks.integer("n_sectors", n_sectors, 4, MAX_SECTORS)
         k = (n_sectors - math.pi) / (2 * math.pi * r0)
         delta = math.log(1 + 1 / (r0 * k))
-        m = max(int(round(math.log(rb / r0) / delta)), 2)
-        n_f = max(int(round(math.pi * r0**2 * k**2)), 1)
-        return cls(r0=r0, delta=delta, M=m, N=int(n_sectors), fovea_spacing=1 / k, n_fovea=n_f)
+        m = max(int(round((math.log(rb) - math.log(r0)) / delta)), 2)
+        n_f = max(int(round(math.pi * (r0 * k) ** 2)), 1)
+        return cls(r0=r0, delta=delta, M=m, N=n_sectors, fovea_spacing=1 / k, n_fovea=n_f)
 
     @classmethod
     def from_angles(cls, field_deg: float, fovea_deg: float = 1.0, n_sectors: int = 64) -> "RetinaGrid":
         """``from_field_of_view`` with eccentricities in degrees: rb = tan(field), r0 = tan(fovea)."""
-        f = _positive("field_deg", field_deg)
-        fo = _positive("fovea_deg", fovea_deg)
-        if f >= 90:
-            raise ValueError(f"field_deg must be below 90 degrees; got {field_deg}")
+        f = checks.real("field_deg", field_deg, 0.0, 90.0, lo_open=True, hi_open=True)
+        fo = checks.real("fovea_deg", fovea_deg, 0.0, 90.0, lo_open=True, hi_open=True)
         return cls.from_field_of_view(math.tan(math.radians(f)), math.tan(math.radians(fo)), n_sectors)
 
     # ------------------------------------------------------------------ derived quantities
@@ -209,9 +220,11 @@ class RetinaGrid:
         e = self.ring_edges
         return math.pi / self.N * (e[1:] ** 2 - e[:-1] ** 2)
 
-    def locate(self, z: NDArray[np.complex128]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-        """Ring and sector indices (k, l) of points z; k is -1 inside the fovea and M beyond rb."""
-        zz = np.asarray(z, dtype=complex)
+    def locate(self, z: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """Ring and sector indices (k, l) of finite points z; k is -1 inside the fovea and M beyond rb.
+
+        NaN or infinite points raise ``ValueError`` (they lie in no cell)."""
+        zz = checks.array("z", z, kinds="biufc").astype(complex)
         r = np.abs(zz)
         with np.errstate(divide="ignore"):
             k = np.floor(np.log(np.maximum(r, 1e-300) / self.r0) / self.delta).astype(np.intp)

@@ -21,6 +21,7 @@ pays only for loading them. They hold no Python objects and release the GIL.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numba as nb
 import numpy as np
@@ -33,8 +34,35 @@ __all__ = [
 KIND_PROJECTIVE = 0  # params: the 3x3 matrix H row-major, acting on (Re z, Im z, 1)
 KIND_MOBIUS = 1  # params: a, b, c, d (re, im) of g . z = (d z + c) / (b z + a), then 0
 
+
+
+def _cache_probe() -> int:  # pragma: no cover - compiled only if ever called
+    return 0
+
+
+def _disk_cache_available() -> bool:
+    """Whether numba can cache this module's kernels on disk.
+
+    numba looks for a writable ``__pycache__`` beside this file, then for a user-wide cache
+    (``NUMBA_CACHE_DIR``, ``$XDG_CACHE_HOME`` or ``~/.cache``); a read-only install with no
+    writable home has neither, and ``cache=True`` would then fail at import. Without a cache the
+    kernels are compiled in every new process (about 2.5 s) instead.
+    """
+    try:
+        nb.njit(cache=True)(_cache_probe)
+    except RuntimeError as e:  # numba: "cannot cache function ...: no locator available"
+        warnings.warn(f"conformal: numba cannot cache compiled kernels on disk ({e}); they will be compiled "
+                      "in every process (about 2.5 s). Set NUMBA_CACHE_DIR to a writable folder to cache them.",
+                      RuntimeWarning, stacklevel=2)
+        return False
+    return True
+
+
+#: True when the kernels are cached on disk (see ``_disk_cache_available``).
+DISK_CACHE = _disk_cache_available()
+
 # Reassociation lets the sums vectorise; no "nnan"/"ninf": the kernels test for poles.
-_jit = nb.njit(cache=True, nogil=True, fastmath={"reassoc", "contract", "arcp", "nsz"})
+_jit = nb.njit(cache=DISK_CACHE, nogil=True, fastmath={"reassoc", "contract", "arcp", "nsz"})
 
 _POLE_TOL = 1e-12  # as conformal.geometry
 

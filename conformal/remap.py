@@ -26,9 +26,10 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .dpft import OffGridEvaluator
+from . import checks
+from .dpft import OffGridEvaluator, _check_float_dtype, _check_grid, _check_samples
 from .fovea import fovea_image
-from .geometry import _POLE_TOL, check_rotation, rotation_homography
+from .geometry import _POLE_TOL, _check_homography, check_rotation, rotation_homography
 from .grid import RetinaGrid
 from .kernels import KIND_MOBIUS, KIND_PROJECTIVE
 from .sampling import RetinaSamples
@@ -39,23 +40,28 @@ PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
 
 
 def rotation_matrix(axis: ArrayLike, angle: float) -> NDArray[np.float64]:
-    """Right-handed rotation by ``angle`` about unit ``axis`` (Rodrigues), coordinates (x1, x2, x3)."""
-    n = np.asarray(axis, dtype=float)
-    norm = np.linalg.norm(n)
-    if not np.isfinite(angle) or norm == 0 or not np.isfinite(norm):
-        raise ValueError("axis must be a finite non-zero vector and angle finite")
-    n = n / norm
+    """Right-handed rotation by ``angle`` (radians) about ``axis`` (a finite non-zero 3-vector,
+    normalised here; Rodrigues), coordinates (x1, x2, x3)."""
+    n = checks.array("axis", axis, kinds="biuf", shape=(3,)).astype(float)
+    angle = checks.real("angle", angle)
+    scale = np.abs(n).max()
+    if scale == 0:
+        raise ValueError("axis must be a non-zero vector")
+    n = n / scale
+    n = n / np.linalg.norm(n)
     K = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
-def _fixed_matrix(x: ArrayLike, shape: tuple[int, int], dtype: type, name: str) -> NDArray:
-    """A read-only copy of a finite matrix of ``shape`` (a point map's parameters)."""
-    m = np.array(x, dtype=dtype)
-    if m.shape != shape or not np.all(np.isfinite(m)):
-        raise ValueError(f"{name} must be a finite {shape[0]}x{shape[1]} matrix; got shape {m.shape}")
+def _fixed(m: NDArray) -> NDArray:
+    """A read-only copy (a point map's parameters)."""
+    m = m.copy()
     m.setflags(write=False)
     return m
+
+
+def _map_input(z: ArrayLike) -> NDArray[np.complex128]:
+    return checks.array("z", z, kinds="biufc").astype(complex)
 
 
 class ProjectiveMap:
@@ -69,12 +75,12 @@ class ProjectiveMap:
     kind = KIND_PROJECTIVE
 
     def __init__(self, H: ArrayLike) -> None:
-        self.matrix = _fixed_matrix(H, (3, 3), float, "H")
+        self.matrix = _fixed(_check_homography(H, "H (a finite real invertible 3x3 matrix)"))
         self.params = self.matrix.ravel().copy()
 
     def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
         h = self.matrix
-        zz = np.asarray(z, dtype=complex)
+        zz = _map_input(z)
         x, y = zz.real, zz.imag
         w = h[2, 0] * x + h[2, 1] * y + h[2, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -91,13 +97,17 @@ class MobiusMap:
     kind = KIND_MOBIUS
 
     def __init__(self, g: ArrayLike) -> None:
-        self.matrix = _fixed_matrix(g, (2, 2), complex, "g")
+        m = checks.array("g (a finite invertible 2x2 matrix)", g, kinds="biufc", shape=(2, 2)).astype(complex)
+        ad, bc = m[0, 0] * m[1, 1], m[0, 1] * m[1, 0]
+        if not abs(ad - bc) > 1e-12 * (abs(ad) + abs(bc)):
+            raise ValueError("g must be invertible (a d - b c != 0): a singular g sends every point to one point")
+        self.matrix = _fixed(m)
         a, b, c, d = self.matrix.ravel()
         self.params = np.array([a.real, a.imag, b.real, b.imag, c.real, c.imag, d.real, d.imag, 0.0])
 
     def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
         a, b, c, d = self.matrix.ravel()
-        zz = np.asarray(z, dtype=complex)
+        zz = _map_input(z)
         den = b * zz + a
         with np.errstate(divide="ignore", invalid="ignore"):
             out = (d * zz + c) / den
@@ -136,10 +146,13 @@ def mobius_map(R: ArrayLike) -> MobiusMap:
 def target_shift_map(z_target: complex, shift: float, delta: float) -> MobiusMap:
     """z_new -> z_old = z_target + e^{shift delta} z: §6.5's remap into the target-centred frame.
 
-    An affine map, so a ``MobiusMap`` (normalised to determinant 1)."""
-    zt = complex(z_target)
-    if not (math.isfinite(zt.real) and math.isfinite(zt.imag) and math.isfinite(shift) and math.isfinite(delta)):
-        raise ValueError("z_target, shift and delta must be finite")
+    An affine map, so a ``MobiusMap`` (normalised to determinant 1). ``delta`` (the grid's ring
+    spacing) is in (0, 100] and the scale e^{shift delta} within e^{+-40}."""
+    zt = complex(checks.array("z_target", z_target, kinds="biufc", shape=()))
+    shift = checks.real("shift", shift)
+    delta = checks.real("delta", delta, 0.0, 100.0, lo_open=True)
+    if abs(shift * delta) > 40:
+        raise ValueError(f"shift * delta = {shift * delta:.4g}: the scale e^(shift delta) must lie within e^(+-40)")
     root = math.exp(shift * delta / 2)  # sqrt of the scale
     return MobiusMap(np.array([[1 / root, 0], [zt / root, root]]))
 
@@ -179,18 +192,34 @@ def predict(
 
 
 def _map_points(point_map: PointMap, z: NDArray[np.complex128]) -> NDArray[np.complex128]:
-    """w(z), with NaN where the map sends a point to infinity (behind the eye)."""
+    """w(z), with NaN where the map sends a point to infinity (behind the eye).
+
+    A map that raises ``ValueError`` on the whole array is evaluated point by point (points where
+    it raises become NaN); one that returns another shape or non-numbers raises."""
     with np.errstate(all="ignore"):
         try:
-            return np.asarray(point_map(z), dtype=complex)
+            w = point_map(z)
+        except checks.InputTypeError:
+            raise
         except ValueError:
-            w = np.full(z.shape, np.nan + 0j)
-            for i, zi in enumerate(z):
-                try:
-                    w[i] = complex(np.asarray(point_map(np.array([zi])))[0])
-                except ValueError:
-                    pass
-            return w
+            w = None
+        if w is not None:
+            w = checks.array("a point map's result", w, kinds="biufc", finite=False)
+            if w.shape != z.shape:
+                raise ValueError(f"a point map must return one point per input point, shape {z.shape}; got {w.shape}")
+            return w.astype(complex)
+        w = np.full(z.shape, np.nan + 0j)
+        for i, zi in enumerate(z):
+            try:
+                wi = checks.array("a point map's result", point_map(np.array([zi])), kinds="biufc", finite=False)
+            except checks.InputTypeError:
+                raise
+            except ValueError:
+                continue
+            if wi.shape != (1,):
+                raise ValueError(f"a point map must return one point per input point, shape (1,); got {wi.shape}")
+            w[i] = complex(wi[0])
+        return w
 
 
 def predict_many(
@@ -206,9 +235,17 @@ def predict_many(
 
     ``dtype=np.float32`` evaluates the series in single precision (~1e-6 relative; a few times
     faster, see ``OffGridEvaluator``)."""
-    F = np.asarray(coeffs)
-    fov = np.asarray(fovea, dtype=float)
-    out_grid = grid if on is None else on
+    F = _check_samples(coeffs, grid, "coeffs", complex_ok=True)
+    fov = checks.array("fovea", fovea, kinds="biuf", ndim=(1, 2)).astype(float)
+    if fov.shape != (grid.n_fovea,) + F.shape[2:]:
+        raise ValueError(f"fovea must have shape (N_f[, C]) = {(grid.n_fovea,) + F.shape[2:]} (the channels of coeffs); "
+                         f"got {fov.shape}")
+    out_grid = grid if on is None else _check_grid(on, "on")
+    dtype = _check_float_dtype(dtype)
+    if isinstance(point_maps, (str, bytes)) or not hasattr(point_maps, "__len__") or len(point_maps) == 0:
+        raise checks.InputTypeError(f"point_maps must be a non-empty list of point maps; got {point_maps!r}")
+    for pm in point_maps:
+        checks.callable_("each point map", pm)
     z = np.concatenate([out_grid.fovea_points, out_grid.points.ravel()])
     n_pts, n_f = len(z), out_grid.n_fovea
     w = np.concatenate([_map_points(pm, z) for pm in point_maps])

@@ -24,12 +24,14 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import checks
 from .dpft import _mirror_series
 from .fovea import fovea_indices
 from .grid import RetinaGrid
 from .kernels import contract_rings, map_points, tabulate_angles
 from .remap import MobiusMap, ProjectiveMap
 from .sampling import RetinaSamples
+from .threads import blas_threads
 
 __all__ = ["RemapPlan"]
 
@@ -50,7 +52,8 @@ class RemapPlan:
         self.grid = grid
         self.on = grid if on is None else on
         if not (isinstance(self.grid, RetinaGrid) and isinstance(self.on, RetinaGrid)):
-            raise ValueError("grid (and on) must be RetinaGrid objects")
+            raise checks.InputTypeError("grid (and on) must be RetinaGrid objects; got "
+                                        f"{type(grid).__name__} (and {type(on).__name__})")
         z = np.concatenate([self.on.fovea_points, self.on.points.ravel()])
         self._zr, self._zi = np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag)
         self.n_points = len(z)
@@ -61,8 +64,9 @@ class RemapPlan:
     def series_coefficients(self, coeffs: ArrayLike) -> NDArray[np.float32]:
         """The weighted real coefficients of the mirror series, (E, M C, J) float32 with
         J = 2 (N/2 + 1): row m C + c (ring-frequency m, channel c) holds the cosine then the
-        sine coefficients of the angular frequencies (as ``OffGridEvaluator``'s real matrix path)."""
-        return _mirror_series(np.asarray(coeffs), self.grid, np.float32)
+        sine coefficients of the angular frequencies (as ``OffGridEvaluator``'s real matrix path).
+        ``coeffs``: finite (E, M, N, C) DPFT coefficients."""
+        return _mirror_series(self._check_coeffs(coeffs), self.grid, np.float32)
 
     def __call__(
         self, coeffs: ArrayLike, fovea: ArrayLike, maps: Sequence[Sequence[ProjectiveMap | MobiusMap]]
@@ -81,7 +85,8 @@ class RemapPlan:
         map_points(self._zr, self._zi, kinds, params, g.r0, g.ring_edges[-1], pictures, g.fovea_spacing,
                    values, valid, series, wr, wi, r2)
         tabulate_angles(wr, wi, r2, math.cos(g.theta[0]), math.sin(g.theta[0]), cs)
-        partial = np.matmul(self.series_coefficients(F), cs)  # (E, M C, K P): the angular sum
+        with blas_threads(1):  # a small product: a second BLAS thread only fights other work for the core
+            partial = np.matmul(self.series_coefficients(F), cs)  # (E, M C, K P): the angular sum
         # t = pi (2 (fractional ring index) + 1) / 2M, the DCT-II basis' argument
         cos_t = np.cos((0.5 * np.log(r2) - g.u[0]) * (math.pi / (g.M * g.delta)) + math.pi / (2 * g.M))
         contract_rings(cos_t, partial, series, values)
@@ -90,6 +95,10 @@ class RemapPlan:
     def samples(self, values: NDArray, valid: NDArray) -> list[list[RetinaSamples]]:
         """``RetinaSamples`` views [eye][map] of a call's result (values in float32)."""
         n_f, o = self.on.n_fovea, self.on
+        values = checks.array("values", values, kinds="f", ndim=4, finite=False)
+        if values.shape[2] != self.n_points:
+            raise ValueError(f"values must be (E, K, P, C) with P = {self.n_points} (a call's result); got {values.shape}")
+        valid = checks.array("valid", valid, kinds="b", shape=values.shape[:3])
         return [
             [
                 RetinaSamples(
@@ -102,21 +111,31 @@ class RemapPlan:
         ]
 
     # ------------------------------------------------------------------ helpers
+    def _check_coeffs(self, coeffs: ArrayLike) -> NDArray:
+        g = self.grid
+        F = checks.array("coeffs", coeffs, kinds="biufc", finite=False)
+        if F.ndim != 4 or F.shape[1:3] != (g.M, g.N) or 0 in F.shape:
+            raise ValueError(f"coeffs must be (E, M, N, C) = (E, {g.M}, {g.N}, C) numbers; got shape {F.shape}")
+        if not np.all(np.isfinite(F)):
+            raise ValueError("coeffs and fovea must be finite (no NaN or infinity)")
+        return F
+
     def _check(self, coeffs: ArrayLike, fovea: ArrayLike) -> tuple[NDArray, NDArray]:
         g = self.grid
-        F = np.asarray(coeffs)
-        fov = np.asarray(fovea)
-        if F.ndim != 4 or F.shape[1:3] != (g.M, g.N) or F.dtype.kind not in "fc":
-            raise ValueError(f"coeffs must be (E, M, N, C) = (E, {g.M}, {g.N}, C) numbers; got shape {F.shape}")
-        if fov.shape != (F.shape[0], g.n_fovea, F.shape[3]) or fov.dtype.kind not in "biuf":
+        F = self._check_coeffs(coeffs)
+        fov = checks.array("fovea", fovea, kinds="biuf", finite=False)
+        if fov.shape != (F.shape[0], g.n_fovea, F.shape[3]):
             raise ValueError(
                 f"fovea must be real (E, N_f, C) = ({F.shape[0]}, {g.n_fovea}, {F.shape[3]}); got shape {fov.shape}"
             )
-        if not (np.all(np.isfinite(F)) and np.all(np.isfinite(fov))):
+        if not np.all(np.isfinite(fov)):
             raise ValueError("coeffs and fovea must be finite (no NaN or infinity)")
         return F, fov
 
     def _maps(self, maps, n_eyes: int) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        if isinstance(maps, (str, bytes)) or not hasattr(maps, "__len__") or any(
+                isinstance(m, (str, bytes)) or not hasattr(m, "__iter__") for m in maps):
+            raise checks.InputTypeError(f"maps must be a list (one per eye) of lists of point maps; got {maps!r:.80}")
         if len(maps) != n_eyes:
             raise ValueError(f"maps must hold one list of point maps per eye ({n_eyes}); got {len(maps)}")
         per_eye = [list(m) for m in maps]
@@ -126,7 +145,7 @@ class RemapPlan:
         for m in per_eye:
             for pm in m:
                 if not isinstance(pm, (ProjectiveMap, MobiusMap)):
-                    raise ValueError(
+                    raise checks.InputTypeError(
                         f"RemapPlan needs ProjectiveMap or MobiusMap point maps (homography_map, mobius_map and "
                         f"target_shift_map make them); got {type(pm).__name__}: use predict_many for other maps"
                     )

@@ -15,22 +15,50 @@ i.e. x3 grows with the column and x1 grows upwards.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from . import checks
 from .grid import RetinaGrid
 from .kernels import pool_picture
 
 __all__ = ["Retina", "RetinaSamples", "pixel_points"]
 
+#: Pictures are at most this many pixels per side, and at most ``MAX_PIXELS`` pixels in all.
+MAX_IMAGE_SIDE = 16384
+MAX_PIXELS = 2**26
+#: The pooling operator is found from H W supersample^2 subpixels: at most this many.
+MAX_SUBPIXELS = 2**28
+#: Channels of a picture (H, W, C): at most this many.
+MAX_CHANNELS = 64
+#: Image dtypes sampled in place; float16 is converted to float32 first (numba has no float16).
+IMAGE_DTYPES = ("bool", "uint8", "uint16", "uint32", "uint64", "int8", "int16", "int32", "int64", "float16",
+                "float32", "float64")
+
+
+def _image_shape(name: str, shape, ndims: tuple[int, ...] = (2,)) -> tuple[int, ...]:
+    """``shape`` as a tuple of checked ints: (H, W) or (H, W, C) per ``ndims``."""
+    if isinstance(shape, (str, bytes)) or not hasattr(shape, "__len__"):
+        raise checks.InputTypeError(f"{name} must be a tuple {' or '.join(('(H, W)', '(H, W, C)')[n - 2] for n in ndims)}"
+                                    f"; got {shape!r}")
+    if len(shape) not in ndims:
+        raise ValueError(f"{name} must have {' or '.join(map(str, ndims))} entries (H, W[, C]); got {tuple(shape)!r}")
+    out = tuple(checks.integer(f"{name}[{i}]", v, 1, MAX_IMAGE_SIDE if i < 2 else MAX_CHANNELS)
+                for i, v in enumerate(shape))
+    if out[0] * out[1] > MAX_PIXELS:
+        raise ValueError(f"{name} {out[0]}x{out[1]} exceeds {MAX_PIXELS} pixels")
+    return out
+
 
 def pixel_points(shape: tuple[int, int], pixels_per_unit: float) -> NDArray[np.complex128]:
-    """Image-plane position z of every pixel centre, shape (H, W) (see the module docstring)."""
-    h, w = shape
+    """Image-plane position z of every pixel centre, shape (H, W) (see the module docstring).
+
+    ``shape``: (H, W), each in [1, 16384] and H W <= 2**26; ``pixels_per_unit`` in (0, 1e9]."""
+    h, w = _image_shape("shape", shape)
+    pixels_per_unit = checks.real("pixels_per_unit", pixels_per_unit, 0.0, 1e9, lo_open=True)
     cols = (np.arange(w) - (w - 1) / 2) / pixels_per_unit
     rows = (np.arange(h) - (h - 1) / 2) / pixels_per_unit
     return cols[None, :] - 1j * rows[:, None]
@@ -52,6 +80,15 @@ class RetinaSamples:
     mask: NDArray[np.bool_]
     fovea_mask: NDArray[np.bool_]
 
+    def __post_init__(self) -> None:
+        fov = checks.array("fovea", self.fovea, kinds="biuf", ndim=(1, 2), finite=False)
+        per = checks.array("periphery", self.periphery, kinds="biuf", ndim=(2, 3), finite=False)
+        if fov.shape[1:] != per.shape[2:]:
+            raise ValueError(f"fovea (N_f[, C]) and periphery (M, N[, C]) must have the same channels; "
+                             f"got {fov.shape} and {per.shape}")
+        checks.array("mask", self.mask, kinds="b", shape=per.shape[:2])
+        checks.array("fovea_mask", self.fovea_mask, kinds="b", shape=fov.shape[:1])
+
 
 class Retina:
     """Exp-polar retina for pictures of one shape (the paper's Example: 512x512 at K = 4).
@@ -59,13 +96,18 @@ class Retina:
     Parameters
     ----------
     grid : the retina grid (image-plane units).
-    image_shape : (H, W) or (H, W, C) of the pictures to be sampled.
-    pixels_per_unit : pixels per image-plane unit (for a camera: 0.5 H / tan(fovy / 2)).
+    image_shape : (H, W) or (H, W, C) of the pictures to be sampled (H, W in [1, 16384],
+        H W <= 2**26, C in [1, 64]).
+    pixels_per_unit : pixels per image-plane unit (for a camera: 0.5 H / tan(fovy / 2)), in (0, 1e9].
     mode : ``"pool"`` (receptive-field cell averages, anti-aliased; default), ``"bilinear"``
         or ``"nearest"`` (point samples at the cell centres).
-    supersample : subpixels per pixel side used to find each pixel's share of a cell.
-    min_coverage : fraction of a cell's area that must lie inside the picture for ``mask``.
-    fill : value reported for cells with no pixel at all.
+    supersample : subpixels per pixel side used to find each pixel's share of a cell, 1..16,
+        with H W supersample^2 <= 2**28.
+    min_coverage : fraction of a cell's area that must lie inside the picture for ``mask``, in (0, 1].
+    fill : value reported for cells with no pixel at all (finite).
+
+    Pictures may have any of the dtypes ``IMAGE_DTYPES`` (float16 is converted to float32);
+    others (complex, long double, objects) raise a ``TypeError``.
     """
 
     def __init__(
@@ -80,28 +122,26 @@ class Retina:
         fill: float = 0.0,
     ) -> None:
         if not isinstance(grid, RetinaGrid):
-            raise ValueError(f"grid must be a RetinaGrid; got {type(grid).__name__}")
-        shape = tuple(int(s) for s in image_shape)
-        if len(shape) not in (2, 3) or min(shape) < 1:
-            raise ValueError(f"image_shape must be (H, W) or (H, W, C) with positive sizes; got {image_shape}")
-        ppu = float(pixels_per_unit)
-        if not math.isfinite(ppu) or ppu <= 0:
-            raise ValueError(f"pixels_per_unit must be a positive finite number; got {pixels_per_unit!r}")
-        if mode not in ("pool", "bilinear", "nearest"):
-            raise ValueError(f"mode must be 'pool', 'bilinear' or 'nearest'; got {mode!r}")
-        if int(supersample) != supersample or not 1 <= supersample <= 16:
-            raise ValueError(f"supersample must be an integer in 1..16; got {supersample!r}")
-        if not 0 < min_coverage <= 1:
-            raise ValueError(f"min_coverage must be in (0, 1]; got {min_coverage!r}")
+            raise checks.InputTypeError(f"grid must be a RetinaGrid; got {type(grid).__name__}")
+        shape = _image_shape("image_shape", image_shape, (2, 3))
+        ppu = checks.real("pixels_per_unit", pixels_per_unit, 0.0, 1e9, lo_open=True)
+        checks.choice("mode", mode, ("pool", "bilinear", "nearest"))
+        supersample = checks.integer("supersample", supersample, 1, 16)
+        min_coverage = checks.real("min_coverage", min_coverage, 0.0, 1.0, lo_open=True)
+        fill = checks.real("fill", fill)
+        if mode == "pool" and shape[0] * shape[1] * supersample**2 > MAX_SUBPIXELS:
+            raise ValueError(f"a {shape[0]}x{shape[1]} picture at supersample={supersample} needs "
+                             f"{shape[0] * shape[1] * supersample**2} subpixels (at most {MAX_SUBPIXELS}); "
+                             "use a smaller supersample")
         self.grid = grid
         self.image_shape = shape
         self.pixels_per_unit = ppu
         self.mode = mode
-        self.fill = float(fill)
+        self.fill = fill
         h, w = shape[:2]
         n_f, m, n = grid.n_fovea, grid.M, grid.N
         if mode == "pool":
-            op, area = self._pooling_operator(int(supersample))
+            op, area = self._pooling_operator(supersample)
             cell_area_px = np.concatenate(
                 [np.full(n_f, (grid.fovea_spacing * ppu) ** 2), np.repeat(grid.cell_areas(), n) * ppu**2]
             )
@@ -193,15 +233,28 @@ class Retina:
         return op, inside.astype(float)
 
     # ------------------------------------------------------------------ per frame
-    def _check_image(self, image: NDArray) -> NDArray[np.float64]:
-        img = np.asarray(image)
-        if img.dtype.kind not in "biuf":
-            raise ValueError(f"image must be a real numeric array; got dtype {img.dtype}")
+    def _check_image(self, image: NDArray) -> NDArray:
+        """A finite picture of this retina's shape in a dtype the compiled pooling reads (native byte
+        order; float16 as float32, bool as uint8); others raise a ``TypeError`` naming ``IMAGE_DTYPES``."""
+        if isinstance(image, (str, bytes)) or image is None:
+            raise checks.InputTypeError(f"image must be an array; got {type(image).__name__}")
+        try:
+            img = np.asarray(image)
+        except (ValueError, TypeError):  # a ragged nested list
+            raise ValueError(f"image must be a rectangular array of shape {self.image_shape}") from None
+        if img.dtype.name not in IMAGE_DTYPES:  # (the name ignores the byte order)
+            raise checks.InputTypeError(f"image has dtype {img.dtype}; supported: {', '.join(IMAGE_DTYPES)}")
         if img.shape != self.image_shape:
             raise ValueError(
                 f"image has shape {img.shape}, but this Retina was built for {self.image_shape}; "
                 "build a Retina for this shape"
             )
+        if not img.dtype.isnative:
+            img = img.astype(img.dtype.newbyteorder("="))
+        if img.dtype == np.float16:
+            img = img.astype(np.float32)
+        elif img.dtype == np.bool_:
+            img = img.view(np.uint8)
         if img.dtype.kind == "f" and not np.all(np.isfinite(img)):
             raise ValueError("image contains NaN or infinite values")
         return img
@@ -220,15 +273,19 @@ class Retina:
 
     def sample_many(self, images, scale: float = 1.0) -> NDArray[np.float64]:
         """Sample several pictures into one array (E, N_f + M N[, C]) in retina order (the
-        rows of ``operator``: fovea, then periphery [k, l]), each value times ``scale``."""
+        rows of ``operator``: fovea, then periphery [k, l]), each value times ``scale`` (finite)."""
+        if isinstance(images, np.ndarray) and images.ndim == len(self.image_shape):
+            raise ValueError(f"images must be a sequence of pictures of shape {self.image_shape}; got one picture "
+                             "(use sample for one)")
+        if isinstance(images, (str, bytes)) or not hasattr(images, "__iter__"):
+            raise checks.InputTypeError(f"images must be a sequence of pictures; got {type(images).__name__}")
+        scale = checks.real("scale", scale)
         imgs = [self._check_image(im) for im in images]
         chans = self.image_shape[2:]
         out = np.empty((len(imgs), self._op.shape[0], int(np.prod(chans))))
         op = self._op
         for img, o in zip(imgs, out):
             flat = img.reshape(self._n_pixels, -1)
-            if flat.dtype == np.bool_:
-                flat = flat.astype(np.uint8)
             pool_picture(op.indptr, op.indices, op.data, np.ascontiguousarray(flat), scale, o)  # op @ flat, in place
         if self.fill != 0.0:
             out[:, self._empty] = self.fill
@@ -242,17 +299,21 @@ class Retina:
     def render(self, samples: RetinaSamples, *, background: float = 0.0) -> NDArray[np.float64]:
         """Back to a pinhole picture of this retina's shape, each pixel showing its cell's value.
 
-        Pixels in the fovea take the nearest foveal sample; pixels beyond r_b take ``background``.
-        For a smooth rendering from DPFT coefficients use ``conformal.evaluate``.
+        Pixels in the fovea take the nearest foveal sample; pixels beyond r_b take ``background``
+        (finite). For a smooth rendering from DPFT coefficients use ``conformal.evaluate``.
         """
-        if not hasattr(self, "_render_index"):
-            self._render_index = self._make_render_index()
+        if not isinstance(samples, RetinaSamples):
+            raise checks.InputTypeError(f"samples must be RetinaSamples; got {type(samples).__name__}")
+        background = checks.real("background", background)
         g = self.grid
-        per = np.asarray(samples.periphery, dtype=float)
-        fov = np.asarray(samples.fovea, dtype=float)
+        per = checks.array("samples.periphery", samples.periphery, kinds="biuf").astype(float)
+        fov = checks.array("samples.fovea", samples.fovea, kinds="biuf").astype(float)
         chans = per.shape[2:]
         if per.shape[:2] != (g.M, g.N) or fov.shape[:1] != (g.n_fovea,):
-            raise ValueError("samples do not match this retina's grid")
+            raise ValueError(f"samples do not match this retina's grid: periphery {per.shape}, fovea {fov.shape}; "
+                             f"expected ({g.M}, {g.N}[, C]) and ({g.n_fovea}[, C])")
+        if not hasattr(self, "_render_index"):
+            self._render_index = self._make_render_index()
         table = np.concatenate(
             [fov.reshape(g.n_fovea, -1), per.reshape(g.M * g.N, -1), np.full((1, max(1, int(np.prod(chans)))), background)]
         )

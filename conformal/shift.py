@@ -18,6 +18,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import checks
 from .dpft import _check_samples, _expand
 from .grid import RetinaGrid
 
@@ -30,13 +31,19 @@ def log_radius_shift(samples: ArrayLike, grid: RetinaGrid, shift: float, *, wrap
     ``samples`` is (M, N[, C]); the result has the same shape. Integer shifts move rings
     exactly; with ``wrap=True`` the rings pushed through the inner edge re-enter at the outer
     edge scaled by e^{-T} (the series is periodic in e^u f, so f is quasi-periodic).
-    Fractional shifts are band-limited interpolation in u.
+    Fractional shifts are band-limited interpolation in u. ``shift`` is any finite number of rings
+    (beyond M + 1/2 either way the non-wrapping result is 0); with ``wrap=True`` at most 4 M either
+    way (the wrapped copies are scaled by e^{-shift delta}, which must stay within range).
     """
     f = _check_samples(samples, grid, "samples")
-    j = float(shift)
-    if not math.isfinite(j):
-        raise ValueError(f"shift must be finite; got {shift!r}")
+    wrap = checks.flag("wrap", wrap)
     m = grid.M
+    if wrap:
+        j = checks.real("shift", shift, -4 * m, 4 * m, hint="in rings, with wrap=True")
+    else:
+        j = checks.real("shift", shift, hint="in rings")
+        if abs(j) >= m + 0.5:  # every source ring lies outside the sampled annulus
+            return np.zeros(f.shape)
     if wrap:
         length = m
         u = grid.u

@@ -7,6 +7,8 @@ from functools import lru_cache
 import numpy as np
 
 import conformal as C
+import models
+from conformal import checks
 
 __all__ = ["compose_frame", "grid_overlay"]
 
@@ -24,7 +26,13 @@ def _overlay(grid: C.RetinaGrid, shape: tuple[int, int], ppu: float) -> np.ndarr
 
 def grid_overlay(grid: C.RetinaGrid, shape: tuple[int, int], pixels_per_unit: float) -> np.ndarray:
     """Boolean (H, W) mask of the retina cells' boundaries (rings, sectors, foveal edge)."""
-    return _overlay(grid, tuple(shape), float(pixels_per_unit))
+    if not isinstance(grid, C.RetinaGrid):
+        raise checks.InputTypeError(f"grid must be a conformal.RetinaGrid; got {type(grid).__name__}")
+    if isinstance(shape, (str, bytes)) or not hasattr(shape, "__len__") or len(shape) != 2:
+        raise checks.InputTypeError(f"shape must be an (H, W) pair; got {shape!r:.60}")
+    h, w = (checks.integer(f"shape[{i}]", v, 1, 16384) for i, v in enumerate(shape))
+    ppu = checks.real("pixels_per_unit", pixels_per_unit, 0.0, 1e9, lo_open=True)
+    return _overlay(grid, (h, w), ppu)
 
 
 def _resize_nearest(img: np.ndarray, height: int, width: int) -> np.ndarray:
@@ -42,7 +50,17 @@ def _to_rgb(a: np.ndarray) -> np.ndarray:
 
 def compose_frame(frame, views, vision) -> np.ndarray:
     """(2H + pad, 2W, 3) uint8: top, left and right eye images with the grid in cyan; bottom,
-    each eye's cut-and-paste cortical map (right hemisphere left, left hemisphere right)."""
+    each eye's cut-and-paste cortical map (right hemisphere left, left hemisphere right).
+
+    ``frame``: a ``models.StereoFrame``; ``views``: both eyes' ``EyeView`` from ``vision`` (a ``Vision``)."""
+    from .vision import EyeView, Vision
+
+    if not isinstance(vision, Vision):
+        raise checks.InputTypeError(f"vision must be an envs.Vision; got {type(vision).__name__}")
+    if not isinstance(frame, models.StereoFrame):
+        raise checks.InputTypeError(f"frame must be a models.StereoFrame; got {type(frame).__name__}")
+    if not isinstance(views, (list, tuple)) or len(views) != 2 or not all(isinstance(v, EyeView) for v in views):
+        raise checks.InputTypeError("views must be both eyes' EyeView (a pair from Vision.see_eyes)")
     g = vision.grid
     top = []
     for eye in (frame.left, frame.right):

@@ -11,6 +11,7 @@ from gymnasium import spaces
 
 import conformal as C
 import models
+from conformal import checks
 
 from .tasks import Task, gaze_errors_deg, make_task
 from .vision import REMAP_MODELS, EyeView, Vision
@@ -34,7 +35,9 @@ class BinocularSaccadeEnv(gym.Env):
     fixation distance by a factor 2**a. ``action_mode="cell"``: ``Discrete(M * N)``, a
     peripheral retina cell ``k * N + l`` (a superior-colliculus-like motor map): saccade to
     the direction of that cell's centre. Saccades that would leave the oculomotor range are
-    shortened to its edge (``info["clipped"]``). NaN or out-of-space actions raise ValueError.
+    shortened to its edge (``info["clipped"]``). NaN, infinite or out-of-space actions raise
+    ``ValueError``; actions of the wrong type (complex, bool, strings; a float in cell mode) raise
+    ``TypeError`` (``conformal.checks.InputTypeError``, also a ``ValueError``).
 
     **Observation space** (``spaces.Dict``, float32; M rings, N sectors, N_f foveal samples,
     C = 3, or 1 with ``grayscale=True``; values are intensities in [0, 1]):
@@ -62,19 +65,23 @@ class BinocularSaccadeEnv(gym.Env):
     ``target_error_deg`` (tasks with a target), ``success``, ``clipped``.
 
     **Arguments**: ``scene`` (default: the task's), ``task`` (``"fixate"``, ``"search"``, ``"free"`` or a
-    ``Task``), ``action_mode``, ``image_size`` (pixels per side of each eye's image),
-    ``render_mode`` (``"rgb_array"``), ``fixation_ms`` (250), ``max_amplitude_deg`` (30),
+    ``Task``), ``action_mode``, ``image_size`` (pixels per side of each eye's image, an integer in
+    [16, 1024]), ``render_mode`` (``"rgb_array"``), ``fixation_ms`` (250; whole ms in [0, 10000]),
+    ``max_amplitude_deg`` (30; in (0, 60]),
     ``vergence``, ``remap_model`` (``"homography"``, ``"mobius"``, ``"shift"``),
     ``remap_models`` (models whose error ``info`` reports; default all three), ``shift_rings``
     (the shift model's log-radius compression), ``grayscale``, ``cortex`` (``"eyes"`` or
     ``"hemispheres"``), ``include_coeffs``, ``fovea_deg`` (3), ``n_sectors``, ``sampling``
     (``"pool"``), ``fovy_deg`` (70), ``endpoint_noise`` (0), ``quality`` (``"fast"``),
-    ``task_kwargs``.
+    ``task_kwargs``. Flags (``vergence``, ``grayscale``, ``include_coeffs``) must be bools; every
+    argument is checked at construction (``ValueError``/``TypeError`` naming it).
 
     **Version history**: v0 — initial version.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+    #: The longest fixation after a saccade (ms): 10 s, far beyond human fixations (180-320 ms).
+    MAX_FIXATION_MS = 10_000
 
     def __init__(
         self,
@@ -102,52 +109,56 @@ class BinocularSaccadeEnv(gym.Env):
         task_kwargs: dict | None = None,
     ) -> None:
         super().__init__()
-        if action_mode not in ("vector", "cell"):
-            raise ValueError(f"action_mode must be 'vector' or 'cell'; got {action_mode!r}")
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode must be None or 'rgb_array'; got {render_mode!r}")
-        if cortex not in ("eyes", "hemispheres"):
-            raise ValueError(f"cortex must be 'eyes' or 'hemispheres'; got {cortex!r}")
-        if remap_model not in REMAP_MODELS:
-            raise ValueError(f"remap_model must be one of {REMAP_MODELS}; got {remap_model!r}")
-        remap_models = REMAP_MODELS if remap_models is None else tuple(remap_models)
-        for m in remap_models:
-            if m not in REMAP_MODELS:
-                raise ValueError(f"unknown remapping model {m!r}; choose from {REMAP_MODELS}")
+        checks.choice("action_mode", action_mode, ("vector", "cell"))
+        checks.choice("render_mode", render_mode, ("rgb_array",), allow_none=True)
+        checks.choice("cortex", cortex, ("eyes", "hemispheres"))
+        checks.choice("remap_model", remap_model, REMAP_MODELS)
+        if remap_models is None:
+            remap_models = REMAP_MODELS
+        elif isinstance(remap_models, str) or not isinstance(remap_models, (list, tuple)):
+            raise checks.InputTypeError(f"remap_models must be a tuple of model names from {REMAP_MODELS} or None; "
+                                        f"got {remap_models!r}")
+        remap_models = tuple(dict.fromkeys(checks.choice("each of remap_models", m, REMAP_MODELS)
+                                           for m in remap_models))
         if remap_model not in remap_models:
             remap_models = remap_models + (remap_model,)
-        if int(image_size) != image_size or not 16 <= image_size <= 1024:
-            raise ValueError(f"image_size must be an integer in 16..1024; got {image_size!r}")
-        if int(fixation_ms) != fixation_ms or fixation_ms < 0:
-            raise ValueError(f"fixation_ms must be a whole number of ms >= 0; got {fixation_ms!r}")
-        if not (math.isfinite(max_amplitude_deg) and 0 < max_amplitude_deg <= 60):
-            raise ValueError(f"max_amplitude_deg must be in (0, 60]; got {max_amplitude_deg!r}")
+        image_size = checks.integer("image_size", image_size, 16, 1024)
+        self.fixation_ms = checks.integer("fixation_ms", fixation_ms, 0, self.MAX_FIXATION_MS,
+                                          hint="whole milliseconds of fixation after each saccade")
+        max_amplitude_deg = checks.real("max_amplitude_deg", max_amplitude_deg, 0.0, 60.0, lo_open=True)
+        self.vergence = checks.flag("vergence", vergence)
+        self.include_coeffs = checks.flag("include_coeffs", include_coeffs)
+        checks.flag("grayscale", grayscale)
+        if task_kwargs is not None and not isinstance(task_kwargs, dict):
+            raise checks.InputTypeError(f"task_kwargs must be a dict or None; got {type(task_kwargs).__name__}")
         self.task = make_task(task, **(task_kwargs or {}))
+        if scene is not None and scene not in models.SCENES:
+            raise (ValueError if isinstance(scene, str) else checks.InputTypeError)(
+                f"unknown scene {scene!r}; choose one of {', '.join(models.SCENES)}")
         self.scene = scene or self.task.scene
-        if self.scene not in models.SCENES:
-            raise ValueError(f"unknown scene {self.scene!r}; choose one of {', '.join(models.SCENES)}")
         self.action_mode = action_mode
         self.render_mode = render_mode
-        self.fixation_ms = int(fixation_ms)
         self.max_amplitude = math.radians(max_amplitude_deg)
-        self.vergence = bool(vergence)
         self.remap_model = remap_model
         self.remap_models = remap_models
         self.cortex = cortex
-        self.include_coeffs = bool(include_coeffs)
 
-        self.head = models.Head(self.scene, image_size=int(image_size), fovy_deg=fovy_deg,
+        self.head = models.Head(self.scene, image_size=image_size, fovy_deg=fovy_deg,
                                 quality=quality, seed=0, endpoint_noise=endpoint_noise)
         try:
             self.task.check_scene(self.head)
         except ValueError:
             self.head.close()
             raise
-        self.vision = Vision(self.head.image_shape, self.head.pixels_per_unit, fovea_deg=fovea_deg,
-                             n_sectors=n_sectors, grayscale=grayscale, sampling=sampling, shift_rings=shift_rings)
-        g = self.vision.grid
-        if cortex == "hemispheres" and g.N % 4:
-            raise ValueError(f"cortex='hemispheres' needs N divisible by 4; got n_sectors={g.N}")
+        try:
+            self.vision = Vision(self.head.image_shape, self.head.pixels_per_unit, fovea_deg=fovea_deg,
+                                 n_sectors=n_sectors, grayscale=grayscale, sampling=sampling, shift_rings=shift_rings)
+            g = self.vision.grid
+            if cortex == "hemispheres" and g.N % 4:
+                raise ValueError(f"cortex='hemispheres' needs N divisible by 4; got n_sectors={g.N}")
+        except Exception:
+            self.head.close()
+            raise
         c = self.vision.channels
         cort_shape = (2, g.M, g.N, c) if cortex == "eyes" else (2, 2, g.M, g.N // 2, c)
         obs = {
@@ -170,6 +181,12 @@ class BinocularSaccadeEnv(gym.Env):
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        if seed is not None:
+            seed = checks.integer("seed", seed, 0, None, hint="or None")
+        if options is not None and not isinstance(options, dict):
+            raise checks.InputTypeError(f"options must be a dict or None; got {type(options).__name__}")
+        if options:
+            raise ValueError(f"this environment takes no reset options; got {', '.join(map(str, options))}")
         super().reset(seed=seed)
         head_seed = int(self.np_random.integers(2**31 - 1))
         self.head.reset(seed=head_seed)
@@ -254,18 +271,27 @@ class BinocularSaccadeEnv(gym.Env):
     def _decode(self, action) -> tuple[float, float, float]:
         """Action -> (horizontal, vertical) Fick increments (rad) and a fixation-distance factor."""
         if self.action_mode == "cell":
-            if isinstance(action, (float, np.floating)) and not np.isfinite(action):
-                raise ValueError(f"action must be a cell index; got {action!r}")
-            a = np.asarray(action)
-            if a.shape != () or a.dtype.kind not in "iu" or not self.action_space.contains(a.astype(np.int64)):
-                raise ValueError(f"action must be an integer cell index in [0, {self.action_space.n}); got {action!r}")
+            n = self.action_space.n
+            what = f"action must be an integer cell index in [0, {n})"
+            try:
+                a = np.asarray(action)
+            except Exception:  # e.g. a ragged list
+                raise checks.InputTypeError(f"{what}; got {action!r:.60}") from None
+            if a.shape != () or a.dtype.kind not in "iu":
+                raise checks.InputTypeError(f"{what}; got {action!r:.60} ({a.dtype}, shape {a.shape})")
+            if not 0 <= int(a) < n:
+                raise ValueError(f"{what}; got {int(a)}")
             k, l = divmod(int(a), self.vision.grid.N)
             z = self.vision.grid.points[k, l]
             return math.atan(z.real), math.atan2(z.imag, math.hypot(1.0, z.real)), 1.0
+        what = f"action must be {self.action_space.shape[0]} real numbers in [-1, 1]"
         try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"action must be {self.action_space.shape[0]} numbers in [-1, 1]; got {action!r}") from None
+            a = np.asarray(action)
+        except Exception:  # e.g. a ragged list
+            raise ValueError(f"{what}; got {action!r:.60}") from None
+        if a.dtype.kind not in "iuf":  # complex ([1j, 0] would silently lose its imaginary part), bool, str, object
+            raise checks.InputTypeError(f"{what}; got {action!r:.60} of dtype {a.dtype}")
+        a = a.astype(np.float64)
         if a.shape != self.action_space.shape:
             raise ValueError(f"action must have shape {self.action_space.shape}; got {a.shape}")
         if not np.all(np.isfinite(a)):

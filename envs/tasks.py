@@ -14,16 +14,28 @@ from dataclasses import dataclass
 import numpy as np
 
 import models
+from conformal import checks
 
 __all__ = ["Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "gaze_errors_deg", "make_task"]
 
 
+def _check_head(head) -> None:
+    if not isinstance(head, models.Head):
+        raise checks.InputTypeError(f"head must be a models.Head; got {type(head).__name__}")
+
+
 def gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
-    """Angle (deg) between each eye's optical axis and its line of sight to ``point``: shape (2,)."""
+    """Angle (deg) between each eye's optical axis and its line of sight to ``point`` (a finite world
+    3-vector, not at an eye's nodal point): shape (2,)."""
+    _check_head(head)
+    p = checks.array("point", point, kinds="biuf", shape=(3,)).astype(float)
     out = []
     for state in head.eye_states():
-        d = np.asarray(point, float) - state.camera_position
-        d /= np.linalg.norm(d)
+        d = p - state.camera_position
+        norm = np.linalg.norm(d)
+        if norm < 1e-9:
+            raise ValueError("point lies at an eye's nodal point, where no line of sight is defined")
+        d /= norm
         axis = state.eye_axes[:, 1]
         out.append(math.degrees(math.acos(float(np.clip(axis @ d, -1.0, 1.0)))))
     return np.array(out)
@@ -31,7 +43,8 @@ def gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
 
 @dataclass
 class Task:
-    """Base task. ``scene`` is the ``models`` scene it runs in; ``max_saccades`` the budget."""
+    """Base task. ``scene`` is the ``models`` scene it runs in; ``max_saccades`` the budget (an
+    integer in [1, 10000]); ``tolerance_deg`` in (0, 45]; ``saccade_cost`` in [0, 10]."""
 
     scene: str = "dots"
     max_saccades: int = 5
@@ -40,22 +53,32 @@ class Task:
 
     name = "task"
 
+    #: The largest saccade budget of an episode.
+    MAX_SACCADES = 10_000
+
     def __post_init__(self) -> None:
-        if int(self.max_saccades) < 1:
-            raise ValueError(f"max_saccades must be >= 1; got {self.max_saccades!r}")
-        if not (math.isfinite(self.tolerance_deg) and self.tolerance_deg > 0):
-            raise ValueError(f"tolerance_deg must be positive; got {self.tolerance_deg!r}")
+        if self.scene not in models.SCENES:
+            raise (ValueError if isinstance(self.scene, str) else checks.InputTypeError)(
+                f"scene must be one of {', '.join(models.SCENES)}; got {self.scene!r}")
+        self.max_saccades = checks.integer("max_saccades", self.max_saccades, 1, self.MAX_SACCADES)
+        self.tolerance_deg = checks.real("tolerance_deg", self.tolerance_deg, 0.0, 45.0, lo_open=True)
+        self.saccade_cost = checks.real("saccade_cost", self.saccade_cost, 0.0, 10.0)
 
     def check_scene(self, head: "models.Head") -> None:
         """Raise ValueError if ``head``'s scene lacks what this task needs."""
+        _check_head(head)
         if "target" not in head.scene.objects:
             raise ValueError(f"task {self.name!r} needs a 'target' object; scene {head.scene.name!r} has none "
                              f"(use scene 'dots' or 'search', or task 'free')")
 
     def initialize_episode(self, head: "models.Head", rng: np.random.Generator) -> None:
-        """Place the task's objects (the head has just been reset)."""
+        """Place the task's objects (the head has just been reset; ``rng`` a ``numpy.random.Generator``)."""
+        _check_head(head)
+        if not isinstance(rng, np.random.Generator):
+            raise checks.InputTypeError(f"rng must be a numpy.random.Generator; got {type(rng).__name__}")
 
     def target_position(self, head: "models.Head") -> np.ndarray:
+        _check_head(head)
         return head.object_position("target")
 
     def score(self, head: "models.Head") -> tuple[float, bool, dict]:
@@ -77,12 +100,20 @@ class FixateTask(Task):
     max_ecc_deg: float = 20.0
     name = "fixate"
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        # the dots screen (1 m ahead) spans about +-33 deg vertically
+        self.min_ecc_deg = checks.real("min_ecc_deg", self.min_ecc_deg, 0.0, 30.0)
+        self.max_ecc_deg = checks.real("max_ecc_deg", self.max_ecc_deg, self.min_ecc_deg, 30.0,
+                                       hint="and >= min_ecc_deg")
+
     def check_scene(self, head) -> None:
         super().check_scene(head)
         if "target" not in head.scene.movable:
             raise ValueError(f"task 'fixate' moves the target; in scene {head.scene.name!r} it is fixed")
 
     def initialize_episode(self, head, rng) -> None:
+        super().initialize_episode(head, rng)
         ecc = math.radians(rng.uniform(self.min_ecc_deg, self.max_ecc_deg))
         ang = rng.uniform(0, 2 * math.pi)
         az, el = math.atan(math.tan(ecc) * math.cos(ang)), math.atan(math.tan(ecc) * math.sin(ang))
@@ -126,9 +157,10 @@ class FreeViewingTask(Task):
     name = "free"
 
     def check_scene(self, head) -> None:
-        pass
+        _check_head(head)
 
     def score(self, head) -> tuple[float, bool, dict]:
+        _check_head(head)
         return 0.0, False, {"success": False}  # no target: no target_error_deg
 
 
@@ -136,9 +168,18 @@ TASKS = {"fixate": FixateTask, "search": SearchTask, "free": FreeViewingTask}
 
 
 def make_task(task: "str | Task", **kwargs) -> Task:
-    """A task by name (``"fixate"``, ``"search"``) or a ready ``Task`` instance."""
+    """A task by name (``"fixate"``, ``"search"``, ``"free"``) with its keyword arguments, or a ready
+    ``Task`` instance (then no keyword arguments)."""
     if isinstance(task, Task):
+        if kwargs:
+            raise ValueError(f"keyword arguments ({', '.join(kwargs)}) configure a task given by name; "
+                             f"{type(task).__name__} is already built: set them on it instead")
         return task
     if task not in TASKS:
-        raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASKS)}")
+        raise (ValueError if isinstance(task, str) else checks.InputTypeError)(
+            f"unknown task {task!r}; choose one of {', '.join(TASKS)} or pass a Task")
+    fields = set(TASKS[task].__dataclass_fields__)
+    unknown = sorted(set(kwargs) - fields)
+    if unknown:
+        raise ValueError(f"task {task!r} has no argument {', '.join(unknown)}; its arguments: {', '.join(sorted(fields))}")
     return TASKS[task](**kwargs)

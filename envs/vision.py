@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import conformal as C
+from conformal import checks
 
 __all__ = ["EyeView", "Vision", "REMAP_MODELS", "normalized_error", "model_errors"]
 
@@ -56,6 +57,16 @@ def normalized_error(pred: C.RetinaSamples, actual: EyeView) -> float:
 
     0 is a perfect prediction; 1 is as bad as predicting the mean. NaN when no cell is valid.
     """
+    if not isinstance(pred, C.RetinaSamples):
+        raise checks.InputTypeError(f"pred must be conformal.RetinaSamples; got {type(pred).__name__}")
+    if not isinstance(actual, EyeView):
+        raise checks.InputTypeError(f"actual must be an EyeView; got {type(actual).__name__}")
+    if np.shape(pred.periphery) != actual.periphery.shape or np.shape(pred.fovea) != actual.fovea.shape:
+        raise ValueError(f"pred and actual must be samples of one retina: periphery {np.shape(pred.periphery)} vs "
+                         f"{actual.periphery.shape}, fovea {np.shape(pred.fovea)} vs {actual.fovea.shape}")
+    for name, a in (("pred", pred.periphery), ("pred", pred.fovea)):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} contains NaN or infinite samples")
     values = _retina_vector(np.asarray(pred.fovea), np.asarray(pred.periphery))[None, None]
     valid = np.concatenate([pred.fovea_mask, pred.mask.ravel()])[None, None]
     return float(_errors(values, valid, actual.samples[None], actual.valid)[0, 0])
@@ -74,14 +85,18 @@ class Vision:
 
     Parameters
     ----------
-    image_shape : (H, W) of each eye's image.
-    pixels_per_unit : the renderer's f_px (pixels per image-plane unit).
-    fovea_deg : foveal radius (the retina's r0 = tan(fovea_deg)).
-    n_sectors : sectors N; default from the paper's rule N = [2 pi r0 K + pi] with K the
-        pixel density, rounded up to a multiple of 4 (for the vertical-meridian split).
+    image_shape : (H, W) of each eye's image, each in [8, 4096].
+    pixels_per_unit : the renderer's f_px (pixels per image-plane unit), in (0, 1e6].
+    fovea_deg : foveal radius (the retina's r0 = tan(fovea_deg)), in (0, 30).
+    n_sectors : sectors N, an integer in [4, 4096]; default from the paper's rule N = [2 pi r0 K + pi]
+        with K the pixel density, rounded up to a multiple of 4 (for the vertical-meridian split).
+        The grid must also respect ``conformal.RetinaGrid``'s bounds (at most 2**22 cells, ...).
     grayscale : average the colour channels (C = 1) instead of keeping RGB (C = 3).
     sampling : ``"pool"`` (receptive-field averages) or ``"bilinear"``/``"nearest"``.
-    shift_rings : log-radius shift (rings) of the ``shift`` remapping model; > 0 compresses.
+    shift_rings : log-radius shift (rings) of the ``shift`` remapping model; > 0 compresses;
+        at most M (the number of rings) either way.
+
+    Images are (H, W, 3): uint8, or floats in [0, 1].
     """
 
     def __init__(
@@ -95,20 +110,31 @@ class Vision:
         sampling: str = "pool",
         shift_rings: float = 0.0,
     ) -> None:
-        h, w = (int(image_shape[0]), int(image_shape[1]))
-        if not (math.isfinite(fovea_deg) and 0 < fovea_deg < 30):
-            raise ValueError(f"fovea_deg must be in (0, 30); got {fovea_deg!r}")
+        if isinstance(image_shape, (str, bytes)) or not hasattr(image_shape, "__len__"):
+            raise checks.InputTypeError(f"image_shape must be an (H, W) pair; got {image_shape!r}")
+        if len(image_shape) != 2:
+            raise ValueError(f"image_shape must be an (H, W) pair; got {tuple(image_shape)!r}")
+        h, w = (checks.integer(f"image_shape[{i}]", v, 8, 4096) for i, v in enumerate(image_shape))
+        pixels_per_unit = checks.real("pixels_per_unit", pixels_per_unit, 0.0, 1e6, lo_open=True)
+        fovea_deg = checks.real("fovea_deg", fovea_deg, 0.0, 30.0, lo_open=True, hi_open=True)
+        grayscale = checks.flag("grayscale", grayscale)
+        checks.choice("sampling", sampling, ("pool", "bilinear", "nearest"))
         r0 = math.tan(math.radians(fovea_deg))
         rb = min(h, w) / 2 / pixels_per_unit  # inscribed: every cell lies inside the picture
+        if r0 >= rb:
+            raise ValueError(f"fovea_deg = {fovea_deg} covers the whole {h}x{w} picture (r0 = {r0:.3g} >= "
+                             f"r_b = {rb:.3g}); use a smaller fovea or a larger image")
         if n_sectors is None:
             n_sectors = 4 * math.ceil(round(2 * math.pi * r0 * pixels_per_unit + math.pi) / 4)
-        self.grid = C.RetinaGrid.from_field_of_view(rb, r0, int(n_sectors))
+        n_sectors = checks.integer("n_sectors", n_sectors, 4, 4096, hint="or None for the paper's rule")
+        self.grid = C.RetinaGrid.from_field_of_view(rb, r0, n_sectors)
+        self.shift_rings = checks.real("shift_rings", shift_rings, -self.grid.M, self.grid.M,
+                                       hint=f"a log-radius shift within this retina's {self.grid.M} rings")
         self.channels = 1 if grayscale else 3
-        self.grayscale = bool(grayscale)
+        self.grayscale = grayscale
         self.retina = C.Retina(self.grid, (h, w, 3), pixels_per_unit, mode=sampling)
         self.image_shape = (h, w)
-        self.pixels_per_unit = float(pixels_per_unit)
-        self.shift_rings = float(shift_rings)
+        self.pixels_per_unit = pixels_per_unit
         self.plan = C.RemapPlan(self.grid)
 
     # ------------------------------------------------------------------ frames
@@ -117,14 +143,27 @@ class Vision:
         return self.see_eyes((image,))[0]
 
     def see_eyes(self, images) -> tuple[EyeView, ...]:
-        """``see`` for several eyes' images at once (one DPFT call for all of them)."""
-        imgs = [np.asarray(im) for im in images]
+        """``see`` for several eyes' images at once (one DPFT call for all of them): each (H, W, 3),
+        all uint8 or all floats in [0, 1]."""
+        if isinstance(images, np.ndarray) and images.ndim == 3:
+            raise ValueError("see_eyes takes a sequence of images (one per eye); use see for one image")
+        if isinstance(images, (str, bytes)) or not hasattr(images, "__iter__"):
+            raise checks.InputTypeError(f"images must be a sequence of (H, W, 3) images; got {type(images).__name__}")
+        imgs = [checks.array("image", im, kinds="uf", finite=False) for im in images]
         if not imgs:
             raise ValueError("see_eyes needs at least one image")
         # scale the few samples, not the whole picture (sampling is linear)
         is_uint8 = [im.dtype == np.uint8 for im in imgs]
+        if any(im.dtype.kind == "u" and im.dtype != np.uint8 for im in imgs):
+            raise checks.InputTypeError("images must be uint8 (0..255) or floats in [0, 1]; got "
+                                        f"{', '.join(str(im.dtype) for im in imgs)}")
         if any(is_uint8) and not all(is_uint8):
             raise ValueError("the eyes' images must all be uint8 or all be float")
+        if not is_uint8[0]:
+            for im in imgs:
+                if im.size and np.isfinite(im).all() and not (im.min() >= -1e-6 and im.max() <= 1 + 1e-6):
+                    raise ValueError(f"float images must hold intensities in [0, 1]; got values in "
+                                     f"[{im.min():.4g}, {im.max():.4g}] (pass uint8 images for 0..255)")
         scale = 1.0 / 255.0 if is_uint8[0] else 1.0
         samples = self.retina.sample_many(imgs, scale)  # (E, N_f + M N, 3)
         if self.grayscale:
@@ -140,17 +179,20 @@ class Vision:
     # ------------------------------------------------------------------ remapping
     def point_map(self, model: str, rotation_eye: NDArray[np.float64]):
         """The point map z_new -> z_old of ``model`` for an eye rotation (new axes in old eye
-        coordinates (x1, x2, x3): the efference copy)."""
-        R = np.asarray(rotation_eye, dtype=float)
+        coordinates (x1, x2, x3): the efference copy, a proper rotation matrix)."""
+        R = C.check_rotation(rotation_eye, "rotation_eye")
         if model == "homography":
             return C.homography_map(R)
         if model == "mobius":
             return C.mobius_map(R)
         if model == "shift":
             axis = R[:, 1]  # the new optical axis in old eye coordinates -> the target
+            if axis[1] <= 1e-6:
+                raise ValueError("the shift model needs the new optical axis in front of the old eye (a rotation "
+                                 "below 90 degrees)")
             z_target = (axis[2] + 1j * axis[0]) / axis[1]
             return C.target_shift_map(z_target, self.shift_rings, self.grid.delta)
-        raise ValueError(f"unknown remapping model {model!r}; choose one of {', '.join(REMAP_MODELS)}")
+        checks.choice("model", model, REMAP_MODELS)
 
     def predict(self, view: EyeView, model: str, rotation_eye: NDArray[np.float64]) -> C.RetinaSamples:
         """Predicted post-saccadic samples from the pre-saccadic coefficients and the efference copy."""
@@ -177,13 +219,47 @@ class Vision:
 
         The series is evaluated exactly in single precision (~1e-6 relative: far below the
         retina's sampling error)."""
+        views, models, rotations_eye = self._check_predict_args(views, models, rotations_eye)
         maps = [[self.point_map(m, R) for m in models] for R in rotations_eye]
         coeffs = np.stack([v.coeffs for v in views])
         fovea = np.stack([v.fovea for v in views])
         return self.plan(coeffs, fovea, maps)
 
+    def _check_views(self, views) -> tuple[EyeView, ...]:
+        if isinstance(views, EyeView) or not isinstance(views, (list, tuple)) or not views:
+            raise checks.InputTypeError(f"views must be a non-empty tuple of EyeView (one per eye); got {views!r:.60}")
+        g = self.grid
+        for v in views:
+            if not isinstance(v, EyeView):
+                raise checks.InputTypeError(f"views must hold EyeView objects (from see_eyes); got {type(v).__name__}")
+            if v.periphery.shape[:2] != (g.M, g.N) or v.coeffs.shape != v.periphery.shape:
+                raise ValueError(f"a view does not belong to this Vision's retina ({g.M} rings x {g.N} sectors)")
+        if len({v.periphery.shape for v in views}) != 1:
+            raise ValueError("the views must all have the same channels")
+        return tuple(views)
+
+    def _check_predict_args(self, views, models, rotations_eye):
+        views = self._check_views(views)
+        if isinstance(models, str) or not isinstance(models, (list, tuple)) or not models:
+            raise checks.InputTypeError(f"models must be a non-empty tuple of model names from {REMAP_MODELS}; "
+                                        f"got {models!r:.60}")
+        for m in models:
+            checks.choice("each model", m, REMAP_MODELS)
+        r = checks.array("rotations_eye", rotations_eye, kinds="biuf")
+        if r.shape != (len(views), 3, 3):
+            raise ValueError(f"rotations_eye must hold one 3x3 rotation per view: shape ({len(views)}, 3, 3); got {r.shape}")
+        return views, tuple(models), r
+
     def errors(self, values: NDArray, valid: NDArray, views: tuple[EyeView, ...]) -> NDArray[np.float64]:
         """(E, K) ``normalized_error`` of ``predict_arrays``' output against the actual views."""
+        views = self._check_views(views)
+        n_points = self.grid.n_fovea + self.grid.M * self.grid.N
+        chans = views[0].periphery.shape[2:]
+        values = checks.array("values", values, kinds="f", ndim=4)
+        if values.shape[0] != len(views) or values.shape[2:] != (n_points,) + chans:
+            raise ValueError(f"values must be (E, K, P, C) = ({len(views)}, K, {n_points}, {chans[0]}) (predict_arrays' "
+                             f"output); got {values.shape}")
+        valid = checks.array("valid", valid, kinds="b", shape=values.shape[:3])
         actual = np.stack([v.samples for v in views])
         return _errors(values, valid, actual, views[0].valid)
 
@@ -191,6 +267,15 @@ class Vision:
 def model_errors(
     predictions: list[dict[str, C.RetinaSamples]], actual: tuple[EyeView, ...]
 ) -> dict[str, float]:
-    """{model: ``normalized_error`` of its prediction, mean over the eyes}."""
+    """{model: ``normalized_error`` of its prediction, mean over the eyes}: ``predictions`` [eye]{model:
+    samples} (``Vision.predict_eyes``) and ``actual`` the views of the same eyes."""
+    if not isinstance(predictions, (list, tuple)) or not predictions or not all(
+            isinstance(p, dict) and p for p in predictions):
+        raise checks.InputTypeError("predictions must be a non-empty list (one per eye) of non-empty "
+                                    f"{{model: RetinaSamples}} dicts; got {predictions!r:.60}")
+    if not isinstance(actual, (list, tuple)) or len(actual) != len(predictions):
+        raise ValueError(f"actual must hold one EyeView per eye of predictions ({len(predictions)}); got {actual!r:.60}")
+    if any(set(p) != set(predictions[0]) for p in predictions):
+        raise ValueError("every eye's predictions must name the same models")
     return {m: float(np.mean([normalized_error(p[m], a) for p, a in zip(predictions, actual)]))
             for m in predictions[0]}

@@ -11,28 +11,16 @@ import json
 import sys
 from pathlib import Path
 
+from .cli import int_in, out_dir
+
 __all__ = ["add_subcommand", "evaluate_command", "train_command"]
 
 TASKS = ("fixate", "search")
 
 
-def _int_at_least(minimum: int):
-    """argparse type: an integer >= ``minimum``, with a clear message otherwise."""
-
-    def parse(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}; got {text!r}") from None
-        if v < minimum:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}; got {v}")
-        return v
-
-    return parse
-
-
-_positive = _int_at_least(1)
-_nonneg = _int_at_least(0)
+_positive = int_in(1, 10**6)
+_seed = int_in(0, 2**32 - 1)
+_image_size = int_in(16, 512)
 
 
 def add_subcommand(subparsers) -> None:
@@ -47,8 +35,8 @@ def add_subcommand(subparsers) -> None:
                     "policy.json, training_log.csv (one row per iteration, written as it goes), "
                     "baselines.json and learning_curve.png into --out.")
     p.add_argument("--task", choices=TASKS, default="fixate", help="env task (default: fixate)")
-    p.add_argument("--out", required=True, type=Path, help="output directory for the policy and logs")
-    p.add_argument("--seed", type=_nonneg, default=0, help="random seed; the run is deterministic under it (default 0)")
+    p.add_argument("--out", required=True, type=out_dir, help="output directory for the policy and logs")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed; the run is deterministic under it (default 0)")
     p.add_argument("--quick", action="store_true",
                    help="a short run (5 iterations, 12 candidates x 4 episodes, 16 validation episodes; ~15 s)")
     p.add_argument("--iterations", type=_positive, help=f"CEM iterations (default {d.iterations})")
@@ -56,7 +44,7 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--episodes", type=_positive, help=f"training episodes per candidate (default {d.episodes})")
     p.add_argument("--eval-episodes", type=_positive,
                    help=f"validation episodes per iteration and for the baselines (default {d.eval_episodes})")
-    p.add_argument("--image-size", type=_positive, default=96,
+    p.add_argument("--image-size", type=_image_size, default=96,
                    help="pixels per side of each eye's image (default 96; the ~1 deg target is often lost at 64)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(func=train_command)
@@ -67,11 +55,11 @@ def add_subcommand(subparsers) -> None:
                     "success_rate, mean_reward (mean episode return), mean_saccades, episodes, seed, policy.")
     e.add_argument("--task", choices=TASKS, default="fixate", help="env task (default: fixate)")
     e.add_argument("--policy", required=True,
-                   help="a directory written by 'train', or 'random' (uniform over cells), or "
-                        "'heuristic' (saccade to the brightest cell)")
+                   help="a folder written by 'train' or by the SB3 recipe (python -m experiments.sb3_recipe), or "
+                        "'random' (uniform over cells), or 'heuristic' (saccade to the brightest cell)")
     e.add_argument("--episodes", type=_positive, default=100, help="number of episodes (default 100)")
-    e.add_argument("--seed", type=_nonneg, default=0, help="evaluation seed (default 0)")
-    e.add_argument("--image-size", type=_positive,
+    e.add_argument("--seed", type=_seed, default=0, help="evaluation seed (default 0)")
+    e.add_argument("--image-size", type=_image_size,
                    help="image size for random/heuristic (default 96); a saved policy uses its own")
     e.set_defaults(func=evaluate_command)
 
@@ -105,13 +93,19 @@ def train_command(args: argparse.Namespace) -> int:
 def evaluate_command(args: argparse.Namespace) -> int:
     from .agents.policies import BrightestCellPolicy, RandomPolicy, load_policy
     from .agents.rollout import EVAL_STREAM, episode_seeds, evaluate, make_env
+    from .sb3_recipe import PPO_META
 
     env_kwargs: dict = {"image_size": args.image_size or 96}
     try:
         if args.policy in ("random", "heuristic"):
             policy = None
+        elif (Path(args.policy) / PPO_META).exists():  # a folder written by the SB3 recipe
+            from .sb3_recipe import load_sb3_policy
+
+            policy = load_sb3_policy(args.policy)
         else:
             policy = load_policy(args.policy)
+        if policy is not None:
             saved_task = policy.metadata.get("task", args.task)
             if saved_task != args.task:
                 raise ValueError(f"policy {args.policy} was trained on task {saved_task!r}, not {args.task!r}")
@@ -120,7 +114,7 @@ def evaluate_command(args: argparse.Namespace) -> int:
                 raise ValueError(f"policy {args.policy} was trained at image size "
                                  f"{env_kwargs.get('image_size')}; drop --image-size")
         env = make_env(args.task, **env_kwargs)
-    except (ValueError, FileNotFoundError) as err:
+    except (ValueError, TypeError, FileNotFoundError, ImportError) as err:
         print(f"evaluate: error: {err}", file=sys.stderr)
         return 2
     try:

@@ -1,52 +1,127 @@
 """``python -m experiments run``: the perisaccadic flash-localization study (paper §6.5, Fig. 11).
 
 Runs a design of flash trials through the head's real pipeline (``experiments.psychophysics``)
-and writes into ``--out``: ``trials.csv`` and ``trials.parquet`` (one row per trial),
-``summary.txt`` and ``summary.csv`` (compression index, peak time, width, error direction),
-the figures ``fig11``, ``perceived_vs_time`` and ``compression_vs_time`` (PNG and SVG),
-``study.rrd`` (a Rerun recording) and ``run.json`` (design and configuration). An interrupted
-run resumes where it stopped when the same command is given again.
+and writes into ``--out``: ``trials.csv`` and ``trials.parquet`` (one row per trial, each with its
+configuration hash and a checksum), ``summary.txt`` and ``summary.csv`` (compression index, peak
+time, width, error direction), the figures ``fig11``, ``perceived_vs_time`` and
+``compression_vs_time`` (PNG and SVG), ``study.rrd`` (a Rerun recording) and ``run.json`` (design
+and configuration). An interrupted run resumes where it stopped when the same command is given
+again; one run at a time may use a folder.
+
+Exit status: 0 done; 1 a trial gave NaN where a number was expected, or the folder is in use by
+another run; 2 a bad option, or a folder holding another configuration; 130 / 143 interrupted
+(Ctrl-C / SIGTERM; the rows written so far are kept: run the same command again to resume).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import math
+import shlex
+import signal
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["add_subcommand", "run_study", "record_study"]
+from .psychophysics.bounds import LIMITS, MAX_TRIALS
+
+__all__ = ["add_subcommand", "run_study", "record_study", "NonFiniteResultError"]
+
+PROG = "python -m experiments run"
+
+
+class NonFiniteResultError(RuntimeError):
+    """Trials produced NaN (or inf) where a number was expected."""
+
+
+class _Interrupted(KeyboardInterrupt):
+    """Raised in the main thread by SIGINT / SIGTERM while the command runs."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+# ---------------------------------------------------------------------------------------------- option types
+def _num_type(name: str, what: str = ""):
+    """An argparse type for the parameter ``name`` of ``bounds.LIMITS``: a usage error (exit 2, one
+    line naming the option) for anything but a finite number within the bounds."""
+    lim = LIMITS[name]
+
+    def parse(text: str):
+        kind = "a whole number" if lim.integer else "a number"
+        try:
+            if lim.integer:
+                try:
+                    v = int(text)
+                except ValueError:  # "12.0" or "1e3" name whole numbers too; "12.5" does not
+                    f = float(text)
+                    if not (math.isfinite(f) and f.is_integer()):
+                        raise
+                    v = int(f)
+            else:
+                v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {kind} in {lim.text()}; got {text!r}") from None
+        if not lim.contains(v):
+            raise argparse.ArgumentTypeError(f"must be {kind} in {lim.text()}{what}; got {text!r}")
+        return v
+
+    parse.__name__ = name
+    return parse
 
 
 def _floats(text: str) -> tuple[float, ...]:
+    """Comma-separated saccade amplitudes (deg), each within ``LIMITS['amplitudes_deg']``."""
+    lim = LIMITS["amplitudes_deg"]
     try:
         vals = tuple(float(v) for v in text.split(",") if v.strip())
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers in {lim.text()}; got {text!r}") from None
     if not vals:
-        raise argparse.ArgumentTypeError("expected at least one number")
+        raise argparse.ArgumentTypeError(f"expected at least one number in {lim.text()}; got {text!r}")
+    bad = [v for v in vals if not lim.contains(v)]
+    if bad:
+        raise argparse.ArgumentTypeError(f"each amplitude must be in {lim.text()}; got {bad[0]!r} in {text!r}")
     return vals
 
 
 def _times(text: str) -> tuple[int, ...]:
-    """``START:STOP:STEP`` (inclusive) or a comma-separated list of whole ms."""
+    """``START:STOP:STEP`` (inclusive) or a comma-separated list of whole ms, within ``LIMITS``."""
+    lim = LIMITS["flash_times_ms"]
+    usage = (f"flash times must be START:STOP:STEP (STEP > 0, STOP >= START) or a list of whole ms, "
+             f"each in {lim.text()}; got {text!r}")
     try:
         if ":" in text:
             a, b, s = (int(v) for v in text.split(":"))
-            if s <= 0 or b < a:
+            if s <= 0 or b < a or not (lim.contains(a) and lim.contains(b)):
                 raise ValueError
             return tuple(range(a, b + 1, s))
         vals = tuple(int(v) for v in text.split(",") if v.strip())
     except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"flash times must be START:STOP:STEP (STEP > 0, STOP >= START) or a list of whole ms; got {text!r}"
-        ) from None
-    if not vals:
-        raise argparse.ArgumentTypeError("expected at least one flash time")
+        raise argparse.ArgumentTypeError(usage) from None
+    if not vals or not all(lim.contains(v) for v in vals):
+        raise argparse.ArgumentTypeError(usage)
     return vals
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    formats = tuple(f.strip().lower() for f in text.split(",") if f.strip())
+    if not formats or any(f not in ("png", "svg", "pdf") for f in formats):
+        raise argparse.ArgumentTypeError(f"must list png, svg or pdf, comma-separated; got {text!r}")
+    return formats
+
+
+def _out(text: str) -> str:
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the folder name is empty")
+    if "\x00" in text:
+        raise argparse.ArgumentTypeError(f"the folder name contains a NUL character: {text!r}")
+    return text
 
 
 def add_subcommand(subparsers) -> None:
@@ -54,66 +129,90 @@ def add_subcommand(subparsers) -> None:
     p = subparsers.add_parser(
         "run", help="perisaccadic flash-localization study (table, figures, summary, Rerun recording)",
         description=__doc__, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    p.add_argument("--out", default="results", help="output folder (created; a run there is resumed)")
+    b = {k: v.text() for k, v in LIMITS.items()}
+    p.add_argument("--out", type=_out, default="results",
+                   help="output folder (created; a run there is resumed; one run at a time)")
     p.add_argument("--quick", action="store_true",
-                   help="reduced design: one 20 deg saccade, 8 flash positions, 7 flash times (about a minute)")
+                   help="reduced design: one 20 deg saccade, 8 flash positions, 7 flash times "
+                        "(about 5 s on 2 idle cores)")
     d = p.add_argument_group("design")
     d.add_argument("--amplitudes", type=_floats, default=None, metavar="DEG,...",
-                   help="saccade amplitudes in deg, each from -A/2 to +A/2 azimuth (default 12,16,20,24; --quick: 20)")
+                   help=f"saccade amplitudes in deg, each in {b['amplitudes_deg']}, from -A/2 to +A/2 azimuth "
+                        "(default 12,16,20,24; --quick: 20)")
     d.add_argument("--flash-times", type=_times, default=None, metavar="START:STOP:STEP|MS,...",
-                   help="flash times re saccade onset, ms; write --flash-times=-100:100:20 when the value starts with '-' "
-                        "(default -150:150:25; --quick: -150,-100,-50,-25,0,50,150)")
+                   help="flash times re saccade onset, whole ms in [-1000, 1000]; write --flash-times=-100:100:20 "
+                        "when the value starts with '-' (default -150:150:25; --quick: -150,-100,-50,-25,0,50,150)")
     d.add_argument("--positions", choices=("fig11", "morrone"), default=None,
                    help="flash array: fig11 = 24 dots (6 columns x 4 rows) around the target, morrone = 8 dots "
                         "mostly along the saccade path (default fig11; --quick: morrone)")
-    d.add_argument("--repetitions", type=int, default=1, help="repetitions of every condition")
-    d.add_argument("--seed", type=int, default=0, help="base seed (trial i uses seed + i)")
+    d.add_argument("--repetitions", type=_num_type("repetitions"), default=1,
+                   help=f"repetitions of every condition, {b['repetitions']} (at most {MAX_TRIALS} trials in all)")
+    d.add_argument("--seed", type=_num_type("seed"), default=0, help=f"base seed (trial i uses seed + i), {b['seed']}")
     t = p.add_argument_group("remapping gain time course g(t): distances from the target shrink by exp(-g)")
-    t.add_argument("--peak-time-ms", type=float, default=-10.0, help="time of peak compression re saccade onset")
-    t.add_argument("--rise-ms", type=float, default=25.0, help="s.d. of the rising flank (before the peak)")
-    t.add_argument("--decay-ms", type=float, default=30.0, help="s.d. of the decaying flank (after the peak)")
-    t.add_argument("--peak-gain", type=float, default=math.log(2.0),
-                   help="peak log-radius shift, natural-log units (ln 2 = 50%% compression; 0 = no remapping)")
+    t.add_argument("--peak-time-ms", type=_num_type("peak_time_ms"), default=-10.0,
+                   help=f"time of peak compression re saccade onset, {b['peak_time_ms']}")
+    t.add_argument("--rise-ms", type=_num_type("rise_ms"), default=25.0,
+                   help=f"s.d. of the rising flank (before the peak), {b['rise_ms']}")
+    t.add_argument("--decay-ms", type=_num_type("decay_ms"), default=30.0,
+                   help=f"s.d. of the decaying flank (after the peak), {b['decay_ms']}")
+    t.add_argument("--peak-gain", type=_num_type("peak_gain"), default=math.log(2.0),
+                   help=f"peak log-radius shift, natural-log units, {b['peak_gain']} (ln 2 = 50%% compression; "
+                        "0 = no remapping)")
     m = p.add_argument_group("model")
-    m.add_argument("--image-size", type=int, default=256, help="eye image side, pixels")
-    m.add_argument("--fovy-deg", type=float, default=90.0, help="each eye's vertical field of view, deg")
-    m.add_argument("--fovea-deg", type=float, default=2.0, help="foveal radius of the retina, deg")
-    m.add_argument("--oversample", type=int, default=3, help="density factor of the target-centred read-out grid")
-    m.add_argument("--threshold", type=float, default=0.2, help="read-out: ignore activity below this fraction of the peak")
-    m.add_argument("--flash-radius-deg", type=float, default=1.0, help="radius of the flashed dot, deg")
-    m.add_argument("--endpoint-noise", type=float, default=0.0,
-                   help="saccade endpoint noise, s.d. as a fraction of the amplitude (seeded per trial)")
+    m.add_argument("--image-size", type=_num_type("image_size"), default=256,
+                   help=f"eye image side, {b['image_size']}")
+    m.add_argument("--fovy-deg", type=_num_type("fovy_deg"), default=90.0,
+                   help=f"each eye's vertical field of view, {b['fovy_deg']}")
+    m.add_argument("--fovea-deg", type=_num_type("fovea_deg"), default=2.0,
+                   help=f"foveal radius of the retina, {b['fovea_deg']} (under a quarter of --fovy-deg)")
+    m.add_argument("--oversample", type=_num_type("oversample"), default=3,
+                   help=f"density factor of the target-centred read-out grid, {b['oversample']}")
+    m.add_argument("--threshold", type=_num_type("threshold"), default=0.2,
+                   help=f"read-out: ignore activity below this fraction of the peak, {b['threshold']}")
+    m.add_argument("--flash-radius-deg", type=_num_type("flash_radius_deg"), default=1.0,
+                   help=f"radius of the flashed dot, {b['flash_radius_deg']}")
+    m.add_argument("--endpoint-noise", type=_num_type("endpoint_noise"), default=0.0,
+                   help=f"saccade endpoint noise, s.d. as a fraction of the amplitude, {b['endpoint_noise']} "
+                        "(seeded per trial)")
     r = p.add_argument_group("execution and output")
-    r.add_argument("--workers", type=int, default=2, help="worker processes (spawn context); 1 = in-process")
-    r.add_argument("--formats", default="png,svg", help="figure formats, comma-separated (png, svg, pdf)")
+    r.add_argument("--workers", type=_num_type("workers"), default=2,
+                   help=f"worker processes (spawn context), {b['workers']}; 1 = in-process")
+    r.add_argument("--formats", type=_formats, default="png,svg",
+                   help="figure formats, comma-separated (png, svg, pdf)")
     r.add_argument("--no-recording", action="store_true", help="do not write study.rrd")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_handler, _parser=p)
 
 
 def _build(args: argparse.Namespace):
+    """The design and configuration of the command line; ``argparse`` usage errors name the option."""
     from .psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, RemapTimeCourse, TrialConfig
 
+    parser = args._parser
     base = dict(amplitudes_deg=(20.0,), flash_times_ms=(-150, -100, -50, -25, 0, 50, 150), positions="morrone") \
         if args.quick else dict(amplitudes_deg=(12.0, 16.0, 20.0, 24.0), flash_times_ms=tuple(range(-150, 151, 25)),
                                 positions="fig11")
     positions = args.positions or base["positions"]
-    design = Design(
-        amplitudes_deg=args.amplitudes or base["amplitudes_deg"],
-        flash_offsets_deg=FIG11_OFFSETS_DEG if positions == "fig11" else MORRONE_OFFSETS_DEG,
-        flash_times_ms=args.flash_times or base["flash_times_ms"],
-        repetitions=args.repetitions, seed=args.seed, name="quick" if args.quick else "default")
-    tc = RemapTimeCourse(args.peak_time_ms, args.rise_ms, args.decay_ms, args.peak_gain)
-    config = TrialConfig(image_size=args.image_size, fovy_deg=args.fovy_deg, fovea_deg=args.fovea_deg,
-                         timecourse=tc, threshold=args.threshold, endpoint_noise=args.endpoint_noise,
-                         oversample=args.oversample, flash_radius_deg=args.flash_radius_deg)
-    formats = tuple(f.strip().lower() for f in args.formats.split(",") if f.strip())
-    bad = [f for f in formats if f not in ("png", "svg", "pdf")]
-    if not formats or bad:
-        raise ValueError(f"--formats must list png, svg or pdf; got {args.formats!r}")
-    if args.workers < 1:
-        raise ValueError(f"--workers must be >= 1; got {args.workers}")
-    return design, config, formats
+    amps = args.amplitudes or base["amplitudes_deg"]
+    times = args.flash_times or base["flash_times_ms"]
+    offsets = FIG11_OFFSETS_DEG if positions == "fig11" else MORRONE_OFFSETS_DEG
+    n = len(amps) * len(offsets) * len(times) * args.repetitions
+    if n > MAX_TRIALS:
+        parser.error(f"argument --repetitions: the design would have {n} trials, more than {MAX_TRIALS}; lower "
+                     "--repetitions or give fewer --amplitudes or --flash-times")
+    if args.fovea_deg >= args.fovy_deg / 4:
+        parser.error(f"argument --fovea-deg: must be less than a quarter of --fovy-deg ({args.fovy_deg:g}); "
+                     f"got {args.fovea_deg:g}")
+    try:
+        design = Design(amplitudes_deg=amps, flash_offsets_deg=offsets, flash_times_ms=times,
+                        repetitions=args.repetitions, seed=args.seed, name="quick" if args.quick else "default")
+        tc = RemapTimeCourse(args.peak_time_ms, args.rise_ms, args.decay_ms, args.peak_gain)
+        config = TrialConfig(image_size=args.image_size, fovy_deg=args.fovy_deg, fovea_deg=args.fovea_deg,
+                             timecourse=tc, threshold=args.threshold, endpoint_noise=args.endpoint_noise,
+                             oversample=args.oversample, flash_radius_deg=args.flash_radius_deg)
+    except (ValueError, TypeError) as e:
+        parser.error(str(e))
+    return design, config, args.formats
 
 
 def record_study(path: Path, table: dict, config, amplitude_deg: float | None = None) -> Path:
@@ -121,6 +220,7 @@ def record_study(path: Path, table: dict, config, amplitude_deg: float | None = 
     perceived positions of one amplitude, the compression index and gain, and one example
     trial's eye images, retina, DPFT and cortex (``experiments.recording.Recorder``)."""
     import rerun as rr
+    from threadpoolctl import threadpool_limits
 
     from .psychophysics import Trial, TrialRunner, compression_index
     from .psychophysics.trial import FIXATION_MS
@@ -133,70 +233,184 @@ def record_study(path: Path, table: dict, config, amplitude_deg: float | None = 
     times = np.unique(table["flash_time_ms"][sel])
     dx0 = float(table["flash_dx_deg"][sel][np.argmin(np.abs(table["flash_dx_deg"][sel] + 8))])
     dy0 = float(table["flash_dy_deg"][sel & (table["flash_dx_deg"] == dx0)][0])
-    runner = TrialRunner(config)
-    flip = np.array([1.0, -1.0])
-    try:
-        with Recorder(path, app_id="conformal_head_study") as rec:
-            for i, t in enumerate(times):
-                trial = Trial(10**6 + i, a, dx0, dy0, int(t), 0, 10**6 + i)
-                row = runner.run(trial)
-                rec.set_time_ms(row["flash_sim_ms"])
-                last = runner.last
-                rec.log_head(runner.head)
-                rec.log_frame(last["frame"], runner.retina_grid)
-                rec.log_views([mp[0] for mp in last["maps"]], runner.retina_grid)
-                rec.log_flash((row["true_x_deg"], row["true_y_deg"]), (row["perceived_x_deg"], row["perceived_y_deg"]))
-                plan = last["plan"]
-                rec.log_eye_angles(plan.angles(row["flash_sim_ms"]), plan.velocities(row["flash_sim_ms"]) * 1000.0)
-                m = sel & (table["flash_time_ms"] == t)
-                tr = np.column_stack([table["true_x_deg"][m], table["true_y_deg"][m]]) * flip
-                pe = np.column_stack([table["perceived_x_deg"][m], table["perceived_y_deg"][m]]) * flip
-                rec.log("study/true", rr.Points2D(tr, radii=0.3, colors=[[40, 200, 40]]))
-                rec.log("study/perceived", rr.Points2D(pe, radii=0.3, colors=[[230, 40, 40]]))
-                rec.log("study/error", rr.Arrows2D(vectors=pe - tr, origins=tr, colors=[[200, 200, 200]]))
-                rec.log("study/gain", rr.Scalars(config.timecourse.gain(float(t))))
-                for amp, (tt, vals) in ci.items():
-                    k = np.nonzero(tt == t)[0]
-                    if k.size:
-                        rec.log(f"study/compression_index/{amp:g}deg", rr.Scalars(float(vals[k[0]])))
-            _ = FIXATION_MS
-    finally:
-        runner.close()
+    with threadpool_limits(limits=1):
+        runner = TrialRunner(config)
+        flip = np.array([1.0, -1.0])
+        try:
+            with Recorder(path, app_id="conformal_head_study") as rec:
+                for i, t in enumerate(times):
+                    trial = Trial(10**6 + i, a, dx0, dy0, int(t), 0, 10**6 + i)
+                    row = runner.run(trial)
+                    rec.set_time_ms(row["flash_sim_ms"])
+                    last = runner.last
+                    rec.log_head(runner.head)
+                    rec.log_frame(last["frame"], runner.retina_grid)
+                    rec.log_views([mp[0] for mp in last["maps"]], runner.retina_grid)
+                    rec.log_flash((row["true_x_deg"], row["true_y_deg"]),
+                                  (row["perceived_x_deg"], row["perceived_y_deg"]))
+                    plan = last["plan"]
+                    rec.log_eye_angles(plan.angles(row["flash_sim_ms"]), plan.velocities(row["flash_sim_ms"]) * 1000.0)
+                    m = sel & (table["flash_time_ms"] == t)
+                    tr = np.column_stack([table["true_x_deg"][m], table["true_y_deg"][m]]) * flip
+                    pe = np.column_stack([table["perceived_x_deg"][m], table["perceived_y_deg"][m]]) * flip
+                    rec.log("study/true", rr.Points2D(tr, radii=0.3, colors=[[40, 200, 40]]))
+                    rec.log("study/perceived", rr.Points2D(pe, radii=0.3, colors=[[230, 40, 40]]))
+                    rec.log("study/error", rr.Arrows2D(vectors=pe - tr, origins=tr, colors=[[200, 200, 200]]))
+                    rec.log("study/gain", rr.Scalars(config.timecourse.gain(float(t))))
+                    for amp, (tt, vals) in ci.items():
+                        k = np.nonzero(tt == t)[0]
+                        if k.size:
+                            rec.log(f"study/compression_index/{amp:g}deg", rr.Scalars(float(vals[k[0]])))
+                _ = FIXATION_MS
+        finally:
+            runner.close()
     return path
+
+
+def _check_finite(table: dict, csv_path: Path) -> None:
+    """``NonFiniteResultError`` naming the trials and columns where a number was expected and NaN
+    (or inf) was written."""
+    from .psychophysics import ROW_COLUMNS
+
+    bad = np.zeros(len(table["trial_id"]), bool)
+    cols = []
+    for c in ROW_COLUMNS:
+        m = ~np.isfinite(table[c])
+        if m.any():
+            cols.append(c)
+            bad |= m
+    if not bad.any():
+        return
+    ids = [int(i) for i in table["trial_id"][bad]]
+    shown = ", ".join(map(str, ids[:12])) + (f", ... ({len(ids) - 12} more)" if len(ids) > 12 else "")
+    raise NonFiniteResultError(
+        f"{len(ids)} of {len(bad)} trials produced NaN where a number was expected (trial_id {shown}; columns "
+        f"{', '.join(cols[:4])}{', ...' if len(cols) > 4 else ''}): the read-out found no flash activity (e.g. a large "
+        f"--peak-gain shifts flashes off the map; a small --image-size or --fovy-deg loses them); the table is in "
+        f"{csv_path}, no summary, figures or recording were written")
 
 
 def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = True,
               formats: tuple[str, ...] = ("png", "svg"), recording: bool = True) -> dict:
-    """Run (or resume) the design, then write summary, figures and the recording into ``out``."""
-    from .psychophysics import format_summary, read_table, run_trials, save_all, summary
+    """Run (or resume) the design, then write summary, figures and the recording into ``out``.
 
-    csv_path = run_trials(design, config, out, workers=workers, progress=progress)
-    table = read_table(csv_path)
-    rows = summary(table)
-    text = format_summary(rows, config.timecourse, n_trials=len(table["trial_id"]))
-    (out / "summary.txt").write_text(text)
-    with (out / "summary.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    figures = save_all(table, out, config.timecourse, formats)
-    rrd = record_study(out / "study.rrd", table, config) if recording else None
+    The folder is locked for the whole run (``FolderBusyError`` if another run holds it); trials that
+    produced NaN where a number was expected raise ``NonFiniteResultError`` after the table is written.
+    """
+    from .psychophysics import format_summary, read_table, run_trials, save_all, summary
+    from .psychophysics.runner import folder_lock
+
+    with folder_lock(out) as out:
+        csv_path = run_trials(design, config, out, workers=workers, progress=progress)
+        table = read_table(csv_path)
+        _check_finite(table, csv_path)
+        rows = summary(table)
+        text = format_summary(rows, config.timecourse, n_trials=len(table["trial_id"]))
+        (out / "summary.txt").write_text(text)
+        with (out / "summary.csv").open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        figures = save_all(table, out, config.timecourse, formats)
+        rrd = record_study(out / "study.rrd", table, config) if recording else None
     return {"table": csv_path, "summary": text, "figures": figures, "recording": rrd}
+
+
+# ---------------------------------------------------------------------------------------------- command
+def _command(args: argparse.Namespace) -> str:
+    """The command line that gives the same run (options at their defaults left out)."""
+    parser = args._parser
+    words = PROG.split()
+
+    def text(v) -> str:
+        if isinstance(v, (tuple, list)):
+            return ",".join(text(x) for x in v)
+        if isinstance(v, float):
+            return str(int(v)) if v.is_integer() else repr(v)
+        return str(v)
+
+    for a in parser._actions:
+        if not a.option_strings or a.dest in ("help",) or a.dest.startswith("_"):
+            continue
+        v = getattr(args, a.dest, None)
+        default = a.type(a.default) if isinstance(a.default, str) and a.type else a.default
+        opt = max(a.option_strings, key=len)
+        if v == default and a.dest != "out":
+            continue
+        if a.nargs == 0:  # store_true
+            words.append(opt)
+            continue
+        s = text(v)
+        words += [f"{opt}={s}"] if s.startswith("-") else [opt, s]
+    return shlex.join(words)
+
+
+@contextlib.contextmanager
+def _interruptible():
+    """SIGINT and SIGTERM raise ``_Interrupted`` in the main thread; a second signal is ignored while
+    the first one's clean-up (stopping the workers) runs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    sigs = (signal.SIGINT, signal.SIGTERM)
+
+    def handler(signum, frame):
+        for s in sigs:
+            signal.signal(s, signal.SIG_IGN)
+        raise _Interrupted(signum)
+
+    old = {s: signal.signal(s, handler) for s in sigs}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def _saved(csv_path: Path) -> int:
+    import warnings
+
+    from .psychophysics import read_table
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return len(read_table(csv_path, partial=True)["trial_id"])
+    except Exception:  # noqa: BLE001 - only for the message
+        return 0
 
 
 def _handler(args: argparse.Namespace) -> int:
     parser = args._parser
+    from .psychophysics.runner import FolderBusyError, OutputFolderError, prepare_output_folder
+
+    design, config, formats = _build(args)
     try:
-        design, config, formats = _build(args)
-    except (ValueError, TypeError) as e:
-        parser.error(str(e))
-    out = Path(args.out)
+        out = prepare_output_folder(args.out)
+    except (OutputFolderError, TypeError) as e:
+        parser.error(f"argument --out: {e}")
+    csv_path = out / "trials.csv"
     try:
-        res = run_study(design, config, out, workers=args.workers, progress=not args.no_progress,
-                        formats=formats, recording=not args.no_recording)
+        with _interruptible():
+            res = run_study(design, config, out, workers=args.workers, progress=not args.no_progress,
+                            formats=formats, recording=not args.no_recording)
+    except KeyboardInterrupt as e:
+        signum = getattr(e, "signum", signal.SIGINT)
+        print(f"{PROG}: interrupted ({signal.Signals(signum).name}) with {_saved(csv_path)} of {design.n_trials} "
+              f"trials saved in {csv_path}; to resume, run the same command again: {_command(args)}",
+              file=sys.stderr)
+        return 128 + int(signum)
+    except OutputFolderError as e:
+        parser.error(f"argument --out: {e}")
+    except (FolderBusyError, NonFiniteResultError) as e:
+        print(f"{PROG}: error: {e}", file=sys.stderr)
+        return 1
     except ValueError as e:
-        print(f"python -m experiments run: error: {e}", file=sys.stderr)
+        print(f"{PROG}: error: {e}", file=sys.stderr)
         return 2
+    except OSError as e:
+        print(f"{PROG}: error: {e}", file=sys.stderr)
+        return 1
     print(res["summary"], end="")
     print(f"wrote {res['table']}, {len(res['figures'])} figures"
           + (f", {res['recording']}" if res["recording"] else "") + f" in {out}")

@@ -8,7 +8,7 @@ from .build import (DEFAULT_FOVY_DEG, DEFAULT_IPD, HEAD_XML, QUALITIES, ModelFil
                     build_spec, export_xml, load_model)
 from .oculomotor import (MAX_PEAK_VELOCITY, MainSequence, OculomotorRangeError, SaccadePlan, fick_angles,
                          fick_matrix, fixation_angles, gaze_direction, listing_torsion, rotation_vector)
-from .render import EYES, EyeImage, EyeRenderer, StereoFrame
+from .render import EYES, EyeImage, EyeRenderer, ForkedGLContextError, StereoFrame
 from .scenes import CYCLOPEAN_EYE, SCENES, SceneInfo, screen_point
 from .simulation import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, EyeState, EyeTrace, Head
 
@@ -20,5 +20,5 @@ __all__ = [
     "EyeRenderer", "EyeImage", "StereoFrame",
     "MainSequence", "SaccadePlan", "fixation_angles", "listing_torsion", "fick_matrix", "fick_angles",
     "gaze_direction", "rotation_vector",
-    "GLBackendError", "ModelFileError", "OculomotorRangeError", "gl_install_hint",
+    "GLBackendError", "ForkedGLContextError", "ModelFileError", "OculomotorRangeError", "gl_install_hint",
 ]

@@ -24,7 +24,10 @@ _HINTS = {
 
 
 def gl_install_hint(backend: str | None = None) -> str:
-    """Which Debian packages provide the off-screen GL backend ``backend`` (default: MUJOCO_GL)."""
+    """Which Debian packages provide the off-screen GL backend ``backend`` (a name such as ``"egl"``;
+    default: MUJOCO_GL)."""
+    if backend is not None and not isinstance(backend, str):
+        raise TypeError(f"backend must be a GL backend name (str) or None; got {type(backend).__name__}")
     backend = (backend or os.environ.get("MUJOCO_GL", "egl")).lower()
     return _HINTS.get(
         backend,

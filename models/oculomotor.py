@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from conformal import checks
+
 __all__ = [
     "H_RANGE",
     "V_RANGE",
@@ -73,20 +75,43 @@ def _rot(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     return np.eye(3) + s * k + (1 - c) * (k @ k)
 
 
+def _angles(**named) -> list[np.ndarray]:
+    """Finite real angle arrays (radians) whose shapes broadcast together."""
+    out = [checks.array(name, a, kinds="biuf").astype(float) for name, a in named.items()]
+    try:
+        np.broadcast_shapes(*(a.shape for a in out))
+    except ValueError:
+        raise ValueError(f"{', '.join(named)} must have shapes that broadcast; got "
+                         f"{', '.join(str(a.shape) for a in out)}") from None
+    return out
+
+
+def _rotations(name: str, R, single: bool = False) -> np.ndarray:
+    """Finite rotation matrices (..., 3, 3) (orthogonal to 1e-6, det +1), or one (3, 3) if ``single``."""
+    r = checks.array(name, R, kinds="biuf", ndim=2 if single else None).astype(float)
+    if r.shape[-2:] != (3, 3):
+        raise ValueError(f"{name} must be {'a 3x3 rotation matrix' if single else 'rotation matrices (..., 3, 3)'}; "
+                         f"got shape {r.shape}")
+    if r.size and (np.abs(r @ np.swapaxes(r, -1, -2) - np.eye(3)).max() > 1e-6 or np.linalg.det(r).min() < 0):
+        raise ValueError(f"{name} must hold proper rotation matrices (orthogonal, det +1)")
+    return r
+
+
 def fick_matrix(h, v, t) -> np.ndarray:
-    """Eye-in-head rotation ``rot(-z,h) rot(-y,v) rot(x,t)`` for Fick angles (vectorised)."""
+    """Eye-in-head rotation ``rot(-z,h) rot(-y,v) rot(x,t)`` for finite Fick angles (vectorised)."""
+    h, v, t = _angles(h=h, v=v, t=t)
     return _rot(-_Z, h) @ _rot(-_Y, v) @ _rot(_X, t)
 
 
 def gaze_direction(h, v) -> np.ndarray:
-    """Unit gaze (optical-axis) direction in the head frame for Fick angles ``h, v``."""
-    h, v = np.asarray(h, float), np.asarray(v, float)
+    """Unit gaze (optical-axis) direction in the head frame for finite Fick angles ``h, v``."""
+    h, v = np.broadcast_arrays(*_angles(h=h, v=v))
     return np.stack([np.cos(h) * np.cos(v), -np.sin(h) * np.cos(v), np.sin(v)], axis=-1)
 
 
 def fick_angles(R: np.ndarray) -> np.ndarray:
     """Fick angles ``(h, v, t)`` of eye-in-head rotation(s) ``R`` (..., 3, 3) -> (..., 3)."""
-    R = np.asarray(R, float)
+    R = _rotations("R", R)
     g = R[..., :, 0]
     h = np.arctan2(-g[..., 1], g[..., 0])
     v = np.arcsin(np.clip(g[..., 2], -1.0, 1.0))
@@ -101,12 +126,13 @@ def listing_torsion(h, v) -> np.ndarray:
     Derived from the rotation about the axis ``primary x gaze`` (which lies in Listing's plane);
     the tests check it against that construction, not against this formula.
     """
-    return 2.0 * np.arctan(np.tan(np.asarray(h, float) / 2) * np.tan(np.asarray(v, float) / 2))
+    h, v = _angles(h=h, v=v)
+    return 2.0 * np.arctan(np.tan(h / 2) * np.tan(v / 2))
 
 
 def rotation_vector(R: np.ndarray) -> np.ndarray:
     """Rotation vector (axis * angle, radians) of rotation matrix ``R`` (3, 3)."""
-    R = np.asarray(R, float)
+    R = _rotations("R", R, single=True)
     angle = np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0))
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
     if angle < 1e-9:
@@ -120,7 +146,7 @@ def eye_frame_basis(R: np.ndarray) -> np.ndarray:
 
 
 def _check_point(p, name: str = "target") -> np.ndarray:
-    p = np.asarray(p, dtype=float)
+    p = checks.array(name, p, kinds="biuf", finite=False).astype(float)
     if p.shape != (3,):
         raise OculomotorRangeError(f"{name} must be a 3-vector (x, y, z) in metres, got shape {p.shape}")
     if not np.all(np.isfinite(p)):
@@ -136,7 +162,10 @@ def fixation_angles(target_head: np.ndarray, eye_centres_head: np.ndarray) -> np
     Raises :class:`OculomotorRangeError` for unreachable or non-finite targets.
     """
     p = _check_point(target_head)
-    d = p[None, :] - np.asarray(eye_centres_head, float)
+    c = checks.array("eye_centres_head", eye_centres_head, kinds="biuf", ndim=2).astype(float)
+    if c.shape[1] != 3 or len(c) == 0:
+        raise ValueError(f"eye_centres_head must be (n_eyes, 3) points in metres; got shape {c.shape}")
+    d = p[None, :] - c
     dist = np.linalg.norm(d, axis=1)
     if np.any(dist < MIN_TARGET_DISTANCE):
         raise OculomotorRangeError(
@@ -169,17 +198,30 @@ class MainSequence:
     settle_deg: float = 0.01  #: the tail is cut (position snaps to the endpoint) this close to it
 
     def __post_init__(self):
-        if not (np.isfinite(self.m0_deg) and self.m0_deg > 0):
-            raise ValueError("m0_deg must be positive")
-        if not (0 < self.vpk_deg_per_ms * 1000.0 <= np.rad2deg(MAX_PEAK_VELOCITY)):
-            raise ValueError("vpk_deg_per_ms must be in (0, 0.7]: peak eye speed never exceeds 700 deg/s")
+        object.__setattr__(self, "m0_deg", checks.real("m0_deg", self.m0_deg, 0.0, 100.0, lo_open=True))
+        object.__setattr__(self, "vpk_deg_per_ms", checks.real(
+            "vpk_deg_per_ms", self.vpk_deg_per_ms, 0.0, round(np.rad2deg(MAX_PEAK_VELOCITY) / 1000.0, 12),
+            lo_open=True, hint="peak eye speed never exceeds 700 deg/s"))
+        object.__setattr__(self, "end_velocity_deg_s", checks.real(
+            "end_velocity_deg_s", self.end_velocity_deg_s, 0.0, 1000.0 * self.vpk_deg_per_ms, lo_open=True,
+            hi_open=True, hint="the offset speed lies below the peak speed vpk"))
+        object.__setattr__(self, "settle_deg", checks.real("settle_deg", self.settle_deg, 0.0, 1.0, lo_open=True))
+
+    @staticmethod
+    def _amp(amp_deg) -> float:
+        return checks.real("amp_deg", amp_deg, 0.0, 180.0, hint="a saccade amplitude in degrees")
+
+    @staticmethod
+    def _times(t_ms) -> np.ndarray:
+        return checks.array("t_ms", t_ms, kinds="biuf").astype(float)
 
     def _A(self, amp_deg):
         return 1.0 / -np.expm1(-np.asarray(amp_deg, float) / self.m0_deg)
 
     def position_deg(self, t_ms, amp_deg: float) -> np.ndarray:
         """E(t) in degrees for ``t_ms`` after onset (0 before onset)."""
-        t = np.maximum(np.asarray(t_ms, float), 0.0)
+        t = np.maximum(self._times(t_ms), 0.0)
+        amp_deg = self._amp(amp_deg)
         if amp_deg <= 0:
             return np.zeros_like(t)
         m0, v, A = self.m0_deg, self.vpk_deg_per_ms, self._A(amp_deg)
@@ -189,7 +231,8 @@ class MainSequence:
 
     def velocity_deg_per_ms(self, t_ms, amp_deg: float) -> np.ndarray:
         """dE/dt in deg/ms (0 up to and including onset; jumps to the peak just after it)."""
-        t = np.asarray(t_ms, float)
+        t = self._times(t_ms)
+        amp_deg = self._amp(amp_deg)
         if amp_deg <= 0:
             return np.zeros_like(t)
         A = self._A(amp_deg)
@@ -199,10 +242,12 @@ class MainSequence:
 
     def peak_velocity_deg_s(self, amp_deg: float) -> float:
         """Peak speed (deg/s) = vpk (1 - e^{-T/m0})."""
+        amp_deg = self._amp(amp_deg)
         return float(1000.0 * self.vpk_deg_per_ms * -np.expm1(-amp_deg / self.m0_deg))
 
     def duration_ms(self, amp_deg: float) -> float:
         """Time from onset until the speed falls below ``end_velocity_deg_s``."""
+        amp_deg = self._amp(amp_deg)
         if amp_deg <= 0:
             return 0.0
         v, m0 = self.vpk_deg_per_ms, self.m0_deg
@@ -213,6 +258,7 @@ class MainSequence:
 
     def settle_ms(self, amp_deg: float) -> float:
         """Time after onset when T - E(t) < ``settle_deg``; the plan then holds the endpoint."""
+        amp_deg = self._amp(amp_deg)
         if amp_deg <= self.settle_deg:
             return 0.0
         # T - E = m0 ln(1 + e^{-x}/A)  =>  e^{-x} = A (e^{d/m0} - 1)
@@ -245,10 +291,20 @@ class SaccadePlan:
     intended_target: np.ndarray | None = None  #: world point asked for, before endpoint noise
 
     def __post_init__(self):
-        self.start_angles = np.asarray(self.start_angles, float).reshape(2, 3)
-        self.end_angles = np.asarray(self.end_angles, float).reshape(2, 3)
-        if not (np.all(np.isfinite(self.start_angles)) and np.all(np.isfinite(self.end_angles))):
-            raise OculomotorRangeError("saccade plan angles must be finite")
+        self.onset_ms = checks.integer("onset_ms", self.onset_ms, 0, None, hint="a whole millisecond")
+        for name in ("start_angles", "end_angles"):
+            a = checks.array(name, getattr(self, name), kinds="biuf", finite=False)
+            if a.shape != (2, 3):
+                raise ValueError(f"{name} must be Fick angles of shape (2, 3) [eye, (h, v, t)]; got {a.shape}")
+            if not np.all(np.isfinite(a)):
+                raise OculomotorRangeError("saccade plan angles must be finite")
+            setattr(self, name, a.astype(float))
+        self.amplitude = checks.real("amplitude", self.amplitude, 0.0, np.pi, hint="radians")
+        if not isinstance(self.main_sequence, MainSequence):
+            raise checks.InputTypeError(f"main_sequence must be a MainSequence; got {type(self.main_sequence).__name__}")
+        for name in ("target", "intended_target"):
+            if getattr(self, name) is not None:
+                setattr(self, name, _check_point(getattr(self, name), name))
         self._amp_deg = float(np.rad2deg(self.amplitude))
         R0 = fick_matrix(self.start_angles[:, 0], self.start_angles[:, 1], self.start_angles[:, 2])
         R1 = fick_matrix(self.end_angles[:, 0], self.end_angles[:, 1], self.end_angles[:, 2])
@@ -288,8 +344,8 @@ class SaccadePlan:
 
     # -- trajectory ------------------------------------------------------------------------
     def profile(self, t_ms) -> tuple[np.ndarray, np.ndarray]:
-        """Normalised position ``s`` and its rate ``ds/dt`` (1/ms) at absolute times ``t_ms``."""
-        tr = np.asarray(t_ms, float) - self.onset_ms
+        """Normalised position ``s`` and its rate ``ds/dt`` (1/ms) at finite absolute times ``t_ms``."""
+        tr = MainSequence._times(t_ms) - self.onset_ms
         if self._amp_deg <= 0:
             return (tr >= 0).astype(float), np.zeros_like(tr)
         s = self.main_sequence.position_deg(tr, self._amp_deg) / self._amp_deg
@@ -317,6 +373,7 @@ class SaccadePlan:
         return np.concatenate([dhv, dt[..., None]], axis=-1)
 
     def sample(self, step_ms: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-        """Times (relative to onset) and planned angles from onset to settle, every ``step_ms``."""
+        """Times (relative to onset) and planned angles from onset to settle, every ``step_ms`` (in [0.001, 1000])."""
+        step_ms = checks.real("step_ms", step_ms, 0.001, 1000.0)
         t = np.arange(0.0, self.settle_ms + step_ms, step_ms)
         return t, self.angles(self.onset_ms + t)

@@ -15,17 +15,44 @@ plane, which is exactly this mapping (no half-pixel offset).
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from conformal import checks
+
 from ._gl import GLBackendError, gl_install_hint, mujoco
 
-__all__ = ["EyeImage", "StereoFrame", "EyeRenderer", "EYES", "HIDDEN_GEOM_GROUPS"]
+__all__ = ["EyeImage", "StereoFrame", "EyeRenderer", "EYES", "HIDDEN_GEOM_GROUPS", "ForkedGLContextError"]
 
 EYES: tuple[str, str] = ("left_eye", "right_eye")
 #: Geom groups not drawn in eye images (group 1 = the head's own geoms).
 HIDDEN_GEOM_GROUPS: tuple[int, ...] = (1,)
+#: The largest eye image side (pixels).
+MAX_IMAGE_SIDE = 4096
+
+#: The id of the process that created an OpenGL context here (None: none yet). Module state is
+#: copied into a forked child, where ``os.getpid()`` then differs: the child inherits the parent's
+#: GL driver state (EGL threads and locks) but not its threads, and a new context there deadlocks.
+_GL_CONTEXT_PID: int | None = None
+
+
+class ForkedGLContextError(RuntimeError):
+    """This process was forked from one that had created an OpenGL context; GL does not survive
+    ``fork``, so no context can be created here: start such processes with ``spawn``."""
+
+
+def _check_not_forked_after_gl() -> None:
+    """Raise :class:`ForkedGLContextError` in a forked child of a process that had rendered."""
+    if _GL_CONTEXT_PID is not None and _GL_CONTEXT_PID != os.getpid():
+        raise ForkedGLContextError(
+            f"this process (pid {os.getpid()}) was forked from process {_GL_CONTEXT_PID} after that process had "
+            "created an OpenGL context; GL contexts do not survive fork, and rendering here would hang forever. "
+            "Start worker processes with the 'spawn' method: gymnasium.make_vec(..., vectorization_mode='async', "
+            "vector_kwargs={'context': 'spawn'}), AsyncVectorEnv(..., context='spawn'), "
+            "SubprocVecEnv(..., start_method='spawn') or multiprocessing.get_context('spawn')"
+        )
 
 
 @dataclass(frozen=True)
@@ -51,13 +78,19 @@ class EyeImage:
         return (w - 1) / 2.0, (h - 1) / 2.0
 
     def pixel_to_plane(self, rows, cols) -> np.ndarray:
-        """Image-plane points z (complex) of pixel centres (rows, cols)."""
+        """Image-plane points z (complex) of pixel centres (rows, cols): finite real arrays that broadcast."""
         cx, cy = self.principal_point
-        return ((np.asarray(cols, float) - cx) - 1j * (np.asarray(rows, float) - cy)) / self.pixels_per_unit
+        r = checks.array("rows", rows, kinds="biuf").astype(float)
+        c = checks.array("cols", cols, kinds="biuf").astype(float)
+        try:
+            np.broadcast_shapes(r.shape, c.shape)
+        except ValueError:
+            raise ValueError(f"rows and cols must have shapes that broadcast; got {r.shape} and {c.shape}") from None
+        return ((c - cx) - 1j * (r - cy)) / self.pixels_per_unit
 
     def plane_to_pixel(self, z) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, cols) (float) of image-plane points z."""
-        z = np.asarray(z, complex)
+        """(rows, cols) (float) of finite image-plane points z."""
+        z = checks.array("z", z, kinds="biufc").astype(complex)
         cx, cy = self.principal_point
         return cy - z.imag * self.pixels_per_unit, cx + z.real * self.pixels_per_unit
 
@@ -91,14 +124,20 @@ class EyeRenderer:
 
     Uses one ``mujoco.Renderer`` (one GL context) for both eyes; the head's own geoms (group 1)
     are hidden. Release the context with :meth:`close` (or use as a context manager).
-    Raises :class:`GLBackendError` (with the Debian packages to install) if no GL backend works.
+    ``height`` and ``width`` are in [1, 4096].
+    Raises :class:`GLBackendError` (with the Debian packages to install) if no GL backend works,
+    and :class:`ForkedGLContextError` (a ``RuntimeError``) in a process forked from one that had
+    already created a GL context (use the ``spawn`` start method).
     """
 
     def __init__(self, model: mujoco.MjModel, height: int, width: int | None = None):
-        width = height if width is None else width
-        if int(height) < 1 or int(width) < 1:
-            raise ValueError(f"image size must be positive, got {height}x{width}")
-        self.height, self.width = int(height), int(width)
+        global _GL_CONTEXT_PID
+        self._renderer = None
+        if not isinstance(model, mujoco.MjModel):
+            raise checks.InputTypeError(f"model must be a mujoco.MjModel; got {type(model).__name__}")
+        height = checks.integer("height", height, 1, MAX_IMAGE_SIDE)
+        width = height if width is None else checks.integer("width", width, 1, MAX_IMAGE_SIDE)
+        self.height, self.width = height, width
         if self.width > model.vis.global_.offwidth or self.height > model.vis.global_.offheight:
             raise ValueError(
                 f"image {self.width}x{self.height} exceeds the model's off-screen buffer "
@@ -115,8 +154,10 @@ class EyeRenderer:
         self._option = mujoco.MjvOption()
         for g in HIDDEN_GEOM_GROUPS:
             self._option.geomgroup[g] = 0
+        _check_not_forked_after_gl()
         try:
             self._renderer = mujoco.Renderer(model, self.height, self.width)
+            self._pid = _GL_CONTEXT_PID = os.getpid()
         except Exception as exc:
             raise GLBackendError(
                 f"cannot create an off-screen OpenGL context ({type(exc).__name__}: {exc}). "
@@ -127,6 +168,12 @@ class EyeRenderer:
         """Render both eyes for the current state of ``data`` (kinematics must be up to date)."""
         if self._renderer is None:
             raise RuntimeError("renderer is closed")
+        if self._pid != os.getpid():  # a renderer inherited through fork: its context is not usable here
+            _check_not_forked_after_gl()
+        if not isinstance(data, mujoco.MjData) or data.qpos.shape != (self.model.nq,):
+            raise checks.InputTypeError(f"data must be the mujoco.MjData of this renderer's model; got {type(data).__name__}")
+        depth = checks.flag("depth", depth)
+        time_ms = checks.integer("time_ms", time_ms)
         out = []
         for eye, cid in zip(EYES, self._cam_ids):
             self._renderer.update_scene(data, camera=cid, scene_option=self._option)
@@ -142,9 +189,10 @@ class EyeRenderer:
         return StereoFrame(out[0], out[1], int(time_ms))
 
     def close(self) -> None:
-        """Release the GL context (idempotent)."""
+        """Release the GL context (idempotent). In a process forked from the one that created it, the
+        context is only dropped: freeing it there could hang, and it belongs to the parent."""
         r, self._renderer = getattr(self, "_renderer", None), None
-        if r is not None:
+        if r is not None and getattr(self, "_pid", None) == os.getpid():
             r.close()
 
     def __enter__(self) -> "EyeRenderer":

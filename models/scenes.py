@@ -28,6 +28,8 @@ from typing import Callable
 
 import numpy as np
 
+from conformal import checks
+
 from ._gl import mujoco
 from ._png import encode_png
 
@@ -35,6 +37,7 @@ __all__ = ["SCENES", "SceneInfo", "CYCLOPEAN_EYE", "screen_point", "add_scene", 
 
 #: Cyclopean eye centre (world, metres) with the neck at rest; matches models/head.xml.
 CYCLOPEAN_EYE = np.array([0.082, 0.0, 1.2])
+CYCLOPEAN_EYE.setflags(write=False)
 
 SCENES: tuple[str, ...] = ("bar", "dots", "natural", "search")
 
@@ -52,7 +55,11 @@ _G = mujoco.mjtGeom
 
 def screen_point(azimuth: float, elevation: float, distance: float) -> np.ndarray:
     """World point on the frontoparallel plane ``distance`` m ahead of the cyclopean eye, seen at
-    ``azimuth`` (radians, > 0 right) and ``elevation`` (radians, > 0 up) along the screen axes."""
+    ``azimuth`` (radians, > 0 right) and ``elevation`` (radians, > 0 up) along the screen axes, both
+    in (-pi/2, pi/2); ``distance`` in (0, 1000] m."""
+    azimuth = checks.real("azimuth", azimuth, -np.pi / 2, np.pi / 2, lo_open=True, hi_open=True, hint="radians")
+    elevation = checks.real("elevation", elevation, -np.pi / 2, np.pi / 2, lo_open=True, hi_open=True, hint="radians")
+    distance = checks.real("distance", distance, 0.0, 1000.0, lo_open=True, hint="metres")
     return CYCLOPEAN_EYE + distance * np.array([1.0, -np.tan(azimuth), np.tan(elevation)])
 
 
@@ -68,6 +75,28 @@ class SceneInfo:
     default_fixation: str | np.ndarray = "fixation"
     layout: Callable[[np.random.Generator], dict[str, np.ndarray]] | None = None
     flashes: tuple[str, ...] = ()  #: objects hidden until flashed
+
+    def __post_init__(self) -> None:
+        for name in ("name", "description"):
+            if not isinstance(getattr(self, name), str):
+                raise checks.InputTypeError(f"{name} must be a str; got {getattr(self, name)!r:.60}")
+
+        def names(what, value) -> tuple[str, ...]:
+            if isinstance(value, str) or not isinstance(value, (tuple, list)) or not all(
+                    isinstance(n, str) for n in value):
+                raise checks.InputTypeError(f"{what} must be a tuple of object names (str); got {value!r:.60}")
+            return tuple(value)
+
+        if not isinstance(self.groups, dict) or not all(isinstance(k, str) for k in self.groups):
+            raise checks.InputTypeError(f"groups must be a dict of group name -> object names; got {self.groups!r:.60}")
+        self.groups = {k: names(f"groups[{k!r}]", v) for k, v in self.groups.items()}
+        self.movable = names("movable", self.movable)
+        self.flashes = names("flashes", self.flashes)
+        if not isinstance(self.default_fixation, str):
+            p = checks.array("default_fixation", self.default_fixation, kinds="biuf", shape=(3,))
+            self.default_fixation = p.astype(float)
+        if self.layout is not None:
+            checks.callable_("layout", self.layout)
 
     @property
     def objects(self) -> tuple[str, ...]:

@@ -30,8 +30,10 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
+from conformal import checks
+
 from ._gl import mujoco
-from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, build_spec
+from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, _path, _write_spec, build_spec
 from .oculomotor import (
     MainSequence,
     OculomotorRangeError,
@@ -40,8 +42,8 @@ from .oculomotor import (
     fixation_angles,
     gaze_direction,
 )
-from .render import EYES, EyeRenderer, StereoFrame, focal_pixels
-from .scenes import SceneInfo
+from .render import EYES, MAX_IMAGE_SIDE, EyeRenderer, StereoFrame, focal_pixels
+from .scenes import SCENES, SceneInfo
 
 __all__ = ["Head", "EyeState", "EyeTrace", "DEFAULT_TIMESTEP_MS", "DEFAULT_SACCADE_TIMESTEP_MS"]
 
@@ -49,6 +51,12 @@ __all__ = ["Head", "EyeState", "EyeTrace", "DEFAULT_TIMESTEP_MS", "DEFAULT_SACCA
 DEFAULT_TIMESTEP_MS = 1.0
 #: Physics timestep during saccades (set-points follow the plan at every step).
 DEFAULT_SACCADE_TIMESTEP_MS = 0.25
+#: The finest physics timestep accepted (100 steps per millisecond).
+MIN_TIMESTEP_MS = 0.01
+#: The longest stretch of simulated time one call may ask for (``step_ms``, ``settle_ms``,
+#: ``latency_ms``, ``duration_ms``, ``before_ms``/``after_ms``): one minute, far beyond any fixation
+#: (180-320 ms) or saccade latency, so that a typo cannot run for hours.
+MAX_STEP_MS = 60_000
 
 _JOINTS = tuple(f"{side}_eye_{a}" for side in ("left", "right") for a in "hvt")
 # camera frame (x right, y up, z back) -> DESIGN.md eye axes (x1 up, x2 optical axis, x3 right)
@@ -68,8 +76,9 @@ class EyeState:
     eye_axes: np.ndarray
 
     def project(self, points) -> np.ndarray:
-        """Image-plane points ``z = (x3 + i x1)/x2`` of world ``points`` (N, 3) (NaN if behind)."""
-        d = np.atleast_2d(np.asarray(points, float)) - self.camera_position
+        """Image-plane points ``z = (x3 + i x1)/x2`` of finite world ``points`` (N, 3) or (3,)
+        (NaN for points behind the eye)."""
+        d = _world_points(points) - self.camera_position
         x = d @ self.eye_axes  # columns x1, x2, x3
         with np.errstate(divide="ignore", invalid="ignore"):
             z = (x[:, 2] + 1j * x[:, 0]) / x[:, 1]
@@ -86,13 +95,41 @@ class EyeTrace:
     planned: np.ndarray  #: (K, 2, 3) planned angles at the same instants
 
 
+def _world_points(points) -> np.ndarray:
+    """Finite world points as an (N, 3) float array (a single (3,) point gives N = 1)."""
+    p = checks.array("points", points, kinds="biuf", ndim=(1, 2)).astype(float)
+    p = np.atleast_2d(p)
+    if p.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3) or (3,) (x, y, z in metres); got {np.shape(points)}")
+    return p
+
+
+def _ms(name: str, value, lo: int = 0) -> int:
+    """A whole number of milliseconds in [lo, MAX_STEP_MS] (``2.5`` raises, never truncates)."""
+    return checks.integer(name, value, lo, MAX_STEP_MS, hint="times are whole milliseconds")
+
+
 def _substeps(timestep_ms, name: str) -> int:
-    """Physics steps per millisecond for ``timestep_ms`` (which must divide 1 ms)."""
-    ts = float(timestep_ms)
-    k = int(round(1.0 / ts)) if np.isfinite(ts) and ts > 0 else 0
+    """Physics steps per millisecond for ``timestep_ms`` (which must divide 1 ms, >= 0.01 ms)."""
+    ts = checks.real(name, timestep_ms, MIN_TIMESTEP_MS, 1.0, hint="it must divide 1 ms: 1, 0.5, 0.25, 0.1, ...")
+    k = int(round(1.0 / ts))
     if k < 1 or abs(k * ts - 1.0) > 1e-9:
         raise ValueError(f"{name} must divide 1 ms (1, 0.5, 0.25, 0.2, 0.1, ...), got {timestep_ms}")
     return k
+
+
+def _angle(name: str, value) -> float:
+    """A finite angle (radians); NaN or infinity is an :class:`OculomotorRangeError` (a ``ValueError``)."""
+    try:
+        return checks.real(name, value, hint="radians")
+    except checks.InputTypeError:
+        raise
+    except ValueError as exc:
+        raise OculomotorRangeError(str(exc)) from None
+
+
+def _seed(seed) -> int | None:
+    return None if seed is None else checks.integer("seed", seed, 0, None, hint="or None")
 
 
 class Head:
@@ -100,18 +137,20 @@ class Head:
 
     Args:
         scene: one of ``models.SCENES`` (``"bar"``, ``"dots"``, ``"natural"``, ``"search"``).
-        image_size: eye image size, ``int`` (square) or ``(height, width)``.
+        image_size: eye image size, ``int`` (square) or ``(height, width)``, each in [1, 4096].
         fovy_deg: vertical field of view of each eye (default 70 deg: +-35 deg).
         ipd: interpupillary distance, metres.
         quality: ``"fast"`` (default: no shadows/multisampling) or ``"default"`` (MuJoCo's).
-        seed: seeds scene layouts (``search``) and saccade endpoint noise.
+        seed: seeds scene layouts (``search``) and saccade endpoint noise (an integer >= 0 or None).
         endpoint_noise: s.d. of saccade endpoint error as a fraction of amplitude, applied to the
-            cyclopean direction (signal-dependent noise; 0 = none; ~0.05-0.1 is human-like).
+            cyclopean direction (signal-dependent noise; 0 = none; ~0.05-0.1 is human-like; at most 1).
         main_sequence: saccade kinematics (defaults: Van Wetter & Van Opstal 2008).
         timestep_ms: physics timestep while no saccade is in flight (default 1 ms; must divide
-            1 ms). Finer costs proportionally more and changes nothing visible.
+            1 ms, at least 0.01 ms). Finer costs proportionally more and changes nothing visible.
         saccade_timestep_ms: physics timestep during saccades up to their offset (default
-            0.25 ms; must divide 1 ms); sets the resolution of recorded :class:`EyeTrace` s.
+            0.25 ms; must divide 1 ms, at least 0.01 ms); sets the resolution of recorded :class:`EyeTrace` s.
+
+    Times given to its methods are whole milliseconds, at most ``MAX_STEP_MS`` (60,000) per call.
 
     Usage::
 
@@ -129,14 +168,24 @@ class Head:
                  seed: int | None = None, endpoint_noise: float = 0.0,
                  main_sequence: MainSequence | None = None, timestep_ms: float = DEFAULT_TIMESTEP_MS,
                  saccade_timestep_ms: float = DEFAULT_SACCADE_TIMESTEP_MS):
+        if not isinstance(scene, str):
+            raise checks.InputTypeError(f"scene must be one of {', '.join(SCENES)}; got {scene!r}")
         self._k_fix = _substeps(timestep_ms, "timestep_ms")
         self._k_sac = _substeps(saccade_timestep_ms, "saccade_timestep_ms")
         self._dt_fix, self._dt_sac = 1e-3 / self._k_fix, 1e-3 / self._k_sac
-        h, w = (image_size, image_size) if np.isscalar(image_size) else tuple(image_size)
-        self.image_shape = (int(h), int(w))
-        if not (np.isfinite(endpoint_noise) and endpoint_noise >= 0):
-            raise ValueError("endpoint_noise must be a finite fraction >= 0")
-        self.endpoint_noise = float(endpoint_noise)
+        self._renderer: EyeRenderer | None = None
+        if isinstance(image_size, (tuple, list)):
+            if len(image_size) != 2:
+                raise ValueError(f"image_size must be an int or a (height, width) pair; got {image_size!r}")
+            h, w = (checks.integer(f"image_size[{i}]", v, 1, MAX_IMAGE_SIDE) for i, v in enumerate(image_size))
+        else:
+            h = w = checks.integer("image_size", image_size, 1, MAX_IMAGE_SIDE, hint="or a (height, width) pair")
+        self.image_shape = (h, w)
+        self.endpoint_noise = checks.real("endpoint_noise", endpoint_noise, 0.0, 1.0,
+                                          hint="the s.d. of the endpoint error as a fraction of the amplitude")
+        if main_sequence is not None and not isinstance(main_sequence, MainSequence):
+            raise checks.InputTypeError(f"main_sequence must be a MainSequence or None; got {type(main_sequence).__name__}")
+        seed = _seed(seed)
         self.main_sequence = main_sequence or MainSequence()
         self.spec, info = build_spec(scene, ipd=ipd, fovy_deg=fovy_deg, quality=quality,
                                      offscreen_size=(self.image_shape[1], self.image_shape[0]))
@@ -159,7 +208,6 @@ class Head:
         self._head_body = m.body("head").id
         self._eye_centres_head = np.array([m.body_pos[m.body(f"{s}_eyeball").id] for s in ("left", "right")])
         self._cam_ids = [m.camera(e).id for e in EYES]
-        self._renderer: EyeRenderer | None = None
         self._seed = seed
         self.reset(seed=seed)
 
@@ -168,6 +216,10 @@ class Head:
               settle_ms: int = 10) -> None:
         """Reset physics and time to 0, hide flashes, re-draw the scene layout from ``seed`` and
         fixate ``fixate`` (an object name or world point; default: the scene's fixation)."""
+        seed = _seed(seed)
+        settle_ms = _ms("settle_ms", settle_ms)
+        target = self.scene.default_fixation if fixate is None else fixate
+        self._resolve(target)  # a bad name or point raises before anything changes
         if seed is not None:
             self._seed = seed
         self._rng = np.random.default_rng(self._seed)
@@ -183,7 +235,6 @@ class Head:
             for name, pos in self.scene.layout(self._rng).items():
                 self._set_mocap(name, pos)
         mujoco.mj_forward(self.model, self.data)
-        target = self.scene.default_fixation if fixate is None else fixate
         self.set_gaze(target, settle_ms=settle_ms)
 
     def close(self) -> None:
@@ -208,8 +259,9 @@ class Head:
         return R.T @ (_check_point(point) - x)
 
     def to_world(self, point_head) -> np.ndarray:
+        """Head-frame point (a finite 3-vector) -> world."""
         x, R = self._head_pose()
-        return x + R @ np.asarray(point_head, float)
+        return x + R @ _check_point(point_head, "point_head")
 
     @property
     def cyclopean_position(self) -> np.ndarray:
@@ -220,6 +272,12 @@ class Head:
         if isinstance(target, str):
             return self.object_position(target)
         return _check_point(target)
+
+    def _name(self, what: str, name, kind: str = "an object") -> str:
+        if not isinstance(name, str):
+            raise checks.InputTypeError(f"{what} must be the name (str) of {kind} of scene {self.scene.name!r}; "
+                                        f"got {name!r:.60}")
+        return name
 
     def fixation_angles(self, point) -> np.ndarray:
         """Fick angles (2, 3) [left, right] fixating world ``point`` (Listing torsion)."""
@@ -264,6 +322,7 @@ class Head:
     # ------------------------------------------------------------------ scene objects
     def object_position(self, name: str) -> np.ndarray:
         """World position of the scene object (geom) ``name``."""
+        name = self._name("name", name)
         gid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
         if gid < 0:
             raise KeyError(f"scene {self.scene.name!r} has no object {name!r}; objects: {', '.join(self.scene.objects)}")
@@ -271,11 +330,13 @@ class Head:
 
     def object_positions(self, group: str) -> dict[str, np.ndarray]:
         """Positions of all objects in ``group`` (e.g. ``"flashes"``, ``"distractors"``)."""
+        group = self._name("group", group, "a group")
         if group not in self.scene.groups:
             raise KeyError(f"scene {self.scene.name!r} has no group {group!r}; groups: {', '.join(self.scene.groups)}")
         return {n: self.object_position(n) for n in self.scene.groups[group]}
 
     def _set_mocap(self, name: str, pos) -> None:
+        name = self._name("name", name)
         bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
         if bid < 0 or self.model.body_mocapid[bid] < 0:
             raise KeyError(f"{name!r} is not a movable object of scene {self.scene.name!r}; movable: {', '.join(self.scene.movable)}")
@@ -287,16 +348,17 @@ class Head:
         mujoco.mj_forward(self.model, self.data)
 
     def flash(self, names: str | Sequence[str], duration_ms: int = 8) -> None:
-        """Show flash object(s) now for ``duration_ms`` whole milliseconds of simulation time."""
-        names = [names] if isinstance(names, str) else list(names)
-        if int(duration_ms) < 1:
-            raise ValueError("duration_ms must be >= 1")
+        """Show flash object(s) now for ``duration_ms`` whole milliseconds of simulation time (1..60,000)."""
+        if not isinstance(names, str) and not (isinstance(names, (list, tuple)) and names):
+            raise checks.InputTypeError(f"names must be a flash name or a non-empty list of them; got {names!r:.60}")
+        names = [names] if isinstance(names, str) else [self._name("each of names", n, "a flash") for n in names]
+        duration_ms = _ms("duration_ms", duration_ms, 1)
         for n in names:
             if n not in self.scene.flashes:
                 raise KeyError(f"{n!r} is not a flash of scene {self.scene.name!r}")
             gid = self.model.geom(n).id
             self.model.geom_rgba[gid, 3] = 1.0
-            self._flash_off[gid] = self.time_ms + int(duration_ms)
+            self._flash_off[gid] = self.time_ms + duration_ms
 
     def hide_flashes(self) -> None:
         for gid in self._flash_off:
@@ -311,6 +373,7 @@ class Head:
     def set_gaze(self, target, settle_ms: int = 10) -> np.ndarray:
         """Instantly fixate ``target`` (object name or world point): set joints and servo
         set-points, then let the physics settle for ``settle_ms``. Returns the Fick angles."""
+        settle_ms = _ms("settle_ms", settle_ms)
         p = self._resolve(target)
         ang = self.fixation_angles(p)
         self._plan = None
@@ -328,9 +391,10 @@ class Head:
 
     def set_neck(self, pan: float, tilt: float) -> None:
         """Neck pan (> 0 left) / tilt (> 0 up) servo set-points, radians (the head then moves)."""
+        pan, tilt = _angle("pan", pan), _angle("tilt", tilt)
         for v, aid in zip((pan, tilt), self._neck_act):
             lo, hi = self.model.actuator_ctrlrange[aid]
-            if not (np.isfinite(v) and lo <= v <= hi):
+            if not lo <= v <= hi:
                 raise OculomotorRangeError(f"neck angle {v} outside [{lo:.3f}, {hi:.3f}] rad")
         self.data.ctrl[self._neck_act] = [pan, tilt]
 
@@ -343,6 +407,7 @@ class Head:
         ``latency_ms`` from now. Vergence follows from depth, torsion from Listing's law; with
         ``endpoint_noise`` the executed endpoint is perturbed (``plan.target`` vs
         ``plan.intended_target``). Nothing moves until :meth:`start_saccade`."""
+        latency_ms = _ms("latency_ms", latency_ms)
         p = self._resolve(target)
         return self._plan_head(self.to_head(p), latency_ms, intended_world=p)
 
@@ -350,9 +415,8 @@ class Head:
         """Plan a saccade by a retinotopic (cyclopean) displacement: ``horizontal`` (> 0 right)
         and ``vertical`` (> 0 up) Fick angles in radians relative to the current gaze, at the
         current fixation distance."""
-        hv = np.array([horizontal, vertical], float)
-        if not np.all(np.isfinite(hv)):
-            raise OculomotorRangeError(f"saccade angles must be finite, got {hv.tolist()}")
+        latency_ms = _ms("latency_ms", latency_ms)
+        hv = np.array([_angle("horizontal", horizontal), _angle("vertical", vertical)])
         c = self._eye_centres_head.mean(axis=0)
         d = self._fix_head - c
         dist = np.linalg.norm(d)
@@ -364,8 +428,6 @@ class Head:
     def _plan_head(self, p_head, latency_ms, intended_world) -> SaccadePlan:
         if self._plan is not None:
             raise RuntimeError("a saccade is in flight; step until it ends (plan.end_ms) before planning the next")
-        if int(latency_ms) < 0:
-            raise ValueError("latency_ms must be >= 0")
         start = self._hold.copy()
         c = self._eye_centres_head.mean(axis=0)
         amp = float(np.arccos(np.clip(self._cyclopean_dir(self._fix_head) @ self._cyclopean_dir(p_head), -1, 1)))
@@ -383,12 +445,15 @@ class Head:
             except OculomotorRangeError:
                 end_point, end = np.asarray(p_head, float), fixation_angles(p_head, self._eye_centres_head)
             amp = float(np.arccos(np.clip(self._cyclopean_dir(self._fix_head) @ self._cyclopean_dir(end_point), -1, 1)))
-        return SaccadePlan(onset_ms=self.time_ms + int(latency_ms), start_angles=start, end_angles=end,
+        return SaccadePlan(onset_ms=self.time_ms + latency_ms, start_angles=start, end_angles=end,
                            amplitude=amp, main_sequence=self.main_sequence,
                            target=self.to_world(end_point), intended_target=np.asarray(intended_world, float))
 
     def start_saccade(self, plan: SaccadePlan) -> None:
         """Make ``plan`` the active eye command; the eyes move from ``plan.onset_ms`` on."""
+        if not isinstance(plan, SaccadePlan):
+            raise checks.InputTypeError(f"plan must be a SaccadePlan (from plan_saccade or plan_saccade_to); "
+                                        f"got {type(plan).__name__}")
         if self._plan is not None:
             raise RuntimeError("a saccade is already in flight")
         if plan.onset_ms < self.time_ms:
@@ -408,12 +473,18 @@ class Head:
     def run_saccade(self, plan: SaccadePlan, before_ms: int = 0, after_ms: int = 0) -> Iterator[int]:
         """Start ``plan`` and step 1 ms at a time from ``before_ms`` before onset to ``after_ms``
         after ``plan.end_ms``, yielding the time relative to onset at each instant (render, flash
-        or act there; the state is that of the yielded instant)."""
+        or act there; the state is that of the yielded instant). The arguments are checked at the
+        call; the saccade starts at the first iteration."""
+        if not isinstance(plan, SaccadePlan):
+            raise checks.InputTypeError(f"plan must be a SaccadePlan; got {type(plan).__name__}")
+        return self._run_saccade(plan, _ms("before_ms", before_ms), _ms("after_ms", after_ms))
+
+    def _run_saccade(self, plan: SaccadePlan, before_ms: int, after_ms: int) -> Iterator[int]:
         self.start_saccade(plan)
-        t0 = plan.onset_ms - int(before_ms)
+        t0 = plan.onset_ms - before_ms
         if self.time_ms < t0:
             self.step_ms(t0 - self.time_ms)
-        stop = plan.end_ms + int(after_ms)
+        stop = plan.end_ms + after_ms
         while True:
             yield self.time_ms - plan.onset_ms
             if self.time_ms >= stop:
@@ -422,6 +493,7 @@ class Head:
 
     def saccade_to(self, target, latency_ms: int = 0, after_ms: int = 0) -> SaccadePlan:
         """Plan, execute and finish a saccade to ``target`` (one RL step); returns the plan."""
+        after_ms = _ms("after_ms", after_ms)
         plan = self.plan_saccade_to(target, latency_ms)
         for _ in self.run_saccade(plan, after_ms=after_ms):
             pass
@@ -441,11 +513,10 @@ class Head:
         During a saccade each millisecond is ``1 / saccade_timestep_ms`` physics steps whose
         set-points (position, velocity, inverse-dynamics torque) follow the plan. With ``record``
         returns an :class:`EyeTrace` sampled at every physics step (so at ``timestep_ms`` during
-        fixation and ``saccade_timestep_ms`` during saccades).
+        fixation and ``saccade_timestep_ms`` during saccades). ``n`` is at most ``MAX_STEP_MS``.
         """
-        n = int(n)
-        if n < 0:
-            raise ValueError("n must be >= 0")
+        n = _ms("n", n)
+        record = checks.flag("record", record)
         m, d = self.model, self.data
         rec = [] if record else None
         stop = self.time_ms + n
@@ -559,14 +630,12 @@ class Head:
 
     def render(self, depth: bool = False) -> StereoFrame:
         """Render both eyes now (see :mod:`models.render` for the pixel convention)."""
+        depth = checks.flag("depth", depth)
         return self.renderer.render(self.data, depth=depth, time_ms=self.time_ms)
 
     def export_xml(self, path) -> None:
         """Write this head+scene model as one MJCF file (textures beside it)."""
-        from pathlib import Path
-
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        for name, data in self.spec.assets.items():
-            (path.parent / name).write_bytes(data)
-        path.write_text(self.spec.to_xml())
+        path = _path("path", path)
+        if path.is_dir():
+            raise ValueError(f"path {path} is a folder; give the MJCF file to write, e.g. {path / 'head.xml'}")
+        _write_spec(self.spec, path)

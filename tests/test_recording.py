@@ -3,15 +3,25 @@
 from __future__ import annotations
 
 import math
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.parse
+import urllib.request
+import uuid
 from collections import defaultdict
 
 import numpy as np
 import pyarrow as pa
 import pytest
+import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
 import conformal as C
 from experiments.__main__ import main
+from experiments.blueprint import SCENE_LOOK_TARGET, blueprint
 from experiments.recording import Recorder, grid_strips, record_env_run
 
 IMAGE_SIZE = 96
@@ -53,10 +63,21 @@ def scalars(entity: dict) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
+def recorded(tmp_path_factory):
     path = tmp_path_factory.mktemp("rec") / "run.rrd"
     summary = record_env_run(path, steps=2, seed=3, image_size=IMAGE_SIZE, fixation_ms=120)
+    return path, summary
+
+
+@pytest.fixture(scope="module")
+def run(recorded):
+    path, summary = recorded
     return read(path), summary
+
+
+@pytest.fixture(scope="module")
+def run_path(recorded):
+    return recorded[0]
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +93,10 @@ EXPECTED = (
      "flash/shift", "cortex/left_hemisphere", "cortex/right_hemisphere",
      "saccades/amplitude_deg", "saccades/peak_velocity_deg_s", "saccades/duration_ms"]
     + [f"remap/error/{m}" for m in ("homography", "mobius", "shift")]
+    + ["world/scene/world/screen", "world/scene/fixation/fixation", "world/scene/target/target",
+       "world/scene/head/skull", "world/scene/head/nose", "world/scene/neck"]
     + [p.format(e=e) for e in ("left", "right") for p in (
+        "world/eyes/{e}/camera", "world/eyes/{e}/camera/image", "world/scene/{e}_eyeball/{e}_sclera",
         "world/eyes/{e}/position", "world/eyes/{e}/gaze", "eyes/{e}/image", "eyes/{e}/grid", "eyes/{e}/target",
         "retina/{e}/fovea", "retina/{e}/logpolar", "dpft/{e}/log_magnitude",
         "remap/{e}/predicted", "remap/{e}/actual", "remap/{e}/difference")]
@@ -260,12 +284,506 @@ def test_cli_writes_recording(tmp_path):
     assert "/remap/right/difference" in data
 
 
-@pytest.mark.parametrize("argv", [["visualize", "--steps", "1"],  # neither --out nor --spawn
-                                  ["visualize", "--out", "x.rrd", "--steps", "0"],
-                                  ["visualize", "--out", "x.rrd", "--task", "nope"]])
-def test_cli_bad_options(argv, tmp_path, monkeypatch, capsys):
-    monkeypatch.chdir(tmp_path)
+# ---------------------------------------------------------------------- reading rows back
+def rows(path) -> dict[str, list[tuple[float, dict]]]:
+    """entity -> [(time_ms or -inf for static, {column: value})] in logging order (sim time, then row id)."""
+    out: dict[str, list] = defaultdict(list)
+    for chunk in RrdReader(path).store().stream().to_chunks():
+        b = chunk.to_record_batch()
+        n = b.num_rows
+        t = (b.column("sim_time").cast(pa.int64()).to_numpy() / 1e6 if "sim_time" in b.schema.names
+             else np.full(n, -np.inf))
+        rid = b.column("rerun.controls.RowId").to_pylist()
+        cols = {c: b.column(c).to_pylist() for c in b.schema.names if ":" in c}
+        for i in range(n):
+            out[chunk.entity_path].append((float(t[i]), rid[i], {c: v[i] for c, v in cols.items() if v[i] is not None}))
+    return {e: [(t, c) for t, _, c in sorted(r, key=lambda x: (x[0], x[1]))] for e, r in out.items()}
+
+
+def latest(entity_rows, column: str, t_ms: float = math.inf):
+    """The latest value of ``column`` at or before ``t_ms`` (Rerun's latest-at), or None."""
+    val = None
+    for t, cols in entity_rows:
+        if t > t_ms:
+            break
+        if column in cols:
+            val = cols[column]
+    return val
+
+
+def transform(entity_rows, t_ms: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
+    """(translation (3,), rotation (3, 3)) of a Transform3D at ``t_ms`` (mat3x3 is stored column-major)."""
+    tr = np.asarray(latest(entity_rows, "Transform3D:translation", t_ms), float).reshape(3)
+    m = np.asarray(latest(entity_rows, "Transform3D:mat3x3", t_ms), float).reshape(3, 3).T
+    return tr, m
+
+
+def rgba(packed: int) -> list[int]:
+    return [(packed >> s) & 255 for s in (24, 16, 8, 0)]
+
+
+# ---------------------------------------------------------------------- the MuJoCo scene in 3-D
+SCENE_XML = """
+<mujoco>
+  <asset>
+    <texture name="chk" type="2d" builtin="checker" rgb1="1 0 0" rgb2="0 0 1" width="8" height="8"/>
+    <material name="textured" texture="chk" rgba="1 1 1 1"/>
+    <material name="plain" rgba="0.2 0.4 0.6 1"/>
+    <mesh name="tet" vertex="0 0 0  0.1 0 0  0 0.1 0  0 0 0.1"/>
+  </asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 3 0.1" material="textured"/>
+    <geom name="endless" type="plane" size="0 0 1" pos="0 0 -1" rgba="0 1 0 1"/>
+    <geom name="collision_only" type="box" size="1 1 1" group="3"/>
+    <body name="thing" pos="1 2 3" euler="10 20 30">
+      <geom name="box" type="box" size="0.1 0.2 0.3" pos="0.1 0 0" euler="0 0 30" rgba="1 0 0 1"/>
+      <geom name="ball" type="sphere" size="0.05" material="plain"/>
+      <geom type="capsule" size="0.02 0.1" pos="0 0.3 0"/>
+      <geom name="egg" type="ellipsoid" size="0.1 0.2 0.3" pos="0 0 0.5" rgba="0 0 1 0.5"/>
+      <geom name="can" type="cylinder" size="0.03 0.04" pos="0 -0.3 0" euler="90 0 0" rgba="1 1 0 1"/>
+      <geom name="tet" type="mesh" mesh="tet" rgba="0 1 1 1"/>
+    </body>
+    <body name="mover" mocap="true" pos="0 0 1">
+      <geom name="dot" type="sphere" size="0.01" rgba="1 1 1 0"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def scene_run(tmp_path_factory):
+    """A hand-written model with every drawn geom type, logged at t = 1 ms; then the mocap body
+    moved and its hidden dot shown, logged at t = 2 ms."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_string(SCENE_XML)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    path = tmp_path_factory.mktemp("scene") / "scene.rrd"
+    with Recorder(path, recording_id="scene") as rec:
+        rec.set_time_ms(1)
+        n1 = rec.log_scene(m, d)
+        poses1 = {g: (d.geom_xpos[g].copy(), d.geom_xmat[g].reshape(3, 3).copy()) for g in range(m.ngeom)}
+        rec.set_time_ms(2)
+        assert rec.log_scene(m, d) == 0  # nothing changed: nothing logged
+        d.mocap_pos[0] = [0.5, -0.5, 1.5]
+        m.geom_rgba[m.geom("dot").id, 3] = 1.0
+        mujoco.mj_forward(m, d)
+        n2 = rec.log_scene(m, d)
+        poses2 = {g: (d.geom_xpos[g].copy(), d.geom_xmat[g].reshape(3, 3).copy()) for g in range(m.ngeom)}
+    return m, rows(path), (n1, n2), (poses1, poses2)
+
+
+def _geom_entity(m, g) -> str:
+    body = m.body(int(m.geom_bodyid[g])).name
+    return f"/world/scene/{body}/{m.geom(g).name or f'geom_{g}'}"
+
+
+def test_scene_geoms_kinds_sizes_and_colours(scene_run):
+    """Every geom of the visible groups is one entity of the right archetype, size and colour (its
+    rgba; a material's rgba; a textured material's rgba times the texture's mean); group 3 is not drawn."""
+    m, data, (n1, n2), _ = scene_run
+    drawn = [g for g in range(m.ngeom) if m.geom_group[g] < 3]
+    assert n1 == len(drawn) + 3  # geoms + the bodies world, thing, mover
+    assert n2 == 2  # the moved mocap body and its dot
+    assert "/world/scene/world/collision_only" not in data
+    e = {m.geom(g).name or f"geom_{g}": data[_geom_entity(m, g)] for g in drawn}
+    assert set(e) == {"floor", "endless", "box", "ball", "geom_5", "egg", "can", "tet", "dot"}
+    assert latest(e["floor"], "Boxes3D:half_sizes") == [pytest.approx([2, 3, 0.0005])]
+    assert rgba(latest(e["floor"], "Boxes3D:colors")[0]) == [128, 0, 128, 255]  # red/blue checker, mean
+    assert latest(e["endless"], "Boxes3D:half_sizes") == [pytest.approx([5, 5, 0.0005])]
+    assert rgba(latest(e["endless"], "Boxes3D:colors")[0]) == [0, 255, 0, 255]
+    assert latest(e["box"], "Boxes3D:half_sizes") == [pytest.approx([0.1, 0.2, 0.3])]
+    assert rgba(latest(e["box"], "Boxes3D:colors")[0]) == [255, 0, 0, 255]
+    assert latest(e["ball"], "Ellipsoids3D:half_sizes") == [pytest.approx([0.05] * 3)]
+    assert rgba(latest(e["ball"], "Ellipsoids3D:colors")[0]) == [51, 102, 153, 255]  # the material's
+    assert latest(e["geom_5"], "Capsules3D:lengths") == [pytest.approx(0.2)]
+    assert latest(e["geom_5"], "Capsules3D:radii") == [pytest.approx(0.02)]
+    assert latest(e["geom_5"], "Capsules3D:translations") == [pytest.approx([0, 0, -0.1])]  # centred like MuJoCo's
+    assert rgba(latest(e["geom_5"], "Capsules3D:colors")[0]) == [128, 128, 128, 255]  # MuJoCo's default grey
+    assert latest(e["egg"], "Ellipsoids3D:half_sizes") == [pytest.approx([0.1, 0.2, 0.3])]
+    assert rgba(latest(e["egg"], "Ellipsoids3D:colors")[0]) == [0, 0, 255, 128]
+    assert latest(e["can"], "Cylinders3D:lengths") == [pytest.approx(0.08)]
+    assert latest(e["can"], "Cylinders3D:radii") == [pytest.approx(0.03)]
+    assert rgba(latest(e["can"], "Cylinders3D:colors")[0]) == [255, 255, 0, 255]
+    assert rgba(latest(e["tet"], "Mesh3D:albedo_factor")[0]) == [0, 255, 255, 255]
+    # the hidden dot (alpha 0) is an empty batch at 1 ms and a sphere once shown at 2 ms
+    assert latest(e["dot"], "Ellipsoids3D:half_sizes", 1.0) == []
+    assert latest(e["dot"], "Ellipsoids3D:half_sizes", 2.0) == [pytest.approx([0.01] * 3)]
+
+
+def test_scene_geom_world_poses_match_mujoco(scene_run):
+    """Body transform composed with the geom's transform = MuJoCo's geom_xpos/geom_xmat, at both
+    instants (the mocap body moved between them); the mesh's world vertices are the XML's under the
+    body's pose (an independent check of the mesh frame)."""
+    m, data, _, poses = scene_run
+    for t, pose in zip((1.0, 2.0), poses):
+        for g in range(m.ngeom):
+            if m.geom_group[g] >= 3:
+                continue
+            ge = _geom_entity(m, g)
+            tb, Rb = transform(data[ge.rsplit("/", 1)[0]], t)
+            tg, Rg = transform(data[ge], t)
+            assert tb + Rb @ tg == pytest.approx(pose[g][0], abs=1e-6), (ge, t)
+            assert Rb @ Rg == pytest.approx(pose[g][1], abs=1e-6), (ge, t)
+    assert transform(data["/world/scene/mover"], 2.0)[0] == pytest.approx([0.5, -0.5, 1.5])
+    assert len(data["/world/scene/thing"]) == 1  # logged once: it never moved
+    tb, Rb = transform(data["/world/scene/thing"])
+    tg, Rg = transform(data["/world/scene/thing/tet"])
+    verts = np.asarray(latest(data["/world/scene/thing/tet"], "Mesh3D:vertex_positions"), float)
+    world = tb + (tg + verts @ Rg.T) @ Rb.T
+    xml = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]])
+    expected = tb + xml @ Rb.T  # the XML's vertices in the body frame
+    assert sorted(map(tuple, np.round(world, 6))) == sorted(map(tuple, np.round(expected, 6)))
+
+
+def test_dots_scene_in_the_env_recording(run):
+    """The env run's recording holds the dots scene: the screen as a box, the fixation point and
+    target as coloured spheres where MuJoCo puts them, 24 flash dots (hidden except when flashed),
+    and the head's skull, nose, neck and eyeballs."""
+    import models
+
+    data, _ = run
+    with models.Head("dots", image_size=IMAGE_SIZE) as head:
+        m, d = head.model, head.data
+        for name in ("screen", "fixation", "target", "skull", "nose", "left_sclera", "right_pupil"):
+            g = m.geom(name).id
+            cols = data[_geom_entity(m, g)]["cols"]
+            shape = [c for c in cols if c.endswith(":colors")][0]
+            assert rgba(cols[shape][0][0]) == pytest.approx(m.geom_rgba[g] * 255, abs=1), name
+        scr = data["/world/scene/world/screen"]["cols"]
+        assert scr["Boxes3D:half_sizes"][0] == [pytest.approx(m.geom_size[m.geom("screen").id])]
+        assert scr["Transform3D:translation"][0] == [pytest.approx(d.geom_xpos[m.geom("screen").id])]
+    # the task placed the target: its body is where the labelled object point says, at every instant
+    obj = data["/world/objects"]
+    for t, pos, labels in zip(obj["times_ms"], obj["cols"]["Points3D:positions"], obj["cols"]["Points3D:labels"]):
+        tgt = data["/world/scene/target"]
+        i = np.flatnonzero(tgt["times_ms"] <= t)[-1]
+        assert tgt["cols"]["Transform3D:translation"][i][0] == pytest.approx(pos[labels.index("target")], abs=1e-6)
+    flashes = [k for k in data if k.startswith("/world/scene/flash_") and k.count("/") == 4]
+    assert len(flashes) == 24
+    shown = [k for k in flashes if any(v for v in data[k]["cols"]["Ellipsoids3D:half_sizes"])]
+    assert 1 <= len(shown) <= 2  # one flash per saccade in the dots scene (2 saccades)
+    assert "/world/scene/neck/geom_1" in data and "Capsules3D:radii" in data["/world/scene/neck/geom_1"]["cols"]
+
+
+def test_eye_cameras_pinholes_and_images(tmp_path):
+    """Each eye is a Pinhole (focal length from the camera's fovy, resolution W x H, principal point
+    at the centre, RUB axes) under a Transform3D equal to MuJoCo's camera pose at every logged
+    instant, through a saccade; the eye image lies in the frustum, and a world point projected
+    through the logged transform and pinhole lands where ``Head.project_to_pixels`` puts it."""
+    import envs
+    import models
+
+    h, w, fovy = 48, 64, 60.0
+    path = tmp_path / "eyes.rrd"
+    poses: dict[float, list] = {}
+    with models.Head("dots", image_size=(h, w), fovy_deg=fovy) as head, Recorder(path, recording_id="e") as rec:
+        head.start_saccade(head.plan_saccade_to("target", latency_ms=5))
+        for _ in range(40):
+            rec.set_time_ms(head.time_ms)
+            rec.log_head(head)
+            poses[float(head.time_ms)] = [(s.camera_position.copy(), s.camera_xmat.copy()) for s in head.eye_states()]
+            head.step_ms(1)
+        frame = head.render()
+        rec.set_time_ms(head.time_ms)
+        rec.log_frame(frame, envs.Vision((h, w), head.pixels_per_unit).grid)
+        t_end = float(head.time_ms)
+        p_target = head.object_position("target")
+        target_px = head.project_to_pixels(p_target)[:, 0]
+    data = rows(path)
+    f = 0.5 * h / math.tan(math.radians(fovy) / 2)
+    for i, eye in enumerate(("left", "right")):
+        cam = data[f"/world/eyes/{eye}/camera"]
+        for t, pose in poses.items():
+            tr, R = transform(cam, t)
+            # float32 in Rerun (~6e-8 at 1.2 m) + the pose tolerance (1e-7) of logging on change
+            assert tr == pytest.approx(pose[i][0], abs=3e-7) and R == pytest.approx(pose[i][1], abs=3e-7), (eye, t)
+        assert len(cam) > 10  # logged again as the eye turned
+        tr, R = transform(cam, t_end)  # the render-time pose of the frame
+        assert tr == pytest.approx(getattr(frame, eye).camera_position, abs=3e-7)
+        assert R == pytest.approx(getattr(frame, eye).camera_xmat, abs=3e-7)
+        pin = data[f"/world/eyes/{eye}/camera/image"]
+        K = np.asarray(latest(pin, "Pinhole:image_from_camera"), float).reshape(3, 3).T
+        assert K == pytest.approx(np.array([[f, 0, w / 2], [0, f, h / 2], [0, 0, 1]]))
+        assert latest(pin, "Pinhole:resolution") == [pytest.approx([w, h])]
+        assert latest(pin, "Pinhole:camera_xyz") == [[3, 1, 6]]  # Right, Up, Back: MuJoCo's camera axes
+        (fmt,) = latest(pin, "Image:format")
+        assert (fmt["width"], fmt["height"]) == (w, h)
+        img = np.asarray(latest(pin, "Image:buffer")[0], np.uint8).reshape(h, w, 3)
+        assert np.array_equal(img, getattr(frame, eye).image)
+        # the target through the logged camera (RUB: looking along -z, image y down) and pinhole, in
+        # Rerun's pixel coordinates (pixel centres at +0.5) = MuJoCo's (row, col) + 0.5
+        x, y, z = R.T @ (p_target - tr)
+        u, v = K[0, 0] * x / -z + K[0, 2], K[1, 1] * -y / -z + K[1, 2]
+        assert (v, u) == pytest.approx((target_px[i][0] + 0.5, target_px[i][1] + 0.5), abs=1e-4)  # float32
+
+
+# ---------------------------------------------------------------------- the blueprint
+def read_blueprint(path) -> dict:
+    """The blueprint stored in a recording: {"views": {id: {class, origin, name, queries, properties}},
+    "containers": {id: [child ids]}, "root": id, "time_panel": {...}}."""
+    r = RrdReader(path)
+    (store,) = r.blueprints()
+    ents: dict[str, dict] = defaultdict(dict)
+    for chunk in r.stream(store=store).to_chunks():
+        b = chunk.to_record_batch()
+        for c in b.schema.names:
+            if ":" in c:
+                vals = [v for v in b.column(c).to_pylist() if v is not None]
+                if vals:
+                    ents[chunk.entity_path][c] = vals[-1]
+    views, containers, props = {}, {}, defaultdict(dict)
+    for path_, cols in ents.items():
+        parts = path_.strip("/").split("/")
+        if parts[0] == "view" and len(parts) == 2:
+            views[f"view/{parts[1]}"] = {"class": cols["ViewBlueprint:class_identifier"][0],
+                                         "origin": cols["ViewBlueprint:space_origin"][0],
+                                         "name": cols.get("ViewBlueprint:display_name", [None])[0]}
+        elif parts[0] == "view" and len(parts) == 3:
+            props[f"view/{parts[1]}"].update(cols)
+        elif parts[0] == "container":
+            containers[f"container/{parts[1]}"] = cols["ContainerBlueprint:contents"]
+    for vid, v in views.items():
+        v["queries"] = props[vid].get("ViewContents:query", ["$origin/**"])
+        v["properties"] = props[vid]
+    root = "container/" + str(uuid.UUID(bytes=bytes(ents["/viewport"]["ViewportBlueprint:root_container"][0])))
+    return {"views": views, "containers": containers, "root": root, "time_panel": ents.get("/time_panel", {})}
+
+
+def matches(query: str, origin: str, entity: str) -> bool:
+    """Rerun's entity path filter: an exact path, or ``path/**`` for the path and its subtree."""
+    q = query.lstrip("+").replace("$origin", origin).strip("/")
+    e = entity.strip("/")
+    if q.endswith("/**"):
+        base = q[:-3]
+        return e == base or e.startswith(base + "/")
+    return e == q
+
+
+# archetypes each kind of view draws
+VIEW_ARCHETYPES = {"2D": ("Image", "Points2D", "LineStrips2D", "Arrows2D"),
+                   "3D": ("Transform3D", "Pinhole", "Image", "Points3D", "Arrows3D", "Boxes3D", "Ellipsoids3D",
+                          "Capsules3D", "Cylinders3D", "Mesh3D", "ViewCoordinates"),
+                   "TimeSeries": ("Scalars",)}
+
+
+def check_blueprint(path) -> dict:
+    """The blueprint's views are all reachable from the viewport; each origin is an entity (or an
+    ancestor of one) of the recording; contents use only paths and ``/**``; each query shows some
+    entity, of an archetype its kind of view draws; every entity with data is in some view."""
+    bp = read_blueprint(path)
+    entities = {e: {c.split(":")[0] for c in cols} for e, cols in
+                ((e, d["cols"]) for e, d in read(path).items()) if cols and e != "/__properties"}
+    reach, todo = set(), [bp["root"]]
+    while todo:
+        c = todo.pop()
+        reach.add(c)
+        todo.extend(bp["containers"].get(c, []))
+    assert set(bp["views"]) <= reach, "views not in the layout"
+    shown = set()
+    for vid, v in bp["views"].items():
+        o = v["origin"].strip("/")
+        assert any(e.strip("/") == o or e.strip("/").startswith(o + "/") for e in entities), (v["name"], o)
+        for q in v["queries"]:
+            assert "*" not in q.replace("/**", ""), (v["name"], q)  # Rerun 0.41 has no other wildcards
+            hit = [e for e in entities if matches(q, o, e)]
+            assert hit, (v["name"], q)
+            drawable = [e for e in hit if entities[e] & set(VIEW_ARCHETYPES[v["class"]])]
+            assert drawable, (v["name"], q, "nothing this view can draw")
+            shown |= set(drawable)
+    assert not set(entities) - shown - {"/world"}, sorted(set(entities) - shown)
+    return bp
+
+
+def test_run_blueprint_views_point_at_the_recording(run_path):
+    bp = check_blueprint(run_path)
+    views = {v["name"]: v for v in bp["views"].values()}
+    scene = [v for v in views.values() if v["class"] == "3D"]
+    assert len(scene) == 1 and scene[0]["origin"] == "world"
+    eye = scene[0]["properties"]
+    assert eye["EyeControls3D:look_target"] == [pytest.approx(SCENE_LOOK_TARGET)]
+    assert views["eye angles (deg)"]["queries"] == ["eyes/left/angle/**", "eyes/right/angle/**"]
+    for e in ("left", "right"):
+        assert views[f"{e} eye image + retina grid"]["origin"] == f"eyes/{e}"
+    assert {v["class"] for v in views.values()} == {"2D", "3D", "TimeSeries"}
+    assert sum(v["origin"].startswith("remap/") for v in views.values()) == 7  # 6 maps + the errors
+    assert bp["time_panel"]["TimePanelBlueprint:timeline"] == ["sim_time"]
+
+
+def test_blueprint_layouts_build():
+    for layout in ("run", "study"):
+        assert isinstance(blueprint(layout), rrb.Blueprint)
+    with pytest.raises(ValueError):
+        blueprint("nope")
+
+
+def test_study_recording_and_its_blueprint(tmp_path):
+    """``study.rrd`` (``record_study``, the ``study`` layout): its timeline is the example trials'
+    sim time (flash time + 210 ms), and every entity it holds is in a view."""
+    from experiments.psychophysics import TrialConfig
+    from experiments.study import record_study
+
+    times = np.array([-50, 0, -50, 0])
+    table = {"saccade_amplitude_deg": np.full(4, 20.0), "flash_time_ms": times,
+             "flash_dx_deg": np.array([-8.0, -8.0, 4.0, 4.0]), "flash_dy_deg": np.zeros(4),
+             "true_x_deg": np.array([-8.0, -8.0, 4.0, 4.0]), "true_y_deg": np.zeros(4),
+             "perceived_x_deg": np.array([-6.0, -4.0, 3.0, 2.0]), "perceived_y_deg": np.zeros(4)}
+    path = record_study(tmp_path / "study.rrd", table, TrialConfig(image_size=128))
+    check_blueprint(path)
+    data = read(path)
+    assert data["/study/true"]["times_ms"].tolist() == [160.0, 210.0]  # onset (210 ms) + flash time
+    for e in ("/world/eyes/left/camera/image", "/world/scene/world/screen", "/study/compression_index/20deg"):
+        assert e in data, e
+    assert not any(k.startswith(("/remap", "/saccades")) for k in data)
+
+
+# ---------------------------------------------------------------------- command line: hostile input
+def _usage_error(argv, capsys, monkeypatch=None) -> str:
     with pytest.raises(SystemExit) as e:
         main(argv)
     assert e.value.code == 2
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if "error:" in ln]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+BAD_NUMBERS = ["nan", "inf", "-1", "0", "1.5", "1e3", "99999999999999999999", "abc", "", "0x10"]
+NUMERIC_OPTIONS = ["--steps", "--seed", "--image-size", "--fixation-ms", "--serve-seconds", "--web-port", "--grpc-port"]
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("option,value", [(o, v) for o in NUMERIC_OPTIONS for v in BAD_NUMBERS
+                                          if not (o == "--seed" and v == "0")])
+def test_cli_bad_numeric_option(option, value, tmp_path, monkeypatch, capsys):
+    """Every numeric option rejects NaN, inf, negative, zero (where meaningless), non-integer,
+    exponent, huge and non-numeric values: exit 2 with one error line naming the option."""
+    monkeypatch.chdir(tmp_path)
+    line = _usage_error(["visualize", "--out", "x.rrd", option, value], capsys)
+    assert option in line
     assert not (tmp_path / "x.rrd").exists()
+
+
+def _out_cases(tmp_path):
+    (tmp_path / "adir").mkdir()
+    return {"empty": "", "blank": "  ", "directory": str(tmp_path / "adir"),
+            "no_parent": str(tmp_path / "no" / "x.rrd"), "unwritable": "/proc/x.rrd", "nul": "a\0b.rrd"}
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("case", ["empty", "blank", "directory", "no_parent", "unwritable", "nul"])
+def test_cli_bad_out(case, tmp_path, capsys):
+    line = _usage_error(["visualize", "--out", _out_cases(tmp_path)[case], "--steps", "1"], capsys)
+    assert "--out" in line
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("argv,words", [
+    (["visualize", "--steps", "1"], "--out"),  # nothing to write to
+    (["visualize", "--spawn", "--serve"], "--serve"),
+    (["visualize", "--out", "x.rrd", "--serve-seconds", "2"], "--serve-seconds"),
+    (["visualize", "--out", "x.rrd", "--task", "nope"], "--task"),
+    (["visualize", "--serve", "--web-port", "9555", "--grpc-port", "9555"], "differ"),
+])
+def test_cli_bad_combinations(argv, words, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert words in _usage_error(argv, capsys)
+    assert not (tmp_path / "x.rrd").exists()
+
+
+@pytest.mark.adversarial
+def test_cli_spawn_without_display_fails_fast(tmp_path, monkeypatch, capsys):
+    """``--spawn`` with no display used to hang forever: now a usage error naming --serve, at once."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.chdir(tmp_path)
+    t0 = time.monotonic()
+    line = _usage_error(["visualize", "--spawn", "--steps", "1"], capsys)
+    assert time.monotonic() - t0 < 5
+    assert "--spawn" in line and "--serve" in line and "display" in line
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("kwargs,error", [
+    ({"path": ""}, ValueError), ({"path": "DIR"}, ValueError), ({"gaze_length": float("nan")}, ValueError),
+    ({"image_plane_distance": 0.0}, ValueError), ({"image_plane_distance": "1"}, ValueError),
+    ({"connect": "http://127.0.0.1:1/proxy"}, ValueError), ({"spawn": True}, RuntimeError),
+    ({"spawn": True, "connect": "rerun+http://127.0.0.1:1/proxy"}, ValueError), ({"layout": "nope"}, ValueError),
+    ({"app_id": ""}, ValueError),
+])
+def test_recorder_rejects_bad_arguments(kwargs, error, tmp_path, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    if kwargs.get("path") == "DIR":
+        kwargs = {**kwargs, "path": tmp_path}
+    with pytest.raises(error):
+        Recorder(**kwargs)
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("args", [("middle", np.zeros(3), np.eye(3), (8, 8), 10.0),
+                                  ("left", np.full(3, np.nan), np.eye(3), (8, 8), 10.0),
+                                  ("left", np.zeros(3), np.eye(3), (8, 8), -1.0),
+                                  ("left", np.zeros(3), np.eye(3), (0, 8), 10.0)])
+def test_log_eye_camera_rejects_bad_input(args):
+    with Recorder() as rec, pytest.raises(ValueError):
+        rec.log_eye_camera(*args)
+
+
+# ---------------------------------------------------------------------- the headless web viewer
+def _listening(port: int) -> list[str]:
+    """Local addresses (hex, as in /proc/net/tcp{,6}) listening on ``port``."""
+    out = []
+    for name in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = open(name).read().splitlines()[1:]
+        except OSError:
+            continue
+        for ln in lines:
+            f = ln.split()
+            addr, p = f[1].rsplit(":", 1)
+            if int(p, 16) == port and f[3] == "0A":  # LISTEN
+                out.append(addr)
+    return out
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/net/tcp")
+def test_serve_on_loopback_only_and_stops_by_itself(tmp_path):
+    """``visualize --serve --serve-seconds 2`` hosts the web viewer and its gRPC proxy on 127.0.0.1
+    only, answers there, also writes ``--out``, and exits 0 by itself, leaving no server behind."""
+    web, grpc = _free_port(), _free_port()
+    while grpc == web:
+        grpc = _free_port()
+    out = tmp_path / "served.rrd"
+    cmd = [sys.executable, "-m", "experiments", "visualize", "--serve", "--serve-seconds", "2", "--web-port", str(web),
+           "--grpc-port", str(grpc), "--steps", "1", "--image-size", "32", "--fixation-ms", "20", "--out", str(out)]
+    env = {**os.environ, "PYTHONPATH": os.getcwd()}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+                            cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    try:
+        first = proc.stdout.readline()
+        assert first.startswith("Rerun web viewer: http://127.0.0.1:"), first + proc.stdout.read()
+        url = first.split(": ", 1)[1].strip()
+        assert f":{web}/" in url and urllib.parse.quote(f"rerun+http://127.0.0.1:{grpc}/proxy", safe="") in url
+        for port in (web, grpc):
+            addrs = _listening(port)
+            assert addrs and all(a in ("0100007F", "0000000000000000FFFF00000100007F") for a in addrs), (port, addrs)
+        page = urllib.request.urlopen(f"http://127.0.0.1:{web}/", timeout=10).read()
+        assert b"<html" in page.lower()
+        rest, _ = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, rest
+    assert "recorded" in rest
+    assert not _listening(web) and not _listening(grpc)
+    assert "/world/eyes/left/camera/image" in read(out)

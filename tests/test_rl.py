@@ -169,7 +169,98 @@ def test_cli_bad_options_fail_clearly(tmp_path):
     assert r.returncode == 2 and "not a saved policy" in r.stderr
     r = subprocess.run([sys.executable, "-m", "experiments", "evaluate", "--policy", "random", "--episodes", "0"],
                        capture_output=True, text=True)
-    assert r.returncode == 2 and "expected an integer >= 1" in r.stderr
+    assert r.returncode == 2 and "--episodes: expected a whole number in [1," in r.stderr
+
+
+# -- hostile command-line input: every numeric and path option of train / evaluate / the SB3 recipe --------
+_BAD_INTS = ["nan", "inf", "-inf", "-1", "2.5", "1e12", "1e300", "abc", "", "0x10"]
+_INT_OPTIONS = [("train", "--seed"), ("train", "--iterations"), ("train", "--population"), ("train", "--episodes"),
+                ("train", "--eval-episodes"), ("train", "--image-size"), ("evaluate", "--episodes"),
+                ("evaluate", "--seed"), ("evaluate", "--image-size")]
+
+
+def _argv(command: str, option: str, value: str, out) -> list[str]:
+    base = {"train": ["train", "--out", str(out), "--quick"], "evaluate": ["evaluate", "--policy", "random"]}[command]
+    return base + [f"{option}={value}"]
+
+
+def _usage_error(argv: list[str], capsys, main) -> str:
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2, argv
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err, argv
+    return err[-1]
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("value", _BAD_INTS)
+@pytest.mark.parametrize("command,option", _INT_OPTIONS)
+def test_cli_rejects_bad_integers(command, option, value, tmp_path, capsys):
+    from experiments.__main__ import main
+
+    last = _usage_error(_argv(command, option, value, tmp_path / "o"), capsys, main)
+    assert f"argument {option}" in last, last
+    assert not (tmp_path / "o").exists()  # refused before anything was written
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("value,why", [("", "empty"), ("{file}", "not a folder"), ("{file}/sub", "is a file"),
+                                       ("/proc/version/x", "is a file")])
+def test_train_rejects_bad_out(value, why, tmp_path, capsys):
+    from experiments.__main__ import main
+
+    f = tmp_path / "afile"
+    f.write_text("x")
+    last = _usage_error(["train", "--out", value.format(file=f), "--quick"], capsys, main)
+    assert "argument --out" in last and why in last, last
+
+
+def _corrupt_policies(tmp_path):
+    good = {"kind": "linear-cell", "feature_set": "contrast-v1", "task": "fixate", "env_kwargs": {"image_size": 96}}
+    cases = {
+        "empty folder": ({}, "not a saved policy"),
+        "torn json": ({"policy.json": "{", "policy.npz": b""}, "not valid JSON"),
+        "json list": ({"policy.json": "[1]", "policy.npz": b""}, "JSON object"),
+        "wrong kind": ({"policy.json": json.dumps({**good, "kind": "x"}), "policy.npz": b""}, "unsupported"),
+        "empty npz": ({"policy.json": json.dumps(good), "policy.npz": b""}, "could not be read"),
+        "not a zip": ({"policy.json": json.dumps(good), "policy.npz": b"PK\x03\x04garbage"}, "could not be read"),
+        "torn ppo.json": ({"ppo.json": "{"}, "not a valid PPO metadata"),
+        "ppo without zip": ({"ppo.json": json.dumps({"task": "fixate", "env_kwargs": {}})}, "missing ppo_fixate.zip"),
+    }
+    out = []
+    for name, (files, msg) in cases.items():
+        d = tmp_path / name.replace(" ", "_")
+        d.mkdir()
+        for fn, content in files.items():
+            (d / fn).write_bytes(content if isinstance(content, bytes) else content.encode())
+        out.append((d, msg))
+    return out
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("case", range(8))
+def test_evaluate_rejects_corrupt_policy_folders(case, tmp_path, capsys):
+    from experiments.__main__ import main
+
+    d, msg = _corrupt_policies(tmp_path)[case]
+    assert main(["evaluate", "--policy", str(d), "--episodes", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("evaluate: error:") and msg in err and len(err.splitlines()) == 1, err
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("value", ["nan", "0", "-3", "2.5", "1e12", "abc"])
+@pytest.mark.parametrize("option", ["--timesteps", "--n-envs", "--n-steps", "--eval-episodes", "--seed"])
+def test_sb3_recipe_rejects_bad_options(option, value, tmp_path, capsys):
+    from experiments import sb3_recipe
+
+    if option == "--seed" and value == "0":
+        pytest.skip("0 is a valid seed")
+    with pytest.raises(SystemExit) as e:
+        sb3_recipe.main(["--out", str(tmp_path / "o"), f"{option}={value}"])
+    assert e.value.code == 2
+    assert f"argument {option}" in capsys.readouterr().err.strip().splitlines()[-1]
 
 
 @pytest.mark.skipif(importlib.util.find_spec("stable_baselines3") is None,
@@ -178,6 +269,31 @@ def test_sb3_recipe_runs(tmp_path):
     from experiments import sb3_recipe
 
     path = sb3_recipe.train_ppo(tmp_path, total_timesteps=64, n_envs=2, n_steps=32, vec="dummy", seed=0)
-    assert path.exists()
+    assert path.exists() and (tmp_path / "ppo.json").exists()
     res = sb3_recipe.evaluate_ppo(path, episodes=2, seed=0)
-    assert 0.0 <= res["success_rate"] <= 1.0
+    assert 0.0 <= res["success_rate"] <= 1.0 and res["episodes"] == 2
+
+
+@pytest.mark.skipif(importlib.util.find_spec("stable_baselines3") is None,
+                    reason="needs the optional 'rl' extra (stable-baselines3 + CPU torch)")
+def test_sb3_recipe_prints_progress_and_evaluate_loads_it(tmp_path):
+    """The recipe's command prints a line per rollout and its result; ``python -m experiments
+    evaluate --policy DIR`` loads what it saved and, on the same episodes, reports the same numbers."""
+    out = tmp_path / "ppo"
+    r = subprocess.run([sys.executable, "-m", "experiments.sb3_recipe", "--out", str(out), "--timesteps", "64",
+                        "--n-envs", "1", "--n-steps", "32", "--vec", "dummy", "--eval-episodes", "3", "--seed", "4"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    progress = [ln for ln in r.stderr.splitlines() if ln.startswith("ppo: ")]
+    assert [ln.split()[1] for ln in progress] == ["32/64", "64/64"], r.stderr
+    recipe = json.loads(r.stdout.strip().splitlines()[-1])
+    e = subprocess.run([sys.executable, "-m", "experiments", "evaluate", "--task", "fixate", "--policy", str(out),
+                        "--episodes", "3", "--seed", "4"], capture_output=True, text=True, timeout=300)
+    assert e.returncode == 0, e.stderr[-2000:]
+    ev = json.loads(e.stdout.strip())
+    for k in ("success_rate", "mean_reward", "mean_saccades", "episodes"):
+        assert ev[k] == recipe[k], k
+    # a folder from the recipe evaluated on the wrong task is refused
+    e = subprocess.run([sys.executable, "-m", "experiments", "evaluate", "--task", "search", "--policy", str(out),
+                        "--episodes", "1"], capture_output=True, text=True, timeout=300)
+    assert e.returncode == 2 and "trained on task 'fixate'" in e.stderr

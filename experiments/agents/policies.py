@@ -16,6 +16,7 @@ like a motor map in the superior colliculus (Robinson 1972; Ottes, van Gisbergen
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -159,12 +160,21 @@ def load_policy(directory: str | Path) -> LinearCellPolicy:
     missing = [f for f in POLICY_FILES if not (d / f).is_file()]
     if missing:
         raise FileNotFoundError(f"{d} is not a saved policy: missing {', '.join(missing)}")
-    meta = json.loads((d / "policy.json").read_text())
+    try:
+        meta = json.loads((d / "policy.json").read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ValueError(f"{d / 'policy.json'} is not valid JSON ({err}); the policy folder is corrupt: retrain") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{d / 'policy.json'} does not hold a JSON object; the policy folder is corrupt: retrain")
     if meta.get("kind") != "linear-cell" or meta.get("feature_set") != FEATURE_SET:
         raise ValueError(f"{d}: unsupported policy kind/feature set "
                          f"{meta.get('kind')!r}/{meta.get('feature_set')!r}; expected 'linear-cell'/{FEATURE_SET!r}")
-    with np.load(d / "policy.npz") as z:
-        weights = z["weights"]
+    try:
+        with np.load(d / "policy.npz", allow_pickle=False) as z:
+            weights = np.array(z["weights"])
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+        raise ValueError(f"{d / 'policy.npz'} could not be read ({type(err).__name__}: {err}); "
+                         "the policy folder is corrupt: retrain") from None
     temperature = float(meta.pop("temperature", 0.0))
     for key in ("kind", "feature_set", "features"):
         meta.pop(key, None)

@@ -4,22 +4,42 @@ Trials run through the environment's pipeline (rendering, retina, DPFT, efferenc
 remapping into the target-centred frame, log-radius shift with a gain time course) and the
 perceived flash position is decoded from the remapped map. ``python -m experiments run``
 drives a whole study (``experiments.study``).
+
+The names below are imported on first use (PEP 562), so that the command line can read the
+parameter bounds (``bounds``) without loading MuJoCo.
 """
 
-from .analysis import compression_index, format_summary, sampling_error, summary
-from .decode import DEFAULT_THRESHOLD, activity_centroid
-from .design import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, Trial, default_design, quick_design
-from .figures import compression_vs_time, fig11, perceived_vs_time, save_all
-from .runner import read_table, run_trials, write_parquet
-from .targetmap import CentredSamples, TargetCentredMap
-from .timecourse import RemapTimeCourse
-from .trial import ROW_COLUMNS, TrialConfig, TrialRunner, head_angles_deg
+from __future__ import annotations
 
-__all__ = [
-    "Design", "Trial", "FIG11_OFFSETS_DEG", "MORRONE_OFFSETS_DEG", "default_design", "quick_design",
-    "RemapTimeCourse", "TrialConfig", "TrialRunner", "ROW_COLUMNS", "head_angles_deg",
-    "TargetCentredMap", "CentredSamples", "activity_centroid", "DEFAULT_THRESHOLD",
-    "run_trials", "read_table", "write_parquet",
-    "compression_index", "summary", "format_summary", "sampling_error",
-    "fig11", "perceived_vs_time", "compression_vs_time", "save_all",
-]
+import importlib
+
+_EXPORTS = {
+    "Design": "design", "Trial": "design", "FIG11_OFFSETS_DEG": "design", "MORRONE_OFFSETS_DEG": "design",
+    "default_design": "design", "quick_design": "design",
+    "RemapTimeCourse": "timecourse",
+    "TrialConfig": "trial", "TrialRunner": "trial", "ROW_COLUMNS": "trial", "head_angles_deg": "trial",
+    "TargetCentredMap": "targetmap", "CentredSamples": "targetmap",
+    "activity_centroid": "decode", "DEFAULT_THRESHOLD": "decode",
+    "run_trials": "runner", "read_table": "runner", "write_parquet": "runner", "config_fingerprint": "runner",
+    "config_hash": "runner", "TABLE_COLUMNS": "runner", "FolderBusyError": "runner",
+    "compression_index": "analysis", "summary": "analysis", "format_summary": "analysis",
+    "sampling_error": "analysis",
+    "fig11": "figures", "perceived_vs_time": "figures", "compression_vs_time": "figures", "save_all": "figures",
+    "LIMITS": "bounds", "MAX_TRIALS": "bounds",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str):
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -11,6 +11,8 @@ import itertools
 import math
 from dataclasses import asdict, dataclass, field
 
+from .bounds import MAX_TRIALS, Limit, check_int, check_real
+
 __all__ = ["Design", "Trial", "FIG11_OFFSETS_DEG", "MORRONE_OFFSETS_DEG", "default_design", "quick_design"]
 
 #: The Fig. 11-style array: 6 columns x 4 rows (24 dots) around the target, deg (dx, dy).
@@ -24,6 +26,23 @@ FIG11_OFFSETS_DEG: tuple[tuple[float, float], ...] = tuple(
 MORRONE_OFFSETS_DEG: tuple[tuple[float, float], ...] = (
     (-12.0, 3.0), (-8.0, 3.0), (-4.0, 3.0), (8.0, 3.0), (-8.0, -3.0), (-4.0, -6.0), (4.0, 6.0), (8.0, -6.0),
 )
+
+
+#: Flash offsets from the target (deg): the screen is +-40 deg wide and +-30 deg high.
+_OFFSET_LIMIT = Limit(-80.0, 80.0, unit="deg")
+
+
+def _sequence(name: str, value, what: str = "a non-empty sequence") -> tuple:
+    """``value`` as a tuple, or TypeError (a string, a number, a mapping) / ValueError (empty)."""
+    if isinstance(value, (str, bytes, dict)):
+        raise TypeError(f"{name} must be {what}; got {value!r}")
+    try:
+        out = tuple(value)
+    except TypeError:
+        raise TypeError(f"{name} must be {what}; got {value!r}") from None
+    if not out:
+        raise ValueError(f"{name} must be {what}; got an empty one")
+    return out
 
 
 @dataclass(frozen=True)
@@ -61,6 +80,10 @@ class Design:
     flash_times_ms : flash times relative to saccade onset (whole ms).
     repetitions : repeats of every condition (trials differ only by their seed).
     seed : base seed; trial i gets ``seed + i``.
+
+    Bounds (``bounds.LIMITS``): amplitudes in (0, 40] deg, flash times whole ms within +-1000 ms,
+    1-1000 repetitions, seed in [0, 2**31 - 1], at most ``bounds.MAX_TRIALS`` trials in all, every
+    flash on the screen. Wrong types raise TypeError, values out of bounds ValueError.
     """
 
     amplitudes_deg: tuple[float, ...] = (12.0, 16.0, 20.0, 24.0)
@@ -71,19 +94,25 @@ class Design:
     name: str = field(default="default")
 
     def __post_init__(self) -> None:
-        amps = tuple(float(a) for a in self.amplitudes_deg)
-        if not amps or any(not (math.isfinite(a) and 0 < a <= 40) for a in amps):
-            raise ValueError(f"amplitudes_deg must be non-empty, each in (0, 40] deg; got {self.amplitudes_deg!r}")
-        offs = tuple((float(dx), float(dy)) for dx, dy in self.flash_offsets_deg)
-        if not offs or any(not (math.isfinite(dx) and math.isfinite(dy)) for dx, dy in offs):
-            raise ValueError("flash_offsets_deg must be a non-empty list of finite (dx, dy) pairs")
-        times = tuple(int(t) for t in self.flash_times_ms)
-        if not times or any(int(t) != t for t in self.flash_times_ms):
-            raise ValueError(f"flash_times_ms must be non-empty whole milliseconds; got {self.flash_times_ms!r}")
-        if any(abs(t) > 1000 for t in times):
-            raise ValueError("flash_times_ms must lie within +-1000 ms of saccade onset")
-        if int(self.repetitions) != self.repetitions or self.repetitions < 1:
-            raise ValueError(f"repetitions must be a positive integer; got {self.repetitions!r}")
+        # bounds: ``bounds.LIMITS`` and ``bounds.MAX_TRIALS`` (TypeError for wrong types, ValueError otherwise)
+        amps = tuple(check_real("amplitudes_deg", a) for a in _sequence("amplitudes_deg", self.amplitudes_deg))
+        pairs = _sequence("flash_offsets_deg", self.flash_offsets_deg)
+        offs = []
+        for p in pairs:
+            p = _sequence("flash_offsets_deg", p, "(dx, dy) pairs")
+            if len(p) != 2:
+                raise ValueError(f"flash_offsets_deg must hold (dx, dy) pairs; got {p!r}")
+            offs.append(tuple(check_real("flash_offsets_deg", v, _OFFSET_LIMIT) for v in p))
+        offs = tuple(offs)
+        times = tuple(check_int("flash_times_ms", t) for t in _sequence("flash_times_ms", self.flash_times_ms))
+        reps = check_int("repetitions", self.repetitions)
+        seed = check_int("seed", self.seed)
+        if not isinstance(self.name, str):
+            raise TypeError(f"name must be a string; got {self.name!r}")
+        n = len(amps) * len(offs) * len(times) * reps
+        if n > MAX_TRIALS:
+            raise ValueError(f"the design has {n} trials, more than {MAX_TRIALS}: use fewer repetitions, "
+                             "amplitudes, flash offsets or flash times")
         for a in amps:
             for dx, dy in offs:
                 if abs(a / 2 + dx) > 40 or abs(dy) > 30:
@@ -91,8 +120,8 @@ class Design:
         object.__setattr__(self, "amplitudes_deg", amps)
         object.__setattr__(self, "flash_offsets_deg", offs)
         object.__setattr__(self, "flash_times_ms", times)
-        object.__setattr__(self, "repetitions", int(self.repetitions))
-        object.__setattr__(self, "seed", int(self.seed))
+        object.__setattr__(self, "repetitions", reps)
+        object.__setattr__(self, "seed", seed)
 
     @property
     def n_trials(self) -> int:

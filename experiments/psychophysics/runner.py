@@ -1,37 +1,111 @@
 """Incremental, resumable, parallel execution of a design: one CSV row per trial as it finishes.
 
-``run_trials`` appends each finished trial to ``trials.csv`` (flushed per row); on restart it
-reads the rows already there (dropping a torn last line), skips those trial ids and runs the
-rest. The finished table is rewritten sorted by ``trial_id`` and also saved as Parquet, so a
-killed-and-resumed run ends with the same table as an uninterrupted one. Trials run in worker
-processes (``spawn`` context: EGL contexts do not survive fork), each reusing one
-``TrialRunner``.
+``run_trials`` appends each finished trial to ``trials.csv`` (flushed per batch); on restart it
+reads the rows already there, skips those trial ids and runs the rest. The finished table is
+rewritten sorted by ``trial_id`` and also saved as Parquet, so a killed-and-resumed run ends with
+the same table as an uninterrupted one.
+
+Nothing is silently wrong:
+
+* every row ends with ``config_hash`` (``config_hash``: a hash of the design and configuration,
+  ``config_fingerprint``) and ``row_crc32`` (CRC-32 of the row's text before it, 8 hex digits). A
+  row torn by an interruption, or damaged later, fails its checksum: a resume drops it and runs
+  that trial again (and says so); ``read_table`` refuses a table holding one. A resume refuses rows
+  of another configuration, even when ``run.json`` was deleted.
+* the output folder is locked (``fcntl.flock`` on ``DIR/.lock``) for the duration of a run: a
+  second run on the same folder fails at once with ``FolderBusyError``.
+
+Trials run in worker processes (``spawn`` context: EGL contexts do not survive fork), each reusing
+one ``TrialRunner``. Workers die with their parent (Linux ``PR_SET_PDEATHSIG``, and a thread that
+watches the parent's pid elsewhere), ignore Ctrl-C (the parent stops them), and use one BLAS/OpenMP
+thread each (``threadpoolctl``), as does an in-process run, so that two workers on two cores do not
+oversubscribe the machine.
 """
 
 from __future__ import annotations
 
-import csv
+import contextlib
+import hashlib
 import json
 import math
 import multiprocessing as mp
 import os
+import signal
+import sys
+import threading
+import time
+import warnings
+import zlib
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import Callable, Iterable, Iterator
 
 import numpy as np
 
+from .bounds import Limit, check_int
 from .design import Design, Trial
 from .trial import ROW_COLUMNS, TrialConfig, TrialRunner
 
-__all__ = ["run_trials", "read_table", "write_parquet", "config_fingerprint"]
+__all__ = ["run_trials", "read_table", "write_parquet", "config_fingerprint", "config_hash", "TABLE_COLUMNS",
+           "FolderBusyError", "OutputFolderError", "prepare_output_folder", "folder_lock"]
+
+#: The columns of ``trials.csv``: the trial's row (``ROW_COLUMNS``), then the integrity columns.
+TABLE_COLUMNS = ROW_COLUMNS + ("config_hash", "row_crc32")
+_INT_COLUMNS = ("trial_id", "repetition", "seed", "flash_time_ms", "flash_sim_ms")
+_LOCK_NAME = ".lock"
+_BATCH = Limit(1, 10_000, integer=True)  # run_trials(batch_size=...)
+_LIMIT = Limit(0, 10**9, integer=True)  # run_trials(limit=...)
 
 _WORKER: TrialRunner | None = None
 
 
-def _init_worker(config: TrialConfig) -> None:
+class FolderBusyError(RuntimeError):
+    """Another run holds the output folder's lock."""
+
+
+class OutputFolderError(ValueError):
+    """The output folder cannot be used (a file, not creatable, not writable, empty name)."""
+
+
+# ---------------------------------------------------------------------------------------------- workers
+def _limit_threads() -> None:
+    """One BLAS/OpenMP thread in this process from now on (a worker: two workers on two cores)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1)
+
+
+def _die_with_parent(parent_pid: int) -> None:
+    """Make this worker exit when ``parent_pid`` dies, even by SIGKILL."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            PR_SET_PDEATHSIG = 1
+            libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # pragma: no cover - no prctl: the watchdog below still works
+            pass
+    if os.getppid() != parent_pid:  # the parent died before the line above
+        os._exit(1)
+
+    def watch() -> None:  # portable fallback: the parent's pid changes when it dies (re-parenting)
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="parent-watchdog", daemon=True).start()
+
+
+def _init_worker(config: TrialConfig, parent_pid: int | None = None) -> None:
     global _WORKER
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group: the parent stops us
+    if parent_pid is not None:
+        _die_with_parent(parent_pid)
     _WORKER = TrialRunner(config)
+    _limit_threads()  # after TrialRunner: every BLAS/OpenMP library it loads is limited
 
 
 def _run_batch(trials: list[Trial]) -> list[dict]:
@@ -39,31 +113,132 @@ def _run_batch(trials: list[Trial]) -> list[dict]:
     return [_WORKER.run(t) for t in trials]
 
 
-def read_table(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """Read a trials CSV into columns (numpy arrays), skipping incomplete or malformed rows."""
-    rows = _read_rows(Path(path))
-    return {c: np.array([r[c] for r in rows], dtype=float) for c in ROW_COLUMNS}
+def _worker_status() -> dict:
+    """Diagnostics of a worker process (tests): pid, parent pid and its thread-pool sizes."""
+    from threadpoolctl import threadpool_info
+
+    return {"pid": os.getpid(), "ppid": os.getppid(), "sigint": signal.getsignal(signal.SIGINT),
+            "threads": {i["internal_api"]: i["num_threads"] for i in threadpool_info()}}
 
 
-def _read_rows(path: Path) -> list[dict]:
-    if not path.exists():
-        return []
-    out: dict[int, dict] = {}
-    with path.open(newline="") as fh:
-        reader = csv.DictReader(fh)
-        if reader.fieldnames is None or list(reader.fieldnames) != list(ROW_COLUMNS):
-            if reader.fieldnames is None:
-                return []
-            raise ValueError(f"{path} has different columns than this version writes; use a new --out folder")
-        for r in reader:
-            try:
-                vals = {c: float(r[c]) for c in ROW_COLUMNS}
-            except (TypeError, ValueError):
-                continue  # a line torn by an interruption
-            out[int(vals["trial_id"])] = vals
-    return [out[k] for k in sorted(out)]
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while worker processes are started: they inherit the disposition, so a Ctrl-C
+    during their start-up (imports) cannot print their tracebacks."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
+def _make_pool(config: TrialConfig, workers: int) -> ProcessPoolExecutor:
+    return ProcessPoolExecutor(max_workers=int(workers), mp_context=mp.get_context("spawn"),
+                               initializer=_init_worker, initargs=(config, os.getpid()))
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel what is pending and end the workers now (after an interruption or an error)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    deadline = time.monotonic() + 5.0
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.join(max(0.0, deadline - time.monotonic()))
+            if p.is_alive():
+                p.kill()
+                p.join(1.0)
+
+
+# ---------------------------------------------------------------------------------------------- folder
+def prepare_output_folder(out_dir: str | os.PathLike) -> Path:
+    """Create ``out_dir`` if needed and check that it is a writable folder; ``OutputFolderError`` else."""
+    if isinstance(out_dir, (bytes, bytearray)) or not isinstance(out_dir, (str, os.PathLike)):
+        raise TypeError(f"the output folder must be a path; got {out_dir!r}")
+    text = os.fspath(out_dir)
+    if not str(text).strip():
+        raise OutputFolderError("the output folder name is empty")
+    if "\x00" in str(text):
+        raise OutputFolderError(f"the output folder name {text!r} contains a NUL character")
+    out = Path(text)
+    if out.exists() and not out.is_dir():
+        raise OutputFolderError(f"{out} is a file, not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise OutputFolderError(f"{out} is a file, not a folder") from None
+    except OSError as e:
+        raise OutputFolderError(f"cannot create the folder {out}: {e.strerror or e}") from None
+    try:
+        fd = os.open(out / _LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+        os.close(fd)
+    except OSError as e:
+        raise OutputFolderError(f"cannot write in the folder {out}: {e.strerror or e}") from None
+    return out
+
+
+_HELD: dict[str, list] = {}  # resolved folder -> [fd, depth]: the locks this process holds
+_HELD_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def folder_lock(out_dir: str | os.PathLike) -> Iterator[Path]:
+    """Hold an exclusive lock on the folder (``DIR/.lock``) while the block runs; re-entrant within
+    a process. Another process holding it raises ``FolderBusyError`` at once (no waiting)."""
+    out = prepare_output_folder(out_dir)
+    key = str(out.resolve())
+    with _HELD_LOCK:
+        held = _HELD.get(key)
+        if held is not None:
+            held[1] += 1
+    if held is not None:
+        try:
+            yield out
+        finally:
+            with _HELD_LOCK:
+                held[1] -= 1
+        return
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: no locking
+        yield out
+        return
+    path = out / _LOCK_NAME
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as e:
+        raise OutputFolderError(f"cannot write in the folder {out}: {e.strerror or e}") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        try:
+            owner = os.pread(fd, 64, 0).decode(errors="replace").strip()
+        except OSError:
+            owner = ""
+        os.close(fd)
+        raise FolderBusyError(f"{out} is in use by another run{f' (pid {owner})' if owner.isdigit() else ''}: "
+                              "wait for it to finish, or use another --out folder") from None
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        with _HELD_LOCK:
+            _HELD[key] = [fd, 1]
+        yield out
+    finally:
+        with _HELD_LOCK:
+            _HELD.pop(key, None)
+        with contextlib.suppress(OSError):
+            fcntl.flock(fd, fcntl.LOCK_UN)
+        os.close(fd)
+
+
+# ---------------------------------------------------------------------------------------------- table
 def config_fingerprint(design: Design, config: TrialConfig) -> dict:
     """What must match for a resumed run to continue an earlier one."""
     tc = config.timecourse
@@ -74,34 +249,166 @@ def config_fingerprint(design: Design, config: TrialConfig) -> dict:
         "decay_ms": tc.decay_ms, "peak_gain": tc.peak_gain}}
 
 
+def config_hash(design: Design, config: TrialConfig) -> str:
+    """12 hex digits identifying the design and configuration (a hash of ``config_fingerprint``)."""
+    text = json.dumps(config_fingerprint(design, config), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
 def _format(v: float) -> str:
     return repr(float(v)) if not float(v).is_integer() else str(int(v))
 
 
-def _write_sorted(path: Path, rows: list[dict]) -> None:
+def _header() -> str:
+    return ",".join(TABLE_COLUMNS) + "\r\n"
+
+
+def _line(row: dict, chash: str) -> str:
+    body = ",".join([_format(row[c]) for c in ROW_COLUMNS] + [chash])
+    return f"{body},{zlib.crc32(body.encode()):08x}\r\n"
+
+
+@dataclass
+class _Scan:
+    rows: dict[int, dict] = field(default_factory=dict)  # trial_id -> values (+ "config_hash")
+    bad: list[tuple[int, str]] = field(default_factory=list)  # (line number, reason)
+    duplicates: list[int] = field(default_factory=list)  # line numbers repeating a trial id
+
+    def problems(self, limit: int = 3) -> str:
+        items = [f"line {n}: {why}" for n, why in self.bad[:limit]]
+        more = len(self.bad) - limit
+        return "; ".join(items) + (f"; and {more} more" if more > 0 else "")
+
+
+def _parse_line(line: str) -> tuple[dict | None, str]:
+    """A row's values, or None and why not (torn, checksum mismatch, unreadable)."""
+    body, sep, crc = line.rpartition(",")
+    if not sep or len(crc) != 8 or any(ch not in "0123456789abcdef" for ch in crc):
+        return None, "torn or damaged (no checksum at the end)"
+    if zlib.crc32(body.encode("utf-8", "surrogateescape")) != int(crc, 16):
+        return None, "checksum mismatch (torn or damaged row)"
+    fields = body.split(",")
+    if len(fields) != len(TABLE_COLUMNS) - 1:
+        return None, f"{len(fields) + 1} fields instead of {len(TABLE_COLUMNS)}"
+    try:
+        vals = {c: float(v) for c, v in zip(ROW_COLUMNS, fields)}
+    except ValueError:
+        return None, "a value is not a number"
+    if not all(vals[c].is_integer() for c in _INT_COLUMNS):
+        return None, "a whole-number column holds a fraction"
+    vals["config_hash"] = fields[-1]
+    return vals, ""
+
+
+def _scan(path: Path) -> _Scan:
+    """Read and verify every row of a trials CSV (the header must be this version's)."""
+    scan = _Scan()
+    if not path.exists():
+        return scan
+    with path.open("r", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+        text = fh.read()
+    if not text:
+        return scan  # created but killed before the header: an empty table
+    lines = text.split("\n")
+    header = lines[0].rstrip("\r")
+    if header != ",".join(TABLE_COLUMNS):
+        raise ValueError(f"{path} has different columns than this version writes (it may come from an older "
+                         "version, or be damaged); use a new --out folder")
+    last = len(lines) - 1
+    for i, raw in enumerate(lines[1:], start=2):
+        line = raw.rstrip("\r")
+        if not line and i - 1 == last:
+            continue  # the newline ending the last row
+        vals, why = _parse_line(line)
+        if vals is None:
+            scan.bad.append((i, why if line else "an empty line"))
+            continue
+        tid = int(vals["trial_id"])
+        if tid in scan.rows:
+            scan.duplicates.append(i)
+        scan.rows[tid] = vals
+    return scan
+
+
+def read_table(path: str | os.PathLike, *, partial: bool = False) -> dict[str, np.ndarray]:
+    """Read a trials CSV into columns: numpy float arrays for ``ROW_COLUMNS`` and a string array for
+    ``config_hash``, sorted by ``trial_id``.
+
+    Every row's checksum is verified. By default (a finished table) a torn or damaged row, a repeated
+    trial id or rows of more than one configuration raise ``ValueError`` naming the file and the lines
+    (running the same study command again redoes the damaged trials). ``partial=True`` reads a table
+    that is still being written or was interrupted: such rows are skipped with a ``RuntimeWarning``.
+    """
+    path = Path(path)
+    scan = _scan(path)
+    if scan.bad or scan.duplicates or len({r["config_hash"] for r in scan.rows.values()}) > 1:
+        what = []
+        if scan.bad:
+            what.append(f"{len(scan.bad)} torn or damaged row(s) ({scan.problems()})")
+        if scan.duplicates:
+            lines = ", ".join(map(str, scan.duplicates[:3]))
+            what.append(f"{len(scan.duplicates)} repeated trial id(s) (lines {lines})")
+        hashes = sorted({r["config_hash"] for r in scan.rows.values()})
+        if len(hashes) > 1:
+            what.append(f"rows of {len(hashes)} configurations (config_hash {', '.join(hashes)})")
+        msg = f"{path}: " + "; ".join(what)
+        if not partial:
+            raise ValueError(msg + ". Run the same study command again to redo the damaged trials, or read it "
+                             "with partial=True to skip them")
+        warnings.warn(msg + "; skipped", RuntimeWarning, stacklevel=2)
+    rows = [scan.rows[k] for k in sorted(scan.rows)]
+    table = {c: np.array([r[c] for r in rows], dtype=float) for c in ROW_COLUMNS}
+    table["config_hash"] = np.array([r["config_hash"] for r in rows], dtype=str)
+    return table
+
+
+def _write_sorted(path: Path, rows: list[dict], chash: str) -> None:
     tmp = path.with_suffix(".csv.tmp")
     with tmp.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(ROW_COLUMNS)
+        fh.write(_header())
         for r in sorted(rows, key=lambda r: r["trial_id"]):
-            w.writerow([_format(r[c]) for c in ROW_COLUMNS])
+            fh.write(_line(r, chash))
     tmp.replace(path)
 
 
 def write_parquet(csv_path: str | os.PathLike, parquet_path: str | os.PathLike) -> None:
-    """The CSV table as Parquet (same columns; ids and times as integers)."""
+    """The CSV table (verified) as Parquet: the same columns with ids and times as integers, and
+    ``config_hash``; Parquet's own page checksums replace ``row_crc32``. Written atomically."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     t = read_table(csv_path)
-    ints = {"trial_id", "repetition", "seed", "flash_time_ms", "flash_sim_ms"}
-    cols = {c: (t[c].astype(np.int64) if c in ints else t[c]) for c in ROW_COLUMNS}
-    pq.write_table(pa.table(cols), parquet_path)
+    cols = {c: (t[c].astype(np.int64) if c in _INT_COLUMNS else t[c]) for c in ROW_COLUMNS}
+    cols["config_hash"] = pa.array(t["config_hash"].tolist(), type=pa.string())
+    target = Path(parquet_path)
+    tmp = target.with_name(target.name + ".tmp")
+    pq.write_table(pa.table(cols), tmp, write_page_checksum=True)
+    tmp.replace(target)
 
 
 def _batches(trials: list[Trial], size: int) -> Iterable[list[Trial]]:
     for i in range(0, len(trials), size):
         yield trials[i:i + size]
+
+
+def _check_resume(out: Path, csv_path: Path, meta_path: Path, fp: dict, chash: str) -> _Scan:
+    """The verified rows of an earlier run in ``out``; ValueError if they belong to another one."""
+    if meta_path.exists() and csv_path.exists():
+        try:
+            old = json.loads(meta_path.read_text())
+        except (ValueError, OSError):
+            old = None  # damaged: the rows' config_hash decides below
+        if old is not None and {k: old.get(k) for k in ("design", "config")} != json.loads(json.dumps(fp)):
+            raise ValueError(f"{out} holds a run with a different design or configuration; use another --out "
+                             "folder or delete it")
+    scan = _scan(csv_path)
+    foreign = sorted({r["config_hash"] for r in scan.rows.values()} - {chash})
+    if foreign:
+        n = sum(r["config_hash"] != chash for r in scan.rows.values())
+        raise ValueError(f"{csv_path} holds {n} rows of a different design or configuration (config_hash "
+                         f"{', '.join(foreign)}; this run: {chash}); use another --out folder, or delete "
+                         f"{csv_path} to start over")
+    return scan
 
 
 def run_trials(
@@ -119,62 +426,88 @@ def run_trials(
 
     workers : processes (1 = in this process). limit : stop after this many new trials (for
     tests of resumption; the table is then left unsorted/partial, as after an interruption).
-    A ``run.json`` beside the table records the design and configuration; resuming with a
-    different one raises ``ValueError``.
+    A ``run.json`` beside the table records the design and configuration and every row carries its
+    ``config_hash``: resuming with a different one raises ``ValueError``. Torn or damaged rows are
+    dropped (with a note on stderr) and their trials run again. The folder is locked while this
+    runs (``FolderBusyError`` if another run holds it); an unusable folder raises
+    ``OutputFolderError``. On an interruption (KeyboardInterrupt) or an error the workers are
+    stopped and the rows written so far stay, ready to be resumed.
     """
-    if int(workers) != workers or workers < 1:
-        raise ValueError(f"workers must be a positive integer; got {workers!r}")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    if not isinstance(design, Design):
+        raise TypeError(f"design must be a Design; got {design!r}")
+    if not isinstance(config, TrialConfig):
+        raise TypeError(f"config must be a TrialConfig; got {config!r}")
+    workers = check_int("workers", workers)
+    batch_size = check_int("batch_size", batch_size, _BATCH)
+    if limit is not None:
+        limit = check_int("limit", limit, _LIMIT)
+    with folder_lock(out_dir) as out:
+        return _run_locked(design, config, out, workers, progress, batch_size, limit, on_row)
+
+
+def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, progress: bool, batch_size: int,
+                limit: int | None, on_row: Callable[[dict], None] | None) -> Path:
     csv_path, meta_path = out / "trials.csv", out / "run.json"
     fp = config_fingerprint(design, config)
-    if meta_path.exists() and csv_path.exists():
-        old = json.loads(meta_path.read_text())
-        if old != json.loads(json.dumps(fp)):
-            raise ValueError(f"{out} holds a run with a different design or configuration; use another --out "
-                             "folder or delete it")
-    meta_path.write_text(json.dumps(fp, indent=1))
-    done = _read_rows(csv_path)
-    done_ids = {int(r["trial_id"]) for r in done}
+    chash = config_hash(design, config)
+    scan = _check_resume(out, csv_path, meta_path, fp, chash)
+    if scan.bad or scan.duplicates:
+        n = len(scan.bad)
+        print(f"{csv_path}: dropped {n} torn or damaged row(s) ({scan.problems()}); their trials are run again"
+              if n else f"{csv_path}: dropped {len(scan.duplicates)} repeated row(s)", file=sys.stderr)
+    tmp = meta_path.with_name(meta_path.name + ".tmp")
+    tmp.write_text(json.dumps({**fp, "config_hash": chash}, indent=1))
+    tmp.replace(meta_path)
+    done = [scan.rows[k] for k in sorted(scan.rows)]
+    done_ids = set(scan.rows)
     todo = [t for t in design.trials() if t.trial_id not in done_ids]
     if limit is not None:
-        todo = todo[: int(limit)]
-    _write_sorted(csv_path, done)  # drop any torn line before appending
+        todo = todo[:limit]
+    _write_sorted(csv_path, done, chash)  # drop torn lines before appending
     bar = None
     if progress and todo:
         from tqdm import tqdm
 
         bar = tqdm(total=design.n_trials, initial=len(done), unit="trial", desc="flash trials")
-    with csv_path.open("a", newline="") as fh:
-        writer = csv.writer(fh)
+    try:
+        with csv_path.open("a", newline="") as fh:
 
-        def emit(rows: list[dict]) -> None:
-            for r in rows:
-                writer.writerow([_format(r[c]) for c in ROW_COLUMNS])
-                done.append(r)
-                if on_row is not None:
-                    on_row(r)
-            fh.flush()
-            if bar is not None:
-                bar.update(len(rows))
+            def emit(rows: list[dict]) -> None:
+                for r in rows:
+                    fh.write(_line(r, chash))
+                    done.append(r)
+                    if on_row is not None:
+                        on_row(r)
+                fh.flush()
+                if bar is not None:
+                    bar.update(len(rows))
 
-        if workers == 1 or len(todo) <= batch_size:
-            runner = TrialRunner(config)
-            try:
-                for b in _batches(todo, batch_size):
-                    emit([runner.run(t) for t in b])
-            finally:
-                runner.close()
-        else:
-            size = max(1, min(batch_size, math.ceil(len(todo) / (4 * workers))))
-            with ProcessPoolExecutor(max_workers=int(workers), mp_context=mp.get_context("spawn"),
-                                     initializer=_init_worker, initargs=(config,)) as pool:
-                futures = [pool.submit(_run_batch, b) for b in _batches(todo, size)]
-                for f in as_completed(futures):
-                    emit(f.result())
-    if bar is not None:
-        bar.close()
+            if workers == 1 or len(todo) <= batch_size:
+                from threadpoolctl import threadpool_limits
+
+                with threadpool_limits(limits=1):
+                    runner = TrialRunner(config)
+                    try:
+                        for b in _batches(todo, batch_size):
+                            emit([runner.run(t) for t in b])
+                    finally:
+                        runner.close()
+            elif todo:
+                size = max(1, min(batch_size, math.ceil(len(todo) / (4 * workers))))
+                pool = _make_pool(config, workers)
+                try:
+                    with _sigint_ignored():  # the workers start while submitting; they inherit SIG_IGN
+                        futures = [pool.submit(_run_batch, b) for b in _batches(todo, size)]
+                    for f in as_completed(futures):
+                        emit(f.result())
+                except BaseException:
+                    _stop_pool(pool)
+                    raise
+                pool.shutdown(wait=True)
+    finally:
+        if bar is not None:
+            bar.close()
     if limit is None or len(done) == design.n_trials:
-        _write_sorted(csv_path, done)
+        _write_sorted(csv_path, done, chash)
         write_parquet(csv_path, out / "trials.parquet")
     return csv_path

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .bounds import check_real
+
 __all__ = ["RemapTimeCourse"]
 
 
@@ -33,6 +35,8 @@ class RemapTimeCourse:
     decay_ms : standard deviation of the falling flank (after the peak): how fast it is gone.
     peak_gain : log-radius shift at the peak, natural-log units (ln 2 ~ 0.693: 50 % compression;
         0 switches remapping off).
+
+    Bounds (``bounds.LIMITS``): peak time within +-1000 ms, flanks 1-1000 ms, gain 0-5.
     """
 
     peak_time_ms: float = -10.0
@@ -41,19 +45,18 @@ class RemapTimeCourse:
     peak_gain: float = math.log(2.0)
 
     def __post_init__(self) -> None:
-        for name in ("peak_time_ms", "peak_gain"):
-            if not math.isfinite(getattr(self, name)):
-                raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
-        for name in ("rise_ms", "decay_ms"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number of ms; got {v!r}")
-        if self.peak_gain < 0:
-            raise ValueError(f"peak_gain must be >= 0 (compression); got {self.peak_gain!r}")
+        # bounds: ``bounds.LIMITS`` (TypeError for a non-number, ValueError for NaN/inf/out of range)
+        for name in ("peak_time_ms", "rise_ms", "decay_ms", "peak_gain"):
+            object.__setattr__(self, name, check_real(name, getattr(self, name)))
 
     def gain(self, t_ms: ArrayLike) -> NDArray[np.float64] | float:
         """g(t) at flash times ``t_ms`` (ms re saccade onset); a float for a scalar input."""
-        t = np.asarray(t_ms, dtype=float)
+        t = np.asarray(t_ms)
+        if t.dtype.kind not in "iuf":
+            raise TypeError(f"t_ms must be real numbers (ms); got dtype {t.dtype}")
+        t = t.astype(float)
+        if not np.all(np.isfinite(t)):
+            raise ValueError("t_ms must be finite (ms re saccade onset)")
         w = np.where(t < self.peak_time_ms, self.rise_ms, self.decay_ms)
         g = self.peak_gain * np.exp(-0.5 * ((t - self.peak_time_ms) / w) ** 2)
         return float(g) if g.ndim == 0 else g

@@ -1,0 +1,115 @@
+"""The installed package works, not only the checkout.
+
+* The wheel, installed non-editable into a fresh virtual environment, carries every subpackage
+  and data file: every command's ``--help`` and ``run --quick`` work from another directory.
+* ``import conformal`` works from a read-only install with no writable home (numba then cannot
+  cache its kernels on disk: it warns and compiles them in memory).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _commands() -> list[str]:
+    from experiments.__main__ import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    return sorted(sub.choices)
+
+
+def test_every_command_is_listed():
+    assert set(_commands()) >= {"run", "visualize", "train", "evaluate"}
+
+
+@pytest.fixture(scope="module")
+def installed_venv(tmp_path_factory) -> Path:
+    """A fresh venv with the project's wheel (built from this checkout) installed non-editable."""
+    tmp = tmp_path_factory.mktemp("wheel")
+    src = tmp / "src"  # a clean copy: no build/ or egg-info left over from earlier builds
+    src.mkdir()
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / name, src / name)
+    for pkg in ("conformal", "models", "envs", "experiments"):
+        shutil.copytree(ROOT / pkg, src / pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    wheels = tmp / "dist"
+    build = subprocess.run([sys.executable, "-m", "pip", "wheel", str(src), "--no-deps", "-q", "-w", str(wheels)],
+                           capture_output=True, text=True, timeout=300)
+    assert build.returncode == 0, build.stderr[-3000:]
+    (wheel,) = wheels.glob("conformal_head-*.whl")
+    env_dir = tmp / "venv"
+    venv.EnvBuilder(with_pip=True).create(env_dir)
+    py = env_dir / "bin" / "python"
+    inst = subprocess.run([str(py), "-m", "pip", "install", "-q", str(wheel)], capture_output=True, text=True,
+                          timeout=600)
+    assert inst.returncode == 0, inst.stderr[-3000:]
+    return py
+
+
+def _run_elsewhere(py: Path, cwd: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    return subprocess.run([str(py), *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+
+
+def test_wheel_holds_every_package(installed_venv, tmp_path):
+    code = ("import conformal, models, envs, experiments, experiments.psychophysics, experiments.agents, pathlib;"
+            "print(pathlib.Path(experiments.__file__).parent)")
+    r = _run_elsewhere(installed_venv, tmp_path, "-c", code)
+    assert r.returncode == 0, r.stderr[-3000:]
+    where = Path(r.stdout.strip())
+    assert "site-packages" in where.parts and ROOT not in where.parents  # not the checkout
+
+
+def test_installed_commands_help(installed_venv, tmp_path):
+    r = _run_elsewhere(installed_venv, tmp_path, "-m", "experiments", "--help")
+    assert r.returncode == 0, r.stderr[-3000:]
+    for cmd in _commands():
+        r = _run_elsewhere(installed_venv, tmp_path, "-m", "experiments", cmd, "--help")
+        assert r.returncode == 0, (cmd, r.stderr[-3000:])
+        assert "usage:" in r.stdout
+
+
+def test_installed_quick_study(installed_venv, tmp_path):
+    r = _run_elsewhere(installed_venv, tmp_path, "-m", "experiments", "run", "--quick", "--out", "q", "--no-progress")
+    assert r.returncode == 0, r.stderr[-3000:]
+    out = tmp_path / "q"
+    for name in ("trials.csv", "trials.parquet", "summary.txt", "fig11.png", "study.rrd", "run.json"):
+        assert (out / name).stat().st_size > 0, name
+
+
+def test_import_without_a_writable_cache(tmp_path):
+    """A read-only install and no writable home: numba finds no cache locator. The package still
+    imports (with a warning) and its compiled kernels still run, uncached."""
+    pkg = tmp_path / "site"
+    shutil.copytree(ROOT / "conformal", pkg / "conformal", ignore=shutil.ignore_patterns("__pycache__"))
+    (pkg / "conformal" / "__pycache__").write_text("")  # not a folder: no in-tree cache (works as root too)
+    env = {k: v for k, v in os.environ.items() if k not in ("XDG_CACHE_HOME", "NUMBA_CACHE_DIR")}
+    env.update(HOME="/dev/null", PYTHONPATH=str(pkg))  # no writable home: no user-wide cache either
+    code = ("import warnings, numpy as np\n"
+            "with warnings.catch_warnings(record=True) as w:\n"
+            "    warnings.simplefilter('always')\n"
+            "    import conformal as C\n"
+            "assert C.__file__.startswith(%r), C.__file__\n"
+            "from conformal import kernels\n"
+            "assert kernels.DISK_CACHE is False\n"
+            "assert any('cannot cache' in str(x.message) for x in w), [str(x.message) for x in w]\n"
+            "grid = C.RetinaGrid.from_picture(64, 64, dots_per_unit=4, foveal_pixels=40)\n"
+            "ret = C.Retina(grid, (64, 64, 3), pixels_per_unit=4.0)\n"
+            "pic = np.full((64, 64, 3), 100, np.uint8)\n"
+            "s = ret.sample(pic)\n"
+            "assert s.mask.any() and np.allclose(s.periphery[s.mask], 100.0) and np.allclose(s.fovea, 100.0)\n"
+            "print('ok')\n") % str(pkg)
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.strip().endswith("ok")

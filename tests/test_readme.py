@@ -1,0 +1,124 @@
+"""Every code block of README.md runs as written.
+
+Each ```bash / ```python block is one test, run in README order in one scratch folder (so a block
+may use what an earlier one wrote, as a reader following the README would), with the checkout's
+top-level files and folders linked into it (``python benchmarks/env.py`` works) and the test's
+own Python first on PATH. A python block is saved as a script and run with ``python script.py``,
+exactly as a reader pasting it into a file would. A block is skipped only when the line right
+before its opening fence says why::
+
+    <!-- readme-test: skip (needs a display) -->
+
+The skip reasons allowed are few (below): a display, an optional extra or a package install, a run
+of minutes (whose short form is a block beside it or a test), or the setup and test commands.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+SKIP = re.compile(r"<!--\s*readme-test:\s*skip\s*\((?P<why>[^)]+)\)\s*-->")
+FENCE = re.compile(r"^```(?P<lang>[A-Za-z0-9_+-]*)\s*$")
+LANGS = {"bash": "bash", "sh": "bash", "shell": "bash", "python": "python", "py": "python"}
+# what may excuse a block from running, each with a reason a reader accepts
+ALLOWED_SKIPS = ("needs a display", "needs the rl extra", "installs packages", "minutes", "the test command",
+                 "the setup command")
+
+
+@dataclass(frozen=True)
+class Block:
+    line: int  # 1-based line of the opening fence
+    lang: str
+    code: str
+    skip: str | None
+
+    @property
+    def id(self) -> str:
+        first = next((ln for ln in self.code.splitlines() if ln.strip() and not ln.startswith("#")), "")
+        return f"L{self.line}-{self.lang}-{re.sub(r'[^A-Za-z0-9_.-]+', '_', first)[:40]}"
+
+
+def readme_blocks(text: str) -> list[Block]:
+    """The fenced code blocks of a Markdown text, with their skip markers."""
+    lines = text.splitlines()
+    blocks, i = [], 0
+    while i < len(lines):
+        m = FENCE.match(lines[i])
+        if m and m["lang"]:
+            j = i + 1
+            while j < len(lines) and not lines[j].startswith("```"):
+                j += 1
+            if j == len(lines):
+                raise ValueError(f"README.md line {i + 1}: code block never closed")
+            prev = next((lines[k] for k in range(i - 1, -1, -1) if lines[k].strip()), "")
+            s = SKIP.search(prev)
+            blocks.append(Block(i + 1, m["lang"].lower(), "\n".join(lines[i + 1:j]) + "\n", s["why"] if s else None))
+            i = j + 1
+        else:
+            i += 1
+    return blocks
+
+
+BLOCKS = [b for b in readme_blocks(README.read_text()) if b.lang in LANGS]
+
+
+def test_readme_has_blocks_and_known_languages():
+    every = readme_blocks(README.read_text())
+    assert len(BLOCKS) >= 10
+    assert {b.lang for b in every} <= set(LANGS) | {"text", "toml", "json", "csv", ""}, {b.lang for b in every}
+
+
+def test_readme_skips_are_justified():
+    for b in BLOCKS:
+        if b.skip is not None:
+            assert any(b.skip.startswith(a) for a in ALLOWED_SKIPS), (b.line, b.skip)
+    # most blocks run: a skip is the exception
+    assert sum(b.skip is None for b in BLOCKS) >= 0.6 * len(BLOCKS)
+
+
+def test_parser_finds_skip_markers():
+    text = "x\n<!-- readme-test: skip (needs a display) -->\n```bash\nrerun a.rrd\n```\n\n```python\nprint(1)\n```\n"
+    a, b = readme_blocks(text)
+    assert (a.lang, a.skip, a.code, a.line) == ("bash", "needs a display", "rerun a.rrd\n", 3)
+    assert (b.lang, b.skip, b.code) == ("python", None, "print(1)\n")
+
+
+@pytest.fixture(scope="module")
+def scratch(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("readme")
+    for entry in ROOT.iterdir():
+        if entry.name.startswith(".") or entry.name in ("results", "runs", "out", "build", "dist"):
+            continue
+        (d / entry.name).symlink_to(entry)
+    return d
+
+
+@pytest.mark.readme
+@pytest.mark.parametrize("block", BLOCKS, ids=[b.id for b in BLOCKS])
+def test_readme_block_runs(block: Block, scratch: Path):
+    if block.skip is not None:
+        pytest.skip(f"README line {block.line}: {block.skip}")
+    env = dict(os.environ)
+    env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
+    env.setdefault("MUJOCO_GL", "egl")
+    env.pop("DISPLAY", None)
+    env.pop("WAYLAND_DISPLAY", None)
+    if LANGS[block.lang] == "python":
+        script = scratch / f"readme_block_{block.line}.py"
+        script.write_text(block.code)
+        cmd = [sys.executable, script.name]
+    else:
+        cmd = ["bash", "-eo", "pipefail", "-c", block.code]
+    r = subprocess.run(cmd, cwd=scratch, env=env, capture_output=True, text=True, timeout=400,
+                       stdin=subprocess.DEVNULL)
+    assert r.returncode == 0, (f"README.md line {block.line} ({block.lang}) exited {r.returncode}:\n"
+                               f"{block.code}\n--- stdout ---\n{r.stdout[-3000:]}\n--- stderr ---\n{r.stderr[-3000:]}")
