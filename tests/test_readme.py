@@ -30,7 +30,7 @@ SKIP = re.compile(r"<!--\s*readme-test:\s*skip\s*\((?P<why>[^)]+)\)\s*-->")
 FENCE = re.compile(r"^```(?P<lang>[A-Za-z0-9_+-]*)\s*$")
 LANGS = {"bash": "bash", "sh": "bash", "shell": "bash", "python": "python", "py": "python"}
 # what may excuse a block from running, each with a reason a reader accepts
-ALLOWED_SKIPS = ("needs a display", "needs the rl extra", "installs packages", "minutes", "the test command",
+ALLOWED_SKIPS = ("needs a display", "serves until Ctrl-C", "needs the rl extra", "installs packages", "minutes", "the test command",
                  "the setup command")
 
 
