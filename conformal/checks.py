@@ -172,7 +172,7 @@ def array(name: str, a: ArrayLike, *, kinds: str = "biuf", shape: tuple | None =
     if shape is not None and (x.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, x.shape))):
         want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
         raise ValueError(f"{name} must have shape {want}; got {x.shape}")
-    if finite and x.dtype.kind in "fc" and not np.all(np.isfinite(x)):
+    if finite and x.dtype.kind in "fc" and not np.isfinite(x).all():
         raise ValueError(f"{name} contains NaN or infinite values")
     return x
 

@@ -11,6 +11,7 @@ so a user's own numpy/torch work elsewhere in the process keeps its threads.
 
 from __future__ import annotations
 
+import sys
 import threading
 from contextlib import AbstractContextManager
 
@@ -26,8 +27,6 @@ _n_libraries = -1
 def _blas_controller() -> ThreadpoolController:
     """One scan of the loaded BLAS libraries (about 1 ms), redone only when new ones were loaded."""
     global _controller, _n_libraries
-    import sys
-
     n = len(sys.modules)  # a new import may have loaded another BLAS (scipy, torch)
     with _lock:
         if _controller is None or n != _n_libraries:

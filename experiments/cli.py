@@ -12,47 +12,35 @@ import os
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["int_in", "float_in", "out_dir", "out_file"]
+__all__ = ["int_in", "out_dir", "whole_number"]
+
+
+def whole_number(text: str) -> int:
+    """``text`` as a whole number: ``12``, ``12.0`` or ``1e3``; ``ValueError`` for ``12.5``, ``nan``,
+    ``inf`` or anything that is not a number."""
+    try:
+        return int(text)
+    except ValueError:
+        f = float(text)  # raises ValueError for non-numbers
+        if not (math.isfinite(f) and f.is_integer()):
+            raise ValueError(f"not a whole number: {text!r}") from None
+        return int(f)
 
 
 def int_in(minimum: int, maximum: int) -> Callable[[str], int]:
-    """A whole number in [minimum, maximum]: ``12`` or ``12.0``; not ``12.5``, ``nan``, ``inf``,
-    ``abc`` or anything outside the range."""
+    """A whole number (:func:`whole_number`) in [minimum, maximum]."""
 
     def parse(text: str) -> int:
         want = f"a whole number in [{minimum}, {maximum}]"
         try:
-            v = int(text)
+            v = whole_number(text)
         except ValueError:
-            try:
-                f = float(text)
-            except ValueError:
-                raise argparse.ArgumentTypeError(f"expected {want}; got {text!r}") from None
-            if not (math.isfinite(f) and f.is_integer()):
-                raise argparse.ArgumentTypeError(f"expected {want}; got {text!r}") from None
-            v = int(f)
+            raise argparse.ArgumentTypeError(f"expected {want}; got {text!r}") from None
         if not minimum <= v <= maximum:
             raise argparse.ArgumentTypeError(f"expected {want}; got {text!r}")
         return v
 
     parse.__name__ = "integer"
-    return parse
-
-
-def float_in(minimum: float, maximum: float, *, open_min: bool = False) -> Callable[[str], float]:
-    """A finite number in [minimum, maximum] (or (minimum, maximum] with ``open_min``)."""
-
-    def parse(text: str) -> float:
-        want = f"a number in {'(' if open_min else '['}{minimum:g}, {maximum:g}]"
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {want}; got {text!r}") from None
-        if not math.isfinite(v) or v > maximum or v < minimum or (open_min and v == minimum):
-            raise argparse.ArgumentTypeError(f"expected {want}; got {text!r}")
-        return v
-
-    parse.__name__ = "number"
     return parse
 
 
@@ -80,21 +68,3 @@ def out_dir(text: str) -> Path:
         return p
     _writable_parent(p, text)
     return p
-
-
-def out_file(suffix: str) -> Callable[[str], Path]:
-    """An output file ending in ``suffix``: not a folder, under a folder this user can write."""
-
-    def parse(text: str) -> Path:
-        if not text.strip():
-            raise argparse.ArgumentTypeError("expected a file path; got an empty string")
-        p = Path(text)
-        if p.suffix != suffix:
-            raise argparse.ArgumentTypeError(f"expected a path ending in {suffix}; got {text!r}")
-        if p.is_dir():
-            raise argparse.ArgumentTypeError(f"{text!r} is a folder; give a file path ending in {suffix}")
-        _writable_parent(p, text)
-        return p
-
-    parse.__name__ = "path"
-    return parse

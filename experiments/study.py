@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli import whole_number
 from .psychophysics.bounds import LIMITS, MAX_TRIALS
 
 __all__ = ["add_subcommand", "run_study", "record_study", "NonFiniteResultError"]
@@ -55,16 +56,7 @@ def _num_type(name: str, what: str = ""):
     def parse(text: str):
         kind = "a whole number" if lim.integer else "a number"
         try:
-            if lim.integer:
-                try:
-                    v = int(text)
-                except ValueError:  # "12.0" or "1e3" name whole numbers too; "12.5" does not
-                    f = float(text)
-                    if not (math.isfinite(f) and f.is_integer()):
-                        raise
-                    v = int(f)
-            else:
-                v = float(text)
+            v = whole_number(text) if lim.integer else float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {kind} in {lim.text()}; got {text!r}") from None
         if not lim.contains(v):
