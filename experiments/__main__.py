@@ -1,7 +1,8 @@
 """``python -m experiments COMMAND``: the project's commands.
 
 run        perisaccadic flash-localization study (table, figures, summary, Rerun recording)
-visualize  record a run of the environment in Rerun (``--out FILE.rrd`` or ``--spawn``)
+saccades   saccade kinematics and the eye-position signal against published data (figure, table)
+visualize  record a run of the environment in Rerun (``--out FILE.rrd``, ``--spawn`` or ``--serve``)
 train      train a saccade agent on a task
 evaluate   evaluate a saved, random or heuristic policy
 
@@ -16,7 +17,7 @@ import importlib
 import sys
 
 # command modules, in the order shown by --help
-COMMAND_MODULES = ("experiments.study", "experiments.recording", "experiments.rl")
+COMMAND_MODULES = ("experiments.study", "experiments.saccades", "experiments.recording", "experiments.rl")
 
 
 def build_parser() -> argparse.ArgumentParser:

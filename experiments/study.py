@@ -166,6 +166,14 @@ def add_subcommand(subparsers) -> None:
     m.add_argument("--endpoint-noise", type=_num_type("endpoint_noise"), default=0.0,
                    help=f"saccade endpoint noise, s.d. as a fraction of the amplitude, {b['endpoint_noise']} "
                         "(seeded per trial)")
+    m.add_argument("--saccade-model", choices=("burst", "legacy"), default="burst",
+                   help="saccade trajectories: the brainstem burst generator or the legacy main-sequence planner")
+    m.add_argument("--eye-position", choices=("signal", "true"), default="signal",
+                   help="read-out from retina to head: the extraretinal eye-position signal (slow, from the "
+                        "efference copy) or the true eye orientation (an oracle, for comparison)")
+    m.add_argument("--visual-latency-ms", type=_num_type("visual_latency_ms"), default=70.0,
+                   help=f"delay from a flash to its cortical response, {b['visual_latency_ms']}: the flash is "
+                        "read with the eye-position signal this much later")
     r = p.add_argument_group("execution and output")
     r.add_argument("--workers", type=_num_type("workers"), default=2,
                    help=f"worker processes (spawn context), {b['workers']}; 1 = in-process")
@@ -201,7 +209,9 @@ def _build(args: argparse.Namespace):
         tc = RemapTimeCourse(args.peak_time_ms, args.rise_ms, args.decay_ms, args.peak_gain)
         config = TrialConfig(image_size=args.image_size, fovy_deg=args.fovy_deg, fovea_deg=args.fovea_deg,
                              timecourse=tc, threshold=args.threshold, endpoint_noise=args.endpoint_noise,
-                             oversample=args.oversample, flash_radius_deg=args.flash_radius_deg)
+                             oversample=args.oversample, flash_radius_deg=args.flash_radius_deg,
+                             saccade_model=args.saccade_model, eye_position=args.eye_position,
+                             visual_latency_ms=args.visual_latency_ms)
     except (ValueError, TypeError) as e:
         parser.error(str(e))
     return design, config, args.formats

@@ -1,4 +1,5 @@
-"""models: the MuJoCo binocular head, its scenes, off-screen eye rendering and the saccade plant.
+"""models: the MuJoCo binocular head, its scenes, off-screen eye rendering and the oculomotor plant
+(saccade generator, vergence, eye-position signal).
 
 ``MUJOCO_GL`` defaults to ``egl`` when unset (set before MuJoCo is imported).
 """
@@ -6,11 +7,14 @@
 from ._gl import GLBackendError, gl_install_hint
 from .build import (DEFAULT_FOVY_DEG, DEFAULT_IPD, HEAD_XML, QUALITIES, ModelFileError, build_model,
                     build_spec, export_xml, load_model)
-from .oculomotor import (MAX_PEAK_VELOCITY, MainSequence, OculomotorRangeError, SaccadePlan, fick_angles,
+from .eye_position_signal import VISUAL_LATENCY_MS, EyePositionSignal
+from .oculomotor import (MAX_PEAK_VELOCITY, SACCADE_MODELS, MainSequence, OculomotorRangeError, SaccadePlan, fick_angles,
                          fick_matrix, fixation_angles, gaze_direction, listing_torsion, rotation_vector)
 from .render import EYES, EyeImage, EyeRenderer, ForkedGLContextError, StereoFrame
+from .saccade_generator import PLANTS, BurstGenerator, SaccadeProfile
 from .scenes import CYCLOPEAN_EYE, SCENES, SceneInfo, screen_point
 from .simulation import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, EyeState, EyeTrace, Head
+from .vergence import VergenceDynamics
 
 __all__ = [
     "SCENES", "QUALITIES", "EYES", "DEFAULT_FOVY_DEG", "DEFAULT_IPD", "HEAD_XML", "CYCLOPEAN_EYE",
@@ -18,7 +22,8 @@ __all__ = [
     "build_model", "build_spec", "export_xml", "load_model", "screen_point",
     "Head", "EyeState", "EyeTrace", "SceneInfo",
     "EyeRenderer", "EyeImage", "StereoFrame",
-    "MainSequence", "SaccadePlan", "fixation_angles", "listing_torsion", "fick_matrix", "fick_angles",
+    "SACCADE_MODELS", "BurstGenerator", "SaccadeProfile", "PLANTS", "VergenceDynamics", "EyePositionSignal",
+    "VISUAL_LATENCY_MS", "MainSequence", "SaccadePlan", "fixation_angles", "listing_torsion", "fick_matrix", "fick_angles",
     "gaze_direction", "rotation_vector",
     "GLBackendError", "ForkedGLContextError", "ModelFileError", "OculomotorRangeError", "gl_install_hint",
 ]

@@ -25,13 +25,14 @@ Literature:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from conformal import checks
 
 __all__ = [
+    "SACCADE_MODELS",
     "H_RANGE",
     "V_RANGE",
     "T_RANGE",
@@ -53,6 +54,9 @@ V_RANGE = np.deg2rad(35.0)  #: vertical oculomotor range (+-), radians
 T_RANGE = np.deg2rad(20.0)  #: Fick-torsion joint range (+-); Listing torsion stays below 15 deg
 MAX_PEAK_VELOCITY = np.deg2rad(700.0)  #: physiological ceiling of eye speed, rad/s
 MIN_TARGET_DISTANCE = 0.05  #: metres from an eye's rotation centre
+#: Trajectory models of ``Head(saccade_model=...)``: the brainstem burst generator (default) and
+#: the earlier analytic main-sequence planner.
+SACCADE_MODELS = ("burst", "legacy")
 
 _X = np.array([1.0, 0.0, 0.0])
 _Y = np.array([0.0, 1.0, 0.0])
@@ -267,50 +271,153 @@ class MainSequence:
         return float((amp_deg + self.m0_deg * x) / self.vpk_deg_per_ms)
 
 
+class _LegacyProfile:
+    """The :class:`MainSequence` trajectory in the profile interface of the saccade generator
+    (one profile for every plant; movement onset at the plan's onset)."""
+
+    def __init__(self, ms: MainSequence, amp_deg: float):
+        self.ms, self.amplitude_deg = ms, amp_deg
+        self.duration_ms = ms.duration_ms(amp_deg)
+        self.settle_ms = ms.settle_ms(amp_deg)
+        self.peak_velocity_deg_s = ms.peak_velocity_deg_s(amp_deg)
+        self.onset_ms, self.offset_ms = 0.0, self.duration_ms
+        self.burst = None
+
+    def position(self, t_rel, plant: int = 0) -> np.ndarray:
+        t_rel = np.asarray(t_rel, float)
+        if self.amplitude_deg <= 0:
+            return (t_rel >= 0).astype(float)
+        s = self.ms.position_deg(t_rel, self.amplitude_deg) / self.amplitude_deg
+        return np.where(t_rel >= self.settle_ms, 1.0, s)
+
+    def rate(self, t_rel, plant: int = 0) -> np.ndarray:
+        t_rel = np.asarray(t_rel, float)
+        if self.amplitude_deg <= 0:
+            return np.zeros_like(t_rel)
+        ds = self.ms.velocity_deg_per_ms(t_rel, self.amplitude_deg) / self.amplitude_deg
+        return np.where(t_rel >= self.settle_ms, 0.0, ds)
+
+
+def _listing(hv: np.ndarray) -> np.ndarray:
+    """Append Listing torsion to (..., 2) Fick (h, v) -> (..., 3)."""
+    return np.concatenate([hv, (2.0 * np.arctan(np.tan(hv[..., :1] / 2) * np.tan(hv[..., 1:] / 2)))], axis=-1)
+
+
 @dataclass
 class SaccadePlan:
     """A planned binocular saccade, with its efference copy, before the eyes move.
 
-    Times are simulation milliseconds; ``onset_ms`` is absolute. Angles are Fick ``(h, v, t)``
-    per eye, shape ``(2, 3)`` ordered (left, right). Both eyes share the normalised main-sequence
-    profile ``s(t) = E(t; T)/T`` of the cyclopean amplitude ``T``; ``h, v`` move along
-    ``a0 + s (a1 - a0)`` and torsion follows Listing's law at every instant.
+    Times are simulation milliseconds; ``onset_ms`` is absolute (the burst onset: the eyes reach
+    30 deg/s a few ms later). Angles are Fick ``(h, v, t)`` per eye, shape ``(2, 3)`` ordered
+    (left, right).
 
-    ``efference_copy[e]`` is the planned rotation of eye ``e`` in the head frame, from pre- to
-    post-saccadic orientation (``R_post @ R_pre.T``); ``efference_copy_eye[e]`` is the same
-    rotation in the pre-saccadic eye frame with axes ordered (x1 up, x2 optical axis, x3 right)
-    of DESIGN.md. The image of a world-fixed point moves by the inverse rotation.
+    The trajectory comes from ``generator``: a :class:`~models.saccade_generator.BurstGenerator`
+    (default; kinematics from the brainstem loop, abducting/adducting plants, slower vergence from
+    ``vergence``) or a :class:`MainSequence` (``saccade_model="legacy"``: one analytic profile for
+    every component, vergence included, as before). Per eye, the horizontal angle is
+    ``h0 + dVersion * s_plant(t) + dVergence * r(t)`` and the vertical ``v0 + dv * s(t)``; torsion
+    follows Listing's law at every instant. The profiles are those of the *intended* amplitude;
+    motor noise scales the executed displacement (``end_angles``) downstream of the generator.
+
+    ``intended_end_angles`` is where the command aims (default: ``end_angles``);
+    ``efference_copy[e]`` is the intended rotation of eye ``e`` in the head frame,
+    ``R_intended_end @ R_start.T`` -- the command, unchanged by the motor noise;
+    ``efference_copy_eye[e]`` is the same rotation in the pre-saccadic eye frame with axes ordered
+    (x1 up, x2 optical axis, x3 right) of DESIGN.md. ``executed_rotation`` is the rotation the eyes
+    actually make. :meth:`eye_position_signal` is the brain's estimate of eye orientation
+    (``models.eye_position_signal``), starting from ``signal_start_angles`` (default: the start).
     """
 
     onset_ms: int
     start_angles: np.ndarray
     end_angles: np.ndarray
-    amplitude: float  #: cyclopean amplitude, radians
-    main_sequence: MainSequence = field(default_factory=MainSequence)
+    amplitude: float  #: executed cyclopean amplitude, radians
+    generator: object = None  #: BurstGenerator (default) or MainSequence (legacy)
     target: np.ndarray | None = None  #: executed (possibly noisy) world fixation point
     intended_target: np.ndarray | None = None  #: world point asked for, before endpoint noise
+    intended_end_angles: np.ndarray | None = None  #: the command's endpoint (default: end_angles)
+    intended_amplitude: float | None = None  #: cyclopean amplitude of the command (default: amplitude)
+    vergence: object = None  #: VergenceDynamics (default with a BurstGenerator; unused by legacy)
+    eye_position: object = None  #: EyePositionSignal timing (default EyePositionSignal())
+    signal_start_angles: np.ndarray | None = None  #: where the eye-position signal starts
 
     def __post_init__(self):
+        from .eye_position_signal import EyePositionSignal
+        from .saccade_generator import BurstGenerator
+        from .vergence import VergenceDynamics
+
         self.onset_ms = checks.integer("onset_ms", self.onset_ms, 0, None, hint="a whole millisecond")
-        for name in ("start_angles", "end_angles"):
-            a = checks.array(name, getattr(self, name), kinds="biuf", finite=False)
+        for name in ("start_angles", "end_angles", "intended_end_angles", "signal_start_angles"):
+            value = getattr(self, name)
+            if value is None and name in ("intended_end_angles", "signal_start_angles"):
+                continue
+            a = checks.array(name, value, kinds="biuf", finite=False)
             if a.shape != (2, 3):
                 raise ValueError(f"{name} must be Fick angles of shape (2, 3) [eye, (h, v, t)]; got {a.shape}")
             if not np.all(np.isfinite(a)):
                 raise OculomotorRangeError("saccade plan angles must be finite")
             setattr(self, name, a.astype(float))
+        if self.intended_end_angles is None:
+            self.intended_end_angles = self.end_angles.copy()
+        if self.signal_start_angles is None:
+            self.signal_start_angles = self.start_angles.copy()
         self.amplitude = checks.real("amplitude", self.amplitude, 0.0, np.pi, hint="radians")
-        if not isinstance(self.main_sequence, MainSequence):
-            raise checks.InputTypeError(f"main_sequence must be a MainSequence; got {type(self.main_sequence).__name__}")
+        self.intended_amplitude = (self.amplitude if self.intended_amplitude is None else
+                                   checks.real("intended_amplitude", self.intended_amplitude, 0.0, np.pi, hint="radians"))
+        if self.generator is None:
+            self.generator = BurstGenerator()
+        if not isinstance(self.generator, (BurstGenerator, MainSequence)):
+            raise checks.InputTypeError(f"generator must be a models.BurstGenerator or a models.MainSequence; "
+                                        f"got {type(self.generator).__name__}")
+        self.legacy = isinstance(self.generator, MainSequence)
+        if self.vergence is None and not self.legacy:
+            self.vergence = VergenceDynamics()
+        if self.vergence is not None and not isinstance(self.vergence, VergenceDynamics):
+            raise checks.InputTypeError(f"vergence must be a models.VergenceDynamics or None; got {type(self.vergence).__name__}")
+        if self.eye_position is None:
+            self.eye_position = EyePositionSignal()
+        if not isinstance(self.eye_position, EyePositionSignal):
+            raise checks.InputTypeError(f"eye_position must be a models.EyePositionSignal or None; "
+                                        f"got {type(self.eye_position).__name__}")
         for name in ("target", "intended_target"):
             if getattr(self, name) is not None:
                 setattr(self, name, _check_point(getattr(self, name), name))
         self._amp_deg = float(np.rad2deg(self.amplitude))
+        self._int_deg = float(np.rad2deg(self.intended_amplitude))
+        if self.legacy:
+            self._prof = _LegacyProfile(self.generator, self._int_deg)
+        else:
+            if self._int_deg > 90.0:
+                raise OculomotorRangeError(f"saccade amplitude {self._int_deg:.1f} deg exceeds the generator's 90 deg")
+            self._prof = self.generator.profile(self._int_deg)
         R0 = fick_matrix(self.start_angles[:, 0], self.start_angles[:, 1], self.start_angles[:, 2])
         R1 = fick_matrix(self.end_angles[:, 0], self.end_angles[:, 1], self.end_angles[:, 2])
-        self.efference_copy = R1 @ np.swapaxes(R0, -1, -2)
+        Ri = fick_matrix(self.intended_end_angles[:, 0], self.intended_end_angles[:, 1], self.intended_end_angles[:, 2])
+        self.executed_rotation = R1 @ np.swapaxes(R0, -1, -2)
+        self.efference_copy = Ri @ np.swapaxes(R0, -1, -2)
         B = PRIMARY_EYE_BASIS
-        self.efference_copy_eye = B.T @ np.swapaxes(R0, -1, -2) @ R1 @ B
+        self.efference_copy_eye = B.T @ np.swapaxes(R0, -1, -2) @ Ri @ B
+        # per-eye decomposition of each displacement into version (saccade) and vergence parts
+        self._parts = {key: self._decompose(end) for key, end in (("executed", self.end_angles),
+                                                                  ("intended", self.intended_end_angles))}
+        verg = max(abs(p[2]).max() for p in self._parts.values())
+        settle = self._prof.settle_ms
+        if self.vergence is not None:
+            settle = max(settle, self.vergence.settle_ms(float(np.rad2deg(verg)), self._prof.offset_ms,
+                                                         self.generator.settle_deg))
+        self._settle = float(settle)
+        self._eps = None
+
+    def _decompose(self, end: np.ndarray) -> tuple:
+        d = end[:, :2] - self.start_angles[:, :2]
+        version = d[:, 0].mean()
+        vergence = d[:, 0] - version
+        # plant rows: 0 nominal, 1 abducting, 2 adducting; the right eye abducts moving right (h > 0)
+        if self.legacy or version == 0:
+            plants = (0, 0)
+        else:
+            plants = (2, 1) if version > 0 else (1, 2)
+        return version, d[:, 1], vergence, plants
 
     # -- summary numbers -------------------------------------------------------------------
     @property
@@ -318,52 +425,100 @@ class SaccadePlan:
         return self._amp_deg
 
     @property
+    def main_sequence(self) -> MainSequence | None:
+        """The legacy kinematics, when this plan uses them (else None)."""
+        return self.generator if self.legacy else None
+
+    @property
     def duration_ms(self) -> float:
-        """Main-sequence duration (onset until speed < 20 deg/s)."""
-        return self.main_sequence.duration_ms(self._amp_deg)
+        """Saccade duration: between the 30 deg/s crossings of the eye speed (burst generator), or
+        onset until the speed falls below 20 deg/s (legacy main sequence)."""
+        return self._prof.duration_ms
 
     @property
     def settle_ms(self) -> float:
-        """Time after onset at which the trajectory has reached its endpoint (held afterwards)."""
-        return self.main_sequence.settle_ms(self._amp_deg)
+        """Time after onset at which the trajectory (vergence included) has reached its endpoint."""
+        return self._settle
 
     @property
     def offset_ms(self) -> float:
-        """Absolute time of saccade offset (onset + duration)."""
-        return self.onset_ms + self.duration_ms
+        """Absolute time of saccade offset (the last 30 deg/s crossing; legacy: onset + duration)."""
+        return self.onset_ms + self._prof.offset_ms
+
+    @property
+    def movement_onset_ms(self) -> float:
+        """Absolute time the eye speed first exceeds 30 deg/s (legacy: ``onset_ms``)."""
+        return self.onset_ms + self._prof.onset_ms
 
     @property
     def end_ms(self) -> int:
         """Absolute whole millisecond from which the eyes hold the endpoint."""
-        return int(self.onset_ms + np.ceil(self.settle_ms))
+        return int(self.onset_ms + np.ceil(self._settle))
 
     @property
     def peak_velocity(self) -> float:
-        """Cyclopean peak speed, rad/s."""
-        return float(np.deg2rad(self.main_sequence.peak_velocity_deg_s(self._amp_deg)))
+        """Cyclopean peak speed, rad/s (of the executed displacement)."""
+        scale = self._amp_deg / self._int_deg if self._int_deg > 0 else 0.0
+        return float(np.deg2rad(self._prof.peak_velocity_deg_s * scale))
+
+    @property
+    def burst(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The burst of the saccade generator: (absolute times ms, rate deg/ms); None for legacy."""
+        b = getattr(self._prof, "burst", None)
+        if b is None:
+            return None
+        return self.onset_ms + np.arange(len(b)) * self._prof.dt_ms, b.copy()
+
+    @property
+    def endpoint_error_deg(self) -> np.ndarray:
+        """Per eye (2,), the angle between the executed and the intended gaze direction at the end."""
+        g1 = gaze_direction(self.end_angles[:, 0], self.end_angles[:, 1])
+        g0 = gaze_direction(self.intended_end_angles[:, 0], self.intended_end_angles[:, 1])
+        return np.degrees(np.arccos(np.clip((g0 * g1).sum(axis=1), -1.0, 1.0)))
 
     # -- trajectory ------------------------------------------------------------------------
     def profile(self, t_ms) -> tuple[np.ndarray, np.ndarray]:
-        """Normalised position ``s`` and its rate ``ds/dt`` (1/ms) at finite absolute times ``t_ms``."""
+        """Normalised position ``s`` and its rate ``ds/dt`` (1/ms) of the nominal plant at finite
+        absolute times ``t_ms``."""
         tr = MainSequence._times(t_ms) - self.onset_ms
-        if self._amp_deg <= 0:
-            return (tr >= 0).astype(float), np.zeros_like(tr)
-        s = self.main_sequence.position_deg(tr, self._amp_deg) / self._amp_deg
-        ds = self.main_sequence.velocity_deg_per_ms(tr, self._amp_deg) / self._amp_deg
-        done = tr >= self.settle_ms
-        return np.where(done, 1.0, s), np.where(done, 0.0, ds)
+        done = tr >= self._settle
+        return (np.where(done, 1.0, self._prof.position(tr, 0)), np.where(done, 0.0, self._prof.rate(tr, 0)))
+
+    def _hv(self, tr: np.ndarray, which: str) -> tuple[np.ndarray, np.ndarray]:
+        """(h, v) and their rates (..., 2, 2) at times ``tr`` after onset for the executed or intended command."""
+        version, dv, verg, plants = self._parts[which]
+        P = self._prof
+        s_nom, ds_nom = P.position(tr, 0), P.rate(tr, 0)
+        if self.vergence is None:
+            r, dr = s_nom, ds_nom
+        else:
+            r, dr = self.vergence.fraction(tr, P.offset_ms), self.vergence.rate(tr, P.offset_ms)
+        h, dh, v, dvv = [], [], [], []
+        for e in range(2):
+            s, ds = (s_nom, ds_nom) if plants[e] == 0 else (P.position(tr, plants[e]), P.rate(tr, plants[e]))
+            h.append(self.start_angles[e, 0] + version * s + verg[e] * r)
+            dh.append(version * ds + verg[e] * dr)
+            v.append(self.start_angles[e, 1] + dv[e] * s_nom)
+            dvv.append(dv[e] * ds_nom)
+        hv = np.stack([np.stack(h, -1), np.stack(v, -1)], -1)
+        dhv = np.stack([np.stack(dh, -1), np.stack(dvv, -1)], -1)
+        done = (tr >= self._settle)[..., None, None]
+        end = (self.end_angles if which == "executed" else self.intended_end_angles)[:, :2]
+        return np.where(done, end, hv), np.where(done, 0.0, dhv)
 
     def angles(self, t_ms) -> np.ndarray:
-        """Planned Fick angles at absolute times ``t_ms`` (shape ``(..., 2, 3)``)."""
-        s, _ = self.profile(t_ms)
-        hv = self.start_angles[:, :2] + s[..., None, None] * (self.end_angles[:, :2] - self.start_angles[:, :2])
-        return np.concatenate([hv, listing_torsion(hv[..., 0], hv[..., 1])[..., None]], axis=-1)
+        """Executed Fick angles at absolute times ``t_ms`` (shape ``(..., 2, 3)``): what the eyes do."""
+        hv, _ = self._hv(MainSequence._times(t_ms) - self.onset_ms, "executed")
+        return _listing(hv)
+
+    def intended_angles(self, t_ms) -> np.ndarray:
+        """The command's Fick angles at absolute times ``t_ms`` (noise-free; the efference copy's time course)."""
+        hv, _ = self._hv(MainSequence._times(t_ms) - self.onset_ms, "intended")
+        return _listing(hv)
 
     def velocities(self, t_ms) -> np.ndarray:
-        """Planned angular rates (rad/ms) of the Fick angles at absolute times ``t_ms``."""
-        s, ds = self.profile(t_ms)
-        dhv = ds[..., None, None] * (self.end_angles[:, :2] - self.start_angles[:, :2])
-        hv = self.start_angles[:, :2] + s[..., None, None] * (self.end_angles[:, :2] - self.start_angles[:, :2])
+        """Executed angular rates (rad/ms) of the Fick angles at absolute times ``t_ms``."""
+        hv, dhv = self._hv(MainSequence._times(t_ms) - self.onset_ms, "executed")
         h, v = hv[..., 0], hv[..., 1]
         th, tv = np.tan(h / 2), np.tan(v / 2)
         # d/dt 2 atan(th tv) = 2/(1+(th tv)^2) * (0.5 sec^2(h/2) tv h' + 0.5 th sec^2(v/2) v')
@@ -371,6 +526,25 @@ class SaccadePlan:
             (1 + th**2) * tv * dhv[..., 0] + th * (1 + tv**2) * dhv[..., 1]
         )
         return np.concatenate([dhv, dt[..., None]], axis=-1)
+
+    def eye_position_signal(self, t_ms) -> np.ndarray:
+        """The extraretinal eye-position signal (Fick angles, ``(..., 2, 3)`` rad) at absolute
+        times ``t_ms``: the intended trajectory smoothed and delayed (``models.eye_position_signal``),
+        from ``signal_start_angles`` to ``intended_end_angles``."""
+        tr = MainSequence._times(t_ms) - self.onset_ms
+        if self._eps is None:
+            knots = np.arange(0.0, self._settle + 0.5, 0.5)
+            hv, _ = self._hv(knots, "intended")
+            total = (self.intended_end_angles - self.start_angles)[:, :2]
+            s_nom = self._prof.position(knots, 0)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                norm = np.where(total != 0, (hv - self.start_angles[:, :2]) / total, s_nom[:, None, None])
+            self._eps = (knots, norm.reshape(len(knots), 4))
+        knots, norm = self._eps
+        smooth = np.stack([self.eye_position.smooth(tr, knots, norm[:, c]) for c in range(4)], axis=-1)
+        start = self.signal_start_angles[:, :2]
+        hv = start + (self.intended_end_angles[:, :2] - start) * smooth.reshape(tr.shape + (2, 2))
+        return _listing(hv)
 
     def sample(self, step_ms: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
         """Times (relative to onset) and planned angles from onset to settle, every ``step_ms`` (in [0.001, 1000])."""

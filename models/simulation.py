@@ -25,6 +25,7 @@ settled end) + 250 ms of fixation ~3.1 ms (``benchmarks/render.py`` prints curre
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Iterator, Sequence
 
@@ -34,7 +35,9 @@ from conformal import checks
 
 from ._gl import mujoco
 from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, _path, _write_spec, build_spec
+from .eye_position_signal import EyePositionSignal
 from .oculomotor import (
+    SACCADE_MODELS,
     MainSequence,
     OculomotorRangeError,
     SaccadePlan,
@@ -42,6 +45,8 @@ from .oculomotor import (
     fixation_angles,
     gaze_direction,
 )
+from .saccade_generator import BurstGenerator
+from .vergence import VergenceDynamics
 from .render import EYES, MAX_IMAGE_SIDE, EyeRenderer, StereoFrame, focal_pixels
 from .scenes import SCENES, SceneInfo
 
@@ -87,12 +92,16 @@ class EyeState:
 
 @dataclass(frozen=True)
 class EyeTrace:
-    """Eye joint angles/velocities sampled at every physics step (``times_ms`` absolute)."""
+    """Eye joint angles/velocities sampled at every physics step (``times_ms`` absolute), beside
+    the executed command the servo tracks, the intended command (the efference copy's time course)
+    and the eye-position signal at the same instants."""
 
     times_ms: np.ndarray  #: (K,)
     angles: np.ndarray  #: (K, 2, 3) measured Fick angles, radians
     velocities: np.ndarray  #: (K, 2, 3) measured joint rates, rad/s
-    planned: np.ndarray  #: (K, 2, 3) planned angles at the same instants
+    planned: np.ndarray  #: (K, 2, 3) executed (noisy) command at the same instants
+    intended: np.ndarray | None = None  #: (K, 2, 3) intended command (noise-free)
+    eye_position_signal: np.ndarray | None = None  #: (K, 2, 3) the brain's estimate of eye orientation
 
 
 def _world_points(points) -> np.ndarray:
@@ -143,8 +152,18 @@ class Head:
         quality: ``"fast"`` (default: no shadows/multisampling) or ``"default"`` (MuJoCo's).
         seed: seeds scene layouts (``search``) and saccade endpoint noise (an integer >= 0 or None).
         endpoint_noise: s.d. of saccade endpoint error as a fraction of amplitude, applied to the
-            cyclopean direction (signal-dependent noise; 0 = none; ~0.05-0.1 is human-like; at most 1).
-        main_sequence: saccade kinematics (defaults: Van Wetter & Van Opstal 2008).
+            cyclopean direction, horizontal and vertical independently (signal-dependent noise:
+            scatter grows in proportion to amplitude; 0 = none; at most 1). Human scatter is about
+            5-10 % of the amplitude (Kowler & Blaser 1995, Vision Res 35:1741; van Beers 2007,
+            J Neurosci 27:8757). It acts downstream of the generator: the efference copy keeps the
+            intended endpoint.
+        saccade_model: ``"burst"`` (default: the brainstem burst generator of
+            :mod:`models.saccade_generator`, with slower vergence) or ``"legacy"`` (the earlier
+            analytic main-sequence planner, for comparison).
+        main_sequence: kinematics of the legacy model (defaults: Van Wetter & Van Opstal 2008).
+        generator: parameters of the burst generator (default ``BurstGenerator()``).
+        vergence: vergence dynamics of the burst model (default ``VergenceDynamics()``).
+        eye_position: timing of the eye-position signal (default ``EyePositionSignal()``).
         timestep_ms: physics timestep while no saccade is in flight (default 1 ms; must divide
             1 ms, at least 0.01 ms). Finer costs proportionally more and changes nothing visible.
         saccade_timestep_ms: physics timestep during saccades up to their offset (default
@@ -165,8 +184,10 @@ class Head:
 
     def __init__(self, scene: str = "dots", image_size: int | tuple[int, int] = 128, *,
                  fovy_deg: float = DEFAULT_FOVY_DEG, ipd: float = DEFAULT_IPD, quality: str = "fast",
-                 seed: int | None = None, endpoint_noise: float = 0.0,
-                 main_sequence: MainSequence | None = None, timestep_ms: float = DEFAULT_TIMESTEP_MS,
+                 seed: int | None = None, endpoint_noise: float = 0.0, saccade_model: str = "burst",
+                 main_sequence: MainSequence | None = None, generator: BurstGenerator | None = None,
+                 vergence: VergenceDynamics | None = None, eye_position: EyePositionSignal | None = None,
+                 timestep_ms: float = DEFAULT_TIMESTEP_MS,
                  saccade_timestep_ms: float = DEFAULT_SACCADE_TIMESTEP_MS):
         if not isinstance(scene, str):
             raise checks.InputTypeError(f"scene must be one of {', '.join(SCENES)}; got {scene!r}")
@@ -183,10 +204,21 @@ class Head:
         self.image_shape = (h, w)
         self.endpoint_noise = checks.real("endpoint_noise", endpoint_noise, 0.0, 1.0,
                                           hint="the s.d. of the endpoint error as a fraction of the amplitude")
-        if main_sequence is not None and not isinstance(main_sequence, MainSequence):
-            raise checks.InputTypeError(f"main_sequence must be a MainSequence or None; got {type(main_sequence).__name__}")
+        self.saccade_model = checks.choice("saccade_model", saccade_model, SACCADE_MODELS)
+        for name, value, kind in (("main_sequence", main_sequence, MainSequence), ("generator", generator, BurstGenerator),
+                                  ("vergence", vergence, VergenceDynamics),
+                                  ("eye_position", eye_position, EyePositionSignal)):
+            if value is not None and not isinstance(value, kind):
+                raise checks.InputTypeError(f"{name} must be a models.{kind.__name__} or None; got {type(value).__name__}")
+        if self.saccade_model == "legacy" and (generator is not None or vergence is not None):
+            raise ValueError("generator and vergence configure saccade_model='burst'; the legacy model takes main_sequence")
+        if self.saccade_model == "burst" and main_sequence is not None:
+            raise ValueError("main_sequence configures saccade_model='legacy'; the burst model takes generator=BurstGenerator(...)")
         seed = _seed(seed)
         self.main_sequence = main_sequence or MainSequence()
+        self.generator = generator or BurstGenerator()
+        self.vergence = None if self.saccade_model == "legacy" else (vergence or VergenceDynamics())
+        self.eye_position = eye_position or EyePositionSignal()
         self.spec, info = build_spec(scene, ipd=ipd, fovy_deg=fovy_deg, quality=quality,
                                      offscreen_size=(self.image_shape[1], self.image_shape[0]))
         self.scene: SceneInfo = info
@@ -228,6 +260,7 @@ class Head:
         self._plan: SaccadePlan | None = None
         self._table = None
         self.last_plan: SaccadePlan | None = None
+        self._signal_plan: SaccadePlan | None = None  # the plan the eye-position signal follows
         self._flash_off: dict[int, int] = {}
         for name in self.scene.flashes:
             self.model.geom_rgba[self.model.geom(name).id, 3] = 0.0
@@ -262,6 +295,11 @@ class Head:
         """Head-frame point (a finite 3-vector) -> world."""
         x, R = self._head_pose()
         return x + R @ _check_point(point_head, "point_head")
+
+    @property
+    def eye_centres_head(self) -> np.ndarray:
+        """Head-frame rotation centres (2, 3) of the (left, right) eyes, metres."""
+        return self._eye_centres_head.copy()
 
     @property
     def cyclopean_position(self) -> np.ndarray:
@@ -377,7 +415,9 @@ class Head:
         p = self._resolve(target)
         ang = self.fixation_angles(p)
         self._plan = None
+        self._signal_plan = None
         self._hold = ang
+        self._signal_hold = ang.copy()
         self._fix_head = self.to_head(p)
         self.data.qpos[self._qadr] = ang.ravel()
         self.data.qvel[self._vadr] = 0.0
@@ -431,8 +471,10 @@ class Head:
         start = self._hold.copy()
         c = self._eye_centres_head.mean(axis=0)
         amp = float(np.arccos(np.clip(self._cyclopean_dir(self._fix_head) @ self._cyclopean_dir(p_head), -1, 1)))
+        intended_amp = amp
         end_point = np.asarray(p_head, float)
         end = fixation_angles(end_point, self._eye_centres_head)  # validates the intended target
+        intended_end = end.copy()
         if self.endpoint_noise > 0 and amp > 0:
             d = end_point - c
             dist = np.linalg.norm(d)
@@ -445,9 +487,13 @@ class Head:
             except OculomotorRangeError:
                 end_point, end = np.asarray(p_head, float), fixation_angles(p_head, self._eye_centres_head)
             amp = float(np.arccos(np.clip(self._cyclopean_dir(self._fix_head) @ self._cyclopean_dir(end_point), -1, 1)))
+        legacy = self.saccade_model == "legacy"
         return SaccadePlan(onset_ms=self.time_ms + latency_ms, start_angles=start, end_angles=end,
-                           amplitude=amp, main_sequence=self.main_sequence,
-                           target=self.to_world(end_point), intended_target=np.asarray(intended_world, float))
+                           amplitude=amp, generator=self.main_sequence if legacy else self.generator,
+                           target=self.to_world(end_point), intended_target=np.asarray(intended_world, float),
+                           intended_end_angles=intended_end, intended_amplitude=intended_amp,
+                           vergence=self.vergence, eye_position=self.eye_position,
+                           signal_start_angles=self._signal_hold_at(self.time_ms + latency_ms))
 
     def start_saccade(self, plan: SaccadePlan) -> None:
         """Make ``plan`` the active eye command; the eyes move from ``plan.onset_ms`` on."""
@@ -463,6 +509,7 @@ class Head:
         self._plan = plan
         self._table = None
         self.last_plan = plan
+        self._signal_plan = plan
         self._fix_head = self.to_head(plan.target)
 
     @property
@@ -546,14 +593,36 @@ class Head:
             return None
         if not rec:
             z = np.zeros((0, 2, 3))
-            return EyeTrace(np.zeros(0), z, z, z)
+            return EyeTrace(np.zeros(0), z, z, z, z, z)
         ts, qs, vs, ps = zip(*rec)
-        return EyeTrace(np.array(ts), np.array(qs).reshape(-1, 2, 3), np.array(vs).reshape(-1, 2, 3),
-                        np.array(ps).reshape(-1, 2, 3))
+        ts = np.array(ts)
+        sp = self._signal_plan
+        if sp is None:
+            intended = np.broadcast_to(self._hold, ts.shape + (2, 3)).copy()
+            eps = np.broadcast_to(self._signal_hold, ts.shape + (2, 3)).copy()
+        else:
+            intended, eps = sp.intended_angles(ts), sp.eye_position_signal(ts)
+        return EyeTrace(ts, np.array(qs).reshape(-1, 2, 3), np.array(vs).reshape(-1, 2, 3),
+                        np.array(ps).reshape(-1, 2, 3), intended, eps)
 
     def _finish_saccade(self) -> None:
         self._hold = self._plan.end_angles.copy()
+        self._signal_hold = self._plan.intended_end_angles.copy()
         self._plan = None
+
+    def _signal_hold_at(self, t_ms: float) -> np.ndarray:
+        """Where the eye-position signal will be at ``t_ms`` if no new saccade starts."""
+        if self._signal_plan is not None:
+            return self._signal_plan.eye_position_signal(float(t_ms))
+        return self._signal_hold.copy()
+
+    def eye_position_signal(self, t_ms: float | None = None) -> np.ndarray:
+        """The brain's estimate of both eyes' orientation (Fick angles (2, 3), rad) at sim time
+        ``t_ms`` (default: now), from the last saccade's efference copy (``SaccadePlan.eye_position_signal``);
+        the fixation set by ``reset``/``set_gaze`` before any saccade. Compare :attr:`eye_angles`
+        (the true orientation)."""
+        t = float(self.time_ms) if t_ms is None else checks.real("t_ms", t_ms, 0.0, None, hint="sim milliseconds")
+        return self._signal_hold_at(t)
 
     def _fixate(self, n_ms: int, rec: list | None) -> None:
         """``n_ms`` milliseconds with constant set-points (the hold), stepped in C."""
@@ -628,10 +697,52 @@ class Head:
             self._renderer = EyeRenderer(self.model, *self.image_shape)
         return self._renderer
 
-    def render(self, depth: bool = False) -> StereoFrame:
-        """Render both eyes now (see :mod:`models.render` for the pixel convention)."""
+    def render(self, depth: bool = False, exposure_ms: float = 0.0, samples: int | None = None) -> StereoFrame:
+        """Render both eyes now (see :mod:`models.render` for the pixel convention).
+
+        With ``exposure_ms > 0`` the image is the retina's integral over the exposure: the mean of
+        ``samples`` renders (default: one per ms, at least 2) at instants spread evenly over
+        ``[now, now + exposure_ms)``, each with the eyes where the executed trajectory puts them
+        then (the servo tracks it to < 1e-4 deg), the scene as it is now (flashes visible now stay
+        visible). A flash during a saccade thus smears along its retinal path as on a real retina
+        (at 500 deg/s an 8 ms flash sweeps 4 deg). Time and physics do not advance; the frame's
+        camera poses are those at the middle of the exposure; images are rounded to uint8. While
+        the eyes hold still over the whole exposure this is the plain render of now.
+        """
         depth = checks.flag("depth", depth)
-        return self.renderer.render(self.data, depth=depth, time_ms=self.time_ms)
+        exposure_ms = checks.real("exposure_ms", exposure_ms, 0.0, 1000.0, hint="milliseconds of integration")
+        if exposure_ms == 0:
+            if samples is not None:
+                raise ValueError("samples applies to an exposure; give exposure_ms > 0")
+            return self.renderer.render(self.data, depth=depth, time_ms=self.time_ms)
+        n = (max(2, int(np.ceil(exposure_ms))) if samples is None
+             else checks.integer("samples", samples, 1, 1000, hint="renders averaged over the exposure"))
+        if depth:
+            raise ValueError("depth is not defined for an exposure; render depth with exposure_ms=0")
+        m, d = self.model, self.data
+        qpos, qvel, act = d.qpos.copy(), d.qvel.copy(), d.act.copy()
+        times = self.time_ms + (np.arange(n) + 0.5) * exposure_ms / n
+        angles = self._command_at(np.append(times, self.time_ms + exposure_ms / 2)).reshape(-1, 6)
+        if np.ptp(angles, axis=0).max() == 0.0:  # the eyes hold still: the integral is the image now
+            return self.renderer.render(self.data, time_ms=self.time_ms)
+        acc, frame = None, None
+        try:
+            for k in range(n):
+                d.qpos[self._qadr] = angles[k]
+                mujoco.mj_forward(m, d)
+                frame = self.renderer.render(d, time_ms=self.time_ms)
+                pair = np.stack([frame.left.image, frame.right.image]).astype(np.float32)
+                acc = pair if acc is None else acc + pair
+            d.qpos[self._qadr] = angles[n]
+            mujoco.mj_forward(m, d)
+            poses = [(d.cam_xpos[c].copy(), d.cam_xmat[c].reshape(3, 3).copy()) for c in self._cam_ids]
+        finally:
+            d.qpos[:], d.qvel[:], d.act[:] = qpos, qvel, act
+            mujoco.mj_forward(m, d)
+        img = np.rint(acc / n).astype(np.uint8)
+        eyes = [dataclasses.replace(e, image=img[i], camera_position=poses[i][0], camera_xmat=poses[i][1])
+                for i, e in enumerate((frame.left, frame.right))]
+        return StereoFrame(eyes[0], eyes[1], self.time_ms)
 
     def export_xml(self, path) -> None:
         """Write this head+scene model as one MJCF file (textures beside it)."""

@@ -571,7 +571,10 @@ HEAD_BAD = {
     "fovy_deg": reals(5.0, 170.0), "ipd": reals(0.01, 0.15), "quality": choices(models.QUALITIES),
     "seed": {"negative": -1, "frac": 1.5, "str": "0", "nan": NAN, "complex": 1j, "bool": True},
     "endpoint_noise": reals(0.0, 1.0),
-    "main_sequence": {"dict": {"m0_deg": 7.0}, "int": 3, "str": "vanwetter"},
+    "main_sequence": {"dict": {"m0_deg": 7.0}, "int": 3, "str": "vanwetter", "with_burst": models.MainSequence()},
+    "saccade_model": {"unknown": "robinson", "none": None, "int": 1},
+    "generator": {"dict": {}, "main_sequence": models.MainSequence()},
+    "vergence": {"dict": {}, "float": 150.0}, "eye_position": {"dict": {}, "float": 50.0},
     "timestep_ms": {**reals(0.01, 1.0), "not_a_divisor": 0.3, "tiny": 1e-9},
     "saccade_timestep_ms": {**reals(0.01, 1.0), "not_a_divisor": 0.7},
 }
@@ -624,6 +627,13 @@ sweep("Head.project-points", lambda o, v: o.head.project(v), {**arrays(np.array(
 sweep("Head.project_to_pixels-points", lambda o, v: o.head.project_to_pixels(v), {"nan": [NAN, 0, 0], "str": "p"},
       "points")
 sweep("Head.render-depth", lambda o, v: o.head.render(depth=v), FLAGS, "depth")
+sweep("Head.render-exposure_ms", lambda o, v: o.head.render(exposure_ms=v), reals(0.0, 1000.0), "exposure_ms")
+sweep("Head.render-samples", lambda o, v: o.head.render(exposure_ms=2, samples=v),
+      {k: v for k, v in ints(1, 1000).items() if k != "none"}, "samples")
+case("Head.render-samples-without-exposure", lambda o: o.head.render(samples=3), "samples")
+case("Head.render-depth-with-exposure", lambda o: o.head.render(depth=True, exposure_ms=4), "depth")
+sweep("Head.eye_position_signal-t_ms", lambda o, v: o.head.eye_position_signal(v),
+      {k: v for k, v in reals(0.0).items() if k != "none"}, "t_ms")
 sweep("Head.export_xml-path", lambda o, v: o.head.export_xml(v), {"int": 3, "none": None, "empty": "",
       "folder": "/tmp"}, "path")
 sweep("EyeState.project-points", lambda o, v: o.head.eye_states()[0].project(v), {"nan": [NAN, 0, 0], "str": "p",
@@ -655,10 +665,25 @@ for meth in ("position_deg", "velocity_deg_per_ms"):
 for meth in ("peak_velocity_deg_s", "duration_ms", "settle_ms"):
     sweep(f"MainSequence.{meth}-amp_deg", lambda o, v, meth=meth: getattr(models.MainSequence(), meth)(v),
           reals(0.0, 180.0), "amp_deg")
+for cls, params in ((models.BurstGenerator, ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms", "adaptation_gain",
+                                             "adaptation_ms", "plant_t2_ms", "abducting_t2_ms", "adducting_t2_ms",
+                                             "settle_deg")),
+                    (models.VergenceDynamics, ("tau_ms", "saccade_speedup")),
+                    (models.EyePositionSignal, ("sigma_ms", "delay_ms"))):
+    for arg in params:
+        sweep(f"{cls.__name__}-{arg}", lambda o, v, cls=cls, arg=arg: cls(**{arg: v}),
+              {"nan": NAN, "inf": INF, "str": "1", "none": None, "huge": 1e9, "negative": -1e9}, arg)
+sweep("BurstGenerator.profile-amp_deg", lambda o, v: models.BurstGenerator().profile(v), reals(0.0, 90.0), "amp_deg")
 SP = dict(onset_ms=0, start_angles=np.zeros((2, 3)), end_angles=np.full((2, 3), 0.1), amplitude=0.1)
 for arg, values in (("onset_ms", ints(0)), ("start_angles", {**arrays(np.zeros((2, 3))), "flat6": np.zeros(6)}),
                     ("end_angles", arrays(np.zeros((2, 3)))), ("amplitude", reals(0.0, np.pi)),
-                    ("main_sequence", {"none": None, "dict": {}}), ("target", {"nan": [NAN, 0, 0], "short": [1.0]})):
+                    ("generator", {"dict": {}, "str": "burst"}), ("vergence", {"dict": {}, "float": 150.0}),
+                    ("eye_position", {"dict": {}, "str": "signal"}),
+                    ("intended_end_angles", {**{k: v for k, v in arrays(np.zeros((2, 3))).items() if k != "none"},
+                                             "flat6": np.zeros(6)}),
+                    ("signal_start_angles", {"nan": np.full((2, 3), NAN), "flat6": np.zeros(6)}),
+                    ("intended_amplitude", {k: v for k, v in reals(0.0, np.pi).items() if k != "none"}),
+                    ("target", {"nan": [NAN, 0, 0], "short": [1.0]})):
     sweep(f"SaccadePlan-{arg}", lambda o, v, arg=arg: models.SaccadePlan(**{**SP, arg: v}), values,
           arg if "angles" not in arg else f"{arg}|angles")
 sweep("SaccadePlan.angles-t_ms", lambda o, v: models.SaccadePlan(**SP).angles(v), {"nan": NAN, "str": "t",

@@ -29,8 +29,15 @@ def _eye_in_head(h, i):
     return head_R.T @ h.data.cam_xmat[cam].reshape(3, 3) @ CAM0.T
 
 
+@pytest.fixture(scope="module")
+def legacy_head():
+    return Head("dots", image_size=32, seed=0, saccade_model="legacy")
+
+
 @pytest.mark.parametrize("amp_deg", [5, 10, 20, 30])
-def test_main_sequence_peak_velocity_and_duration(head, amp_deg):
+def test_main_sequence_peak_velocity_and_duration(legacy_head, amp_deg):
+    """The legacy planner (``saccade_model="legacy"``) still follows Van Wetter & Van Opstal (2008)."""
+    head = legacy_head
     head.reset()
     plan = head.plan_saccade(np.deg2rad(amp_deg), 0.0)
     head.start_saccade(plan)

@@ -75,8 +75,10 @@ def test_centroid_of_a_blob_on_the_retina():
 def tables():
     design = Design(amplitudes_deg=(20.0,), flash_offsets_deg=OFFSETS, flash_times_ms=TIMES)
     out = {}
-    for name, gain in (("remap", math.log(2)), ("none", 0.0)):
-        runner = TrialRunner(TrialConfig(timecourse=RemapTimeCourse(peak_gain=gain)))
+    # "remap"/"none" read out through the true eye orientation, isolating the remapping; "signal"
+    # reads out through the eye-position signal with no remapping, isolating that signal
+    for name, gain, eye in (("remap", math.log(2), "true"), ("none", 0.0, "true"), ("signal", 0.0, "signal")):
+        runner = TrialRunner(TrialConfig(timecourse=RemapTimeCourse(peak_gain=gain), eye_position=eye))
         rows = [runner.run(t) for t in design.trials()]
         runner.close()
         out[name] = {c: np.array([r[c] for r in rows], float) for c in ROW_COLUMNS}
@@ -94,6 +96,28 @@ def test_gain_zero_is_veridical_up_to_sampling_error(tables):
     assert np.allclose(t["closed_form_y_deg"], t["true_y_deg"], atol=1e-6)
     assert np.allclose(t["true_x_deg"], 10 + t["flash_dx_deg"], atol=1e-3)  # the head sways ~1e-4 deg
     assert np.allclose(t["target_x_deg"], 10.0, atol=1e-3) and np.allclose(t["target_y_deg"], 0.0, atol=1e-3)
+
+
+def test_eye_position_signal_shifts_flashes_along_then_against_the_saccade(tables):
+    """With no remapping, the eye-position signal alone shifts perisaccadic flashes uniformly: in
+    the saccade's direction for flashes shortly before and at onset (the signal already moves
+    while the eye has not), against it for flashes after the saccade (the signal lags the eye),
+    and not at all far from the saccade -- the biphasic pattern of flashes in darkness (Honda
+    1991, Vision Res 31:1915, Fig. 2; Dassonville et al. 1992, Vis Neurosci 9:261; Matin & Pearce
+    1965). Measured relative to the true-eye read-out of the same frames (``none``), so the
+    retina's sampling error cancels."""
+    s, n = tables["signal"], tables["none"]
+    shift = s["perceived_x_deg"] - n["perceived_x_deg"]  # the saccade goes right (+x), 20 deg
+    t = s["flash_time_ms"]
+    for lo, hi, sign in ((-50, 0, +1), (50, 100, -1)):
+        sel = (t >= lo) & (t <= hi)
+        assert np.all(sign * shift[sel] > 0.5), (lo, hi, shift[sel])
+    # uniform: the same shift for every flash position at a given time (within 0.5 deg)
+    for tt in (-25, 50):
+        assert np.ptp(shift[t == tt]) < 0.5, shift[t == tt]
+    # largest (in absolute value) after the saccade, where the eye has moved and the signal has not
+    assert abs(shift[t == 50].mean()) > abs(shift[t == -150].mean())
+    assert abs(shift[t == -150].mean()) < 0.5
 
 
 def test_errors_point_towards_the_target_near_onset(tables):

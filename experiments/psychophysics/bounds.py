@@ -64,6 +64,7 @@ LIMITS: dict[str, Limit] = {
     "oversample": Limit(1, 8, integer=True),
     "flash_radius_deg": Limit(0.1, 5.0, unit="deg"),
     "endpoint_noise": Limit(0.0, 0.5),
+    "visual_latency_ms": Limit(0.0, 300.0, unit="ms"),
     # execution
     "workers": Limit(1, 64, integer=True),
 }

@@ -2,20 +2,26 @@
 
 Per trial: place fixation, target and one flash dot on the ``dots`` scene's screen, fixate,
 start the saccade, step the simulation to the flash time, render a flash-free and a flash frame
-(both eyes, same instant), and per eye:
+(both eyes, same instants), each integrated over the flash's 8 ms (``Head.render(exposure_ms=8)``:
+a flash during the saccade smears along its retinal path), and per eye:
 
 1. the retina samples the difference frame (the flash's activity) and the DPFT transforms it
    (``envs.Vision.see``);
-2. the efference copy gives the eye orientation planned for the flash time (``plan.angles``),
-   hence the target's predicted image position z_T(t) (not measured from the image);
+2. the efference copy -- the intended command, not the executed (noisy) movement -- gives the
+   eye orientation for the middle of the flash (``plan.intended_angles``), hence the target's
+   predicted image position z_T(t) (not measured from the image);
 3. the DPFT series is evaluated at z_T(t) + z on a log-polar grid centred on the target
    (``conformal.predict`` with ``target_shift_map(z_T, 0, delta)``): the target-centred map;
 4. ``conformal.log_radius_shift`` by gain(t)/delta rings compresses that map towards the target
    (§6.5: f(e^{g} z), distances shrink by e^{-g});
 5. the activity centroid of the shifted map (``decode.activity_centroid``) is the perceived
    position relative to the target; z_T(t) + centroid is the perceived image point, which the
-   planned eye orientation turns into a ray, intersected with the screen plane and expressed
-   as head-centred (cyclopean) azimuth/elevation.
+   **eye-position signal** turns into a ray: the brain's estimate of the eye's orientation
+   (``plan.eye_position_signal``) at the time the flash's response reaches the comparator, the
+   flash's middle plus the visual latency (``visual_latency_ms``, default
+   ``models.VISUAL_LATENCY_MS``). The ray is intersected with the screen plane and expressed as
+   head-centred (cyclopean) azimuth/elevation. ``eye_position="true"`` uses the true eye
+   orientation at the flash instead (ground truth: the read-out of the earlier model).
 
 The perceived position is the mean of the two eyes' estimates. The closed-form prediction (the
 true image point moved towards z_T by e^{-g}, through the same geometry) is reported beside it.
@@ -49,6 +55,8 @@ SCREEN_DISTANCE = 1.0  # the dots scene's screen, metres ahead of the cyclopean 
 _FLASH = "flash_00"
 #: Fixation before saccade onset (ms; longer if a flash comes earlier): onset at the same sim time in every trial.
 FIXATION_MS = 200
+#: Flash duration (ms); the retina integrates it (``Head.render(exposure_ms=...)``).
+FLASH_MS = 8
 
 ROW_COLUMNS = (
     "trial_id", "repetition", "seed", "saccade_amplitude_deg", "flash_time_ms", "flash_dx_deg", "flash_dy_deg",
@@ -67,6 +75,11 @@ class TrialConfig:
     fovea_deg : foveal radius of the retina (and of the target-centred map).
     timecourse : the remapping gain time course. threshold : centroid threshold (fraction of peak).
     endpoint_noise : saccade endpoint noise (fraction of amplitude; 0 = none), seeded per trial.
+    saccade_model : ``"burst"`` (the brainstem generator) or ``"legacy"`` (``models.Head``).
+    eye_position : ``"signal"`` (the extraretinal eye-position signal, default) or ``"true"``
+        (the true eye orientation: an oracle, for comparison) for the retinal-to-head read-out.
+    visual_latency_ms : delay from the flash to its cortical response (0-300 ms): the read-out
+        pairs the flash with the eye-position signal this much later.
     oversample : density factor of the target-centred read-out grid. flash_radius_deg : flash dot radius.
 
     Bounds (``bounds.LIMITS``): image 32-1024 px, fovy 20-120 deg, fovea 0.25-10 deg (and under a
@@ -82,13 +95,22 @@ class TrialConfig:
     endpoint_noise: float = 0.0
     oversample: int = 3
     flash_radius_deg: float = 1.0
+    saccade_model: str = "burst"
+    eye_position: str = "signal"
+    visual_latency_ms: float = models.VISUAL_LATENCY_MS
 
     def __post_init__(self) -> None:
         # bounds: ``bounds.LIMITS`` (TypeError for wrong types, ValueError for NaN/inf/out of range)
         for name in ("image_size", "oversample"):
             object.__setattr__(self, name, check_int(name, getattr(self, name)))
-        for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise"):
+        for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise", "visual_latency_ms"):
             object.__setattr__(self, name, check_real(name, getattr(self, name)))
+        for name, options in (("saccade_model", models.SACCADE_MODELS), ("eye_position", ("signal", "true"))):
+            value = getattr(self, name)
+            if not isinstance(value, str):
+                raise TypeError(f"{name} must be one of {', '.join(options)}; got {value!r:.60}")
+            if value not in options:
+                raise ValueError(f"{name} must be one of {', '.join(options)}; got {value!r:.60}")
         if not isinstance(self.timecourse, RemapTimeCourse):
             raise TypeError(f"timecourse must be a RemapTimeCourse; got {self.timecourse!r}")
         if self.fovea_deg >= self.fovy_deg / 4:
@@ -114,7 +136,12 @@ class TrialRunner:
     def __init__(self, config: TrialConfig = TrialConfig()) -> None:
         self.config = config
         self.head = models.Head("dots", int(config.image_size), fovy_deg=config.fovy_deg,
-                                endpoint_noise=config.endpoint_noise)
+                                endpoint_noise=config.endpoint_noise, saccade_model=config.saccade_model)
+        # each eye's nodal point relative to its rotation centre, in the eye's own frame (constant)
+        states = self.head.eye_states()
+        self._centres = self.head.eye_centres_head
+        R = [models.fick_matrix(*a) for a in self.head.eye_angles]
+        self._nodal = [R[e].T @ (self.head.to_head(states[e].camera_position) - self._centres[e]) for e in range(2)]
         h, w = self.head.image_shape
         self.vision = envs.Vision((h, w), self.head.pixels_per_unit, fovea_deg=config.fovea_deg, grayscale=True)
         self.retina_grid = self.vision.grid
@@ -128,10 +155,11 @@ class TrialRunner:
         self.head.close()
 
     # ------------------------------------------------------------------ geometry helpers
-    def _planned_axes(self, plan: models.SaccadePlan, t_abs_ms: float) -> np.ndarray:
-        """Head-frame eye axes (2, 3, 3) (columns x1, x2, x3) for the planned angles at ``t_abs_ms``."""
-        a = plan.angles(float(t_abs_ms))
-        return models.fick_matrix(a[:, 0], a[:, 1], a[:, 2]) @ _PRIMARY_EYE_BASIS
+    def _pose(self, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Head-frame eye axes (2, 3, 3) (columns x1, x2, x3) and nodal points (2, 3) for Fick angles (2, 3)."""
+        R = models.fick_matrix(angles[:, 0], angles[:, 1], angles[:, 2])
+        origins = np.stack([self._centres[e] + R[e] @ self._nodal[e] for e in range(2)])
+        return R @ _PRIMARY_EYE_BASIS, origins
 
     def _ray_to_screen_deg(self, origin_head: np.ndarray, axes: np.ndarray, z: complex) -> np.ndarray:
         """Head-centred angles (deg) where the ray of image point z (eye axes ``axes``) meets the screen."""
@@ -157,24 +185,29 @@ class TrialRunner:
         head.start_saccade(plan)
         t_abs = plan.onset_ms + int(trial.flash_time_ms)
         head.step_ms(t_abs - head.time_ms)
-        ref = head.render()
-        head.flash(_FLASH, 8)
-        frame = head.render()
+        ref = head.render(exposure_ms=FLASH_MS)
+        head.flash(_FLASH, FLASH_MS)
+        frame = head.render(exposure_ms=FLASH_MS)
         head.hide_flashes()
 
         gain = float(cfg.timecourse.gain(trial.flash_time_ms))
-        axes = self._planned_axes(plan, t_abs)
-        states = head.eye_states()
-        tgt_h = head.to_head(plan.target)
+        t_mid = t_abs + FLASH_MS / 2
+        copy_axes, copy_origins = self._pose(plan.intended_angles(t_mid))  # efference copy: where the target is
+        if cfg.eye_position == "signal":
+            read_angles = plan.eye_position_signal(t_mid + cfg.visual_latency_ms)
+        else:
+            read_angles = plan.angles(t_mid)
+        axes, origins = self._pose(read_angles)  # eye-position estimate: retinal -> head
+        true_axes, true_origins = self._pose(plan.angles(t_mid))
+        tgt_h = head.to_head(plan.intended_target)
         fl_h = head.to_head(fl_w)
         perceived, closed = [], []
         maps = []
         for e, (img, img0) in enumerate(((frame.left, ref.left), (frame.right, ref.right))):
             diff = np.clip(img.image.astype(float) - img0.image.astype(float), 0, None) / 255.0
             view = self.vision.see(diff)
-            origin = head.to_head(states[e].camera_position)
-            ex = axes[e]
-            xt = ex.T @ (tgt_h - origin)
+            origin, ex = origins[e], axes[e]
+            xt = copy_axes[e].T @ (tgt_h - copy_origins[e])
             z_t = complex(xt[2], xt[0]) / xt[1]
             centred = self.map.sample(view.coeffs, view.fovea, z_t)
             per = centred.periphery
@@ -182,7 +215,7 @@ class TrialRunner:
             z_rel = activity_centroid(shifted, centred.fovea, grid, fovea_mask=centred.fovea_mask,
                                       threshold=cfg.threshold)
             perceived.append(self._ray_to_screen_deg(origin, ex, z_t + z_rel))
-            xf = ex.T @ (fl_h - origin)
+            xf = true_axes[e].T @ (fl_h - true_origins[e])
             z_f = complex(xf[2], xf[0]) / xf[1]
             closed.append(self._ray_to_screen_deg(origin, ex, z_t + (z_f - z_t) * math.exp(-gain)))
             maps.append((view, centred, shifted, z_t, z_rel))
