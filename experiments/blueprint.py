@@ -70,7 +70,8 @@ def _cortex() -> rrb.Vertical:
 
 def _eye_plots() -> list[rrb.TimeSeriesView]:
     return [
-        rrb.TimeSeriesView(origin="eyes", contents=[f"eyes/{e}/angle/**" for e in EYE_NAMES], name="eye angles (deg)"),
+        rrb.TimeSeriesView(origin="eyes", contents=[f"eyes/{e}/{k}/**" for e in EYE_NAMES for k in ("angle", "signal")],
+                           name="eye angles and the eye-position signal (deg)"),
         rrb.TimeSeriesView(origin="eyes", contents=[f"eyes/{e}/velocity/**" for e in EYE_NAMES],
                            name="eye velocity (deg/s)"),
     ]
@@ -101,7 +102,7 @@ def blueprint(layout: str = "run") -> rrb.Blueprint:
             rrb.TimeSeriesView(origin="remap/error", name="remap error (normalized RMS)"),
             _flash_view(),
             rrb.TimeSeriesView(origin="saccades",
-                               name="saccades: amplitude (deg), peak velocity (deg/s), duration (ms)"),
+                               name="saccades: amplitude (deg), peak velocity (deg/s), duration (ms), endpoint error (deg)"),
         )
     else:
         middle = rrb.Horizontal(_retina(), _cortex(), column_shares=[1, 1])

@@ -59,7 +59,8 @@ transforms and geoms are logged when first seen and again whenever they change:
 ``flash/target``, ``flash/fixation``             the saccade target, and the fixation point (0, 0) (static), same frame
 ``eyes/{eye}/angle/{h,v,t}``                     Fick angles, deg (Scalars; h > 0 right, v > 0 up, t torsion)
 ``eyes/{eye}/velocity/{h,v,t}``                  joint rates, deg/s (Scalars)
-``saccades/{amplitude_deg,peak_velocity_deg_s,duration_ms}``  per saccade, at its onset (Scalars)
+``eyes/{eye}/signal/{h,v,t}``                    the eye-position signal (the brain's estimate), deg (Scalars)
+``saccades/{amplitude_deg,peak_velocity_deg_s,duration_ms,endpoint_error_deg}``  per saccade, at its onset (Scalars)
 ===============================================  ==============================================================
 
 ``study.rrd`` holds, at each flash time's instant: the 3-D scene and eyes (``world/...``, from
@@ -694,25 +695,31 @@ class Recorder:
                                                 colors=[[200, 200, 200]]))
 
     # ------------------------------------------------------------------ eye kinematics
-    def log_eye_angles(self, angles_rad, velocities_rad_s) -> None:
-        """(2, 3) Fick angles (rad) and joint rates (rad/s) at the current time, logged in deg, deg/s."""
+    def log_eye_angles(self, angles_rad, velocities_rad_s, signal_rad=None) -> None:
+        """(2, 3) Fick angles (rad), joint rates (rad/s) and, if given, the eye-position signal
+        (rad) at the current time, logged in deg, deg/s."""
         ang = np.degrees(np.asarray(angles_rad, float).reshape(2, 3))
         vel = np.degrees(np.asarray(velocities_rad_s, float).reshape(2, 3))
+        sig = None if signal_rad is None else np.degrees(np.asarray(signal_rad, float).reshape(2, 3))
         for e, name in enumerate(EYE_NAMES):
             for j, ax in enumerate(AXIS_NAMES):
                 self.rec.log(f"eyes/{name}/angle/{ax}", rr.Scalars(ang[e, j]))
                 self.rec.log(f"eyes/{name}/velocity/{ax}", rr.Scalars(vel[e, j]))
+                if sig is not None:
+                    self.rec.log(f"eyes/{name}/signal/{ax}", rr.Scalars(sig[e, j]))
 
     def log_eye_trace(self, trace) -> None:
         """All samples of a ``models.EyeTrace`` at their own times (one column batch per series)."""
         if trace is None or len(trace.times_ms) == 0:
             return
         times = rr.TimeColumn(TIMELINE, duration=np.asarray(trace.times_ms, float) / 1000.0)
-        ang = np.degrees(np.asarray(trace.angles, float))
-        vel = np.degrees(np.asarray(trace.velocities, float))
+        series = [("angle", np.degrees(np.asarray(trace.angles, float))),
+                  ("velocity", np.degrees(np.asarray(trace.velocities, float)))]
+        if trace.eye_position_signal is not None:
+            series.append(("signal", np.degrees(np.asarray(trace.eye_position_signal, float))))
         for e, name in enumerate(EYE_NAMES):
             for j, ax in enumerate(AXIS_NAMES):
-                for kind, data in (("angle", ang), ("velocity", vel)):
+                for kind, data in series:
                     self.rec.send_columns(f"eyes/{name}/{kind}/{ax}", indexes=[times],
                                           columns=rr.Scalars.columns(scalars=data[:, e, j]))
 
@@ -722,6 +729,7 @@ class Recorder:
         self.rec.log("saccades/amplitude_deg", rr.Scalars(float(plan.amplitude_deg)))
         self.rec.log("saccades/peak_velocity_deg_s", rr.Scalars(math.degrees(plan.peak_velocity)))
         self.rec.log("saccades/duration_ms", rr.Scalars(float(plan.duration_ms)))
+        self.rec.log("saccades/endpoint_error_deg", rr.Scalars(float(plan.endpoint_error_deg.mean())))
         self.set_time_ms(self.t_ms)
 
 
@@ -798,7 +806,7 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
             frame, views = look()
             rec.log_head(head)
             log_images(views, frame)
-            rec.log_eye_angles(head.eye_angles, np.zeros((2, 3)))
+            rec.log_eye_angles(head.eye_angles, np.zeros((2, 3)), head.eye_position_signal())
             previous = None
             for step in range(int(steps)):
                 # alternate object saccades with random ones of 3-20 deg (the main sequence's range)

@@ -251,7 +251,8 @@ def record_study(path: Path, table: dict, config, amplitude_deg: float | None = 
                     rec.log_flash((row["true_x_deg"], row["true_y_deg"]),
                                   (row["perceived_x_deg"], row["perceived_y_deg"]))
                     plan = last["plan"]
-                    rec.log_eye_angles(plan.angles(row["flash_sim_ms"]), plan.velocities(row["flash_sim_ms"]) * 1000.0)
+                    rec.log_eye_angles(plan.angles(row["flash_sim_ms"]), plan.velocities(row["flash_sim_ms"]) * 1000.0,
+                                       plan.eye_position_signal(row["flash_sim_ms"]))
                     m = sel & (table["flash_time_ms"] == t)
                     tr = np.column_stack([table["true_x_deg"][m], table["true_y_deg"][m]]) * flip
                     pe = np.column_stack([table["perceived_x_deg"][m], table["perceived_y_deg"][m]]) * flip

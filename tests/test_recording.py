@@ -91,7 +91,7 @@ def grid():
 EXPECTED = (
     ["world/head/origin", "world/head/axes", "world/objects", "world/flashes", "flash/true", "flash/perceived",
      "flash/shift", "cortex/left_hemisphere", "cortex/right_hemisphere",
-     "saccades/amplitude_deg", "saccades/peak_velocity_deg_s", "saccades/duration_ms"]
+     "saccades/amplitude_deg", "saccades/peak_velocity_deg_s", "saccades/duration_ms", "saccades/endpoint_error_deg"]
     + [f"remap/error/{m}" for m in ("homography", "mobius", "shift")]
     + ["world/scene/world/screen", "world/scene/fixation/fixation", "world/scene/target/target",
        "world/scene/head/skull", "world/scene/head/nose", "world/scene/neck"]
@@ -100,7 +100,7 @@ EXPECTED = (
         "world/eyes/{e}/position", "world/eyes/{e}/gaze", "eyes/{e}/image", "eyes/{e}/grid", "eyes/{e}/target",
         "retina/{e}/fovea", "retina/{e}/logpolar", "dpft/{e}/log_magnitude",
         "remap/{e}/predicted", "remap/{e}/actual", "remap/{e}/difference")]
-    + [f"eyes/{e}/{k}/{a}" for e in ("left", "right") for k in ("angle", "velocity") for a in "hvt"]
+    + [f"eyes/{e}/{k}/{a}" for e in ("left", "right") for k in ("angle", "velocity", "signal") for a in "hvt"]
 )
 
 
@@ -190,6 +190,11 @@ def test_saccades_visible_in_velocity(run):
         i0, i1 = np.flatnonzero(t <= t0)[-1], np.flatnonzero(t <= t0 + s["duration_ms"] + 20)[-1]
         moved = math.hypot(ang_h[i1] - ang_h[i0], ang_v[i1] - ang_v[i0])
         assert moved == pytest.approx(a, rel=0.25)
+        # the eye-position signal lags the eye: at the saccade's end it has covered less of the movement
+        sig_h, sig_v = scalars(data["/eyes/left/signal/h"]), scalars(data["/eyes/left/signal/v"])
+        st = data["/eyes/left/signal/h"]["times_ms"]
+        j0, j1 = np.flatnonzero(st <= t0)[-1], np.flatnonzero(st <= t0 + s["duration_ms"])[-1]
+        assert math.hypot(sig_h[j1] - sig_h[j0], sig_v[j1] - sig_v[j0]) < 0.8 * moved
 
 
 def test_remap_difference_is_abs_of_predicted_minus_actual(run):
@@ -604,7 +609,8 @@ def test_run_blueprint_views_point_at_the_recording(run_path):
     assert len(scene) == 1 and scene[0]["origin"] == "world"
     eye = scene[0]["properties"]
     assert eye["EyeControls3D:look_target"] == [pytest.approx(SCENE_LOOK_TARGET)]
-    assert views["eye angles (deg)"]["queries"] == ["eyes/left/angle/**", "eyes/right/angle/**"]
+    assert views["eye angles and the eye-position signal (deg)"]["queries"] == [
+        "eyes/left/angle/**", "eyes/left/signal/**", "eyes/right/angle/**", "eyes/right/signal/**"]
     for e in ("left", "right"):
         assert views[f"{e} eye image + retina grid"]["origin"] == f"eyes/{e}"
     assert {v["class"] for v in views.values()} == {"2D", "3D", "TimeSeries"}
