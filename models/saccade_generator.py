@@ -72,6 +72,8 @@ __all__ = ["BurstGenerator", "SaccadeProfile", "PLANTS", "DETECTION_THRESHOLD_DE
 PLANTS = ("nominal", "abducting", "adducting")
 #: Eye speed (deg/s) whose crossings delimit a saccade's duration.
 DETECTION_THRESHOLD_DEG_S = 30.0
+#: Ceiling of eye speed (deg/s) that no parameter set may exceed (``models.MAX_PEAK_VELOCITY``).
+MAX_PEAK_VELOCITY_DEG_S = 700.0
 #: Amplitudes of the tabulated profiles (deg).
 _AMP_STEP_DEG, _AMP_MAX_DEG = 0.25, 90.0
 #: Simulation step and table step (ms).
@@ -242,6 +244,11 @@ class BurstGenerator:
                 amps = np.arange(0.0, _AMP_MAX_DEG + _AMP_STEP_DEG / 2, _AMP_STEP_DEG)
                 every = int(round(_TABLE_DT_MS / _SIM_DT_MS))
                 pos, burst = simulate(self, amps, every=every)
+                peak = float((np.diff(pos, axis=1) / _TABLE_DT_MS).max()) * 1000.0
+                if peak > MAX_PEAK_VELOCITY_DEG_S:
+                    raise ValueError(f"these burst-generator parameters drive the eye at {peak:.0f} deg/s, above the "
+                                     f"physiological ceiling of {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s; lower "
+                                     "burst_max_deg_s or raise adaptation_gain")
                 with np.errstate(invalid="ignore", divide="ignore"):
                     norm = np.where(amps > 0, pos / amps, 0.0)
                 tab = _TABLES[key] = (amps, norm.astype(np.float64), burst)

@@ -131,7 +131,7 @@ def test_abducting_eye_is_faster_and_shorter(horizontal, a):
     assert abs(divergence[-1] - np.degrees(np.diff(plan.end_angles[:, 0]) - np.diff(plan.start_angles[:, 0]))[0]) < 0.01
 
 
-@pytest.mark.parametrize("a", (10, 20, 30))
+@pytest.mark.parametrize("a", (2, 10, 30, 50))
 def test_oblique_saccades_are_straight_and_share_one_burst(head, a):
     """A 45-deg oblique saccade: one vector burst drives both components (component stretching:
     Van Gisbergen, Van Opstal & Schoenmakers 1985), so the path is nearly straight and the vector
@@ -153,6 +153,16 @@ def test_tracking_error_stays_small(horizontal):
     for a in AMPS:
         plan, tr, _ = horizontal[a]
         assert np.degrees(np.abs(tr.angles - tr.planned)).max() < 0.01  # the servo follows the command
+
+
+def test_no_parameter_set_drives_the_eye_above_700_deg_s():
+    """700 deg/s is above any human saccade (Collewijn et al. 1988: saturation near 500 deg/s);
+    a generator whose burst would exceed it is refused when its table is built."""
+    g = BurstGenerator(burst_max_deg_s=1800.0, adaptation_gain=0.0)
+    with pytest.raises(ValueError, match="700 deg/s"):
+        g.profile(30.0)
+    for a in np.linspace(0.1, 90.0, 25):
+        assert BurstGenerator().profile(float(a)).peak_velocity_deg_s < 700.0
 
 
 def test_profile_table_matches_a_direct_simulation():
