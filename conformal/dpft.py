@@ -110,7 +110,11 @@ def dpft(samples: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
     Includes the e^{u_k} weight and the factor 2 pi T / (M N) of eq. ``pixels``.
     Accepts (M, N) or (M, N, C); transforms over the first two axes.
     """
-    f = _check_samples(samples, grid, "samples")
+    return _dpft(_check_samples(samples, grid, "samples"), grid)
+
+
+def _dpft(f: NDArray, grid: RetinaGrid) -> NDArray[np.complex128]:
+    """``dpft`` of samples already checked (``_check_samples``: (M, N[, C]) float32/float64 or integer)."""
     weighted = _weight(grid) * _expand(_tables(grid)[2], f.ndim) * f
     return scipy.fft.fft2(weighted, axes=(0, 1)) * _expand(_phase(grid), f.ndim)
 

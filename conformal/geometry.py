@@ -288,9 +288,17 @@ def rotation_homography(R: ArrayLike) -> NDArray[np.float64]:
     axes x1, x2, x3 in old coordinates). Then a point seen at z_new is seen at
     z_old = H . z_new with H acting on (Re z, Im z, 1). Use ``apply_homography``.
     """
-    r = check_rotation(R)
-    perm = [2, 0, 1]  # (x3, x1, x2) <- (x1, x2, x3): P R P^T
-    return r[perm][:, perm]
+    return _rotation_homography(check_rotation(R))
+
+
+_PERM = [2, 0, 1]  # (x3, x1, x2) <- (x1, x2, x3)
+#: P R P^T as a gather of R's row-major entries: H.ravel() = R.ravel()[_PERM_FLAT] (a copy, exact).
+_PERM_FLAT = np.array([3 * i + j for i in _PERM for j in _PERM])
+
+
+def _rotation_homography(r: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``rotation_homography`` of a rotation already validated (``check_rotation``): P R P^T."""
+    return r[_PERM][:, _PERM]
 
 
 def apply_homography(H: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:

@@ -88,6 +88,12 @@ class ProjectiveMap:
         return np.where(w > _POLE_TOL, out, np.nan + 0j)
 
 
+def _mobius_params(g: NDArray[np.complex128]) -> NDArray[np.float64]:
+    """A ``MobiusMap``'s ``params`` (for the compiled kernels) from its complex 2x2 matrix g."""
+    a, b, c, d = g.ravel()
+    return np.array([a.real, a.imag, b.real, b.imag, c.real, c.imag, d.real, d.imag, 0.0])
+
+
 class MobiusMap:
     """z -> g . z = (d z + c) / (b z + a) for g = [[a, b], [c, d]] (eq. ``lft1``, as ``act``).
 
@@ -102,8 +108,7 @@ class MobiusMap:
         if not abs(ad - bc) > 1e-12 * (abs(ad) + abs(bc)):
             raise ValueError("g must be invertible (a d - b c != 0): a singular g sends every point to one point")
         self.matrix = _fixed(m)
-        a, b, c, d = self.matrix.ravel()
-        self.params = np.array([a.real, a.imag, b.real, b.imag, c.real, c.imag, d.real, d.imag, 0.0])
+        self.params = _mobius_params(self.matrix)
 
     def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
         a, b, c, d = self.matrix.ravel()
@@ -129,13 +134,31 @@ def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
     point (0, 0, 0), hence the axes' order). Tested against the 3-D construction
     ``su2_from_rotation(rotation_matrix(n, 2 theta))``. An eye turned by pi gives the identity.
     """
-    r = check_rotation(R)
-    cos_t = (r[0, 0] + r[1, 1] + r[2, 2] - 1.0) / 2.0
-    s1, s2, s3 = (r[2, 1] - r[1, 2]) / 2.0, (r[0, 2] - r[2, 0]) / 2.0, (r[1, 0] - r[0, 1]) / 2.0
+    return _su2_of_rotation(check_rotation(R))
+
+
+def _su2_of_rotation(r: NDArray[np.float64]) -> NDArray[np.complex128]:
+    """``mobius_for_rotation`` of a rotation already validated (``check_rotation``)."""
+    a, b = _su2_entries(r.tolist())
+    return np.array([[a.conjugate(), -b.conjugate()], [b, a]])
+
+
+def _su2_entries(rows: list[list[float]]) -> tuple[complex, complex]:
+    """(a, b) of ``mobius_for_rotation``'s k = [[conj(a), -conj(b)], [b, a]] from a validated rotation
+    given as nested lists of Python floats (``r.tolist()``: the same IEEE arithmetic as on numpy
+    scalars, faster)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rows
+    cos_t = (r00 + r11 + r22 - 1.0) / 2.0
+    s1, s2, s3 = (r21 - r12) / 2.0, (r02 - r20) / 2.0, (r10 - r01) / 2.0
     a, b = complex(cos_t, s2), complex(s1, -s3)
     norm = math.sqrt(abs(a) ** 2 + abs(b) ** 2)  # 1 up to R's rounding
-    a, b = a / norm, b / norm
-    return np.array([[a.conjugate(), -b.conjugate()], [b, a]])
+    return a / norm, b / norm
+
+
+def _su2_params(a: complex, b: complex) -> tuple[float, ...]:
+    """``MobiusMap(k).params`` for k = [[conj(a), -conj(b)], [b, a]] (``_su2_entries``), without the
+    matrix: the same numbers (conjugation and negation are exact)."""
+    return (a.real, -a.imag, -b.real, b.imag, b.real, b.imag, a.real, a.imag, 0.0)
 
 
 def mobius_map(R: ArrayLike) -> MobiusMap:
@@ -153,8 +176,13 @@ def target_shift_map(z_target: complex, shift: float, delta: float) -> MobiusMap
     delta = checks.real("delta", delta, 0.0, 100.0, lo_open=True)
     if abs(shift * delta) > 40:
         raise ValueError(f"shift * delta = {shift * delta:.4g}: the scale e^(shift delta) must lie within e^(+-40)")
+    return MobiusMap(_target_shift_matrix(zt, shift, delta))
+
+
+def _target_shift_matrix(zt: complex, shift: float, delta: float) -> NDArray[np.complex128]:
+    """``target_shift_map``'s 2x2 matrix from already validated arguments (|shift delta| <= 40)."""
     root = math.exp(shift * delta / 2)  # sqrt of the scale
-    return MobiusMap(np.array([[1 / root, 0], [zt / root, root]]))
+    return np.array([[1 / root, 0], [zt / root, root]])
 
 
 def _fovea_lookup(fovea: NDArray, grid: RetinaGrid, w: NDArray[np.complex128]) -> NDArray:

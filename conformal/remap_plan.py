@@ -59,6 +59,13 @@ class RemapPlan:
         self.n_points = len(z)
         self._fovea_rows, self._fovea_cols, self._fovea_size = fovea_indices(grid)
         self._scratch: dict[tuple[int, int], tuple[NDArray, ...]] = {}
+        self._picture_scratch: dict[tuple[int, int], NDArray] = {}
+        self._cos_t: dict[tuple[int, ...], NDArray] = {}
+        # per-grid scalars of the per-frame passes (computed as the expressions they replace)
+        self._r_outer = grid.ring_edges[-1]
+        self._cos_theta0, self._sin_theta0 = math.cos(grid.theta[0]), math.sin(grid.theta[0])
+        self._t_scale = math.pi / (grid.M * grid.delta)
+        self._t_offset = math.pi / (2 * grid.M)
 
     # ------------------------------------------------------------------ per frame
     def series_coefficients(self, coeffs: ArrayLike) -> NDArray[np.float32]:
@@ -72,23 +79,39 @@ class RemapPlan:
         self, coeffs: ArrayLike, fovea: ArrayLike, maps: Sequence[Sequence[ProjectiveMap | MobiusMap]]
     ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         F, fov = self._check(coeffs, fovea)
+        kinds, params = self._maps(maps, F.shape[0])
+        return self._evaluate(F, fov, kinds, params)
+
+    def _evaluate(
+        self, F: NDArray, fov: NDArray, kinds: NDArray[np.int64], params: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+        """``__call__`` on arguments that are already valid: F finite (E, M, N, C) coefficients, fov
+        finite real (E, N_f, C), kinds (K,) int64 and params (E, K, 9) float64 as ``_maps`` returns
+        them. Nothing is checked: for callers that pass what ``_check``/``_maps`` (or an equally
+        strict construction of their own) produced."""
         n_eyes, n_ch = F.shape[0], F.shape[3]
-        kinds, params = self._maps(maps, n_eyes)
         n_maps = len(kinds)
         g = self.grid
-        pictures = np.zeros((n_eyes, self._fovea_size, self._fovea_size, n_ch))
+        pictures = self._pictures(n_eyes, n_ch)
         pictures[:, self._fovea_rows, self._fovea_cols] = fov
         cs, wr, wi, r2 = self._tables(n_eyes, n_maps)
         values = np.empty((n_eyes, n_maps, self.n_points, n_ch), np.float32)
         valid = np.empty((n_eyes, n_maps, self.n_points), np.bool_)
         series = np.empty((n_eyes, n_maps, self.n_points), np.bool_)
-        map_points(self._zr, self._zi, kinds, params, g.r0, g.ring_edges[-1], pictures, g.fovea_spacing,
+        map_points(self._zr, self._zi, kinds, params, g.r0, self._r_outer, pictures, g.fovea_spacing,
                    values, valid, series, wr, wi, r2)
-        tabulate_angles(wr, wi, r2, math.cos(g.theta[0]), math.sin(g.theta[0]), cs)
+        tabulate_angles(wr, wi, r2, self._cos_theta0, self._sin_theta0, cs)
         with blas_threads(1):  # a small product: a second BLAS thread only fights other work for the core
-            partial = np.matmul(self.series_coefficients(F), cs)  # (E, M C, K P): the angular sum
-        # t = pi (2 (fractional ring index) + 1) / 2M, the DCT-II basis' argument
-        cos_t = np.cos((0.5 * np.log(r2) - g.u[0]) * (math.pi / (g.M * g.delta)) + math.pi / (2 * g.M))
+            partial = np.matmul(_mirror_series(F, g, np.float32), cs)  # (E, M C, K P): the angular sum
+        # t = pi (2 (fractional ring index) + 1) / 2M, the DCT-II basis' argument (in place, the
+        # same operations in the same order as np.cos((0.5 log r2 - u_0) pi / (M delta) + pi / 2M))
+        cos_t = self._cos_t_scratch(r2.shape)
+        np.log(r2, out=cos_t)
+        cos_t *= 0.5
+        cos_t -= g.u[0]
+        cos_t *= self._t_scale
+        cos_t += self._t_offset
+        np.cos(cos_t, out=cos_t)
         contract_rings(cos_t, partial, series, values)
         return values, valid
 
@@ -154,6 +177,19 @@ class RemapPlan:
             raise ValueError("the k-th point map must be of the same kind for every eye")
         params = np.array([[pm.params for pm in m] for m in per_eye], np.float64)
         return kinds, params
+
+    def _pictures(self, n_eyes: int, n_ch: int) -> NDArray[np.float64]:
+        """The foveal lattice pictures (E, S, S, C), reused across frames: zero off the lattice
+        (only the lattice cells are ever written)."""
+        key = (n_eyes, n_ch)
+        if key not in self._picture_scratch:
+            self._picture_scratch[key] = np.zeros((n_eyes, self._fovea_size, self._fovea_size, n_ch))
+        return self._picture_scratch[key]
+
+    def _cos_t_scratch(self, shape: tuple[int, ...]) -> NDArray[np.float64]:
+        if shape not in self._cos_t:
+            self._cos_t[shape] = np.empty(shape)
+        return self._cos_t[shape]
 
     def _tables(self, n_eyes: int, n_maps: int) -> tuple[NDArray, ...]:
         """Scratch arrays reused across frames of the same (E, K): the angular factor table

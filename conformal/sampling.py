@@ -280,7 +280,10 @@ class Retina:
         if isinstance(images, (str, bytes)) or not hasattr(images, "__iter__"):
             raise checks.InputTypeError(f"images must be a sequence of pictures; got {type(images).__name__}")
         scale = checks.real("scale", scale)
-        imgs = [self._check_image(im) for im in images]
+        return self._sample_many([self._check_image(im) for im in images], scale)
+
+    def _sample_many(self, imgs: list[NDArray], scale: float) -> NDArray[np.float64]:
+        """``sample_many`` of pictures already checked (``_check_image``) and a finite float ``scale``."""
         chans = self.image_shape[2:]
         out = np.empty((len(imgs), self._op.shape[0], int(np.prod(chans))))
         op = self._op

@@ -13,7 +13,7 @@ import conformal as C
 import models
 from conformal import checks
 
-from .tasks import Task, gaze_errors_deg, make_task
+from .tasks import Task, _gaze_errors_deg, make_task
 from .vision import REMAP_MODELS, EyeView, Vision
 
 __all__ = ["BinocularSaccadeEnv"]
@@ -50,7 +50,10 @@ class BinocularSaccadeEnv(gym.Env):
       from the pre-saccadic coefficients and the efference copy; same shape as ``cortical``
       (cells whose source is unknown, e.g. beyond the old picture, are 0; values clipped to [0, 1]).
       At reset it equals ``cortical``.
-    - ``eyes``: both eyes' Fick angles ``(2, 3)`` [eye, (horizontal, vertical, torsion)], radians.
+    - ``eyes``: the eye-position signal: the agent's (extraretinal) estimate of both eyes' Fick
+      angles ``(2, 3)`` [eye, (horizontal, vertical, torsion)], radians, from the efference copy
+      (``models.Head.eye_position_signal``); not the true orientation, which ``info["eye_angles"]``
+      reports as ground truth. With ``endpoint_noise`` the two differ by the motor error.
     - ``coeffs`` (``include_coeffs=True``): the DPFT coefficients ``(2, M, N, C, 2)`` (real, imag).
 
     **Reward and episode end**: from the task. ``fixate``: exp(-(e/tol)^2/2) - 0.05 per
@@ -62,6 +65,9 @@ class BinocularSaccadeEnv(gym.Env):
     against the actual post-saccadic samples, mean of both eyes} for every model in
     ``remap_models``; ``saccade_amplitude_deg``, ``saccade_duration_ms``,
     ``peak_velocity_deg_s``, ``landing_error_deg`` (gaze vs the intended endpoint),
+    ``endpoint_error_deg`` (2,) (each eye's executed vs intended endpoint direction, from the motor
+    noise), ``efference_copy`` (2, 3, 3) (the intended rotation of each eye, head frame),
+    ``executed_rotation`` (2, 3, 3) (the rotation made), ``eye_angles`` (2, 3) (the true Fick angles),
     ``target_error_deg`` (tasks with a target), ``success``, ``clipped``.
 
     **Arguments**: ``scene`` (default: the task's), ``task`` (``"fixate"``, ``"search"``, ``"free"`` or a
@@ -72,7 +78,8 @@ class BinocularSaccadeEnv(gym.Env):
     ``remap_models`` (models whose error ``info`` reports; default all three), ``shift_rings``
     (the shift model's log-radius compression), ``grayscale``, ``cortex`` (``"eyes"`` or
     ``"hemispheres"``), ``include_coeffs``, ``fovea_deg`` (3), ``n_sectors``, ``sampling``
-    (``"pool"``), ``fovy_deg`` (70), ``endpoint_noise`` (0), ``quality`` (``"fast"``),
+    (``"pool"``), ``fovy_deg`` (70), ``endpoint_noise`` (0), ``saccade_model`` (``"burst"`` or
+    ``"legacy"``, see ``models.Head``), ``quality`` (``"fast"``),
     ``task_kwargs``. Flags (``vergence``, ``grayscale``, ``include_coeffs``) must be bools; every
     argument is checked at construction (``ValueError``/``TypeError`` naming it).
 
@@ -105,6 +112,7 @@ class BinocularSaccadeEnv(gym.Env):
         sampling: str = "pool",
         fovy_deg: float = models.DEFAULT_FOVY_DEG,
         endpoint_noise: float = 0.0,
+        saccade_model: str = "burst",
         quality: str = "fast",
         task_kwargs: dict | None = None,
     ) -> None:
@@ -144,7 +152,8 @@ class BinocularSaccadeEnv(gym.Env):
         self.cortex = cortex
 
         self.head = models.Head(self.scene, image_size=image_size, fovy_deg=fovy_deg,
-                                quality=quality, seed=0, endpoint_noise=endpoint_noise)
+                                quality=quality, seed=0, endpoint_noise=endpoint_noise,
+                                saccade_model=saccade_model)
         try:
             self.task.check_scene(self.head)
         except ValueError:
@@ -175,6 +184,7 @@ class BinocularSaccadeEnv(gym.Env):
         else:
             self.action_space = spaces.Discrete(g.M * g.N)
         self._views: tuple[EyeView, EyeView] | None = None
+        self._seen = None  # the last frame's views and arrays (vision._Frame)
         self._remapped: np.ndarray | None = None
         self._frame = None
         self._saccades = 0
@@ -193,7 +203,7 @@ class BinocularSaccadeEnv(gym.Env):
         self.task.initialize_episode(self.head, self.np_random)
         self._saccades = 0
         self._see()
-        self._remapped = self._cortical([v.periphery for v in self._views])
+        self._remapped = self._cortical(self._seen.periphery)
         info = {"sim_time_ms": self.head.time_ms, "remap_error": {m: 0.0 for m in self.remap_models}}
         return self._observation(), info
 
@@ -202,22 +212,22 @@ class BinocularSaccadeEnv(gym.Env):
             raise RuntimeError("call reset() before step()")
         h, v, dist_factor = self._decode(action)
         plan, clipped = self._plan(h, v, dist_factor)
-        pre = self._views
-        R = plan.efference_copy_eye
-        values, valid = self.vision.predict_arrays(pre, self.remap_models, R)
+        # the per-step path: the views, coefficients and models were checked (or made) by this env,
+        # so Vision's internal entry points skip re-checking them (the efference copy is checked)
+        values, valid = self.vision._predict_frame(self._seen, self.remap_models, plan.efference_copy_eye)
         self.head.start_saccade(plan)
         self.head.step_ms(plan.end_ms - self.head.time_ms + self.fixation_ms)
         self._see()
-        per_eye_errors = self.vision.errors(values, valid, self._views)
+        per_eye_errors = self.vision._frame_errors(values, valid, self._seen)
         errors = {m: float(e) for m, e in zip(self.remap_models, per_eye_errors.mean(axis=0))}
         g = self.vision.grid
         chosen = values[:, self.remap_models.index(self.remap_model), g.n_fovea:]  # invalid cells hold 0
-        self._remapped = self._cortical(list(chosen.reshape(2, g.M, g.N, -1)))
+        self._remapped = self._cortical(chosen.reshape(2, g.M, g.N, -1))
         reward, success, tinfo = self.task.score(self.head)
         self._saccades += 1
         terminated = bool(success)
         truncated = bool(not terminated and self._saccades >= self.task.max_saccades)
-        landing = gaze_errors_deg(self.head, plan.intended_target).mean()
+        landing = _gaze_errors_deg(self.head, plan.intended_target).mean()
         info: dict[str, Any] = {
             "sim_time_ms": self.head.time_ms,
             "remap_error": errors,
@@ -225,6 +235,10 @@ class BinocularSaccadeEnv(gym.Env):
             "saccade_duration_ms": plan.duration_ms,
             "peak_velocity_deg_s": math.degrees(plan.peak_velocity),
             "landing_error_deg": float(landing),
+            "endpoint_error_deg": plan.endpoint_error_deg,
+            "efference_copy": plan.efference_copy.copy(),
+            "executed_rotation": plan.executed_rotation.copy(),
+            "eye_angles": self.head.eye_angles,
             "clipped": clipped,
             **tinfo,
         }
@@ -245,23 +259,25 @@ class BinocularSaccadeEnv(gym.Env):
     # ------------------------------------------------------------------ helpers
     def _see(self) -> None:
         self._frame = self.head.render()
-        self._views = self.vision.see_eyes((self._frame.left.image, self._frame.right.image))
+        self._seen = self.vision._see_frame((self._frame.left.image, self._frame.right.image))
+        self._views = self._seen.views
 
-    def _cortical(self, per_eye: list[np.ndarray]) -> np.ndarray:
+    def _cortical(self, per_eye: np.ndarray) -> np.ndarray:
+        """Both eyes' peripheral samples (2, M, N, C) as the ``cortical`` observation (float32 in [0, 1])."""
         if self.cortex == "eyes":
-            out = np.stack(per_eye)
+            out = per_eye
         else:
             bc = C.binocular_cortex(per_eye[0], per_eye[1], self.vision.grid)
             out = np.stack([bc.left_hemisphere, bc.right_hemisphere])
-        return np.clip(out, 0.0, 1.0).astype(np.float32)
+        return np.clip(out, 0.0, 1.0).astype(np.float32, copy=False)
 
     def _observation(self) -> dict[str, np.ndarray]:
         views = self._views
         obs = {
-            "cortical": self._cortical([v.periphery for v in views]),
-            "fovea": np.clip(np.stack([v.fovea for v in views]), 0.0, 1.0).astype(np.float32),
+            "cortical": self._cortical(self._seen.periphery),
+            "fovea": np.clip(self._seen.fovea, 0.0, 1.0).astype(np.float32),
             "remapped": self._remapped.copy(),
-            "eyes": self.head.eye_angles.astype(np.float32),
+            "eyes": self.head.eye_position_signal().astype(np.float32),
         }
         if self.include_coeffs:
             cf = np.stack([v.coeffs for v in views])

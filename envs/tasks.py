@@ -28,16 +28,23 @@ def gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
     """Angle (deg) between each eye's optical axis and its line of sight to ``point`` (a finite world
     3-vector, not at an eye's nodal point): shape (2,)."""
     _check_head(head)
-    p = checks.array("point", point, kinds="biuf", shape=(3,)).astype(float)
+    return _gaze_errors_deg(head, checks.array("point", point, kinds="biuf", shape=(3,)))
+
+
+def _gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
+    """``gaze_errors_deg`` for a head and a point that the caller knows to be valid (a finite
+    3-vector from the head itself: an object's position, a saccade's target)."""
+    p = np.asarray(point, dtype=float)
     out = []
     for state in head.eye_states():
         d = p - state.camera_position
-        norm = np.linalg.norm(d)
+        norm = math.sqrt(d @ d)  # as np.linalg.norm of a real vector: sqrt(d . d)
         if norm < 1e-9:
             raise ValueError("point lies at an eye's nodal point, where no line of sight is defined")
         d /= norm
-        axis = state.eye_axes[:, 1]
-        out.append(math.degrees(math.acos(float(np.clip(axis @ d, -1.0, 1.0)))))
+        c = float(state.eye_axes[:, 1] @ d)
+        c = -1.0 if c < -1.0 else 1.0 if c > 1.0 else c  # np.clip (NaN stays NaN)
+        out.append(math.degrees(math.acos(c)))
     return np.array(out)
 
 
@@ -120,7 +127,7 @@ class FixateTask(Task):
         head.set_object_position("target", models.screen_point(az, el, 1.0))
 
     def score(self, head) -> tuple[float, bool, dict]:
-        err = gaze_errors_deg(head, self.target_position(head))
+        err = _gaze_errors_deg(head, self.target_position(head))  # (target_position checks head)
         e = float(err.mean())
         success = bool(np.all(err <= self.tolerance_deg))
         reward = math.exp(-0.5 * (e / self.tolerance_deg) ** 2) - self.saccade_cost
@@ -139,7 +146,7 @@ class SearchTask(Task):
     name = "search"
 
     def score(self, head) -> tuple[float, bool, dict]:
-        err = gaze_errors_deg(head, self.target_position(head))
+        err = _gaze_errors_deg(head, self.target_position(head))  # (target_position checks head)
         success = bool(np.all(err <= self.tolerance_deg))
         return (1.0 if success else 0.0) - self.saccade_cost, success, {
             "target_error_deg": float(err.mean()),

@@ -15,6 +15,9 @@ from numpy.typing import NDArray
 
 import conformal as C
 from conformal import checks
+from conformal.dpft import _dpft
+from conformal.geometry import _PERM_FLAT
+from conformal.remap import _mobius_params, _su2_entries, _su2_params, _target_shift_matrix
 
 __all__ = ["EyeView", "Vision", "REMAP_MODELS", "normalized_error", "model_errors"]
 
@@ -80,6 +83,49 @@ def _errors(values: NDArray, valid: NDArray, actual: NDArray, actual_valid: NDAr
     return out
 
 
+_EYE3 = np.eye(3)
+
+
+def _check_rotations(rotations_eye) -> NDArray[np.float64]:
+    """A stack of proper rotations (E, 3, 3) float64, checked as ``conformal.check_rotation`` checks
+    each one; a float64 (E, 3, 3) array (the head's efference copy) in a few vectorised operations."""
+    r = rotations_eye
+    if not (type(r) is np.ndarray and r.dtype == np.float64 and r.ndim == 3 and r.shape[1:] == (3, 3)):
+        return np.array([C.check_rotation(x, "rotation_eye") for x in r]).reshape(-1, 3, 3)
+    err = np.abs(r @ r.transpose(0, 2, 1) - _EYE3).max(axis=(1, 2))  # NaN for non-finite entries
+    if not np.all(err <= 1e-6):
+        e = int(np.argmin(err <= 1e-6))
+        C.check_rotation(r[e], "rotation_eye")  # raises with the public message
+        raise ValueError("rotation_eye must be a proper rotation matrix (orthogonal, det +1)")
+    for (a, b, c), (d, e_, f), (g, h, i) in r.tolist():
+        if a * (e_ * i - f * h) - b * (d * i - f * g) + c * (d * h - e_ * g) < 0:
+            raise ValueError("rotation_eye must be a proper rotation matrix (orthogonal, det +1)")
+    return r
+
+
+def _shift_target(r: NDArray[np.float64]) -> complex:
+    """The ``shift`` model's target: the new optical axis (``r``'s second column, in old eye
+    coordinates) projected on the old retina plane."""
+    axis = r[:, 1]
+    if axis[1] <= 1e-6:
+        raise ValueError("the shift model needs the new optical axis in front of the old eye (a rotation "
+                         "below 90 degrees)")
+    return (axis[2] + 1j * axis[0]) / axis[1]
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """One frame of several eyes as ``Vision`` computed it (internal, for per-step callers): the
+    views and, stacked over the eyes, the arrays behind them: samples (E, N_f + M N, C) in retina
+    order (each view's ``samples``), periphery (E, M, N, C), coeffs (E, M, N, C), fovea (E, N_f, C)."""
+
+    views: tuple[EyeView, ...]
+    samples: NDArray[np.float64]
+    periphery: NDArray[np.float64]
+    coeffs: NDArray[np.complex128]
+    fovea: NDArray[np.float64]
+
+
 class Vision:
     """Retina + DPFT + efference-copy remapping for both eyes at one image geometry.
 
@@ -136,6 +182,7 @@ class Vision:
         self.image_shape = (h, w)
         self.pixels_per_unit = pixels_per_unit
         self.plan = C.RemapPlan(self.grid)
+        self._valid = np.concatenate([self.retina.fovea_mask, self.retina.mask.ravel()])  # EyeView.valid
 
     # ------------------------------------------------------------------ frames
     def see(self, image: NDArray) -> EyeView:
@@ -145,6 +192,11 @@ class Vision:
     def see_eyes(self, images) -> tuple[EyeView, ...]:
         """``see`` for several eyes' images at once (one DPFT call for all of them): each (H, W, 3),
         all uint8 or all floats in [0, 1]."""
+        imgs, scale = self._check_images(images)
+        return self._frame(self.retina.sample_many(imgs, scale)).views
+
+    def _check_images(self, images) -> tuple[list[NDArray], float]:
+        """``see_eyes``' checks: the images as arrays and the scale of their values to [0, 1]."""
         if isinstance(images, np.ndarray) and images.ndim == 3:
             raise ValueError("see_eyes takes a sequence of images (one per eye); use see for one image")
         if isinstance(images, (str, bytes)) or not hasattr(images, "__iter__"):
@@ -164,17 +216,30 @@ class Vision:
                 if im.size and np.isfinite(im).all() and not (im.min() >= -1e-6 and im.max() <= 1 + 1e-6):
                     raise ValueError(f"float images must hold intensities in [0, 1]; got values in "
                                      f"[{im.min():.4g}, {im.max():.4g}] (pass uint8 images for 0..255)")
-        scale = 1.0 / 255.0 if is_uint8[0] else 1.0
-        samples = self.retina.sample_many(imgs, scale)  # (E, N_f + M N, 3)
+        return imgs, (1.0 / 255.0 if is_uint8[0] else 1.0)
+
+    def _see_frame(self, images) -> "_Frame":
+        """``see_eyes`` for a per-step caller (the env), as a ``_Frame`` (the views and the arrays
+        behind them). uint8 pictures of this Vision's shape (what ``models.Head.render`` returns)
+        go straight to the sampler; anything else takes ``see_eyes``' checks first."""
+        shape = self.retina.image_shape
+        if images and all(type(im) is np.ndarray and im.dtype == np.uint8 and im.shape == shape for im in images):
+            return self._frame(self.retina._sample_many(list(images), 1.0 / 255.0))
+        imgs, scale = self._check_images(images)
+        return self._frame(self.retina.sample_many(imgs, scale))
+
+    def _frame(self, samples: NDArray[np.float64]) -> "_Frame":
+        """Views of sampled pictures (E, N_f + M N, 3): channels, periphery, one DPFT for all eyes."""
         if self.grayscale:
             samples = samples.mean(axis=-1, keepdims=True)
         g, n_f = self.grid, self.grid.n_fovea
-        n_eyes, chans = len(imgs), samples.shape[-1]
+        n_eyes, chans = samples.shape[0], samples.shape[-1]
         periphery = samples[:, n_f:].reshape(n_eyes, g.M, g.N, chans)
         stacked = periphery.transpose(1, 2, 0, 3).reshape(g.M, g.N, n_eyes * chans)  # eyes side by side as channels
-        coeffs = C.dpft(stacked, g).reshape(g.M, g.N, n_eyes, chans)
+        coeffs = _dpft(stacked, g).reshape(g.M, g.N, n_eyes, chans)  # (float64 samples of this grid: valid)
         mask, fovea_mask = self.retina.mask, self.retina.fovea_mask
-        return tuple(EyeView(samples[e, :n_f], periphery[e], coeffs[:, :, e], mask, fovea_mask) for e in range(n_eyes))
+        views = tuple(EyeView(samples[e, :n_f], periphery[e], coeffs[:, :, e], mask, fovea_mask) for e in range(n_eyes))
+        return _Frame(views, samples, periphery, coeffs.transpose(2, 0, 1, 3), samples[:, :n_f])
 
     # ------------------------------------------------------------------ remapping
     def point_map(self, model: str, rotation_eye: NDArray[np.float64]):
@@ -186,13 +251,33 @@ class Vision:
         if model == "mobius":
             return C.mobius_map(R)
         if model == "shift":
-            axis = R[:, 1]  # the new optical axis in old eye coordinates -> the target
-            if axis[1] <= 1e-6:
-                raise ValueError("the shift model needs the new optical axis in front of the old eye (a rotation "
-                                 "below 90 degrees)")
-            z_target = (axis[2] + 1j * axis[0]) / axis[1]
-            return C.target_shift_map(z_target, self.shift_rings, self.grid.delta)
+            return C.target_shift_map(_shift_target(R), self.shift_rings, self.grid.delta)
         checks.choice("model", model, REMAP_MODELS)
+
+    def _map_params(self, models: tuple[str, ...], rotations_eye) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """The ``RemapPlan`` description (kinds (K,), params (E, K, 9)) of ``point_map(m, R)`` for the
+        ``models`` (names from ``REMAP_MODELS``, not checked) and each eye's rotation R, without
+        building the map objects: the same numbers (``tests/test_env_hotpath.py`` compares them).
+        The rotations are checked as ``check_rotation`` does (orthogonal to 1e-6, det +1)."""
+        r = _check_rotations(rotations_eye)
+        n_eyes = len(r)
+        kinds = np.array([C.kernels.KIND_PROJECTIVE if m == "homography" else C.kernels.KIND_MOBIUS for m in models],
+                         np.int64)
+        params = np.empty((n_eyes, len(models), 9))
+        rows = r.tolist()
+        for k, m in enumerate(models):
+            if m == "homography":
+                params[:, k] = r.reshape(n_eyes, 9)[:, _PERM_FLAT]
+            elif m == "mobius":
+                for e in range(n_eyes):
+                    params[e, k] = _su2_params(*_su2_entries(rows[e]))
+            else:
+                for e in range(n_eyes):
+                    zt = complex(_shift_target(r[e]))
+                    if abs(self.shift_rings * self.grid.delta) > 40:  # the public constructor's message
+                        C.target_shift_map(zt, self.shift_rings, self.grid.delta)
+                    params[e, k] = _mobius_params(_target_shift_matrix(zt, self.shift_rings, self.grid.delta))
+        return kinds, params
 
     def predict(self, view: EyeView, model: str, rotation_eye: NDArray[np.float64]) -> C.RetinaSamples:
         """Predicted post-saccadic samples from the pre-saccadic coefficients and the efference copy."""
@@ -224,6 +309,21 @@ class Vision:
         coeffs = np.stack([v.coeffs for v in views])
         fovea = np.stack([v.fovea for v in views])
         return self.plan(coeffs, fovea, maps)
+
+    def _predict_frame(
+        self, frame: "_Frame", models: tuple[str, ...], rotations_eye
+    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+        """``predict_arrays(frame.views, models, rotations_eye)`` for a ``_Frame`` of this Vision
+        (``_see_frame``) and ``models`` already checked; the rotations are checked (one per eye)."""
+        if len(rotations_eye) != len(frame.views):
+            raise ValueError(f"rotations_eye must hold one 3x3 rotation per view ({len(frame.views)}); "
+                             f"got {len(rotations_eye)}")
+        kinds, params = self._map_params(models, rotations_eye)
+        return self.plan._evaluate(frame.coeffs, frame.fovea, kinds, params)
+
+    def _frame_errors(self, values: NDArray, valid: NDArray, frame: "_Frame") -> NDArray[np.float64]:
+        """``errors(values, valid, frame.views)`` for ``_predict_frame``'s output and a ``_Frame``."""
+        return _errors(values, valid, frame.samples, self._valid)
 
     def _check_views(self, views) -> tuple[EyeView, ...]:
         if isinstance(views, EyeView) or not isinstance(views, (list, tuple)) or not views:

@@ -55,9 +55,16 @@ def test_observation_shapes_and_info(env):
     assert info["sim_time_ms"] - t0 >= 250 + info["saccade_duration_ms"]
     amp = math.degrees(math.acos(math.cos(0.2 * math.radians(30)) * math.cos(0.1 * math.radians(30))))
     assert info["saccade_amplitude_deg"] == pytest.approx(amp, rel=0.05)
-    ms = models.MainSequence()
-    assert info["peak_velocity_deg_s"] == pytest.approx(ms.peak_velocity_deg_s(info["saccade_amplitude_deg"]))
+    # the burst generator's main sequence: Van Wetter & Van Opstal (2008), 525 (1 - e^{-A/7}) deg/s, within 15 %
+    vw = 525.0 * (1 - math.exp(-info["saccade_amplitude_deg"] / 7.0))
+    assert info["peak_velocity_deg_s"] == pytest.approx(vw, rel=0.15)
     assert info["landing_error_deg"] < 0.1
+    # ground truth and the command are reported; without motor noise they agree
+    assert info["eye_angles"].shape == (2, 3) and info["efference_copy"].shape == (2, 3, 3)
+    assert np.allclose(info["efference_copy"], info["executed_rotation"]) and np.all(info["endpoint_error_deg"] < 1e-4)
+    # the observed eye position is the eye-position signal, settled 250 ms after this ~8 deg saccade
+    assert np.allclose(obs["eyes"], env.head.eye_position_signal(), atol=1e-6)
+    assert np.degrees(np.abs(obs["eyes"] - info["eye_angles"])).max() < 0.5
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
     # top: the left and right eye images with the retina grid drawn on them in cyan
@@ -73,6 +80,23 @@ def test_observation_shapes_and_info(env):
         bottom = frame[h + 4:, i * w:(i + 1) * w].astype(float) / 255
         assert bottom[0, 0] == pytest.approx(cm[0, 0], abs=1 / 255)
         assert bottom[-1, -1] == pytest.approx(cm[-1, -1], abs=1 / 255)
+
+
+def test_motor_noise_separates_the_command_from_the_movement():
+    """With endpoint noise the efference copy stays the intended rotation and the observed eye
+    position (the eye-position signal, from the command) differs from the true eye by the error."""
+    e = envs.BinocularSaccadeEnv(image_size=32, endpoint_noise=0.1, fixation_ms=400)
+    try:
+        e.reset(seed=4)
+        obs, _, _, _, info = e.step(np.array([0.5, 0.2], np.float32))
+        assert np.all(info["endpoint_error_deg"] > 0.05)
+        assert not np.allclose(info["efference_copy"], info["executed_rotation"], atol=1e-4)
+        plan = e.head.last_plan
+        assert np.allclose(info["efference_copy"], plan.efference_copy)
+        assert np.allclose(obs["eyes"], plan.intended_end_angles, atol=1e-3)  # the signal has settled on the command
+        assert np.allclose(info["eye_angles"], plan.end_angles, atol=1e-3)  # the eye on the executed endpoint
+    finally:
+        e.close()
 
 
 def test_same_seed_same_observations():
@@ -92,7 +116,9 @@ def test_same_seed_same_observations():
     for oa, ob in zip(a, b):
         for k in oa:
             assert np.array_equal(oa[k], ob[k]), k
-    assert ia == ib
+    assert ia.keys() == ib.keys()
+    for k in ia:  # arrays (efference copy, eye angles) compare element-wise
+        assert (np.array_equal(ia[k], ib[k]) if isinstance(ia[k], np.ndarray) else ia[k] == ib[k]), k
 
 
 def test_different_seeds_place_targets_differently(env):
