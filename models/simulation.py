@@ -11,16 +11,16 @@ Two physics timesteps (``Head(timestep_ms=..., saccade_timestep_ms=...)``, both 
   ~1.5 ms per 300 ms). With the implicitfast integrator the servo is stable up to ~2.4 ms
   (omega dt < 4.8) and at 1 ms its discrete poles have modulus 0.45 (well damped).
 * saccades: the commands of every physics step are tabulated once at onset and fed from a tight
-  loop, at ``saccade_timestep_ms`` (default 0.25 ms) until the main-sequence offset and at
-  ``timestep_ms`` through the slow settle tail. The velocity set-point is the planned displacement
+  loop, at ``saccade_timestep_ms`` (default 0.25 ms) until the saccade's offset and at
+  ``timestep_ms`` through the slow settle tail (the plant's and vergence's). The velocity set-point is the planned displacement
   over the step divided by the step, so tracking is exact up to the solver (measured < 1e-4 deg
   during the movement at 0.1-1 ms). The saccade step only limits how finely recorded
   traces resolve the velocity profile: peak velocity is the mean over the first step (5 deg
   saccade: -0.27 / -0.54 / -1.0 / -1.9 % at 0.1 / 0.25 / 0.5 / 1 ms) and the 20 deg/s offset is
   seen up to one step late (+0.1 / +0.3 / +0.6 / +1.4 ms) -- hence 0.25 ms by default.
 
-Measured (dots scene, one core): 300 ms of fixation ~1.5 ms; a 10 deg saccade (103 ms to its
-settled end) + 250 ms of fixation ~3.1 ms (``benchmarks/render.py`` prints current numbers).
+Measured (dots scene, one core): 300 ms of fixation ~1.2 ms; a 10 deg saccade (~83 ms to its
+settled end with the burst generator) + 250 ms of fixation ~2.2 ms (``benchmarks/render.py`` prints current numbers).
 """
 
 from __future__ import annotations
