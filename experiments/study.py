@@ -140,7 +140,25 @@ def add_subcommand(subparsers) -> None:
     d.add_argument("--repetitions", type=_num_type("repetitions"), default=1,
                    help=f"repetitions of every condition, {b['repetitions']} (at most {MAX_TRIALS} trials in all)")
     d.add_argument("--seed", type=_num_type("seed"), default=0, help=f"base seed (trial i uses seed + i), {b['seed']}")
-    t = p.add_argument_group("remapping gain time course g(t): distances from the target shrink by exp(-g)")
+    pm = p.add_argument_group("perception model and condition")
+    pm.add_argument("--model", choices=("mechanistic", "paper"), default="mechanistic",
+                    help="mechanistic: remapping driven by the oculomotor command, read out through the "
+                         "eye-position signal and post-saccadic references; paper: the log-radius shift with the "
+                         "set time course below (experiments/psychophysics/mechanisms.py)")
+    pm.add_argument("--condition", choices=("references", "dark"), default="references",
+                    help="references: the target stays lit and a ruler appears after the saccade; dark: black "
+                         "screen, the target goes off at saccade onset")
+    pm.add_argument("--paradigm", choices=("localization",), default="localization",
+                    help="one flash per trial, localized")
+    pm.add_argument("--feedback-gain", type=_num_type("feedback_gain"), default=4.5,
+                    help=f"mechanistic: remapping gain per deg/ms of eye-position-signal speed, {b['feedback_gain']}")
+    pm.add_argument("--reference-weight", type=_num_type("reference_weight"), default=1.0,
+                    help=f"mechanistic: weight of the reference-anchored read-out when a reference is seen, "
+                         f"{b['reference_weight']}")
+    pm.add_argument("--disable", type=_mechanisms, default=(), metavar="NAME,...",
+                    help="mechanistic: switch ingredients off: smear, latency, eye_position_signal, command_remap, "
+                         "references")
+    t = p.add_argument_group("remapping gain time course g(t) of --model paper: distances from the target shrink by exp(-g)")
     t.add_argument("--peak-time-ms", type=_num_type("peak_time_ms"), default=-10.0,
                    help=f"time of peak compression re saccade onset, {b['peak_time_ms']}")
     t.add_argument("--rise-ms", type=_num_type("rise_ms"), default=25.0,
@@ -184,6 +202,16 @@ def add_subcommand(subparsers) -> None:
     p.set_defaults(func=_handler, _parser=p)
 
 
+def _mechanisms(text: str) -> tuple[str, ...]:
+    from .psychophysics.mechanisms import MECHANISMS
+
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    bad = [n for n in names if n not in MECHANISMS]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"expected mechanism names from {', '.join(MECHANISMS)}; got {text!r}")
+    return names
+
+
 def _build(args: argparse.Namespace):
     """The design and configuration of the command line; ``argparse`` usage errors name the option."""
     from .psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, RemapTimeCourse, TrialConfig
@@ -211,7 +239,9 @@ def _build(args: argparse.Namespace):
                              timecourse=tc, threshold=args.threshold, endpoint_noise=args.endpoint_noise,
                              oversample=args.oversample, flash_radius_deg=args.flash_radius_deg,
                              saccade_model=args.saccade_model, eye_position=args.eye_position,
-                             visual_latency_ms=args.visual_latency_ms)
+                             visual_latency_ms=args.visual_latency_ms, model=args.model, condition=args.condition,
+                             paradigm=args.paradigm, feedback_gain=args.feedback_gain,
+                             reference_weight=args.reference_weight, disabled=args.disable)
     except (ValueError, TypeError) as e:
         parser.error(str(e))
     return design, config, args.formats
@@ -308,7 +338,7 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
         table = read_table(csv_path)
         _check_finite(table, csv_path)
         rows = summary(table)
-        text = format_summary(rows, config.timecourse, n_trials=len(table["trial_id"]))
+        text = format_summary(rows, n_trials=len(table["trial_id"]), config=config)
         (out / "summary.txt").write_text(text)
         with (out / "summary.csv").open("w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]))

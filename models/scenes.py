@@ -45,6 +45,8 @@ DOTS_DISTANCE = 1.0
 DOTS_TARGET_DEG = 10.0
 FLASH_AZIMUTHS_DEG = (-5.0, 0.0, 5.0, 10.0, 15.0, 20.0)
 FLASH_ELEVATIONS_DEG = (7.5, 2.5, -2.5, -7.5)
+#: The dots scene's ruler: elevation re the target row and half width (deg).
+RULER_ELEVATION_DEG, RULER_HALF_WIDTH_DEG = -10.0, 20.0
 DOT_RADIUS = 0.008
 SEARCH_DISTANCE = 1.0
 SEARCH_N_GREEN_SPHERES = 8
@@ -145,9 +147,15 @@ def _dots(spec) -> SceneInfo:
                    rgba=[0.3, 1, 0.3, 0], **dot)
             flashes.append(name)
     flashes = tuple(flashes)
-    return SceneInfo("dots", "Fig. 11 flash paradigm: fixation, saccade target, 24 flash dots",
-                     groups={"fixation": ("fixation",), "target": ("target",), "flashes": flashes},
-                     movable=("fixation", "target") + flashes, flashes=flashes)
+    # a visual reference (Lappe, Awater & Krekelberg 2000): a horizontal ruler 10 deg below the
+    # target, hidden until shown (``Head.set_visible("ruler", True)``); movable like the target
+    el = np.deg2rad(RULER_ELEVATION_DEG)
+    _mocap(spec, "ruler", screen_point(np.deg2rad(DOTS_TARGET_DEG), el, DOTS_DISTANCE), type=_G.mjGEOM_BOX,
+           size=[0.002, DOTS_DISTANCE * np.tan(np.deg2rad(RULER_HALF_WIDTH_DEG)), 0.008], rgba=[0.9, 0.9, 0.9, 0])
+    return SceneInfo("dots", "Fig. 11 flash paradigm: fixation, saccade target, 24 flash dots, a ruler (hidden)",
+                     groups={"fixation": ("fixation",), "target": ("target",), "flashes": flashes,
+                             "references": ("ruler",)},
+                     movable=("fixation", "target", "ruler") + flashes, flashes=flashes)
 
 
 def pink_noise(shape: tuple[int, int], rng: np.random.Generator, exponent: float = 1.0) -> np.ndarray:

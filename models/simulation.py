@@ -262,6 +262,9 @@ class Head:
         self.last_plan: SaccadePlan | None = None
         self._signal_plan: SaccadePlan | None = None  # the plan the eye-position signal follows
         self._flash_off: dict[int, int] = {}
+        for gid, alpha in getattr(self, "_alpha0", {}).items():  # undo set_visible
+            self.model.geom_rgba[gid, 3] = alpha
+        self._alpha0: dict[int, float] = {}
         for name in self.scene.flashes:
             self.model.geom_rgba[self.model.geom(name).id, 3] = 0.0
         if self.scene.layout is not None:
@@ -397,6 +400,19 @@ class Head:
             gid = self.model.geom(n).id
             self.model.geom_rgba[gid, 3] = 1.0
             self._flash_off[gid] = self.time_ms + duration_ms
+
+    def set_visible(self, name: str, visible: bool) -> None:
+        """Show or hide the scene object (geom) ``name`` from now on (its alpha 1 or 0): e.g. the
+        ``dots`` scene's ``ruler``, ``target`` or ``screen`` for the conditions of a paradigm.
+        ``reset`` restores the scene's own visibility."""
+        name = self._name("name", name)
+        visible = checks.flag("visible", visible)
+        gid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
+        if gid < 0:
+            raise KeyError(f"scene {self.scene.name!r} has no object {name!r}; objects: {', '.join(self.scene.objects)}")
+        if gid not in self._alpha0:
+            self._alpha0[gid] = float(self.model.geom_rgba[gid, 3])
+        self.model.geom_rgba[gid, 3] = 1.0 if visible else 0.0
 
     def hide_flashes(self) -> None:
         for gid in self._flash_off:

@@ -78,7 +78,7 @@ def tables():
     # "remap"/"none" read out through the true eye orientation, isolating the remapping; "signal"
     # reads out through the eye-position signal with no remapping, isolating that signal
     for name, gain, eye in (("remap", math.log(2), "true"), ("none", 0.0, "true"), ("signal", 0.0, "signal")):
-        runner = TrialRunner(TrialConfig(timecourse=RemapTimeCourse(peak_gain=gain), eye_position=eye))
+        runner = TrialRunner(TrialConfig(model="paper", timecourse=RemapTimeCourse(peak_gain=gain), eye_position=eye))
         rows = [runner.run(t) for t in design.trials()]
         runner.close()
         out[name] = {c: np.array([r[c] for r in rows], float) for c in ROW_COLUMNS}

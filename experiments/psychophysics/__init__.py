@@ -1,8 +1,9 @@
 """Perisaccadic flash-localization psychophysics on the conformal-camera head (paper §6.5, Fig. 11).
 
 Trials run through the environment's pipeline (rendering, retina, DPFT, efference-copy
-remapping into the target-centred frame, log-radius shift with a gain time course) and the
-perceived flash position is decoded from the remapped map. ``python -m experiments run``
+remapping into the target-centred frame, log-radius shift) and the perceived flash position is
+decoded from the remapped map through the eye-position signal and, when seen, the post-saccadic
+references; the perception models (``mechanistic``, ``paper``) are in ``mechanisms``. ``python -m experiments run``
 drives a whole study (``experiments.study``).
 
 The names below are imported on first use (PEP 562), so that the command line can read the
@@ -17,7 +18,10 @@ _EXPORTS = {
     "Design": "design", "Trial": "design", "FIG11_OFFSETS_DEG": "design", "MORRONE_OFFSETS_DEG": "design",
     "default_design": "design", "quick_design": "design",
     "RemapTimeCourse": "timecourse",
-    "TrialConfig": "trial", "TrialRunner": "trial", "ROW_COLUMNS": "trial", "head_angles_deg": "trial",
+    "TrialConfig": "trial", "TrialRunner": "trial", "ROW_COLUMNS": "trial", "TEXT_COLUMNS": "trial",
+    "head_angles_deg": "trial",
+    "MODELS": "mechanisms", "CONDITIONS": "mechanisms", "PARADIGMS": "mechanisms", "MECHANISMS": "mechanisms",
+    "command_gain": "mechanisms",
     "TargetCentredMap": "targetmap", "CentredSamples": "targetmap",
     "activity_centroid": "decode", "DEFAULT_THRESHOLD": "decode",
     "run_trials": "runner", "read_table": "runner", "write_parquet": "runner", "config_fingerprint": "runner",

@@ -64,6 +64,7 @@ def summary(table: dict[str, np.ndarray], window_ms: float = 50.0) -> list[dict]
         i = int(np.argmax(vals))
         near = (amp == a) & (np.abs(t) <= window_ms)
         far = (amp == a) & (np.abs(t) >= 150)
+        pre = (amp == a) & (t >= -100) & (t <= -25)
         rows.append({
             "saccade_amplitude_deg": a, "peak_compression": float(vals[i]), "peak_time_ms": float(times[i]),
             "fwhm_ms": _fwhm(times, vals),
@@ -71,6 +72,8 @@ def summary(table: dict[str, np.ndarray], window_ms: float = 50.0) -> list[dict]
             "mean_toward_y_deg": float(np.mean(table["error_toward_y_deg"][near])) if near.any() else float("nan"),
             "far_rms_error_deg": float(np.sqrt(np.mean(table["error_x_deg"][far] ** 2 + table["error_y_deg"][far] ** 2)))
             if far.any() else float("nan"),
+            # the uniform shift before the saccade, along it (the saccade goes to +x)
+            "pre_shift_x_deg": float(np.mean(table["error_x_deg"][pre])) if pre.any() else float("nan"),
             "n_trials": int(np.sum(amp == a)),
         })
     return rows
@@ -83,19 +86,33 @@ def sampling_error(table: dict[str, np.ndarray]) -> dict[str, float]:
             "rms_y_deg": float(np.sqrt(np.mean(ey**2))), "max_deg": float(np.max(np.hypot(ex, ey)))}
 
 
-def format_summary(rows: list[dict], timecourse: RemapTimeCourse | None = None, n_trials: int | None = None) -> str:
-    """A short text report of ``summary`` rows."""
+def format_summary(rows: list[dict], timecourse: RemapTimeCourse | None = None, n_trials: int | None = None,
+                   config=None) -> str:
+    """A short text report of ``summary`` rows; ``config`` (a ``TrialConfig``) names the model and
+    condition (and, for the paper model, its time course: ``timecourse`` alone does the same)."""
     lines = ["Perisaccadic flash localization (conformal camera, log-radius remapping, paper §6.5)"]
     if n_trials is not None:
         lines.append(f"trials: {n_trials}")
+    if config is not None:
+        lines.append(f"model: {config.model}, condition: {config.condition}, paradigm: {config.paradigm}")
+        if config.model == "mechanistic":
+            off = ", ".join(config.disabled) or "none"
+            lines.append(f"remapping driven by the eye-position signal's speed x {config.feedback_gain:g} ms/deg; "
+                         f"reference weight {config.reference_weight:g}; mechanisms off: {off}")
+            timecourse = None
+        else:
+            timecourse = config.timecourse
     if timecourse is not None:
         tc = timecourse
         lines.append(f"gain time course: peak {tc.peak_gain:.3f} (compression {1 - np.exp(-tc.peak_gain):.0%}) at "
                      f"{tc.peak_time_ms:+.0f} ms, rise {tc.rise_ms:.0f} ms, decay {tc.decay_ms:.0f} ms")
-    lines.append("amplitude  peak CI  at (ms)  FWHM (ms)  toward-target x / y (deg, |t|<=50 ms)  rms error |t|>=150 ms")
+    lines.append("amplitude  peak CI  at (ms)  FWHM (ms)  toward-target x / y (deg, |t|<=50 ms)  shift x (deg, -100..-25 ms)"
+                 "  rms error |t|>=150 ms")
     for r in rows:
         lines.append(f"{r['saccade_amplitude_deg']:7.1f}    {r['peak_compression']:6.3f}  {r['peak_time_ms']:+7.0f}"
                      f"  {r['fwhm_ms']:9.1f}  {r['mean_toward_x_deg']:+8.2f} / {r['mean_toward_y_deg']:+6.2f}"
-                     f"                    {r['far_rms_error_deg']:6.2f}")
-    lines.append("CI = 1 - perceived spread / true spread; toward-target > 0 means errors point at the target.")
+                     f"                    {r.get('pre_shift_x_deg', float('nan')):+6.2f}"
+                     f"                     {r['far_rms_error_deg']:6.2f}")
+    lines.append("CI = 1 - perceived spread / true spread; toward-target > 0 means errors point at the target; "
+                 "shift x > 0: in the saccade's direction.")
     return "\n".join(lines) + "\n"

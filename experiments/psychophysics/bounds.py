@@ -65,6 +65,8 @@ LIMITS: dict[str, Limit] = {
     "flash_radius_deg": Limit(0.1, 5.0, unit="deg"),
     "endpoint_noise": Limit(0.0, 0.5),
     "visual_latency_ms": Limit(0.0, 300.0, unit="ms"),
+    "feedback_gain": Limit(0.0, 50.0, unit="ms/deg"),
+    "reference_weight": Limit(0.0, 1.0),
     # execution
     "workers": Limit(1, 64, integer=True),
 }

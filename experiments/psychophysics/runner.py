@@ -25,11 +25,13 @@ oversubscribe the machine.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import json
 import math
 import multiprocessing as mp
 import os
+import re
 import signal
 import sys
 import threading
@@ -45,13 +47,13 @@ import numpy as np
 
 from .bounds import Limit, check_int
 from .design import Design, Trial
-from .trial import ROW_COLUMNS, TrialConfig, TrialRunner
+from .trial import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner
 
 __all__ = ["run_trials", "read_table", "write_parquet", "config_fingerprint", "config_hash", "TABLE_COLUMNS",
            "FolderBusyError", "OutputFolderError", "prepare_output_folder", "folder_lock"]
 
 #: The columns of ``trials.csv``: the trial's row (``ROW_COLUMNS``), then the integrity columns.
-TABLE_COLUMNS = ROW_COLUMNS + ("config_hash", "row_crc32")
+TABLE_COLUMNS = ROW_COLUMNS + TEXT_COLUMNS + ("config_hash", "row_crc32")
 _INT_COLUMNS = ("trial_id", "repetition", "seed", "flash_time_ms", "flash_sim_ms")
 _LOCK_NAME = ".lock"
 _BATCH = Limit(1, 10_000, integer=True)  # run_trials(batch_size=...)
@@ -242,11 +244,10 @@ def folder_lock(out_dir: str | os.PathLike) -> Iterator[Path]:
 def config_fingerprint(design: Design, config: TrialConfig) -> dict:
     """What must match for a resumed run to continue an earlier one."""
     tc = config.timecourse
-    return {"design": design.to_dict(), "config": {
-        "image_size": config.image_size, "fovy_deg": config.fovy_deg, "fovea_deg": config.fovea_deg,
-        "threshold": config.threshold, "endpoint_noise": config.endpoint_noise, "oversample": config.oversample,
-        "flash_radius_deg": config.flash_radius_deg, "peak_time_ms": tc.peak_time_ms, "rise_ms": tc.rise_ms,
-        "decay_ms": tc.decay_ms, "peak_gain": tc.peak_gain}}
+    cfg = {f.name: getattr(config, f.name) for f in dataclasses.fields(config) if f.name != "timecourse"}
+    cfg["disabled"] = list(cfg["disabled"])
+    cfg.update(peak_time_ms=tc.peak_time_ms, rise_ms=tc.rise_ms, decay_ms=tc.decay_ms, peak_gain=tc.peak_gain)
+    return {"design": design.to_dict(), "config": cfg}
 
 
 def config_hash(design: Design, config: TrialConfig) -> str:
@@ -263,8 +264,14 @@ def _header() -> str:
     return ",".join(TABLE_COLUMNS) + "\r\n"
 
 
+def _text(v) -> str:
+    if not isinstance(v, str) or not re.fullmatch(r"[a-z_]+", v):
+        raise ValueError(f"a text column must be a lower-case name; got {v!r:.60}")
+    return v
+
+
 def _line(row: dict, chash: str) -> str:
-    body = ",".join([_format(row[c]) for c in ROW_COLUMNS] + [chash])
+    body = ",".join([_format(row[c]) for c in ROW_COLUMNS] + [_text(row[c]) for c in TEXT_COLUMNS] + [chash])
     return f"{body},{zlib.crc32(body.encode()):08x}\r\n"
 
 
@@ -294,6 +301,10 @@ def _parse_line(line: str) -> tuple[dict | None, str]:
         vals = {c: float(v) for c, v in zip(ROW_COLUMNS, fields)}
     except ValueError:
         return None, "a value is not a number"
+    texts = fields[len(ROW_COLUMNS):len(ROW_COLUMNS) + len(TEXT_COLUMNS)]
+    if not all(re.fullmatch(r"[a-z_]+", t) for t in texts):
+        return None, "a text column is not a name"
+    vals.update(zip(TEXT_COLUMNS, texts))
     if not all(vals[c].is_integer() for c in _INT_COLUMNS):
         return None, "a whole-number column holds a fraction"
     vals["config_hash"] = fields[-1]
@@ -331,8 +342,8 @@ def _scan(path: Path) -> _Scan:
 
 
 def read_table(path: str | os.PathLike, *, partial: bool = False) -> dict[str, np.ndarray]:
-    """Read a trials CSV into columns: numpy float arrays for ``ROW_COLUMNS`` and a string array for
-    ``config_hash``, sorted by ``trial_id``.
+    """Read a trials CSV into columns: numpy float arrays for ``ROW_COLUMNS``, string arrays for
+    ``TEXT_COLUMNS`` (model, condition, paradigm) and ``config_hash``, sorted by ``trial_id``.
 
     Every row's checksum is verified. By default (a finished table) a torn or damaged row, a repeated
     trial id or rows of more than one configuration raise ``ValueError`` naming the file and the lines
@@ -358,6 +369,8 @@ def read_table(path: str | os.PathLike, *, partial: bool = False) -> dict[str, n
         warnings.warn(msg + "; skipped", RuntimeWarning, stacklevel=2)
     rows = [scan.rows[k] for k in sorted(scan.rows)]
     table = {c: np.array([r[c] for r in rows], dtype=float) for c in ROW_COLUMNS}
+    for c in TEXT_COLUMNS:
+        table[c] = np.array([r[c] for r in rows], dtype=str)
     table["config_hash"] = np.array([r["config_hash"] for r in rows], dtype=str)
     return table
 
@@ -379,6 +392,8 @@ def write_parquet(csv_path: str | os.PathLike, parquet_path: str | os.PathLike) 
 
     t = read_table(csv_path)
     cols = {c: (t[c].astype(np.int64) if c in _INT_COLUMNS else t[c]) for c in ROW_COLUMNS}
+    for c in TEXT_COLUMNS:
+        cols[c] = pa.array(t[c].tolist(), type=pa.string())
     cols["config_hash"] = pa.array(t["config_hash"].tolist(), type=pa.string())
     target = Path(parquet_path)
     tmp = target.with_name(target.name + ".tmp")

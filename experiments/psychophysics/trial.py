@@ -42,10 +42,11 @@ import models
 from .bounds import check_int, check_real
 from .decode import DEFAULT_THRESHOLD, activity_centroid
 from .design import Trial
+from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS, command_gain
 from .targetmap import TargetCentredMap
 from .timecourse import RemapTimeCourse
 
-__all__ = ["TrialConfig", "TrialRunner", "head_angles_deg", "ROW_COLUMNS"]
+__all__ = ["TrialConfig", "TrialRunner", "head_angles_deg", "ROW_COLUMNS", "TEXT_COLUMNS"]
 
 #: Eye-frame axes (x1 up, x2 optical axis, x3 right) in the head frame (x forward, y left, z up)
 #: at zero Fick angles (DESIGN.md's eye frame; ``models.oculomotor``'s primary position).
@@ -57,6 +58,10 @@ _FLASH = "flash_00"
 FIXATION_MS = 200
 #: Flash duration (ms); the retina integrates it (``Head.render(exposure_ms=...)``).
 FLASH_MS = 8
+#: The post-saccadic look at the references: this long after the saccade has settled (ms).
+POST_SACCADE_MS = 100
+#: The ruler's elevation re the target (deg), as in the ``dots`` scene.
+RULER_ELEVATION_DEG = models.scenes.RULER_ELEVATION_DEG
 
 ROW_COLUMNS = (
     "trial_id", "repetition", "seed", "saccade_amplitude_deg", "flash_time_ms", "flash_dx_deg", "flash_dy_deg",
@@ -64,7 +69,10 @@ ROW_COLUMNS = (
     "error_x_deg", "error_y_deg", "error_toward_x_deg", "error_toward_y_deg", "closed_form_x_deg",
     "closed_form_y_deg", "perceived_left_x_deg", "perceived_left_y_deg", "perceived_right_x_deg",
     "perceived_right_y_deg", "eye_h_left_deg", "eye_h_right_deg", "saccade_duration_ms", "flash_sim_ms",
+    "reference_weight",
 )
+#: Text columns of a trial's row (after ``ROW_COLUMNS``): the perception model, viewing condition, paradigm.
+TEXT_COLUMNS = ("model", "condition", "paradigm")
 
 
 @dataclass(frozen=True)
@@ -81,6 +89,12 @@ class TrialConfig:
     visual_latency_ms : delay from the flash to its cortical response (0-300 ms): the read-out
         pairs the flash with the eye-position signal this much later.
     oversample : density factor of the target-centred read-out grid. flash_radius_deg : flash dot radius.
+    model : ``"mechanistic"`` (default) or ``"paper"`` (``mechanisms``); ``timecourse`` is the paper
+        model's, ``feedback_gain`` (ms/deg), ``reference_weight`` and ``disabled`` (a tuple of
+        ``mechanisms.MECHANISMS``) the mechanistic model's.
+    condition : ``"references"`` (the target stays lit and a ruler appears at saccade offset) or
+        ``"dark"`` (black screen; the target goes off at saccade onset).
+    paradigm : ``"localization"`` (one flash per trial).
 
     Bounds (``bounds.LIMITS``): image 32-1024 px, fovy 20-120 deg, fovea 0.25-10 deg (and under a
     quarter of fovy), threshold [0, 1), oversample 1-8, flash radius 0.1-5 deg, endpoint noise 0-0.5.
@@ -98,14 +112,30 @@ class TrialConfig:
     saccade_model: str = "burst"
     eye_position: str = "signal"
     visual_latency_ms: float = models.VISUAL_LATENCY_MS
+    model: str = "mechanistic"
+    condition: str = "references"
+    paradigm: str = "localization"
+    feedback_gain: float = 4.5
+    reference_weight: float = 1.0
+    disabled: tuple = ()
 
     def __post_init__(self) -> None:
         # bounds: ``bounds.LIMITS`` (TypeError for wrong types, ValueError for NaN/inf/out of range)
         for name in ("image_size", "oversample"):
             object.__setattr__(self, name, check_int(name, getattr(self, name)))
-        for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise", "visual_latency_ms"):
+        for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise", "visual_latency_ms",
+                     "feedback_gain", "reference_weight"):
             object.__setattr__(self, name, check_real(name, getattr(self, name)))
-        for name, options in (("saccade_model", models.SACCADE_MODELS), ("eye_position", ("signal", "true"))):
+        if not isinstance(self.disabled, (tuple, list)) or not all(isinstance(d, str) for d in self.disabled):
+            raise TypeError(f"disabled must be a tuple of mechanism names from {', '.join(MECHANISMS)}; "
+                            f"got {self.disabled!r:.60}")
+        unknown = [d for d in self.disabled if d not in MECHANISMS]
+        if unknown:
+            raise ValueError(f"disabled: unknown mechanism(s) {', '.join(map(repr, unknown))}; "
+                             f"choose from {', '.join(MECHANISMS)}")
+        object.__setattr__(self, "disabled", tuple(sorted(set(self.disabled))))
+        for name, options in (("saccade_model", models.SACCADE_MODELS), ("eye_position", ("signal", "true")),
+                              ("model", MODELS), ("condition", CONDITIONS), ("paradigm", PARADIGMS)):
             value = getattr(self, name)
             if not isinstance(value, str):
                 raise TypeError(f"{name} must be one of {', '.join(options)}; got {value!r:.60}")
@@ -147,8 +177,10 @@ class TrialRunner:
         self.retina_grid = self.vision.grid
         self.map = TargetCentredMap(self.retina_grid, config.oversample)
         self.grid = self.map.grid  # the target-centred (read-out) grid
-        gid = self.head.model.geom(_FLASH).id  # flash dot size (the scene's default is ~0.46 deg)
-        self.head.model.geom_size[gid, 0] = SCREEN_DISTANCE * math.tan(math.radians(config.flash_radius_deg))
+        # flash and target dots of the flash's size (the scene's default is ~0.46 deg: sub-pixel at 128 px)
+        for name in (_FLASH, "target"):
+            gid = self.head.model.geom(name).id
+            self.head.model.geom_size[gid, 0] = SCREEN_DISTANCE * math.tan(math.radians(config.flash_radius_deg))
         self.last = None  # the last trial's frames and maps (for recordings)
 
     def close(self) -> None:
@@ -170,54 +202,115 @@ class TrialRunner:
         return np.degrees([math.atan2(-p[1], p[0]), math.atan2(p[2], p[0])])
 
     # ------------------------------------------------------------------ one trial
+    def _show(self, t_ms: float, plan: models.SaccadePlan) -> None:
+        """The condition's visible objects at ``t_ms``: in the dark the target goes off at saccade
+        onset; with references the ruler appears at saccade offset."""
+        dark = self.config.condition == "dark"
+        self.head.set_visible("target", not (dark and t_ms >= plan.onset_ms))
+        self.head.set_visible("ruler", (not dark) and t_ms >= plan.offset_ms)
+
+    def _centroid(self, view, grid, centred=None, shift_rings: float = 0.0) -> complex:
+        """Activity centroid of a view (retina grid) or of a target-centred map shifted by ``shift_rings``."""
+        thr = self.config.threshold
+        if centred is None:
+            return activity_centroid(view.periphery, view.fovea, grid, mask=view.mask, fovea_mask=view.fovea_mask,
+                                     threshold=thr)
+        per = C.log_radius_shift(centred.periphery, grid, shift_rings) if shift_rings else centred.periphery
+        return activity_centroid(per, centred.fovea, grid, fovea_mask=centred.fovea_mask, threshold=thr), per
+
+    def _seen_target(self, plan: models.SaccadePlan) -> tuple[np.ndarray, float]:
+        """After the saccade: each eye's seen target (head-centred deg, (2, 2)) through the settled
+        eye-position signal, and whether the retina saw it (1 or 0). The eyes and the signal are
+        stepped on to 100 ms after the saccade has settled."""
+        head = self.head
+        t_post = max(head.time_ms, plan.end_ms + POST_SACCADE_MS)
+        head.step_ms(t_post - head.time_ms)
+        self._show(t_post, plan)
+        lit = head.render()
+        head.set_visible("target", False)
+        unlit = head.render()
+        self._show(t_post, plan)
+        axes, origins = self._pose(plan.eye_position_signal(float(t_post)))
+        seen = np.full((2, 2), np.nan)
+        for e, (a, b) in enumerate(((lit.left, unlit.left), (lit.right, unlit.right))):
+            diff = np.clip(a.image.astype(float) - b.image.astype(float), 0, None) / 255.0
+            z = self._centroid(self.vision.see(diff), self.retina_grid)
+            if np.isfinite(z.real):
+                seen[e] = self._ray_to_screen_deg(origins[e], axes[e], z)
+        return seen, float(np.all(np.isfinite(seen)))
+
     def run(self, trial: Trial) -> dict:
-        """Run one trial; returns its table row (see ``ROW_COLUMNS``)."""
+        """Run one trial; returns its table row (see ``ROW_COLUMNS`` and ``TEXT_COLUMNS``)."""
         head, grid, cfg = self.head, self.grid, self.config
+        mech = cfg.model == "mechanistic"
+        on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
         fix_w = _screen_world(*trial.fixation_deg)
         tgt_w = _screen_world(*trial.target_deg)
         fl_w = _screen_world(*trial.flash_deg)
         latency = max(FIXATION_MS, 1 - int(trial.flash_time_ms))
         head.reset(seed=trial.seed, fixate=fix_w)
+        head.set_visible("screen", cfg.condition != "dark")
         head.set_object_position("fixation", fix_w)
         head.set_object_position("target", tgt_w)
+        head.set_object_position("ruler", _screen_world(trial.target_deg[0], trial.target_deg[1] + RULER_ELEVATION_DEG))
         head.set_object_position(_FLASH, fl_w)
         plan = head.plan_saccade_to(tgt_w, latency_ms=latency)
         head.start_saccade(plan)
         t_abs = plan.onset_ms + int(trial.flash_time_ms)
         head.step_ms(t_abs - head.time_ms)
-        ref = head.render(exposure_ms=FLASH_MS)
+        self._show(t_abs, plan)
+        exposure = FLASH_MS if on["smear"] else 0
+        ref = head.render(exposure_ms=exposure)
         head.flash(_FLASH, FLASH_MS)
-        frame = head.render(exposure_ms=FLASH_MS)
+        frame = head.render(exposure_ms=exposure)
         head.hide_flashes()
+        eye_h = np.degrees(head.eye_angles[:, 0])
 
-        gain = float(cfg.timecourse.gain(trial.flash_time_ms))
-        t_mid = t_abs + FLASH_MS / 2
+        t_mid = t_abs + exposure / 2  # the middle of the flash's retinal image
+        t_read = t_mid + (cfg.visual_latency_ms if on["latency"] else 0.0)  # when its response arrives
+        if mech:
+            gain = command_gain(plan, t_read, cfg.feedback_gain) if on["command_remap"] else 0.0
+        else:
+            gain = float(cfg.timecourse.gain(trial.flash_time_ms))
         copy_axes, copy_origins = self._pose(plan.intended_angles(t_mid))  # efference copy: where the target is
-        if cfg.eye_position == "signal":
-            read_angles = plan.eye_position_signal(t_mid + cfg.visual_latency_ms)
+        if cfg.eye_position == "signal" and on["eye_position_signal"]:
+            read_angles = plan.eye_position_signal(t_read)
         else:
             read_angles = plan.angles(t_mid)
         axes, origins = self._pose(read_angles)  # eye-position estimate: retinal -> head
         true_axes, true_origins = self._pose(plan.angles(t_mid))
         tgt_h = head.to_head(plan.intended_target)
         fl_h = head.to_head(fl_w)
-        perceived, closed = [], []
-        maps = []
+        weight, seen = 0.0, None
+        if mech and on["references"]:
+            seen, saw = self._seen_target(plan)
+            weight = cfg.reference_weight * saw
+        perceived, closed, maps = [], [], []
         for e, (img, img0) in enumerate(((frame.left, ref.left), (frame.right, ref.right))):
             diff = np.clip(img.image.astype(float) - img0.image.astype(float), 0, None) / 255.0
             view = self.vision.see(diff)
-            origin, ex = origins[e], axes[e]
             xt = copy_axes[e].T @ (tgt_h - copy_origins[e])
             z_t = complex(xt[2], xt[0]) / xt[1]
             centred = self.map.sample(view.coeffs, view.fovea, z_t)
-            per = centred.periphery
-            shifted = C.log_radius_shift(per, grid, gain / grid.delta)
-            z_rel = activity_centroid(shifted, centred.fovea, grid, fovea_mask=centred.fovea_mask,
-                                      threshold=cfg.threshold)
-            perceived.append(self._ray_to_screen_deg(origin, ex, z_t + z_rel))
+            z_rel, shifted = self._centroid(view, grid, centred, gain / grid.delta)
             xf = true_axes[e].T @ (fl_h - true_origins[e])
             z_f = complex(xf[2], xf[0]) / xf[1]
-            closed.append(self._ray_to_screen_deg(origin, ex, z_t + (z_f - z_t) * math.exp(-gain)))
+            z_cf = z_t + (z_f - z_t) * math.exp(-gain)
+            if not mech:
+                perceived.append(self._ray_to_screen_deg(origins[e], axes[e], z_t + z_rel))
+                closed.append(self._ray_to_screen_deg(origins[e], axes[e], z_cf))
+            else:
+                z_rel0 = self._centroid(view, grid, centred)[0] if gain else z_rel
+                extra = self._ray_to_screen_deg(origins[e], axes[e], z_t + z_rel0)  # unremapped, via the signal
+                extra_cf = self._ray_to_screen_deg(origins[e], axes[e], z_f)
+                if weight > 0:  # anchored on the seen target: the flash's remapped offset from it
+                    base = self._ray_to_screen_deg(copy_origins[e], copy_axes[e], z_t)
+                    anch = seen[e] + self._ray_to_screen_deg(copy_origins[e], copy_axes[e], z_t + z_rel) - base
+                    anch_cf = seen[e] + self._ray_to_screen_deg(copy_origins[e], copy_axes[e], z_cf) - base
+                else:
+                    anch = anch_cf = np.zeros(2)
+                perceived.append(weight * anch + (1 - weight) * extra)
+                closed.append(weight * anch_cf + (1 - weight) * extra_cf)
             maps.append((view, centred, shifted, z_t, z_rel))
         self.last = dict(frame=frame, reference=ref, maps=maps, plan=plan)
 
@@ -239,6 +332,7 @@ class TrialRunner:
             "closed_form_x_deg": cf[0], "closed_form_y_deg": cf[1],
             "perceived_left_x_deg": perceived[0][0], "perceived_left_y_deg": perceived[0][1],
             "perceived_right_x_deg": perceived[1][0], "perceived_right_y_deg": perceived[1][1],
-            "eye_h_left_deg": math.degrees(head.eye_angles[0, 0]), "eye_h_right_deg": math.degrees(head.eye_angles[1, 0]),
-            "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": t_abs,
+            "eye_h_left_deg": eye_h[0], "eye_h_right_deg": eye_h[1],
+            "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": t_abs, "reference_weight": weight,
+            "model": cfg.model, "condition": cfg.condition, "paradigm": cfg.paradigm,
         }
