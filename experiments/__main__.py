@@ -2,6 +2,7 @@
 
 run        perisaccadic flash-localization study (table, figures, summary, Rerun recording)
 saccades   saccade kinematics and the eye-position signal against published data (figure, table)
+phenomena  which published perisaccadic phenomena each perception model reproduces (table, figures)
 visualize  record a run of the environment in Rerun (``--out FILE.rrd``, ``--spawn`` or ``--serve``)
 train      train a saccade agent on a task
 evaluate   evaluate a saved, random or heuristic policy
@@ -17,7 +18,8 @@ import importlib
 import sys
 
 # command modules, in the order shown by --help
-COMMAND_MODULES = ("experiments.study", "experiments.saccades", "experiments.recording", "experiments.rl")
+COMMAND_MODULES = ("experiments.study", "experiments.saccades", "experiments.phenomena", "experiments.recording",
+                   "experiments.rl")
 
 
 def build_parser() -> argparse.ArgumentParser:

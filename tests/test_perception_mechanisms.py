@@ -126,3 +126,29 @@ def test_config_refuses_unknown_names():
     for name, bad in (("model", "bayes"), ("condition", "twilight"), ("paradigm", "separation")):
         with pytest.raises(ValueError, match=name):
             TrialConfig(**{name: bad})
+
+
+def test_phenomena_command_writes_the_report(tmp_path):
+    """``python -m experiments phenomena``: one row per (phenomenon, model) with the published
+    description and what was measured; the mechanistic model reproduces what the tests above show."""
+    import csv
+
+    from experiments.__main__ import main
+    from experiments.phenomena import PHENOMENA
+
+    assert main(["phenomena", "--out", str(tmp_path), "--no-progress"]) == 0
+    with open(tmp_path / "phenomena.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == ["phenomenon", "model", "published", "simulated", "reproduced"]
+    assert {(r["phenomenon"], r["model"]) for r in rows} == {(p, m) for p in PHENOMENA for m in ("mechanistic", "paper")}
+    assert {r["reproduced"] for r in rows} <= {"yes", "no", "not tested"}
+    mech = {r["phenomenon"]: r["reproduced"] for r in rows if r["model"] == "mechanistic"}
+    for p in ("compression_near_onset", "shift_in_dark", "compression_needs_references", "compression_grows_with_amplitude"):
+        assert mech[p] == "yes", (p, mech)
+    paper = {r["phenomenon"]: r["reproduced"] for r in rows if r["model"] == "paper"}
+    assert paper["compression_needs_references"] == "no"  # a set curve does not know about references
+    assert len(list(tmp_path.glob("*.png"))) == 5
+    # a second run resumes every design from its tables (nothing is redone) and gives the same report
+    before = (tmp_path / "phenomena.csv").read_text()
+    assert main(["phenomena", "--out", str(tmp_path), "--no-progress"]) == 0
+    assert (tmp_path / "phenomena.csv").read_text() == before

@@ -14,7 +14,7 @@ import numpy as np
 
 from .timecourse import RemapTimeCourse
 
-__all__ = ["compression_index", "summary", "format_summary", "sampling_error"]
+__all__ = ["compression_index", "separation_compression", "summary", "format_summary", "sampling_error"]
 
 
 def _spread(x: np.ndarray, y: np.ndarray) -> float:
@@ -33,6 +33,22 @@ def compression_index(table: dict[str, np.ndarray]) -> dict[float, tuple[np.ndar
             ci.append(1 - _spread(table["perceived_x_deg"][m], table["perceived_y_deg"][m])
                       / _spread(table["true_x_deg"][m], table["true_y_deg"][m]))
         out[float(a)] = (times, np.array(ci))
+    return out
+
+
+def separation_compression(table: dict[str, np.ndarray]) -> dict[float, tuple[np.ndarray, np.ndarray]]:
+    """{amplitude: (flash times (ms), 1 - mean perceived / mean true separation of the two flashes)}
+    from a ``separation`` paradigm table: how much the distance between two simultaneous flashes
+    shrinks, to compare with ``compression_index`` (how much their positions crowd together)."""
+    out = {}
+    amp, t = table["saccade_amplitude_deg"], table["flash_time_ms"]
+    true = np.hypot(table["second_true_x_deg"] - table["true_x_deg"], table["second_true_y_deg"] - table["true_y_deg"])
+    seen = np.hypot(table["second_perceived_x_deg"] - table["perceived_x_deg"],
+                    table["second_perceived_y_deg"] - table["perceived_y_deg"])
+    for a in np.unique(amp):
+        times = np.unique(t[amp == a])
+        out[float(a)] = (times, np.array([1 - seen[(amp == a) & (t == s)].mean() / true[(amp == a) & (t == s)].mean()
+                                          for s in times]))
     return out
 
 

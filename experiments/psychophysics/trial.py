@@ -54,6 +54,9 @@ _PRIMARY_EYE_BASIS = np.column_stack([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1
 
 SCREEN_DISTANCE = 1.0  # the dots scene's screen, metres ahead of the cyclopean eye
 _FLASH = "flash_00"
+_FLASH2 = "flash_01"  # the second flash of the separation paradigm
+#: The second flash of ``separation``: this far (azimuth, elevation deg) from the first.
+SEPARATION_DEG = (4.0, 0.0)
 #: Fixation before saccade onset (ms; longer if a flash comes earlier): onset at the same sim time in every trial.
 FIXATION_MS = 200
 #: Flash duration (ms); the retina integrates it (``Head.render(exposure_ms=...)``).
@@ -69,8 +72,10 @@ ROW_COLUMNS = (
     "error_x_deg", "error_y_deg", "error_toward_x_deg", "error_toward_y_deg", "closed_form_x_deg",
     "closed_form_y_deg", "perceived_left_x_deg", "perceived_left_y_deg", "perceived_right_x_deg",
     "perceived_right_y_deg", "eye_h_left_deg", "eye_h_right_deg", "saccade_duration_ms", "flash_sim_ms",
-    "reference_weight",
+    "reference_weight", "second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg", "second_perceived_y_deg",
 )
+#: Columns that are NaN by design where they do not apply (the second flash of ``separation``).
+OPTIONAL_COLUMNS = ("second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg", "second_perceived_y_deg")
 #: Text columns of a trial's row (after ``ROW_COLUMNS``): the perception model, viewing condition, paradigm.
 TEXT_COLUMNS = ("model", "condition", "paradigm")
 
@@ -94,7 +99,8 @@ class TrialConfig:
         ``mechanisms.MECHANISMS``) the mechanistic model's.
     condition : ``"references"`` (the target stays lit and a ruler appears at saccade offset) or
         ``"dark"`` (black screen; the target goes off at saccade onset).
-    paradigm : ``"localization"`` (one flash per trial).
+    paradigm : ``"localization"`` (one flash per trial) or ``"separation"`` (two simultaneous
+        flashes ``SEPARATION_DEG`` apart, each localized: perceived separation vs localization).
 
     Bounds (``bounds.LIMITS``): image 32-1024 px, fovy 20-120 deg, fovea 0.25-10 deg (and under a
     quarter of fovy), threshold [0, 1), oversample 1-8, flash radius 0.1-5 deg, endpoint noise 0-0.5.
@@ -178,7 +184,7 @@ class TrialRunner:
         self.map = TargetCentredMap(self.retina_grid, config.oversample)
         self.grid = self.map.grid  # the target-centred (read-out) grid
         # flash and target dots of the flash's size (the scene's default is ~0.46 deg: sub-pixel at 128 px)
-        for name in (_FLASH, "target"):
+        for name in (_FLASH, _FLASH2, "target"):
             gid = self.head.model.geom(name).id
             self.head.model.geom_size[gid, 0] = SCREEN_DISTANCE * math.tan(math.radians(config.flash_radius_deg))
         self.last = None  # the last trial's frames and maps (for recordings)
@@ -241,12 +247,14 @@ class TrialRunner:
 
     def run(self, trial: Trial) -> dict:
         """Run one trial; returns its table row (see ``ROW_COLUMNS`` and ``TEXT_COLUMNS``)."""
-        head, grid, cfg = self.head, self.grid, self.config
+        head, cfg = self.head, self.config
         mech = cfg.model == "mechanistic"
         on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
+        two = cfg.paradigm == "separation"
         fix_w = _screen_world(*trial.fixation_deg)
         tgt_w = _screen_world(*trial.target_deg)
         fl_w = _screen_world(*trial.flash_deg)
+        fl2_w = _screen_world(trial.flash_deg[0] + SEPARATION_DEG[0], trial.flash_deg[1] + SEPARATION_DEG[1])
         latency = max(FIXATION_MS, 1 - int(trial.flash_time_ms))
         head.reset(seed=trial.seed, fixate=fix_w)
         head.set_visible("screen", cfg.condition != "dark")
@@ -254,6 +262,7 @@ class TrialRunner:
         head.set_object_position("target", tgt_w)
         head.set_object_position("ruler", _screen_world(trial.target_deg[0], trial.target_deg[1] + RULER_ELEVATION_DEG))
         head.set_object_position(_FLASH, fl_w)
+        head.set_object_position(_FLASH2, fl2_w)
         plan = head.plan_saccade_to(tgt_w, latency_ms=latency)
         head.start_saccade(plan)
         t_abs = plan.onset_ms + int(trial.flash_time_ms)
@@ -261,9 +270,11 @@ class TrialRunner:
         self._show(t_abs, plan)
         exposure = FLASH_MS if on["smear"] else 0
         ref = head.render(exposure_ms=exposure)
-        head.flash(_FLASH, FLASH_MS)
-        frame = head.render(exposure_ms=exposure)
-        head.hide_flashes()
+        frames = []
+        for name in ((_FLASH, _FLASH2) if two else (_FLASH,)):  # simultaneous flashes, read out one by one
+            head.flash(name, FLASH_MS)
+            frames.append(head.render(exposure_ms=exposure))
+            head.hide_flashes()
         eye_h = np.degrees(head.eye_angles[:, 0])
 
         t_mid = t_abs + exposure / 2  # the middle of the flash's retinal image
@@ -272,56 +283,33 @@ class TrialRunner:
             gain = command_gain(plan, t_read, cfg.feedback_gain) if on["command_remap"] else 0.0
         else:
             gain = float(cfg.timecourse.gain(trial.flash_time_ms))
-        copy_axes, copy_origins = self._pose(plan.intended_angles(t_mid))  # efference copy: where the target is
+        copy_pose = self._pose(plan.intended_angles(t_mid))  # efference copy: where the target is
         if cfg.eye_position == "signal" and on["eye_position_signal"]:
             read_angles = plan.eye_position_signal(t_read)
         else:
             read_angles = plan.angles(t_mid)
-        axes, origins = self._pose(read_angles)  # eye-position estimate: retinal -> head
-        true_axes, true_origins = self._pose(plan.angles(t_mid))
-        tgt_h = head.to_head(plan.intended_target)
-        fl_h = head.to_head(fl_w)
+        read_pose = self._pose(read_angles)  # eye-position estimate: retinal -> head
+        true_pose = self._pose(plan.angles(t_mid))
         weight, seen = 0.0, None
         if mech and on["references"]:
             seen, saw = self._seen_target(plan)
             weight = cfg.reference_weight * saw
-        perceived, closed, maps = [], [], []
-        for e, (img, img0) in enumerate(((frame.left, ref.left), (frame.right, ref.right))):
-            diff = np.clip(img.image.astype(float) - img0.image.astype(float), 0, None) / 255.0
-            view = self.vision.see(diff)
-            xt = copy_axes[e].T @ (tgt_h - copy_origins[e])
-            z_t = complex(xt[2], xt[0]) / xt[1]
-            centred = self.map.sample(view.coeffs, view.fovea, z_t)
-            z_rel, shifted = self._centroid(view, grid, centred, gain / grid.delta)
-            xf = true_axes[e].T @ (fl_h - true_origins[e])
-            z_f = complex(xf[2], xf[0]) / xf[1]
-            z_cf = z_t + (z_f - z_t) * math.exp(-gain)
-            if not mech:
-                perceived.append(self._ray_to_screen_deg(origins[e], axes[e], z_t + z_rel))
-                closed.append(self._ray_to_screen_deg(origins[e], axes[e], z_cf))
-            else:
-                z_rel0 = self._centroid(view, grid, centred)[0] if gain else z_rel
-                extra = self._ray_to_screen_deg(origins[e], axes[e], z_t + z_rel0)  # unremapped, via the signal
-                extra_cf = self._ray_to_screen_deg(origins[e], axes[e], z_f)
-                if weight > 0:  # anchored on the seen target: the flash's remapped offset from it
-                    base = self._ray_to_screen_deg(copy_origins[e], copy_axes[e], z_t)
-                    anch = seen[e] + self._ray_to_screen_deg(copy_origins[e], copy_axes[e], z_t + z_rel) - base
-                    anch_cf = seen[e] + self._ray_to_screen_deg(copy_origins[e], copy_axes[e], z_cf) - base
-                else:
-                    anch = anch_cf = np.zeros(2)
-                perceived.append(weight * anch + (1 - weight) * extra)
-                closed.append(weight * anch_cf + (1 - weight) * extra_cf)
-            maps.append((view, centred, shifted, z_t, z_rel))
-        self.last = dict(frame=frame, reference=ref, maps=maps, plan=plan)
+        tgt_h = head.to_head(plan.intended_target)
+        reads = [self._read(frame, ref, head.to_head(w), tgt_h, gain, weight, seen, copy_pose, read_pose, true_pose)
+                 for frame, w in zip(frames, (fl_w, fl2_w))]
+        perceived, closed, maps = reads[0]
+        self.last = dict(frame=frames[0], reference=ref, maps=maps, plan=plan)
 
         true = head_angles_deg(head, fl_w)[0]
         target = head_angles_deg(head, tgt_w)[0]
-        with warnings.catch_warnings():  # both eyes lost the flash: NaN, reported by the study, not a warning
-            warnings.simplefilter("ignore", RuntimeWarning)
-            p = np.nanmean(np.array(perceived), axis=0)
+        p = _mean_of_eyes(perceived)
         cf = np.mean(np.array(closed), axis=0)
         err = p - true
         toward = np.sign(target - true) * err
+        if two:
+            true2, p2 = head_angles_deg(head, fl2_w)[0], _mean_of_eyes(reads[1][0])
+        else:
+            true2 = p2 = np.full(2, np.nan)  # one flash: the second-flash columns do not apply
         return {
             "trial_id": trial.trial_id, "repetition": trial.repetition, "seed": trial.seed,
             "saccade_amplitude_deg": trial.amplitude_deg, "flash_time_ms": int(trial.flash_time_ms),
@@ -334,5 +322,48 @@ class TrialRunner:
             "perceived_right_x_deg": perceived[1][0], "perceived_right_y_deg": perceived[1][1],
             "eye_h_left_deg": eye_h[0], "eye_h_right_deg": eye_h[1],
             "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": t_abs, "reference_weight": weight,
+            "second_true_x_deg": true2[0], "second_true_y_deg": true2[1],
+            "second_perceived_x_deg": p2[0], "second_perceived_y_deg": p2[1],
             "model": cfg.model, "condition": cfg.condition, "paradigm": cfg.paradigm,
         }
+
+    def _read(self, frame, ref, fl_h, tgt_h, gain, weight, seen, copy_pose, read_pose, true_pose):
+        """Per eye, the perceived position (head-centred deg) of the flash in ``frame`` (minus ``ref``)
+        and its closed form, by the configured model; and the maps (for recordings)."""
+        mech = self.config.model == "mechanistic"
+        grid = self.grid
+        perceived, closed, maps = [], [], []
+        for e, (img, img0) in enumerate(((frame.left, ref.left), (frame.right, ref.right))):
+            diff = np.clip(img.image.astype(float) - img0.image.astype(float), 0, None) / 255.0
+            view = self.vision.see(diff)
+            (ca, co), (ra, ro), (ta, to) = ((a[e], o[e]) for a, o in (copy_pose, read_pose, true_pose))
+            xt = ca.T @ (tgt_h - co)
+            z_t = complex(xt[2], xt[0]) / xt[1]
+            centred = self.map.sample(view.coeffs, view.fovea, z_t)
+            z_rel, shifted = self._centroid(view, grid, centred, gain / grid.delta)
+            xf = ta.T @ (fl_h - to)
+            z_f = complex(xf[2], xf[0]) / xf[1]
+            z_cf = z_t + (z_f - z_t) * math.exp(-gain)
+            if not mech:
+                perceived.append(self._ray_to_screen_deg(ro, ra, z_t + z_rel))
+                closed.append(self._ray_to_screen_deg(ro, ra, z_cf))
+            else:
+                z_rel0 = self._centroid(view, grid, centred)[0] if gain else z_rel
+                extra = self._ray_to_screen_deg(ro, ra, z_t + z_rel0)  # unremapped, via the signal
+                extra_cf = self._ray_to_screen_deg(ro, ra, z_f)
+                if weight > 0:  # anchored on the seen target: the flash's remapped offset from it
+                    base = self._ray_to_screen_deg(co, ca, z_t)
+                    anch = seen[e] + self._ray_to_screen_deg(co, ca, z_t + z_rel) - base
+                    anch_cf = seen[e] + self._ray_to_screen_deg(co, ca, z_cf) - base
+                else:
+                    anch = anch_cf = np.zeros(2)
+                perceived.append(weight * anch + (1 - weight) * extra)
+                closed.append(weight * anch_cf + (1 - weight) * extra_cf)
+            maps.append((view, centred, shifted, z_t, z_rel))
+        return perceived, closed, maps
+
+
+def _mean_of_eyes(perceived: list) -> np.ndarray:
+    with warnings.catch_warnings():  # both eyes lost the flash: NaN, reported by the study, not a warning
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmean(np.array(perceived), axis=0)
