@@ -21,9 +21,9 @@ anisotropic_compression            compression along the saccade exceeds that ac
 separation_less_than_localization  two simultaneous flashes' separation compresses < half as much as
                                    their positions do (Reeve, Clark & O'Regan 2008, as cited by the
                                    issue that asked for this report)
-displacement_suppression           intrasaccadic target steps unnoticed, a blank restores them
-                                   (Bridgeman et al. 1975; Deubel, Schneider & Bridgeman 1996):
-                                   the paradigm is not built yet, reported as not tested
+displacement_suppression           the threshold for reporting an intrasaccadic target step's direction
+                                   is > 2x higher without a post-saccadic blank than with a 250 ms one
+                                   (Bridgeman, Hendry & Stark 1975; Deubel, Schneider & Bridgeman 1996)
 =================================  ==================================================================
 
 Writes ``phenomena.csv`` (``phenomenon, model, published, simulated, reproduced``: ``yes``, ``no``
@@ -69,9 +69,12 @@ def _designs():
     d20 = Design(amplitudes_deg=(20.0,), flash_offsets_deg=OFFSETS, flash_times_ms=TIMES, name="phenomena20")
     amp = Design(amplitudes_deg=(12.0, 24.0), flash_offsets_deg=OFFSETS, flash_times_ms=(-25, 0, 25), name="amplitude")
     sep = Design(amplitudes_deg=(20.0,), flash_offsets_deg=OFFSETS, flash_times_ms=(-150, -25, 0, 25), name="separation")
+    disp = Design(amplitudes_deg=(20.0,), flash_offsets_deg=tuple((s, 0.0) for s in (-4, -3, -2, -1, 0, 1, 2, 3, 4)),
+                  flash_times_ms=(0, 250), repetitions=6, name="displacement")
     return {"references": (d20, dict(condition="references")), "dark": (d20, dict(condition="dark")),
             "amplitude": (amp, dict(condition="references")),
-            "separation": (sep, dict(condition="references", paradigm="separation"))}
+            "separation": (sep, dict(condition="references", paradigm="separation")),
+            "displacement": (disp, dict(condition="dark", paradigm="displacement"))}
 
 
 def measure(out: Path, models=MODELS, workers: int = 1, progress: bool = False) -> dict:
@@ -96,7 +99,7 @@ def _ci_xy(t: dict, sel: np.ndarray) -> tuple[float, float]:
 
 def score(tables: dict) -> list[dict]:
     """One row per (phenomenon, model): published, simulated (a short measured statement), reproduced."""
-    from .psychophysics import compression_index, separation_compression
+    from .psychophysics import compression_index, displacement_psychometrics, separation_compression
 
     rows = []
     for model, tab in tables.items():
@@ -132,7 +135,10 @@ def score(tables: dict) -> list[dict]:
         s_m, l_m = float(sc[nm].mean()), float(lc[nm].mean())
         res["separation_less_than_localization"] = (f"separation {s_m:.2f}, localization {l_m:.2f} (near onset)",
                                                     s_m < 0.5 * l_m)
-        res["displacement_suppression"] = ("paradigm not built yet", None)
+        fits = displacement_psychometrics(tab["displacement"])
+        t0, t250 = fits[0]["threshold_deg"], fits[250]["threshold_deg"]
+        res["displacement_suppression"] = (f"threshold {t0:.2f} deg without blank, {t250:.2f} with 250 ms",
+                                           t0 > 2 * t250)
         for name in PHENOMENA:
             text, ok = res[name]
             rows.append({"phenomenon": name, "model": model, "published": PUBLISHED[name], "simulated": text,
@@ -201,6 +207,16 @@ def plot(tables: dict, out: Path) -> list[Path]:
     ax.set(title="two simultaneous flashes 4° apart", xlabel="flash time re onset (ms)", ylabel="compression")
     ax.legend(fontsize=8)
     save(fig, "separation_less_than_localization")
+    from .psychophysics import displacement_psychometrics
+
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    for model in tables:
+        for b, r in displacement_psychometrics(tables[model]["displacement"]).items():
+            ax.plot(r["steps_deg"], r["p_forward"], "-o" if b == 0 else "--s",
+                    label=f"{model}, blank {b} ms: {r['threshold_deg']:.2f}°")
+    ax.set(title="target step during the saccade", xlabel="step (deg, + forward)", ylabel='P("forward")')
+    ax.legend(fontsize=7)
+    save(fig, "displacement_suppression")
     return paths
 
 

@@ -137,8 +137,9 @@ def add_subcommand(subparsers) -> None:
     d.add_argument("--positions", choices=("fig11", "morrone"), default=None,
                    help="flash array: fig11 = 24 dots (6 columns x 4 rows) around the target, morrone = 8 dots "
                         "mostly along the saccade path (default fig11; --quick: morrone)")
-    d.add_argument("--repetitions", type=_num_type("repetitions"), default=1,
-                   help=f"repetitions of every condition, {b['repetitions']} (at most {MAX_TRIALS} trials in all)")
+    d.add_argument("--repetitions", type=_num_type("repetitions"), default=None,
+                   help=f"repetitions of every condition, {b['repetitions']} (at most {MAX_TRIALS} trials in all; "
+                        "default 1, 10 for --paradigm displacement)")
     d.add_argument("--seed", type=_num_type("seed"), default=0, help=f"base seed (trial i uses seed + i), {b['seed']}")
     pm = p.add_argument_group("perception model and condition")
     pm.add_argument("--model", choices=("mechanistic", "paper"), default="mechanistic",
@@ -148,14 +149,21 @@ def add_subcommand(subparsers) -> None:
     pm.add_argument("--condition", choices=("references", "dark"), default="references",
                     help="references: the target stays lit and a ruler appears after the saccade; dark: black "
                          "screen, the target goes off at saccade onset")
-    pm.add_argument("--paradigm", choices=("localization", "separation"), default="localization",
+    pm.add_argument("--paradigm", choices=("localization", "separation", "displacement"), default="localization",
                     help="localization: one flash per trial; separation: two simultaneous flashes 4 deg apart "
-                         "along the saccade, each localized (perceived separation vs localization)")
+                         "along the saccade, each localized (perceived separation vs localization); displacement: "
+                         "the target steps by -4..4 deg during the saccade, with --flash-times as blank durations "
+                         "(default 0,250 ms); psychometric functions and thresholds")
     pm.add_argument("--feedback-gain", type=_num_type("feedback_gain"), default=4.5,
                     help=f"mechanistic: remapping gain per deg/ms of eye-position-signal speed, {b['feedback_gain']}")
     pm.add_argument("--reference-weight", type=_num_type("reference_weight"), default=1.0,
                     help=f"mechanistic: weight of the reference-anchored read-out when a reference is seen, "
                          f"{b['reference_weight']}")
+    pm.add_argument("--stability-tolerance", type=_num_type("stability_tolerance"), default=0.1,
+                    help=f"displacement: a target seen at landing this close (x amplitude) is taken as stable, "
+                         f"{b['stability_tolerance']}")
+    pm.add_argument("--report-noise-deg", type=_num_type("report_noise_deg"), default=0.5,
+                    help=f"displacement: s.d. of the report noise, {b['report_noise_deg']}")
     pm.add_argument("--disable", type=_mechanisms, default=(), metavar="NAME,...",
                     help="mechanistic: switch ingredients off: smear, latency, eye_position_signal, command_remap, "
                          "references")
@@ -203,6 +211,11 @@ def add_subcommand(subparsers) -> None:
     p.set_defaults(func=_handler, _parser=p)
 
 
+#: The displacement paradigm's target steps (deg along the saccade) and blank durations (ms).
+DISPLACEMENT_STEPS_DEG = (-4.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0, 4.0)
+DISPLACEMENT_BLANKS_MS = (0, 250)
+
+
 def _mechanisms(text: str) -> tuple[str, ...]:
     from .psychophysics.mechanisms import MECHANISMS
 
@@ -225,7 +238,17 @@ def _build(args: argparse.Namespace):
     amps = args.amplitudes or base["amplitudes_deg"]
     times = args.flash_times or base["flash_times_ms"]
     offsets = FIG11_OFFSETS_DEG if positions == "fig11" else MORRONE_OFFSETS_DEG
-    n = len(amps) * len(offsets) * len(times) * args.repetitions
+    reps = args.repetitions
+    if args.paradigm == "displacement":  # target steps along the saccade x blank durations
+        if args.positions:
+            parser.error("argument --positions: the displacement paradigm has target steps, not flash positions")
+        offsets = tuple((s, 0.0) for s in DISPLACEMENT_STEPS_DEG)
+        times = args.flash_times or DISPLACEMENT_BLANKS_MS
+        if any(t < 0 for t in times):
+            parser.error("argument --flash-times: in the displacement paradigm these are blank durations, ms >= 0")
+        reps = reps or 10
+    reps = reps or 1
+    n = len(amps) * len(offsets) * len(times) * reps
     if n > MAX_TRIALS:
         parser.error(f"argument --repetitions: the design would have {n} trials, more than {MAX_TRIALS}; lower "
                      "--repetitions or give fewer --amplitudes or --flash-times")
@@ -234,7 +257,7 @@ def _build(args: argparse.Namespace):
                      f"got {args.fovea_deg:g}")
     try:
         design = Design(amplitudes_deg=amps, flash_offsets_deg=offsets, flash_times_ms=times,
-                        repetitions=args.repetitions, seed=args.seed, name="quick" if args.quick else "default")
+                        repetitions=reps, seed=args.seed, name="quick" if args.quick else "default")
         tc = RemapTimeCourse(args.peak_time_ms, args.rise_ms, args.decay_ms, args.peak_gain)
         config = TrialConfig(image_size=args.image_size, fovy_deg=args.fovy_deg, fovea_deg=args.fovea_deg,
                              timecourse=tc, threshold=args.threshold, endpoint_noise=args.endpoint_noise,
@@ -242,7 +265,8 @@ def _build(args: argparse.Namespace):
                              saccade_model=args.saccade_model, eye_position=args.eye_position,
                              visual_latency_ms=args.visual_latency_ms, model=args.model, condition=args.condition,
                              paradigm=args.paradigm, feedback_gain=args.feedback_gain,
-                             reference_weight=args.reference_weight, disabled=args.disable)
+                             reference_weight=args.reference_weight, disabled=args.disable,
+                             stability_tolerance=args.stability_tolerance, report_noise_deg=args.report_noise_deg)
     except (ValueError, TypeError) as e:
         parser.error(str(e))
     return design, config, args.formats
@@ -309,8 +333,9 @@ def _check_finite(table: dict, csv_path: Path) -> None:
     bad = np.zeros(len(table["trial_id"]), bool)
     cols = []
     for c in ROW_COLUMNS:
-        if c in OPTIONAL_COLUMNS and table["paradigm"][0] != "separation":
-            continue  # NaN by design: the second flash of the separation paradigm
+        paradigm = str(table["paradigm"][0]) if len(table["paradigm"]) else ""
+        if any(c in cols_ and p != paradigm for p, cols_ in OPTIONAL_COLUMNS.items()):
+            continue  # NaN by design: a column of another paradigm
         m = ~np.isfinite(table[c])
         if m.any():
             cols.append(c)
@@ -340,6 +365,8 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
         csv_path = run_trials(design, config, out, workers=workers, progress=progress)
         table = read_table(csv_path)
         _check_finite(table, csv_path)
+        if config.paradigm == "displacement":
+            return _displacement_outputs(table, config, out, csv_path, formats)
         rows = summary(table)
         text = format_summary(rows, n_trials=len(table["trial_id"]), config=config)
         (out / "summary.txt").write_text(text)
@@ -350,6 +377,31 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
         figures = save_all(table, out, config.timecourse, formats)
         rrd = record_study(out / "study.rrd", table, config) if recording else None
     return {"table": csv_path, "summary": text, "figures": figures, "recording": rrd}
+
+
+def _displacement_outputs(table, config, out: Path, csv_path: Path, formats) -> dict:
+    """Summary (per blank: PSE and threshold of the psychometric function) and its figure; no
+    recording (it follows flashes)."""
+    from .psychophysics import displacement_psychometrics, save_displacement
+
+    fits = displacement_psychometrics(table)
+    rows = [{"blank_ms": b, "pse_deg": round(r["pse_deg"], 3), "threshold_deg": round(r["threshold_deg"], 3),
+             "n_trials": int(np.sum(table["flash_time_ms"] == b))} for b, r in fits.items()]
+    lines = ["Saccadic suppression of displacement (target steps during the saccade; + = forward)",
+             f"trials: {len(table['trial_id'])}; model: {config.model}, condition: {config.condition}",
+             "blank (ms)   PSE (deg)   threshold (deg)   P(forward) per step " +
+             " ".join(f"{s:+g}" for s in next(iter(fits.values()))["steps_deg"])]
+    for b, r in fits.items():
+        lines.append(f"{b:10d}   {r['pse_deg']:+9.2f}   {r['threshold_deg']:15.2f}   " +
+                     " ".join(f"{p:.2f}" for p in r["p_forward"]))
+    text = "\n".join(lines) + "\n"
+    (out / "summary.txt").write_text(text)
+    with (out / "summary.csv").open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    figures = save_displacement(table, out, formats)
+    return {"table": csv_path, "summary": text, "figures": figures, "recording": None}
 
 
 # ---------------------------------------------------------------------------------------------- command

@@ -26,9 +26,11 @@ _EXPORTS = {
     "activity_centroid": "decode", "DEFAULT_THRESHOLD": "decode",
     "run_trials": "runner", "read_table": "runner", "write_parquet": "runner", "config_fingerprint": "runner",
     "config_hash": "runner", "TABLE_COLUMNS": "runner", "FolderBusyError": "runner",
-    "compression_index": "analysis", "separation_compression": "analysis", "summary": "analysis", "format_summary": "analysis",
+    "compression_index": "analysis", "separation_compression": "analysis",
+    "displacement_psychometrics": "analysis", "summary": "analysis", "format_summary": "analysis",
     "sampling_error": "analysis",
-    "fig11": "figures", "perceived_vs_time": "figures", "compression_vs_time": "figures", "save_all": "figures",
+    "fig11": "figures", "perceived_vs_time": "figures", "compression_vs_time": "figures", "save_all": "figures", "psychometric": "figures",
+    "save_displacement": "figures",
     "LIMITS": "bounds", "MAX_TRIALS": "bounds",
 }
 

@@ -14,7 +14,8 @@ import numpy as np
 
 from .timecourse import RemapTimeCourse
 
-__all__ = ["compression_index", "separation_compression", "summary", "format_summary", "sampling_error"]
+__all__ = ["compression_index", "separation_compression", "displacement_psychometrics", "summary", "format_summary",
+           "sampling_error"]
 
 
 def _spread(x: np.ndarray, y: np.ndarray) -> float:
@@ -49,6 +50,32 @@ def separation_compression(table: dict[str, np.ndarray]) -> dict[float, tuple[np
         times = np.unique(t[amp == a])
         out[float(a)] = (times, np.array([1 - seen[(amp == a) & (t == s)].mean() / true[(amp == a) & (t == s)].mean()
                                           for s in times]))
+    return out
+
+
+def displacement_psychometrics(table: dict[str, np.ndarray]) -> dict[int, dict]:
+    """Per blank duration (ms) of a ``displacement`` table: the proportion of "forward" reports per
+    step and a cumulative-Gaussian fit by maximum likelihood (2 % lapses): ``pse_deg`` (the step
+    seen as none) and ``threshold_deg`` (its s.d.: the step from 50 % to 84 % "forward")."""
+    from scipy.optimize import minimize
+    from scipy.stats import norm
+
+    out = {}
+    steps, blank, fwd = table["flash_dx_deg"], table["flash_time_ms"], table["reported_forward"]
+    for b in np.unique(blank):
+        sel = blank == b
+        x, y = steps[sel], fwd[sel]
+
+        def nll(theta):
+            p = 0.01 + 0.98 * norm.cdf((x - theta[0]) / np.exp(theta[1]))
+            return -np.sum(y * np.log(p) + (1 - y) * np.log(1 - p))
+
+        span = max(float(np.ptp(x)), 1e-3)
+        best = min((minimize(nll, [m, np.log(s)], method="Nelder-Mead") for m in (x.min(), 0.0, x.max())
+                    for s in (0.1 * span, 0.5 * span, 2 * span)), key=lambda r: r.fun)
+        levels = np.unique(x)
+        out[int(b)] = {"steps_deg": levels, "p_forward": np.array([y[x == v].mean() for v in levels]),
+                       "pse_deg": float(best.x[0]), "threshold_deg": float(min(np.exp(best.x[1]), 1e3))}
     return out
 
 

@@ -118,3 +118,32 @@ def save_all(table: dict[str, np.ndarray], out_dir: str | Path, timecourse: Rema
     paths += _save(perceived_vs_time(table), out, "perceived_vs_time", formats)
     paths += _save(compression_vs_time(table, timecourse), out, "compression_vs_time", formats)
     return paths
+
+
+def psychometric(table: dict[str, np.ndarray]):
+    """Displacement paradigm: proportion of "forward" reports vs the target's step, per blank, with
+    the fitted cumulative Gaussians (``analysis.displacement_psychometrics``)."""
+    from scipy.stats import norm
+
+    from .analysis import displacement_psychometrics
+
+    fig, ax = _plt().subplots(figsize=(5.5, 3.8))
+    for b, r in displacement_psychometrics(table).items():
+        line, = ax.plot(r["steps_deg"], r["p_forward"], "o", label=f"blank {b} ms: threshold {r['threshold_deg']:.2f} deg")
+        xs = np.linspace(r["steps_deg"].min(), r["steps_deg"].max(), 200)
+        ax.plot(xs, 0.01 + 0.98 * norm.cdf((xs - r["pse_deg"]) / r["threshold_deg"]), color=line.get_color())
+    ax.set(xlabel="target step during the saccade (deg, + = forward)", ylabel='P("forward")',
+           title="saccadic suppression of displacement", ylim=(-0.03, 1.03))
+    ax.axvline(0, color="0.7", lw=0.8)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def save_displacement(table: dict[str, np.ndarray], out_dir: str | Path,
+                      formats: tuple[str, ...] = ("png", "svg")) -> list[Path]:
+    """Write the displacement paradigm's psychometric functions into ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    return _save(psychometric(table), out, "psychometric", formats)
+

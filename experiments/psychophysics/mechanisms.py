@@ -58,8 +58,8 @@ __all__ = ["MODELS", "CONDITIONS", "PARADIGMS", "MECHANISMS", "command_gain"]
 MODELS = ("mechanistic", "paper")
 #: Viewing conditions of ``TrialConfig.condition``.
 CONDITIONS = ("references", "dark")
-#: Paradigms of ``TrialConfig.paradigm`` (the displacement paradigm is not built yet).
-PARADIGMS = ("localization", "separation")
+#: Paradigms of ``TrialConfig.paradigm``.
+PARADIGMS = ("localization", "separation", "displacement")
 #: Ingredients of the mechanistic model that ``TrialConfig.disabled`` can switch off.
 MECHANISMS = ("smear", "latency", "eye_position_signal", "command_remap", "references")
 

@@ -73,9 +73,13 @@ ROW_COLUMNS = (
     "closed_form_y_deg", "perceived_left_x_deg", "perceived_left_y_deg", "perceived_right_x_deg",
     "perceived_right_y_deg", "eye_h_left_deg", "eye_h_right_deg", "saccade_duration_ms", "flash_sim_ms",
     "reference_weight", "second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg", "second_perceived_y_deg",
+    "perceived_step_deg", "reported_forward",
 )
-#: Columns that are NaN by design where they do not apply (the second flash of ``separation``).
-OPTIONAL_COLUMNS = ("second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg", "second_perceived_y_deg")
+#: Columns that are NaN by design where they do not apply: the second flash of ``separation``, the
+#: step of ``displacement``.
+OPTIONAL_COLUMNS = {"separation": ("second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg",
+                                   "second_perceived_y_deg"),
+                    "displacement": ("perceived_step_deg", "reported_forward")}
 #: Text columns of a trial's row (after ``ROW_COLUMNS``): the perception model, viewing condition, paradigm.
 TEXT_COLUMNS = ("model", "condition", "paradigm")
 
@@ -99,8 +103,11 @@ class TrialConfig:
         ``mechanisms.MECHANISMS``) the mechanistic model's.
     condition : ``"references"`` (the target stays lit and a ruler appears at saccade offset) or
         ``"dark"`` (black screen; the target goes off at saccade onset).
-    paradigm : ``"localization"`` (one flash per trial) or ``"separation"`` (two simultaneous
-        flashes ``SEPARATION_DEG`` apart, each localized: perceived separation vs localization).
+    paradigm : ``"localization"`` (one flash per trial), ``"separation"`` (two simultaneous
+        flashes ``SEPARATION_DEG`` apart, each localized: perceived separation vs localization) or
+        ``"displacement"`` (no flash: the target steps by the trial's ``flash_dx_deg`` during the
+        saccade, blanked for the trial's ``flash_time_ms`` >= 0; the model reports the step's
+        direction; ``stability_tolerance`` and ``report_noise_deg`` are its parameters).
 
     Bounds (``bounds.LIMITS``): image 32-1024 px, fovy 20-120 deg, fovea 0.25-10 deg (and under a
     quarter of fovy), threshold [0, 1), oversample 1-8, flash radius 0.1-5 deg, endpoint noise 0-0.5.
@@ -124,13 +131,15 @@ class TrialConfig:
     feedback_gain: float = 4.5
     reference_weight: float = 1.0
     disabled: tuple = ()
+    stability_tolerance: float = 0.1
+    report_noise_deg: float = 0.5
 
     def __post_init__(self) -> None:
         # bounds: ``bounds.LIMITS`` (TypeError for wrong types, ValueError for NaN/inf/out of range)
         for name in ("image_size", "oversample"):
             object.__setattr__(self, name, check_int(name, getattr(self, name)))
         for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise", "visual_latency_ms",
-                     "feedback_gain", "reference_weight"):
+                     "feedback_gain", "reference_weight", "stability_tolerance", "report_noise_deg"):
             object.__setattr__(self, name, check_real(name, getattr(self, name)))
         if not isinstance(self.disabled, (tuple, list)) or not all(isinstance(d, str) for d in self.disabled):
             raise TypeError(f"disabled must be a tuple of mechanism names from {', '.join(MECHANISMS)}; "
@@ -247,6 +256,8 @@ class TrialRunner:
 
     def run(self, trial: Trial) -> dict:
         """Run one trial; returns its table row (see ``ROW_COLUMNS`` and ``TEXT_COLUMNS``)."""
+        if self.config.paradigm == "displacement":
+            return self._run_displacement(trial)
         head, cfg = self.head, self.config
         mech = cfg.model == "mechanistic"
         on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
@@ -324,6 +335,93 @@ class TrialRunner:
             "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": t_abs, "reference_weight": weight,
             "second_true_x_deg": true2[0], "second_true_y_deg": true2[1],
             "second_perceived_x_deg": p2[0], "second_perceived_y_deg": p2[1],
+            "perceived_step_deg": float("nan"), "reported_forward": float("nan"),
+            "model": cfg.model, "condition": cfg.condition, "paradigm": cfg.paradigm,
+        }
+
+    def _target_seen(self, t_ms: int, plan: models.SaccadePlan, latency: float,
+                     true_eye: bool = False) -> tuple[np.ndarray, float]:
+        """Step to ``t_ms``; the target's head-centred position (deg, mean of the eyes) as seen then
+        through the eye-position signal of ``t_ms + latency`` (or the true eye), and its retinal
+        offset from the fovea (deg)."""
+        head = self.head
+        head.step_ms(t_ms - head.time_ms)
+        lit = head.render()
+        head.set_visible("target", False)
+        unlit = head.render()
+        head.set_visible("target", True)
+        axes, origins = self._pose(plan.angles(float(t_ms)) if true_eye else plan.eye_position_signal(t_ms + latency))
+        pos, off = [], []
+        for e, (a, b) in enumerate(((lit.left, unlit.left), (lit.right, unlit.right))):
+            diff = np.clip(a.image.astype(float) - b.image.astype(float), 0, None) / 255.0
+            z = self._centroid(self.vision.see(diff), self.retina_grid)
+            pos.append(self._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
+            off.append(math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan)
+        return _mean_of_eyes(pos), float(np.nanmean(off)) if np.isfinite(off).any() else float("nan")
+
+    def _run_displacement(self, trial: Trial) -> dict:
+        """Saccadic suppression of displacement (Bridgeman, Hendry & Stark 1975; Deubel, Schneider &
+        Bridgeman 1996): the target steps by ``trial.flash_dx_deg`` (deg along the saccade) 10 ms
+        after saccade onset and, with a blank, is off from then until ``trial.flash_time_ms`` after
+        the saccade's offset. The step's perceived size compares the target seen after the saccade
+        (through the eye-position signal) with the target seen before it; with ``references`` on, a
+        target seen at landing within the range of normal landing errors (``stability_tolerance`` x
+        amplitude, as a Gaussian weight) is taken as stable -- the anchored route: no step -- the
+        stability assumption of Deubel et al. 1996. Reports "forward" when the perceived step plus
+        Gaussian report noise (``report_noise_deg``, seeded per trial) is positive."""
+        head, cfg = self.head, self.config
+        mech = cfg.model == "mechanistic"
+        on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
+        blank = int(trial.flash_time_ms)
+        if blank < 0:
+            raise ValueError(f"the displacement paradigm's flash_times_ms are blank durations (ms >= 0); got {blank}")
+        latency = cfg.visual_latency_ms if on["latency"] else 0.0
+        fix_w = _screen_world(*trial.fixation_deg)
+        tgt_w = _screen_world(*trial.target_deg)
+        step_w = _screen_world(trial.target_deg[0] + trial.flash_dx_deg, trial.target_deg[1] + trial.flash_dy_deg)
+        head.reset(seed=trial.seed, fixate=fix_w)
+        head.set_visible("screen", cfg.condition != "dark")
+        head.set_object_position("fixation", fix_w)
+        head.set_object_position("target", tgt_w)
+        plan = head.plan_saccade_to(tgt_w, latency_ms=FIXATION_MS)
+        head.start_saccade(plan)
+        use_eps = cfg.eye_position == "signal" and on["eye_position_signal"]
+        pre, _ = self._target_seen(plan.onset_ms - 150, plan, latency, not use_eps)  # before the saccade: settled
+        head.step_ms(plan.onset_ms + 10 - head.time_ms)
+        head.set_object_position("target", step_w)
+        if blank:
+            head.set_visible("target", False)
+        t_seen = int(math.ceil(plan.offset_ms)) + blank
+        head.step_ms(t_seen - head.time_ms)
+        head.set_visible("target", True)
+        post, mismatch = self._target_seen(t_seen, plan, latency, not use_eps)
+        weight = 0.0
+        if mech and on["references"] and blank == 0 and np.isfinite(mismatch):
+            tol = cfg.stability_tolerance * trial.amplitude_deg
+            weight = cfg.reference_weight * math.exp(-0.5 * (mismatch / tol) ** 2) if tol > 0 else 0.0
+        step = (1.0 - weight) * float(post[0] - pre[0])
+        noise = np.random.default_rng(trial.seed).normal(0.0, cfg.report_noise_deg) if cfg.report_noise_deg else 0.0
+        true = head_angles_deg(head, step_w)[0]
+        target = head_angles_deg(head, tgt_w)[0]
+        err = post - true
+        eye_h = np.degrees(head.eye_angles[:, 0])
+        self.last = dict(plan=plan)
+        return {
+            "trial_id": trial.trial_id, "repetition": trial.repetition, "seed": trial.seed,
+            "saccade_amplitude_deg": trial.amplitude_deg, "flash_time_ms": blank,
+            "flash_dx_deg": trial.flash_dx_deg, "flash_dy_deg": trial.flash_dy_deg, "gain": 0.0,
+            "true_x_deg": true[0], "true_y_deg": true[1], "perceived_x_deg": post[0], "perceived_y_deg": post[1],
+            "target_x_deg": target[0], "target_y_deg": target[1], "error_x_deg": err[0], "error_y_deg": err[1],
+            "error_toward_x_deg": np.sign(target[0] - true[0]) * err[0],
+            "error_toward_y_deg": np.sign(target[1] - true[1]) * err[1],
+            "closed_form_x_deg": true[0], "closed_form_y_deg": true[1],
+            "perceived_left_x_deg": post[0], "perceived_left_y_deg": post[1],
+            "perceived_right_x_deg": post[0], "perceived_right_y_deg": post[1],
+            "eye_h_left_deg": eye_h[0], "eye_h_right_deg": eye_h[1],
+            "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": t_seen, "reference_weight": weight,
+            "second_true_x_deg": float("nan"), "second_true_y_deg": float("nan"),
+            "second_perceived_x_deg": float("nan"), "second_perceived_y_deg": float("nan"),
+            "perceived_step_deg": step, "reported_forward": float(step + noise > 0),
             "model": cfg.model, "condition": cfg.condition, "paradigm": cfg.paradigm,
         }
 
