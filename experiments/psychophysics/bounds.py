@@ -69,6 +69,8 @@ LIMITS: dict[str, Limit] = {
     "reference_weight": Limit(0.0, 1.0),
     "stability_tolerance": Limit(0.0, 1.0),
     "report_noise_deg": Limit(0.0, 10.0, unit="deg"),
+    "eps_sigma_ms": Limit(1.0, 500.0, unit="ms"),
+    "eps_delay_ms": Limit(-500.0, 500.0, unit="ms"),
     # execution
     "workers": Limit(1, 64, integer=True),
 }

@@ -29,6 +29,7 @@ true image point moved towards z_T by e^{-g}, through the same geometry) is repo
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
@@ -46,7 +47,8 @@ from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS, command_gain
 from .targetmap import TargetCentredMap
 from .timecourse import RemapTimeCourse
 
-__all__ = ["TrialConfig", "TrialRunner", "head_angles_deg", "ROW_COLUMNS", "TEXT_COLUMNS"]
+__all__ = ["TrialConfig", "TrialRunner", "Observation", "head_angles_deg", "ROW_COLUMNS", "TEXT_COLUMNS",
+           "READOUT_PARAMETERS"]
 
 #: Eye-frame axes (x1 up, x2 optical axis, x3 right) in the head frame (x forward, y left, z up)
 #: at zero Fick angles (DESIGN.md's eye frame; ``models.oculomotor``'s primary position).
@@ -97,6 +99,8 @@ class TrialConfig:
         (the true eye orientation: an oracle, for comparison) for the retinal-to-head read-out.
     visual_latency_ms : delay from the flash to its cortical response (0-300 ms): the read-out
         pairs the flash with the eye-position signal this much later.
+    eps_sigma_ms, eps_delay_ms : the eye-position signal's smoothing and delay
+        (``models.EyePositionSignal``; 50, 50 ms).
     oversample : density factor of the target-centred read-out grid. flash_radius_deg : flash dot radius.
     model : ``"mechanistic"`` (default) or ``"paper"`` (``mechanisms``); ``timecourse`` is the paper
         model's, ``feedback_gain`` (ms/deg), ``reference_weight`` and ``disabled`` (a tuple of
@@ -133,13 +137,16 @@ class TrialConfig:
     disabled: tuple = ()
     stability_tolerance: float = 0.1
     report_noise_deg: float = 0.5
+    eps_sigma_ms: float = 50.0
+    eps_delay_ms: float = 50.0
 
     def __post_init__(self) -> None:
         # bounds: ``bounds.LIMITS`` (TypeError for wrong types, ValueError for NaN/inf/out of range)
         for name in ("image_size", "oversample"):
             object.__setattr__(self, name, check_int(name, getattr(self, name)))
         for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise", "visual_latency_ms",
-                     "feedback_gain", "reference_weight", "stability_tolerance", "report_noise_deg"):
+                     "feedback_gain", "reference_weight", "stability_tolerance", "report_noise_deg", "eps_sigma_ms",
+                     "eps_delay_ms"):
             object.__setattr__(self, name, check_real(name, getattr(self, name)))
         if not isinstance(self.disabled, (tuple, list)) or not all(isinstance(d, str) for d in self.disabled):
             raise TypeError(f"disabled must be a tuple of mechanism names from {', '.join(MECHANISMS)}; "
@@ -163,6 +170,31 @@ class TrialConfig:
                              f"({self.fovy_deg}): the retina needs a periphery")
 
 
+#: ``TrialConfig`` fields that only the read-out uses: ``TrialRunner.readout`` may be given a config
+#: that differs from the runner's in these (and only these), e.g. by a model fit.
+READOUT_PARAMETERS = ("timecourse", "threshold", "eye_position", "visual_latency_ms", "model", "feedback_gain",
+                      "reference_weight", "eps_sigma_ms", "eps_delay_ms")
+
+
+@dataclass
+class Observation:
+    """What ``TrialRunner.observe`` saw of a trial (see there); picklable."""
+
+    trial: Trial
+    plan: models.SaccadePlan
+    t_abs: int
+    t_mid: float
+    exposure: float
+    copy_pose: tuple
+    flashes: list
+    target_deg: np.ndarray
+    eye_h: np.ndarray
+    seen_z: list
+    t_post: int
+    frame: object = None
+    reference: object = None
+
+
 def head_angles_deg(head: models.Head, points_world) -> np.ndarray:
     """Head-centred (azimuth > 0 right, elevation > 0 up) angles in degrees of world points
     (N, 3) from the cyclopean eye, along the screen axes (the inverse of ``models.screen_point``)."""
@@ -181,7 +213,8 @@ class TrialRunner:
     def __init__(self, config: TrialConfig = TrialConfig()) -> None:
         self.config = config
         self.head = models.Head("dots", int(config.image_size), fovy_deg=config.fovy_deg,
-                                endpoint_noise=config.endpoint_noise, saccade_model=config.saccade_model)
+                                endpoint_noise=config.endpoint_noise, saccade_model=config.saccade_model,
+                                eye_position=models.EyePositionSignal(config.eps_sigma_ms, config.eps_delay_ms))
         # each eye's nodal point relative to its rotation centre, in the eye's own frame (constant)
         states = self.head.eye_states()
         self._centres = self.head.eye_centres_head
@@ -224,19 +257,18 @@ class TrialRunner:
         self.head.set_visible("target", not (dark and t_ms >= plan.onset_ms))
         self.head.set_visible("ruler", (not dark) and t_ms >= plan.offset_ms)
 
-    def _centroid(self, view, grid, centred=None, shift_rings: float = 0.0) -> complex:
+    def _centroid(self, view, grid, centred=None, shift_rings: float = 0.0, threshold: float | None = None) -> complex:
         """Activity centroid of a view (retina grid) or of a target-centred map shifted by ``shift_rings``."""
-        thr = self.config.threshold
+        thr = self.config.threshold if threshold is None else threshold
         if centred is None:
             return activity_centroid(view.periphery, view.fovea, grid, mask=view.mask, fovea_mask=view.fovea_mask,
                                      threshold=thr)
         per = C.log_radius_shift(centred.periphery, grid, shift_rings) if shift_rings else centred.periphery
         return activity_centroid(per, centred.fovea, grid, fovea_mask=centred.fovea_mask, threshold=thr), per
 
-    def _seen_target(self, plan: models.SaccadePlan) -> tuple[np.ndarray, float]:
-        """After the saccade: each eye's seen target (head-centred deg, (2, 2)) through the settled
-        eye-position signal, and whether the retina saw it (1 or 0). The eyes and the signal are
-        stepped on to 100 ms after the saccade has settled."""
+    def _seen_target_retina(self, plan: models.SaccadePlan) -> tuple[list[complex], int]:
+        """After the saccade (100 ms after it has settled): each eye's retinal image point of the
+        target (NaN where the retina saw none), and that time. Steps the head on to it."""
         head = self.head
         t_post = max(head.time_ms, plan.end_ms + POST_SACCADE_MS)
         head.step_ms(t_post - head.time_ms)
@@ -245,22 +277,29 @@ class TrialRunner:
         head.set_visible("target", False)
         unlit = head.render()
         self._show(t_post, plan)
-        axes, origins = self._pose(plan.eye_position_signal(float(t_post)))
-        seen = np.full((2, 2), np.nan)
-        for e, (a, b) in enumerate(((lit.left, unlit.left), (lit.right, unlit.right))):
+        zs = []
+        for a, b in ((lit.left, unlit.left), (lit.right, unlit.right)):
             diff = np.clip(a.image.astype(float) - b.image.astype(float), 0, None) / 255.0
-            z = self._centroid(self.vision.see(diff), self.retina_grid)
-            if np.isfinite(z.real):
-                seen[e] = self._ray_to_screen_deg(origins[e], axes[e], z)
-        return seen, float(np.all(np.isfinite(seen)))
+            zs.append(self._centroid(self.vision.see(diff), self.retina_grid))
+        return zs, int(t_post)
 
     def run(self, trial: Trial) -> dict:
-        """Run one trial; returns its table row (see ``ROW_COLUMNS`` and ``TEXT_COLUMNS``)."""
+        """Run one trial; returns its table row (see ``ROW_COLUMNS`` and ``TEXT_COLUMNS``):
+        ``readout(observe(trial))``."""
         if self.config.paradigm == "displacement":
             return self._run_displacement(trial)
+        return self.readout(self.observe(trial))
+
+    def observe(self, trial: Trial) -> Observation:
+        """The stimulus and the retina's response to it: everything of a trial that the read-out's
+        parameters (``READOUT_PARAMETERS``) do not change -- the saccade, the rendered and
+        integrated frames, each flash's retina, DPFT and target-centred map, the post-saccadic
+        retinal image of the target."""
+        if self.config.paradigm == "displacement":
+            raise ValueError("observe/readout split the localization and separation paradigms; "
+                             "the displacement paradigm runs with run()")
         head, cfg = self.head, self.config
-        mech = cfg.model == "mechanistic"
-        on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
+        mech_smear = not (cfg.model == "mechanistic" and "smear" in cfg.disabled)
         two = cfg.paradigm == "separation"
         fix_w = _screen_world(*trial.fixation_deg)
         tgt_w = _screen_world(*trial.target_deg)
@@ -279,7 +318,7 @@ class TrialRunner:
         t_abs = plan.onset_ms + int(trial.flash_time_ms)
         head.step_ms(t_abs - head.time_ms)
         self._show(t_abs, plan)
-        exposure = FLASH_MS if on["smear"] else 0
+        exposure = FLASH_MS if mech_smear else 0
         ref = head.render(exposure_ms=exposure)
         frames = []
         for name in ((_FLASH, _FLASH2) if two else (_FLASH,)):  # simultaneous flashes, read out one by one
@@ -287,14 +326,41 @@ class TrialRunner:
             frames.append(head.render(exposure_ms=exposure))
             head.hide_flashes()
         eye_h = np.degrees(head.eye_angles[:, 0])
-
         t_mid = t_abs + exposure / 2  # the middle of the flash's retinal image
+        copy_pose = self._pose(plan.intended_angles(t_mid))  # efference copy: where the target is
+        tgt_h = head.to_head(plan.intended_target)
+        flashes = []
+        for frame, w in zip(frames, (fl_w, fl2_w)):
+            eyes = []
+            for e, (img, img0) in enumerate(((frame.left, ref.left), (frame.right, ref.right))):
+                diff = np.clip(img.image.astype(float) - img0.image.astype(float), 0, None) / 255.0
+                view = self.vision.see(diff)
+                ca, co = copy_pose[0][e], copy_pose[1][e]
+                xt = ca.T @ (tgt_h - co)
+                z_t = complex(xt[2], xt[0]) / xt[1]
+                eyes.append((view, self.map.sample(view.coeffs, view.fovea, z_t), z_t))
+            flashes.append({"eyes": eyes, "head": head.to_head(w), "true_deg": head_angles_deg(head, w)[0]})
+        seen_z, t_post = self._seen_target_retina(plan)
+        return Observation(trial=trial, plan=plan, t_abs=t_abs, t_mid=t_mid, exposure=exposure, copy_pose=copy_pose,
+                           flashes=flashes, target_deg=head_angles_deg(head, tgt_w)[0], eye_h=eye_h,
+                           seen_z=seen_z, t_post=t_post, frame=frames[0], reference=ref)
+
+    def readout(self, obs: Observation, config: TrialConfig | None = None) -> dict:
+        """The perceived position(s) of an observed trial under ``config`` (default: the runner's;
+        only its ``READOUT_PARAMETERS`` may differ from the runner's): the trial's table row."""
+        cfg = config or self.config
+        mech = cfg.model == "mechanistic"
+        on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
+        trial, plan = obs.trial, obs.plan
+        eps = models.EyePositionSignal(cfg.eps_sigma_ms, cfg.eps_delay_ms)
+        if plan.eye_position != eps:
+            plan = dataclasses.replace(plan, eye_position=eps)
+        t_mid = obs.t_mid
         t_read = t_mid + (cfg.visual_latency_ms if on["latency"] else 0.0)  # when its response arrives
         if mech:
             gain = command_gain(plan, t_read, cfg.feedback_gain) if on["command_remap"] else 0.0
         else:
             gain = float(cfg.timecourse.gain(trial.flash_time_ms))
-        copy_pose = self._pose(plan.intended_angles(t_mid))  # efference copy: where the target is
         if cfg.eye_position == "signal" and on["eye_position_signal"]:
             read_angles = plan.eye_position_signal(t_read)
         else:
@@ -303,24 +369,26 @@ class TrialRunner:
         true_pose = self._pose(plan.angles(t_mid))
         weight, seen = 0.0, None
         if mech and on["references"]:
-            seen, saw = self._seen_target(plan)
-            weight = cfg.reference_weight * saw
-        tgt_h = head.to_head(plan.intended_target)
-        reads = [self._read(frame, ref, head.to_head(w), tgt_h, gain, weight, seen, copy_pose, read_pose, true_pose)
-                 for frame, w in zip(frames, (fl_w, fl2_w))]
+            axes, origins = self._pose(plan.eye_position_signal(float(obs.t_post)))
+            seen = np.full((2, 2), np.nan)
+            for e, z in enumerate(obs.seen_z):
+                if np.isfinite(z.real):
+                    seen[e] = self._ray_to_screen_deg(origins[e], axes[e], z)
+            weight = cfg.reference_weight * float(np.all(np.isfinite(seen)))
+        reads = [self._read(f, gain, weight, seen, obs.copy_pose, read_pose, true_pose, cfg) for f in obs.flashes]
         perceived, closed, maps = reads[0]
-        self.last = dict(frame=frames[0], reference=ref, maps=maps, plan=plan)
+        self.last = dict(frame=obs.frame, reference=obs.reference, maps=maps, plan=plan)
 
-        true = head_angles_deg(head, fl_w)[0]
-        target = head_angles_deg(head, tgt_w)[0]
+        true, target = obs.flashes[0]["true_deg"], obs.target_deg
         p = _mean_of_eyes(perceived)
         cf = np.mean(np.array(closed), axis=0)
         err = p - true
         toward = np.sign(target - true) * err
-        if two:
-            true2, p2 = head_angles_deg(head, fl2_w)[0], _mean_of_eyes(reads[1][0])
+        if len(obs.flashes) > 1:
+            true2, p2 = obs.flashes[1]["true_deg"], _mean_of_eyes(reads[1][0])
         else:
             true2 = p2 = np.full(2, np.nan)  # one flash: the second-flash columns do not apply
+        eye_h = obs.eye_h
         return {
             "trial_id": trial.trial_id, "repetition": trial.repetition, "seed": trial.seed,
             "saccade_amplitude_deg": trial.amplitude_deg, "flash_time_ms": int(trial.flash_time_ms),
@@ -332,7 +400,7 @@ class TrialRunner:
             "perceived_left_x_deg": perceived[0][0], "perceived_left_y_deg": perceived[0][1],
             "perceived_right_x_deg": perceived[1][0], "perceived_right_y_deg": perceived[1][1],
             "eye_h_left_deg": eye_h[0], "eye_h_right_deg": eye_h[1],
-            "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": t_abs, "reference_weight": weight,
+            "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": obs.t_abs, "reference_weight": weight,
             "second_true_x_deg": true2[0], "second_true_y_deg": true2[1],
             "second_perceived_x_deg": p2[0], "second_perceived_y_deg": p2[1],
             "perceived_step_deg": float("nan"), "reported_forward": float("nan"),
@@ -425,20 +493,15 @@ class TrialRunner:
             "model": cfg.model, "condition": cfg.condition, "paradigm": cfg.paradigm,
         }
 
-    def _read(self, frame, ref, fl_h, tgt_h, gain, weight, seen, copy_pose, read_pose, true_pose):
-        """Per eye, the perceived position (head-centred deg) of the flash in ``frame`` (minus ``ref``)
-        and its closed form, by the configured model; and the maps (for recordings)."""
-        mech = self.config.model == "mechanistic"
-        grid = self.grid
+    def _read(self, flash: dict, gain, weight, seen, copy_pose, read_pose, true_pose, cfg: TrialConfig):
+        """Per eye, the perceived position (head-centred deg) of an observed flash and its closed
+        form, by the configured model; and the maps (for recordings)."""
+        mech = cfg.model == "mechanistic"
+        grid, fl_h = self.grid, flash["head"]
         perceived, closed, maps = [], [], []
-        for e, (img, img0) in enumerate(((frame.left, ref.left), (frame.right, ref.right))):
-            diff = np.clip(img.image.astype(float) - img0.image.astype(float), 0, None) / 255.0
-            view = self.vision.see(diff)
+        for e, (view, centred, z_t) in enumerate(flash["eyes"]):
             (ca, co), (ra, ro), (ta, to) = ((a[e], o[e]) for a, o in (copy_pose, read_pose, true_pose))
-            xt = ca.T @ (tgt_h - co)
-            z_t = complex(xt[2], xt[0]) / xt[1]
-            centred = self.map.sample(view.coeffs, view.fovea, z_t)
-            z_rel, shifted = self._centroid(view, grid, centred, gain / grid.delta)
+            z_rel, shifted = self._centroid(view, grid, centred, gain / grid.delta, cfg.threshold)
             xf = ta.T @ (fl_h - to)
             z_f = complex(xf[2], xf[0]) / xf[1]
             z_cf = z_t + (z_f - z_t) * math.exp(-gain)
@@ -446,7 +509,7 @@ class TrialRunner:
                 perceived.append(self._ray_to_screen_deg(ro, ra, z_t + z_rel))
                 closed.append(self._ray_to_screen_deg(ro, ra, z_cf))
             else:
-                z_rel0 = self._centroid(view, grid, centred)[0] if gain else z_rel
+                z_rel0 = self._centroid(view, grid, centred, 0.0, cfg.threshold)[0] if gain else z_rel
                 extra = self._ray_to_screen_deg(ro, ra, z_t + z_rel0)  # unremapped, via the signal
                 extra_cf = self._ray_to_screen_deg(ro, ra, z_f)
                 if weight > 0:  # anchored on the seen target: the flash's remapped offset from it
