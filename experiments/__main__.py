@@ -3,6 +3,9 @@
 run        perisaccadic flash-localization study (table, figures, summary, Rerun recording)
 saccades   saccade kinematics and the eye-position signal against published data (figure, table)
 phenomena  which published perisaccadic phenomena each perception model reproduces (table, figures)
+fit        fit a perception model to localization data (maximum likelihood; local or Ray)
+compare    fit several models to the same data and rank them (AIC, BIC, likelihood-ratio tests)
+simulate   simulate a localization data set from a model
 visualize  record a run of the environment in Rerun (``--out FILE.rrd``, ``--spawn`` or ``--serve``)
 train      train a saccade agent on a task
 evaluate   evaluate a saved, random or heuristic policy
@@ -18,8 +21,8 @@ import importlib
 import sys
 
 # command modules, in the order shown by --help
-COMMAND_MODULES = ("experiments.study", "experiments.saccades", "experiments.phenomena", "experiments.recording",
-                   "experiments.rl")
+COMMAND_MODULES = ("experiments.study", "experiments.saccades", "experiments.phenomena", "experiments.modelfit.cli",
+                   "experiments.recording", "experiments.rl")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -29,7 +32,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
-        importlib.import_module(name).add_subcommand(sub)
+        module = importlib.import_module(name)
+        getattr(module, "add_subcommands", None) and module.add_subcommands(sub)
+        getattr(module, "add_subcommand", None) and module.add_subcommand(sub)
     return parser
 
 

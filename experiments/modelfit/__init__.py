@@ -1,0 +1,12 @@
+"""Fitting the perception models to a lab's localization data, comparing them, and simulating data.
+
+``python -m experiments fit`` / ``compare`` / ``simulate`` (``experiments.modelfit.cli``).
+"""
+
+from .data import OPTIONAL, REQUIRED, DataFormatError, LocalizationData, read_data
+from .fitting import IMAGE_SIZE, compare, fit, simulate_data
+from .likelihood import FIT_MODELS, NESTED, FitModel, Parameter
+from .observe import BACKENDS, observe_trials
+
+__all__ = ["REQUIRED", "OPTIONAL", "DataFormatError", "LocalizationData", "read_data", "fit", "compare",
+           "simulate_data", "IMAGE_SIZE", "FIT_MODELS", "NESTED", "FitModel", "Parameter", "BACKENDS", "observe_trials"]

@@ -1,0 +1,142 @@
+"""Fit models, their free parameters, and the likelihood of a localization data set.
+
+Response model: each report is the model's perceived position plus independent Gaussian report
+noise per axis, s.d. ``noise_x_deg`` and ``noise_y_deg`` (free parameters). A row that is the
+mean of n reports has s.d. noise/sqrt(n); a row that also gives its SDs adds the likelihood of
+the sample variance ((n-1) s^2 / noise^2 ~ chi-square with n-1 degrees of freedom).
+
+Models (``FIT_MODELS``) and their free parameters (bounds; the rest of ``TrialConfig`` at defaults):
+
+* ``mechanistic``: ``feedback_gain`` (ms/deg, 0-20), ``eps_sigma_ms`` (5-200), ``eps_delay_ms``
+  (-100-200), noise. The visual latency is fixed (70 ms): with the signal's delay only their
+  difference is identifiable.
+* ``mechanistic/no_command_remap``: the same with the remapping off (``feedback_gain`` = 0):
+  nested in ``mechanistic`` (a likelihood-ratio test with 1 df, the parameter on its bound: the
+  p value is halved, Self & Liang 1987).
+* ``mechanistic/no_references``: the anchored route off (not nested: a different fixed weight).
+* ``paper``: the set time course's ``peak_gain`` (0-3), ``peak_time_ms`` (-200-200), ``rise_ms``
+  and ``decay_ms`` (2-200), noise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Parameter", "FitModel", "FIT_MODELS", "NESTED", "Evaluator"]
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    default: float
+    lo: float
+    hi: float
+
+
+NOISE = (Parameter("noise_x_deg", 1.0, 0.02, 20.0), Parameter("noise_y_deg", 1.0, 0.02, 20.0))
+MECH = (Parameter("feedback_gain", 4.5, 0.0, 20.0), Parameter("eps_sigma_ms", 50.0, 5.0, 200.0),
+        Parameter("eps_delay_ms", 50.0, -100.0, 200.0))
+PAPER = (Parameter("peak_gain", 0.693, 0.0, 3.0), Parameter("peak_time_ms", -10.0, -200.0, 200.0),
+         Parameter("rise_ms", 25.0, 2.0, 200.0), Parameter("decay_ms", 30.0, 2.0, 200.0))
+
+
+@dataclass(frozen=True)
+class FitModel:
+    """A model to fit: fixed ``TrialConfig`` settings and free parameters."""
+
+    name: str
+    config: dict
+    parameters: tuple[Parameter, ...]
+
+    def trial_config(self, base, values: dict):
+        """``base`` (a TrialConfig) with this model's settings and parameter ``values`` (noise excluded)."""
+        from ..psychophysics import RemapTimeCourse
+
+        kw = dict(self.config)
+        tc = {k: values[k] for k in ("peak_gain", "peak_time_ms", "rise_ms", "decay_ms") if k in values}
+        if tc:
+            kw["timecourse"] = RemapTimeCourse(**{**dataclasses.asdict(RemapTimeCourse()), **tc})
+        kw.update({k: v for k, v in values.items() if k in ("feedback_gain", "eps_sigma_ms", "eps_delay_ms")})
+        return dataclasses.replace(base, **kw)
+
+
+FIT_MODELS = {
+    "mechanistic": FitModel("mechanistic", {"model": "mechanistic"}, MECH + NOISE),
+    "mechanistic/no_command_remap": FitModel("mechanistic/no_command_remap",
+                                             {"model": "mechanistic", "disabled": ("command_remap",)}, MECH[1:] + NOISE),
+    "mechanistic/no_references": FitModel("mechanistic/no_references",
+                                          {"model": "mechanistic", "disabled": ("references",)}, MECH + NOISE),
+    "paper": FitModel("paper", {"model": "paper"}, PAPER + NOISE),
+}
+#: restricted model -> (the model it is nested in, extra parameters, the parameter on a bound?)
+NESTED = {"mechanistic/no_command_remap": ("mechanistic", 1, True)}
+
+
+class Evaluator:
+    """Log-likelihood of ``data`` under a model for parameter values, reading the cached
+    observations (``observations[condition][k]`` for unique trial ``k``) with ``runner.readout``."""
+
+    def __init__(self, model: FitModel, data, runners: dict, observations: dict, row_trial: np.ndarray):
+        self.model, self.data, self.runners, self.observations = model, data, runners, observations
+        self.row_trial = row_trial  # (R,) index into the unique trials of each row's condition
+        self.evaluations = 0
+        self._memo: dict = {}
+
+    def predict(self, values: dict) -> np.ndarray:
+        """Perceived positions (R, 2) of every data row for parameter ``values``."""
+        key = tuple(round(values[p.name], 12) for p in self.model.parameters if not p.name.startswith("noise"))
+        if key in self._memo:
+            return self._memo[key]
+        pred = np.empty((len(self.data), 2))
+        for cond, obs_list in self.observations.items():
+            runner = self.runners[cond]
+            cfg = self.model.trial_config(runner.config, values)
+            per_trial = np.array([[r["perceived_x_deg"], r["perceived_y_deg"]]
+                                  for r in (runner.readout(o, cfg) for o in obs_list)])
+            rows = self.data.condition == cond
+            pred[rows] = per_trial[self.row_trial[rows]]
+        self.evaluations += 1
+        if len(self._memo) > 64:
+            self._memo.clear()
+        self._memo[key] = pred
+        return pred
+
+    def noise_mle(self, values: dict) -> dict:
+        """The report-noise s.d. per axis that maximizes the likelihood for the other ``values``
+        (closed form: (sum n r^2 + sum (n-1) s^2) / (rows + sum (n-1)) per axis)."""
+        pred = self.predict(values)
+        d = self.data
+        n = d.n[:, None].astype(float)
+        resid = d.perceived_deg - pred
+        has_sd = np.isfinite(d.sd_deg) & (n >= 2)
+        num = np.sum(n * resid**2, axis=0) + np.sum(np.where(has_sd, (n - 1) * np.nan_to_num(d.sd_deg) ** 2, 0.0), axis=0)
+        den = len(d) + np.sum(np.where(has_sd, n - 1, 0.0), axis=0)
+        s = np.sqrt(num / den)
+        lo, hi = NOISE[0].lo, NOISE[0].hi
+        s = np.clip(np.where(np.isfinite(s), s, hi), lo, hi)
+        return {**values, "noise_x_deg": float(s[0]), "noise_y_deg": float(s[1])}
+
+    def log_likelihood(self, values: dict) -> float:
+        pred = self.predict(values)
+        d = self.data
+        sig = np.array([values["noise_x_deg"], values["noise_y_deg"]])
+        n = d.n[:, None].astype(float)
+        resid = d.perceived_deg - pred
+        if not np.all(np.isfinite(resid)):
+            return -math.inf  # a flash lost by the read-out under these parameters
+        var = sig**2 / n
+        ll = float(np.sum(-0.5 * (np.log(2 * np.pi * var) + resid**2 / var)))
+        has_sd = np.isfinite(d.sd_deg) & (n >= 2)
+        if has_sd.any():  # (n-1) s^2 / sigma^2 ~ chi2(n-1), as a density of s^2
+            from scipy.stats import chi2
+
+            k = (n - 1) * np.ones((1, 2))
+            s2 = d.sd_deg**2
+            scale = sig**2 / k
+            ll += float(np.sum(np.where(has_sd, chi2.logpdf(np.where(has_sd, s2, 1.0) / scale, np.where(has_sd, k, 2.0))
+                                        - np.log(scale), 0.0)))
+        return ll
