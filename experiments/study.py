@@ -1,7 +1,10 @@
 """``python -m experiments run``: the perisaccadic flash-localization study (paper §6.5, Fig. 11).
 
 Runs a design of flash trials through the head's real pipeline (``experiments.psychophysics``)
-and writes into ``--out``: ``trials.csv`` and ``trials.parquet`` (one row per trial, each with its
+with a perception model (``--model mechanistic|paper``), a viewing condition (``--condition
+references|dark``) and a paradigm (``--paradigm localization|separation|displacement``; the
+displacement paradigm writes ``summary`` of psychometric fits and ``psychometric`` instead of the
+flash figures and no recording), and writes into ``--out``: ``trials.csv`` and ``trials.parquet`` (one row per trial, each with its
 configuration hash and a checksum), ``summary.txt`` and ``summary.csv`` (compression index, peak
 time, width, error direction), the figures ``fig11``, ``perceived_vs_time`` and
 ``compression_vs_time`` (PNG and SVG), ``study.rrd`` (a Rerun recording) and ``run.json`` (design
