@@ -53,7 +53,7 @@ from .remap import (
     rotation_matrix,
     target_shift_map,
 )
-from .remap_plan import RemapPlan
+from .remap_plan import RemapPlan, field_moments
 from .sampling import Retina, RetinaSamples, pixel_points
 from .shift import log_radius_shift
 from .threads import blas_threads
@@ -61,7 +61,7 @@ from .threads import blas_threads
 __all__ = [
     "BinocularCortex", "MobiusMap", "checks", "kernels", "OffGridEvaluator", "ProjectiveMap", "RemapPlan", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
     "act", "apply_homography", "binocular_cortex", "blas_threads", "check_rotation", "check_sl2", "compose", "cortical_map", "dpft",
-    "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "fovea_dft", "fovea_idft",
+    "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "field_moments", "fovea_dft", "fovea_idft",
     "fovea_image", "fovea_indices", "h_matrix", "hemifields", "homography_map", "idpft",
     "idpft_direct", "inverse", "k_matrix", "lift_to_sphere", "log_radius_shift", "mobius_for_rotation",
     "mobius_from_points", "mobius_map", "pft_frequencies", "pixel_points", "predict", "predict_many", "project",

@@ -13,6 +13,11 @@ reference:
   ``evaluate_direct`` at the maps' images, and ``predict_many``.
 * ``normalized_errors``: the normalized RMS error of predictions against actual samples.
   Reference: the formula written out in numpy (``tests/test_remap_plan.py``).
+* ``map_footprints``, ``tabulate_angles_pooled``, ``contract_rings_pooled``: the same prediction
+  averaged over each new receptive field (``RemapPlan``'s ``pooled=True``): each field's footprint
+  carried through the map's Jacobian, the series damped by the matching Gaussian per point.
+  Reference: the damped series written out in numpy with finite-difference Jacobians, and the
+  sub-point average of the series over each field (``tests/test_remap_pooled.py``).
 
 Kernels are compiled on first use and cached on disk (numba ``cache=True``), so a new process
 pays only for loading them. They hold no Python objects and release the GIL.
@@ -28,7 +33,7 @@ import numpy as np
 
 __all__ = [
     "KIND_PROJECTIVE", "KIND_MOBIUS", "pool_picture", "series_table", "map_points", "tabulate_angles", "contract_rings",
-    "normalized_errors",
+    "normalized_errors", "map_footprints", "tabulate_angles_pooled", "contract_rings_pooled",
 ]
 
 KIND_PROJECTIVE = 0  # params: the 3x3 matrix H row-major, acting on (Re z, Im z, 1)
@@ -252,6 +257,234 @@ def contract_rings(cos_t, partial, series, values):  # pragma: no cover - compil
                 nxt = 2.0 * cos_t[e, p] * cur[p] - prev[p]
                 prev[p] = cur[p]
                 cur[p] = nxt
+        for k in range(n_maps):
+            for i in range(n_pts):
+                if series[e, k, i]:
+                    for c in range(n_ch):
+                        values[e, k, i, c] += acc[c, k * n_pts + i]
+
+
+@nb.njit(inline="always")
+def _map_jacobian(kind, p, x, y):  # pragma: no cover - compiled
+    """w = map(z) and its Jacobian (d(Re w, Im w) / d(x, y)) at z = x + i y, for a point that
+    ``map_points`` found valid (no pole)."""
+    if kind == KIND_PROJECTIVE:
+        inv = 1.0 / (p[6] * x + p[7] * y + p[8])
+        u = (p[0] * x + p[1] * y + p[2]) * inv
+        v = (p[3] * x + p[4] * y + p[5]) * inv
+        return u, v, (p[0] - u * p[6]) * inv, (p[1] - u * p[7]) * inv, (p[3] - v * p[6]) * inv, (p[4] - v * p[7]) * inv
+    # w = (d z + c) / (b z + a), w' = (a d - b c) / (b z + a)^2
+    nr = p[6] * x - p[7] * y + p[4]
+    ni = p[6] * y + p[7] * x + p[5]
+    dr = p[2] * x - p[3] * y + p[0]
+    di = p[2] * y + p[3] * x + p[1]
+    inv = 1.0 / (dr * dr + di * di)
+    u = (nr * dr + ni * di) * inv
+    v = (ni * dr - nr * di) * inv
+    detr = (p[0] * p[6] - p[1] * p[7]) - (p[2] * p[4] - p[3] * p[5])
+    deti = (p[0] * p[7] + p[1] * p[6]) - (p[2] * p[5] + p[3] * p[4])
+    sr = dr * dr - di * di  # (b z + a)^2, of modulus 1 / inv
+    si = 2.0 * dr * di
+    inv2 = inv * inv
+    gr = (detr * sr + deti * si) * inv2
+    gi = (deti * sr - detr * si) * inv2
+    return u, v, gr, -gi, gi, gr
+
+
+@nb.njit(inline="always")
+def _carry(foot, i, j00, j01, j10, j11):  # pragma: no cover - compiled
+    """S = J F J^T for F = foot[i] = (Sxx, Sxy, Syy): (Sxx, Sxy, Syy) of S."""
+    fxx = foot[i, 0]
+    fxy = foot[i, 1]
+    fyy = foot[i, 2]
+    a0 = j00 * fxx + j01 * fxy
+    a1 = j00 * fxy + j01 * fyy
+    b0 = j10 * fxx + j11 * fxy
+    b1 = j10 * fxy + j11 * fyy
+    return a0 * j00 + a1 * j01, a0 * j10 + a1 * j11, b0 * j10 + b1 * j11
+
+
+_INV_SQRT2 = 1.0 / math.sqrt(2.0)
+_INV_SQRT2PI = 1.0 / math.sqrt(2.0 * math.pi)
+
+
+@nb.njit(inline="always")
+def _ramp(x, sigma):  # pragma: no cover - compiled
+    """max(x, 0) smoothed by a Gaussian of deviation sigma > 0: x Phi(x / sigma) + sigma phi(x / sigma)."""
+    t = x / sigma
+    return x * 0.5 * math.erfc(-t * _INV_SQRT2) + sigma * _INV_SQRT2PI * math.exp(-0.5 * t * t)
+
+
+@nb.njit(inline="always")
+def _tent_weights(c, sigma, size, ramp, out):  # pragma: no cover - compiled
+    """Weights of the lattice nodes n = lo..hi (returned) along one axis for the bilinear interpolant
+    at c averaged over a Gaussian of deviation sigma: the tent max(0, 1 - |n - c|) convolved with the
+    Gaussian (the second difference of the smoothed ramp), nodes within 1 + 3 sigma; sigma = 0 gives
+    the bilinear weights. ``ramp`` is scratch of at least size + 2."""
+    lo = max(int(math.ceil(c - 1.0 - 3.0 * sigma)), 0)
+    hi = min(int(math.floor(c + 1.0 + 3.0 * sigma)), size - 1)
+    if sigma <= 1e-9:
+        for n in range(lo, hi + 1):
+            out[n] = max(1.0 - abs(n - c), 0.0)
+        return lo, hi
+    for j in range(hi - lo + 3):  # the ramp at n - c for n = lo - 1 .. hi + 1
+        ramp[j] = _ramp(lo - 1 + j - c, sigma)
+    for n in range(lo, hi + 1):
+        j = n - lo
+        out[n] = max(ramp[j + 2] - 2.0 * ramp[j + 1] + ramp[j], 0.0)
+    return lo, hi
+
+
+@_jit
+def map_footprints(zr, zi, foot, kinds, params, series, valid, wr, wi, r2, own_u, own_y, own_f, t_scale2, lim_t,
+                   lim_y, fovea_pictures, lattice, fovea_spacing, values, rho_t, rho_y):  # pragma: no cover - compiled
+    """Each receptive field's footprint through the point maps (after ``map_points``): the Gaussian
+    damping factors of the pooled series and, for fields landing in the old fovea, the pooled lookup.
+
+    ``foot[i]`` = (Sxx, Sxy, Syy): the second moments of field i about its centre z_i (image-plane
+    units). The map's Jacobian J at z_i carries them to S = J foot J^T about w = map(z_i). Where
+    the series is evaluated (``series``), S in the old log-polar coordinates, less an old field's own
+    variances ``own_u``, ``own_y`` (floored at 0), gives the variances s_t = t_scale2 Var(u) (in the
+    series' ring argument t) and s_y = Var(theta), each capped at ``lim_t`` / ``lim_y``; then
+    rho_t = exp(-s_t / 2) and rho_y = exp(-s_y / 2) (the damping of frequency f is rho^(f^2)).
+    Elsewhere rho = 1. Where w lands in the old fovea (valid but not ``series``), ``values`` becomes
+    the bilinear interpolant of the lattice samples averaged over the Gaussian of variances Sxx, Syy
+    in lattice cells less ``own_f`` (floored at 0; the x-y covariance dropped, as the series' u-theta
+    one), normalised by the same average of the lattice's indicator (``lattice``): with nothing left
+    to average, the bilinear value itself.
+    """
+    n_eyes, n_maps, n_pts = valid.shape
+    n_ch = values.shape[3]
+    size = fovea_pictures.shape[1]
+    half = size / 2
+    h2 = fovea_spacing * fovea_spacing
+    wcol = np.zeros(size)
+    wrow = np.zeros(size)
+    ramp = np.empty(size + 3)
+    for e in range(n_eyes):
+        for k in range(n_maps):
+            p = params[e, k]
+            kind = kinds[k]
+            base = k * n_pts
+            for i in range(n_pts):  # the series' points: the variances (rho_t, rho_y hold them for now)
+                col_index = base + i
+                if not series[e, k, i]:
+                    rho_t[e, col_index] = 0.0
+                    rho_y[e, col_index] = 0.0
+                    continue
+                u, v, j00, j01, j10, j11 = _map_jacobian(kind, p, zr[i], zi[i])
+                sxx, sxy, syy = _carry(foot, i, j00, j01, j10, j11)
+                wu = wr[e, col_index]
+                wv = wi[e, col_index]
+                q = r2[e, col_index]
+                inv_q2 = 1.0 / (q * q)
+                var_u = (wu * wu * sxx + 2.0 * wu * wv * sxy + wv * wv * syy) * inv_q2 - own_u
+                var_y = (wv * wv * sxx - 2.0 * wu * wv * sxy + wu * wu * syy) * inv_q2 - own_y
+                rho_t[e, col_index] = min(max(var_u, 0.0) * t_scale2, lim_t)
+                rho_y[e, col_index] = min(max(var_y, 0.0), lim_y)
+            for i in range(n_pts):  # the old fovea's points: the pooled lookup
+                if series[e, k, i] or not valid[e, k, i]:
+                    continue
+                u, v, j00, j01, j10, j11 = _map_jacobian(kind, p, zr[i], zi[i])
+                sxx, sxy, syy = _carry(foot, i, j00, j01, j10, j11)
+                col = u / fovea_spacing + half - 0.5  # lattice units, rows downwards
+                row = half - 0.5 - v / fovea_spacing
+                c_lo, c_hi = _tent_weights(col, math.sqrt(max(sxx / h2 - own_f, 0.0)), size, ramp, wcol)
+                r_lo, r_hi = _tent_weights(row, math.sqrt(max(syy / h2 - own_f, 0.0)), size, ramp, wrow)
+                total = 0.0
+                for rr in range(r_lo, r_hi + 1):
+                    for cc in range(c_lo, c_hi + 1):
+                        if lattice[rr, cc]:
+                            total += wrow[rr] * wcol[cc]
+                if total <= 1e-12:  # (no lattice sample nearby: keep the point lookup)
+                    continue
+                for c in range(n_ch):
+                    acc = 0.0
+                    for rr in range(r_lo, r_hi + 1):
+                        for cc in range(c_lo, c_hi + 1):
+                            if lattice[rr, cc]:
+                                acc += wrow[rr] * wcol[cc] * fovea_pictures[e, rr, cc, c]
+                    values[e, k, i, c] = acc / total
+        for col_index in range(rho_t.shape[1]):  # variances -> damping factors (vectorised)
+            rho_t[e, col_index] = math.exp(-0.5 * rho_t[e, col_index])
+            rho_y[e, col_index] = math.exp(-0.5 * rho_y[e, col_index])
+
+
+@_jit
+def tabulate_angles_pooled(wr, wi, r2, cos_theta0, sin_theta0, rho, cs):  # pragma: no cover - compiled
+    """``tabulate_angles`` with angular frequency n at point p damped by rho[e, p]^(n^2) (a Gaussian
+    of variance -2 ln rho in theta), by the recurrence a_{n+1} = a_n b_n, b_{n+1} = b_n rho^2."""
+    n_eyes, n_j, n_cols = cs.shape
+    nh = n_j // 2
+    re = np.empty(n_cols)
+    im = np.empty(n_cols)
+    rot_c = np.empty(n_cols)
+    rot_s = np.empty(n_cols)
+    amp = np.empty(n_cols)
+    step = np.empty(n_cols)
+    sq = np.empty(n_cols)
+    for e in range(n_eyes):
+        for p in range(n_cols):
+            inv = 1.0 / math.sqrt(r2[e, p])
+            x = wr[e, p] * inv
+            y = wi[e, p] * inv
+            rot_c[p] = x * cos_theta0 + y * sin_theta0
+            rot_s[p] = y * cos_theta0 - x * sin_theta0
+            re[p] = 1.0
+            im[p] = 0.0
+            amp[p] = 1.0
+            step[p] = rho[e, p]
+            sq[p] = rho[e, p] * rho[e, p]
+        for n in range(nh):
+            for p in range(n_cols):
+                cs[e, n, p] = re[p] * amp[p]
+                cs[e, nh + n, p] = -im[p] * amp[p]
+                a = re[p] * rot_c[p] - im[p] * rot_s[p]
+                im[p] = re[p] * rot_s[p] + im[p] * rot_c[p]
+                re[p] = a
+                amp[p] *= step[p]
+                step[p] *= sq[p]
+
+
+@_jit
+def contract_rings_pooled(cos_t, rho, partial, series, values):  # pragma: no cover - compiled
+    """``contract_rings`` with ring frequency m at point p damped by rho[e, p]^(m^2) (as
+    ``tabulate_angles_pooled``)."""
+    n_eyes, n_maps, n_pts = series.shape
+    n_ch = values.shape[3]
+    m_rings = partial.shape[1] // n_ch
+    n_cols = n_maps * n_pts
+    acc = np.empty((n_ch, n_cols))
+    prev = np.empty(n_cols)
+    cur = np.empty(n_cols)
+    damped = np.empty(n_cols)
+    amp = np.empty(n_cols)
+    step = np.empty(n_cols)
+    sq = np.empty(n_cols)
+    for e in range(n_eyes):
+        for c in range(n_ch):
+            for p in range(n_cols):
+                acc[c, p] = partial[e, c, p]  # m = 0: cos(0) = 1, undamped
+        for p in range(n_cols):
+            rh = rho[e, p]
+            prev[p] = 1.0
+            cur[p] = cos_t[e, p]
+            amp[p] = rh  # rho^(1^2)
+            step[p] = rh * rh * rh  # rho^(2 m + 1) at m = 1
+            sq[p] = rh * rh
+            damped[p] = cur[p] * rh
+        for m in range(1, m_rings):
+            for c in range(n_ch):
+                row = m * n_ch + c
+                for p in range(n_cols):
+                    acc[c, p] += damped[p] * partial[e, row, p]
+            for p in range(n_cols):
+                nxt = 2.0 * cos_t[e, p] * cur[p] - prev[p]
+                prev[p] = cur[p]
+                cur[p] = nxt
+                amp[p] *= step[p]
+                step[p] *= sq[p]
+                damped[p] = nxt * amp[p]
         for k in range(n_maps):
             for i in range(n_pts):
                 if series[e, k, i]:

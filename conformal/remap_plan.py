@@ -14,11 +14,42 @@ The series is evaluated exactly (no interpolation) in single precision: about 1e
 far below the retina's sampling error. The point maps must be ``ProjectiveMap`` or
 ``MobiusMap`` (what ``homography_map``, ``mobius_map`` and ``target_shift_map`` return); use
 ``predict_many`` for arbitrary callables.
+
+**Pooled predictions** (``pooled=True``). The retina's samples are receptive-field averages
+(``Retina``'s ``"pool"``: each peripheral cell, an annular sector, and each foveal square of side
+1/K averaged uniformly over its area), while the plain prediction is the series at each new
+field's centre. Where a new field covers several old ones (after a saccade, new peripheral fields
+land on finer old ones) the point sample aliases detail that the field averages out. The pooled
+prediction averages over the part of each new field's footprint that the old samples' own
+averaging does not already hold, by second moments:
+
+* the field's covariance about its centre (``field_moments``: exact for the sector and the square,
+  once per grid) is carried through the map's Jacobian at the centre to the old picture, and into
+  the old log-polar coordinates (u, theta) at the mapped point;
+* an old field's own variances in u and theta (the same in every ring: the grid is self-similar)
+  are subtracted, floored at 0 (Gaussian widths add in variance: the series of the old samples
+  is already the picture averaged over the old fields);
+* the series is averaged over the Gaussian of what remains: frequency m in u damped by
+  exp(-m^2 s_t / 2) and n in theta by exp(-n^2 s_y / 2) (the Gaussian average of cos(m t) is
+  cos(m t) exp(-m^2 s / 2)), each capped where the damping reaches e^-40. The u-theta covariance
+  is dropped (zero for conformal maps on the nearly square log-polar fields), so the sum stays
+  separable: the point prediction's passes with the damping folded into the two factor tables
+  (``kernels.tabulate_angles_pooled``, ``kernels.contract_rings_pooled``, after
+  ``kernels.map_footprints``);
+* a field landing in the old fovea averages the bilinear interpolant of the lattice samples over
+  the same kind of Gaussian (in lattice cells, less an old foveal square's 1/12), normalised by
+  the average of the lattice's indicator.
+
+So a footprint no larger than the old fields gives the point prediction (the identity map does,
+exactly for the series), and detail the old fields never resolved is not restored: a saccade that
+brings the periphery to the fovea is predicted as blurred as the old samples were. The mask is
+the point prediction's (the field's centre). About 1.35x the point prediction's time.
 """
 
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -28,12 +59,54 @@ from . import checks
 from .dpft import _mirror_series
 from .fovea import fovea_indices
 from .grid import RetinaGrid
-from .kernels import contract_rings, map_points, tabulate_angles
+from .kernels import (
+    contract_rings, contract_rings_pooled, map_footprints, map_points, tabulate_angles, tabulate_angles_pooled,
+)
 from .remap import MobiusMap, ProjectiveMap
 from .sampling import RetinaSamples
 from .threads import blas_threads
 
-__all__ = ["RemapPlan"]
+__all__ = ["RemapPlan", "field_moments"]
+
+#: The pooled damping rho^(f^2) of the highest frequency f stops at e^-40 (4e-18): beyond that a
+#: term is zero for any purpose, and float32 tables stay clear of subnormal numbers.
+_MAX_DAMPING_EXPONENT = 40.0
+
+
+def field_moments(grid: RetinaGrid) -> NDArray[np.float64]:
+    """Second moments of every receptive field of ``grid`` about its sample point, as the pooled
+    retina (``Retina``'s ``"pool"``) averages: (N_f + M N, 3) = (Sxx, Sxy, Syy) in image-plane
+    units^2 (x = Re z, y = Im z), rows in retina order (the foveal points, then the periphery [k, l]
+    row-major).
+
+    A foveal field is the square of side 1/K around its lattice point: h^2/12 on each axis. A
+    peripheral field is the annular sector r_k <= r < r_{k+1}, |phi - theta_l| < pi/N, uniform in
+    area: in its radial/tangential frame the moments about the sample point z_{k,l} (radius
+    ``grid.radii[k]``) are E[(x_r - |z|)^2] and E[x_t^2] with no cross term, rotated by theta_l.
+    Read-only, computed once per grid."""
+    if not isinstance(grid, RetinaGrid):
+        raise checks.InputTypeError(f"grid must be a RetinaGrid; got {type(grid).__name__}")
+    return _field_moments(grid)
+
+
+@lru_cache(maxsize=32)
+def _field_moments(grid: RetinaGrid) -> NDArray[np.float64]:
+    r1, r2 = grid.ring_edges[:-1], grid.ring_edges[1:]
+    a = math.pi / grid.N  # half the sector's angle
+    area = a * (r2**2 - r1**2)
+    m1 = 2 * math.sin(a) * (r2**3 - r1**3) / 3 / area  # E[x_r]
+    m2r = (a + math.sin(2 * a) / 2) * (r2**4 - r1**4) / 4 / area  # E[x_r^2]
+    m2t = (a - math.sin(2 * a) / 2) * (r2**4 - r1**4) / 4 / area  # E[x_t^2]
+    rc = grid.radii
+    var_r = (m2r - 2 * rc * m1 + rc**2)[:, None]  # about the sample point
+    var_t = m2t[:, None]
+    c, s = np.cos(grid.theta)[None, :], np.sin(grid.theta)[None, :]
+    per = np.stack([var_r * c * c + var_t * s * s, (var_r - var_t) * c * s, var_r * s * s + var_t * c * c], -1)
+    fov = np.zeros((grid.n_fovea, 3))
+    fov[:, 0] = fov[:, 2] = grid.fovea_spacing**2 / 12
+    out = np.concatenate([fov, per.reshape(-1, 3)])
+    out.setflags(write=False)
+    return out
 
 
 class RemapPlan:
@@ -46,6 +119,11 @@ class RemapPlan:
     P = N_f + M N of ``on`` in retina order (the foveal points, then the periphery [k, l]
     row-major, as ``Retina.operator``'s rows). Invalid points (source beyond r_b, behind the
     eye, or at a pole) hold 0. ``samples`` turns them into ``RetinaSamples``.
+
+    ``pooled`` (a bool, default False: the point prediction, unchanged): average each prediction
+    over its receptive field of ``on``, less what the old fields' own averaging already holds (see
+    the module docstring), as the pooled retina averages the picture; about 1.35x the point
+    prediction's time, and closer to the pooled post-saccadic samples (``benchmarks/remap_pooling.py``).
     """
 
     def __init__(self, grid: RetinaGrid, *, on: RetinaGrid | None = None) -> None:
@@ -58,7 +136,7 @@ class RemapPlan:
         self._zr, self._zi = np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag)
         self.n_points = len(z)
         self._fovea_rows, self._fovea_cols, self._fovea_size = fovea_indices(grid)
-        self._scratch: dict[tuple[int, int], tuple[NDArray, ...]] = {}
+        self._scratch: dict[tuple, tuple[NDArray, ...]] = {}
         self._picture_scratch: dict[tuple[int, int], NDArray] = {}
         self._cos_t: dict[tuple[int, ...], NDArray] = {}
         # per-grid scalars of the per-frame passes (computed as the expressions they replace)
@@ -66,6 +144,19 @@ class RemapPlan:
         self._cos_theta0, self._sin_theta0 = math.cos(grid.theta[0]), math.sin(grid.theta[0])
         self._t_scale = math.pi / (grid.M * grid.delta)
         self._t_offset = math.pi / (2 * grid.M)
+        # pooled predictions: the fields' moments, the damping caps, the foveal lattice's cells
+        self._moments = _field_moments(self.on)
+        self._lim_t = 2 * _MAX_DAMPING_EXPONENT / max(grid.M - 1, 1) ** 2
+        self._lim_y = 2 * _MAX_DAMPING_EXPONENT / max(grid.N // 2, 1) ** 2
+        # an old field's own variances (the same in every ring: the grid is self-similar): in u and
+        # theta for a peripheral one, in lattice cells^2 for a foveal one
+        own = _field_moments(grid)[grid.n_fovea]  # ring 0, sector 0, about its centre
+        c0, s0 = math.cos(grid.theta[0]), math.sin(grid.theta[0])
+        self._own_u = (c0 * c0 * own[0] + 2 * c0 * s0 * own[1] + s0 * s0 * own[2]) / grid.radii[0] ** 2
+        self._own_y = (s0 * s0 * own[0] - 2 * c0 * s0 * own[1] + c0 * c0 * own[2]) / grid.radii[0] ** 2
+        self._own_f = 1.0 / 12.0
+        self._lattice = np.zeros((self._fovea_size, self._fovea_size), np.bool_)
+        self._lattice[self._fovea_rows, self._fovea_cols] = True
 
     # ------------------------------------------------------------------ per frame
     def series_coefficients(self, coeffs: ArrayLike) -> NDArray[np.float32]:
@@ -76,19 +167,21 @@ class RemapPlan:
         return _mirror_series(self._check_coeffs(coeffs), self.grid, np.float32)
 
     def __call__(
-        self, coeffs: ArrayLike, fovea: ArrayLike, maps: Sequence[Sequence[ProjectiveMap | MobiusMap]]
+        self, coeffs: ArrayLike, fovea: ArrayLike, maps: Sequence[Sequence[ProjectiveMap | MobiusMap]], *,
+        pooled: bool = False,
     ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+        pooled = checks.flag("pooled", pooled)
         F, fov = self._check(coeffs, fovea)
         kinds, params = self._maps(maps, F.shape[0])
-        return self._evaluate(F, fov, kinds, params)
+        return self._evaluate(F, fov, kinds, params, pooled)
 
     def _evaluate(
-        self, F: NDArray, fov: NDArray, kinds: NDArray[np.int64], params: NDArray[np.float64]
+        self, F: NDArray, fov: NDArray, kinds: NDArray[np.int64], params: NDArray[np.float64], pooled: bool = False
     ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """``__call__`` on arguments that are already valid: F finite (E, M, N, C) coefficients, fov
         finite real (E, N_f, C), kinds (K,) int64 and params (E, K, 9) float64 as ``_maps`` returns
-        them. Nothing is checked: for callers that pass what ``_check``/``_maps`` (or an equally
-        strict construction of their own) produced."""
+        them, ``pooled`` a bool. Nothing is checked: for callers that pass what ``_check``/``_maps``
+        (or an equally strict construction of their own) produced."""
         n_eyes, n_ch = F.shape[0], F.shape[3]
         n_maps = len(kinds)
         g = self.grid
@@ -100,7 +193,14 @@ class RemapPlan:
         series = np.empty((n_eyes, n_maps, self.n_points), np.bool_)
         map_points(self._zr, self._zi, kinds, params, g.r0, self._r_outer, pictures, g.fovea_spacing,
                    values, valid, series, wr, wi, r2)
-        tabulate_angles(wr, wi, r2, self._cos_theta0, self._sin_theta0, cs)
+        if pooled:
+            rho_t, rho_y = self._damping(n_eyes, n_maps)
+            map_footprints(self._zr, self._zi, self._moments, kinds, params, series, valid, wr, wi, r2,
+                           self._own_u, self._own_y, self._own_f, self._t_scale**2, self._lim_t, self._lim_y,
+                           pictures, self._lattice, g.fovea_spacing, values, rho_t, rho_y)
+            tabulate_angles_pooled(wr, wi, r2, self._cos_theta0, self._sin_theta0, rho_y, cs)
+        else:
+            tabulate_angles(wr, wi, r2, self._cos_theta0, self._sin_theta0, cs)
         with blas_threads(1):  # a small product: a second BLAS thread only fights other work for the core
             partial = np.matmul(_mirror_series(F, g, np.float32), cs)  # (E, M C, K P): the angular sum
         # t = pi (2 (fractional ring index) + 1) / 2M, the DCT-II basis' argument (in place, the
@@ -112,7 +212,10 @@ class RemapPlan:
         cos_t *= self._t_scale
         cos_t += self._t_offset
         np.cos(cos_t, out=cos_t)
-        contract_rings(cos_t, partial, series, values)
+        if pooled:
+            contract_rings_pooled(cos_t, rho_t, partial, series, values)
+        else:
+            contract_rings(cos_t, partial, series, values)
         return values, valid
 
     def samples(self, values: NDArray, valid: NDArray) -> list[list[RetinaSamples]]:
@@ -185,6 +288,14 @@ class RemapPlan:
         if key not in self._picture_scratch:
             self._picture_scratch[key] = np.zeros((n_eyes, self._fovea_size, self._fovea_size, n_ch))
         return self._picture_scratch[key]
+
+    def _damping(self, n_eyes: int, n_maps: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Scratch arrays (E, K P) for the pooled damping factors rho_t, rho_y, reused across frames."""
+        key = ("damping", n_eyes, n_maps)
+        if key not in self._scratch:
+            cols = n_maps * self.n_points
+            self._scratch[key] = (np.empty((n_eyes, cols)), np.empty((n_eyes, cols)))
+        return self._scratch[key]
 
     def _cos_t_scratch(self, shape: tuple[int, ...]) -> NDArray[np.float64]:
         if shape not in self._cos_t:

@@ -19,9 +19,18 @@ from conformal.dpft import _dpft
 from conformal.geometry import _PERM_FLAT
 from conformal.remap import _mobius_params, _su2_entries, _su2_params, _target_shift_matrix
 
-__all__ = ["EyeView", "Vision", "REMAP_MODELS", "normalized_error", "model_errors"]
+__all__ = ["EyeView", "Vision", "REMAP_MODELS", "POOLED_REMAP_DEFAULT", "normalized_error", "model_errors"]
 
 REMAP_MODELS: tuple[str, ...] = ("homography", "mobius", "shift")
+
+#: ``Vision``'s (and the env's) ``pooled_remap`` default: the point prediction. Pooled predictions
+#: are closer to the pooled post-saccadic samples (bar scene, +-20 deg horizontal saccades from
+#: straight ahead, normalized error of the homography 0.19 -> 0.13, Mobius 0.23 -> 0.18, shift
+#: 0.28 -> 0.21; the saccades back unchanged at 0.41-0.45) but cost about 0.1 ms more per env step
+#: (three models, two eyes: 1.35-1.4x the point prediction), which puts the default env at
+#: 1.25-1.35x the bare MuJoCo loop against a target of 1.3x (``benchmarks/env.py``) instead of
+#: 1.21-1.30x; so the env keeps the point prediction unless asked (``benchmarks/remap_pooling.py``).
+POOLED_REMAP_DEFAULT = False
 
 
 @dataclass(frozen=True)
@@ -141,6 +150,10 @@ class Vision:
     sampling : ``"pool"`` (receptive-field averages) or ``"bilinear"``/``"nearest"``.
     shift_rings : log-radius shift (rings) of the ``shift`` remapping model; > 0 compresses;
         at most M (the number of rings) either way.
+    pooled_remap : a bool, the default of the ``predict*`` methods' ``pooled``: average each
+        prediction over its receptive field as the pooled retina averages the picture
+        (``conformal.RemapPlan``'s ``pooled=True``) instead of the series at the field's centre.
+        Default False; see ``POOLED_REMAP_DEFAULT`` for why.
 
     Images are (H, W, 3): uint8, or floats in [0, 1].
     """
@@ -155,6 +168,7 @@ class Vision:
         grayscale: bool = False,
         sampling: str = "pool",
         shift_rings: float = 0.0,
+        pooled_remap: bool = POOLED_REMAP_DEFAULT,
     ) -> None:
         if isinstance(image_shape, (str, bytes)) or not hasattr(image_shape, "__len__"):
             raise checks.InputTypeError(f"image_shape must be an (H, W) pair; got {image_shape!r}")
@@ -164,6 +178,7 @@ class Vision:
         pixels_per_unit = checks.real("pixels_per_unit", pixels_per_unit, 0.0, 1e6, lo_open=True)
         fovea_deg = checks.real("fovea_deg", fovea_deg, 0.0, 30.0, lo_open=True, hi_open=True)
         grayscale = checks.flag("grayscale", grayscale)
+        self.pooled_remap = checks.flag("pooled_remap", pooled_remap)
         checks.choice("sampling", sampling, ("pool", "bilinear", "nearest"))
         r0 = math.tan(math.radians(fovea_deg))
         rb = min(h, w) / 2 / pixels_per_unit  # inscribed: every cell lies inside the picture
@@ -279,47 +294,54 @@ class Vision:
                     params[e, k] = _mobius_params(_target_shift_matrix(zt, self.shift_rings, self.grid.delta))
         return kinds, params
 
-    def predict(self, view: EyeView, model: str, rotation_eye: NDArray[np.float64]) -> C.RetinaSamples:
-        """Predicted post-saccadic samples from the pre-saccadic coefficients and the efference copy."""
-        return self.predict_models(view, (model,), rotation_eye)[model]
+    def predict(
+        self, view: EyeView, model: str, rotation_eye: NDArray[np.float64], *, pooled: bool | None = None
+    ) -> C.RetinaSamples:
+        """Predicted post-saccadic samples from the pre-saccadic coefficients and the efference copy.
+
+        ``pooled``: average each prediction over its receptive field (``conformal.RemapPlan``'s
+        ``pooled``) or take the series at the field's centre; None: this Vision's ``pooled_remap``."""
+        return self.predict_models(view, (model,), rotation_eye, pooled=pooled)[model]
 
     def predict_models(
-        self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64]
+        self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64], *, pooled: bool | None = None
     ) -> dict[str, C.RetinaSamples]:
         """``predict`` for several remapping models at once."""
-        return self.predict_eyes((view,), models, (rotation_eye,))[0]
+        return self.predict_eyes((view,), models, (rotation_eye,), pooled=pooled)[0]
 
     def predict_eyes(
-        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye
+        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *, pooled: bool | None = None
     ) -> list[dict[str, C.RetinaSamples]]:
         """``predict_models`` for several eyes, each with its own efference copy: [eye]{model: samples}."""
-        values, valid = self.predict_arrays(views, models, rotations_eye)
+        values, valid = self.predict_arrays(views, models, rotations_eye, pooled=pooled)
         return [dict(zip(models, per_eye)) for per_eye in self.plan.samples(values, valid)]
 
     def predict_arrays(
-        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye
+        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *, pooled: bool | None = None
     ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """The predictions as arrays in retina order: values (E, K, N_f + M N, C) float32 and
         valid (E, K, N_f + M N), for E eyes and the K ``models`` (``conformal.RemapPlan``).
 
         The series is evaluated exactly in single precision (~1e-6 relative: far below the
-        retina's sampling error)."""
+        retina's sampling error). ``pooled`` as in ``predict``."""
+        pooled = self.pooled_remap if pooled is None else checks.flag("pooled", pooled)
         views, models, rotations_eye = self._check_predict_args(views, models, rotations_eye)
         maps = [[self.point_map(m, R) for m in models] for R in rotations_eye]
         coeffs = np.stack([v.coeffs for v in views])
         fovea = np.stack([v.fovea for v in views])
-        return self.plan(coeffs, fovea, maps)
+        return self.plan(coeffs, fovea, maps, pooled=pooled)
 
     def _predict_frame(
         self, frame: "_Frame", models: tuple[str, ...], rotations_eye
     ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
-        """``predict_arrays(frame.views, models, rotations_eye)`` for a ``_Frame`` of this Vision
-        (``_see_frame``) and ``models`` already checked; the rotations are checked (one per eye)."""
+        """``predict_arrays(frame.views, models, rotations_eye)`` (``pooled`` as this Vision's
+        ``pooled_remap``) for a ``_Frame`` of this Vision (``_see_frame``) and ``models`` already
+        checked; the rotations are checked (one per eye)."""
         if len(rotations_eye) != len(frame.views):
             raise ValueError(f"rotations_eye must hold one 3x3 rotation per view ({len(frame.views)}); "
                              f"got {len(rotations_eye)}")
         kinds, params = self._map_params(models, rotations_eye)
-        return self.plan._evaluate(frame.coeffs, frame.fovea, kinds, params)
+        return self.plan._evaluate(frame.coeffs, frame.fovea, kinds, params, self.pooled_remap)
 
     def _frame_errors(self, values: NDArray, valid: NDArray, frame: "_Frame") -> NDArray[np.float64]:
         """``errors(values, valid, frame.views)`` for ``_predict_frame``'s output and a ``_Frame``."""
