@@ -145,8 +145,8 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
         return (ll if math.isfinite(ll) else -1e12), full
 
     try:
-        if start is None:  # the best of a coarse grid (3 levels per parameter, inside the bounds)
-            grid = [[p.lo + f * (p.hi - p.lo) for f in (0.15, 0.4, 0.65)] + [p.default] for p in free]
+        if start is None:  # the best of a coarse grid (the default and 2 more levels per parameter)
+            grid = [[p.lo + f * (p.hi - p.lo) for f in (0.2, 0.6)] + [p.default] for p in free]
             start = max(({p.name: v for p, v in zip(free, combo)} for combo in itertools.product(*grid)),
                         key=lambda v: profiled(v)[0])
         res = minimize(lambda z: -profiled(_from_z(sub, z))[0], _to_z(sub, start), method="Nelder-Mead",
