@@ -303,7 +303,10 @@ def record_study(path: Path, table: dict, config, amplitude_deg: float | None = 
                     row = runner.run(trial)
                     rec.set_time_ms(row["flash_sim_ms"])
                     last = runner.last
+                    runner.stage(trial)  # the 3-D scene at the flash's instant (run() looked on after the saccade)
+                    runner.head.flash("flash_00", 8)
                     rec.log_head(runner.head)
+                    runner.head.hide_flashes()
                     rec.log_frame(last["frame"], runner.retina_grid)
                     rec.log_views([mp[0] for mp in last["maps"]], runner.retina_grid)
                     rec.log_flash((row["true_x_deg"], row["true_y_deg"]),
@@ -317,7 +320,7 @@ def record_study(path: Path, table: dict, config, amplitude_deg: float | None = 
                     rec.log("study/true", rr.Points2D(tr, radii=0.3, colors=[[40, 200, 40]]))
                     rec.log("study/perceived", rr.Points2D(pe, radii=0.3, colors=[[230, 40, 40]]))
                     rec.log("study/error", rr.Arrows2D(vectors=pe - tr, origins=tr, colors=[[200, 200, 200]]))
-                    rec.log("study/gain", rr.Scalars(config.timecourse.gain(float(t))))
+                    rec.log("study/gain", rr.Scalars(float(row["gain"])))  # the example trial's (either model)
                     for amp, (tt, vals) in ci.items():
                         k = np.nonzero(tt == t)[0]
                         if k.size:

@@ -643,6 +643,12 @@ def test_study_recording_and_its_blueprint(tmp_path):
     for e in ("/world/eyes/left/camera/image", "/world/scene/world/screen", "/study/compression_index/20deg"):
         assert e in data, e
     assert not any(k.startswith(("/remap", "/saccades")) for k in data)
+    # the 3-D scene is that of the flash's instant: the flash is visible in it, once per instant
+    flashes = data["/world/flashes"]
+    assert flashes["times_ms"].tolist() == [160.0, 210.0]
+    assert all(len(p) == 1 for p in flashes["cols"]["Points3D:positions"])
+    # the logged gain is the example trial's own (the mechanistic model's, not a set time course)
+    assert all(g[0] >= 0 for g in data["/study/gain"]["cols"]["Scalars:scalars"])
 
 
 # ---------------------------------------------------------------------- command line: hostile input

@@ -290,17 +290,11 @@ class TrialRunner:
             return self._run_displacement(trial)
         return self.readout(self.observe(trial))
 
-    def observe(self, trial: Trial) -> Observation:
-        """The stimulus and the retina's response to it: everything of a trial that the read-out's
-        parameters (``READOUT_PARAMETERS``) do not change -- the saccade, the rendered and
-        integrated frames, each flash's retina, DPFT and target-centred map, the post-saccadic
-        retinal image of the target."""
-        if self.config.paradigm == "displacement":
-            raise ValueError("observe/readout split the localization and separation paradigms; "
-                             "the displacement paradigm runs with run()")
+    def stage(self, trial: Trial) -> tuple[models.SaccadePlan, int, tuple]:
+        """Put the head where the trial's flash finds it: the scene laid out, the saccade started,
+        the simulation stepped to the flash's onset (the flash itself not shown). Returns the plan,
+        the flash's sim time and the world positions of target, flash and second flash."""
         head, cfg = self.head, self.config
-        mech_smear = not (cfg.model == "mechanistic" and "smear" in cfg.disabled)
-        two = cfg.paradigm == "separation"
         fix_w = _screen_world(*trial.fixation_deg)
         tgt_w = _screen_world(*trial.target_deg)
         fl_w = _screen_world(*trial.flash_deg)
@@ -318,6 +312,20 @@ class TrialRunner:
         t_abs = plan.onset_ms + int(trial.flash_time_ms)
         head.step_ms(t_abs - head.time_ms)
         self._show(t_abs, plan)
+        return plan, t_abs, (tgt_w, fl_w, fl2_w)
+
+    def observe(self, trial: Trial) -> Observation:
+        """The stimulus and the retina's response to it: everything of a trial that the read-out's
+        parameters (``READOUT_PARAMETERS``) do not change -- the saccade, the rendered and
+        integrated frames, each flash's retina, DPFT and target-centred map, the post-saccadic
+        retinal image of the target."""
+        if self.config.paradigm == "displacement":
+            raise ValueError("observe/readout split the localization and separation paradigms; "
+                             "the displacement paradigm runs with run()")
+        head, cfg = self.head, self.config
+        mech_smear = not (cfg.model == "mechanistic" and "smear" in cfg.disabled)
+        two = cfg.paradigm == "separation"
+        plan, t_abs, (tgt_w, fl_w, fl2_w) = self.stage(trial)
         exposure = FLASH_MS if mech_smear else 0
         ref = head.render(exposure_ms=exposure)
         frames = []
