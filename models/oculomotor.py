@@ -131,6 +131,11 @@ def listing_torsion(h, v) -> np.ndarray:
     the tests check it against that construction, not against this formula.
     """
     h, v = _angles(h=h, v=v)
+    return _listing_torsion(h, v)
+
+
+def _listing_torsion(h: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``listing_torsion`` for arrays already checked (the formula's one home)."""
     return 2.0 * np.arctan(np.tan(h / 2) * np.tan(v / 2))
 
 
@@ -300,7 +305,7 @@ class _LegacyProfile:
 
 def _listing(hv: np.ndarray) -> np.ndarray:
     """Append Listing torsion to (..., 2) Fick (h, v) -> (..., 3)."""
-    return np.concatenate([hv, (2.0 * np.arctan(np.tan(hv[..., :1] / 2) * np.tan(hv[..., 1:] / 2)))], axis=-1)
+    return np.concatenate([hv, _listing_torsion(hv[..., :1], hv[..., 1:])], axis=-1)
 
 
 @dataclass

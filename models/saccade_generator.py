@@ -31,8 +31,7 @@ The loop, in degrees and milliseconds, per saccade of desired displacement ``A``
 
 Binocular coordination follows Hering's law (one burst, both eyes) with eye-specific plants: the
 abducting eye's plant is faster (``abducting_t2_ms``) than the adducting eye's, so abducting
-saccades are faster, shorter and more skewed, and the eyes diverge transiently during horizontal
-saccades -- the asymmetry of Collewijn, Erkelens & Steinman (1988), J Physiol 404:157. Oblique
+saccades are faster and shorter, and the eyes diverge transiently during horizontal saccades -- the asymmetry of Collewijn, Erkelens & Steinman (1988), J Physiol 404:157. Oblique
 saccades share one vector burst (component stretching), so both components start and end
 together.
 
@@ -171,7 +170,8 @@ def simulate(generator: "BurstGenerator", amplitudes_deg: np.ndarray, span_ms: f
     E = np.zeros((3,) + A.shape)
     on = A > 0
     kb, ka = np.exp(-dt_ms / g.burst_lag_ms), np.exp(-dt_ms / g.adaptation_ms)
-    k2 = np.exp(-dt_ms / np.array([g.plant_t2_ms, g.abducting_t2_ms, g.adducting_t2_ms]))[:, None]
+    t2 = np.array([g.plant_t2_ms, g.abducting_t2_ms, g.adducting_t2_ms])[:, None]
+    k2 = np.exp(-dt_ms / t2)
     bm = g.burst_max_deg_s / 1000.0
     n_out = n // every + 1
     pos = np.empty((3, n_out) + A.shape)
@@ -186,21 +186,15 @@ def simulate(generator: "BurstGenerator", amplitudes_deg: np.ndarray, span_ms: f
         D_new = np.where(done, A, D_new)
         B = np.where(done, 0.0, B)
         on &= ~done
-        # plant: E low-passes D (T2); D ramps linearly over the step (first-order hold)
-        E = _plant_step(E, D, D_new, k2, g, dt_ms)
+        # plant T2 E' = D - E, exact for D ramping linearly over the step (first-order hold):
+        # E(t) = D(t) - T2 slope + (E0 - D0 + T2 slope) e^{-t/T2}
+        slope = (D_new - D) / dt_ms
+        E = D_new - t2 * slope + (E - D + t2 * slope) * k2
         D = D_new
         if i % every == 0:
             pos[:, i // every] = E
             burst[i // every] = B
     return pos, burst
-
-
-def _plant_step(E, D0, D1, k2, g, dt_ms):
-    """Exact step of ``T2 E' = D - E`` with D linear from D0 to D1 over ``dt_ms``."""
-    t2 = np.array([g.plant_t2_ms, g.abducting_t2_ms, g.adducting_t2_ms])[:, None]
-    slope = (D1 - D0) / dt_ms
-    # solution with ramp input: E(t) = D(t) - T2 slope + (E0 - D0 + T2 slope) e^{-t/T2}
-    return D1 - t2 * slope + (E - D0 + t2 * slope) * k2
 
 
 @dataclass(frozen=True)

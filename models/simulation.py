@@ -361,13 +361,17 @@ class Head:
         return focal_pixels(self.image_shape[0], np.deg2rad(self.model.cam_fovy[self._cam_ids[0]]))
 
     # ------------------------------------------------------------------ scene objects
-    def object_position(self, name: str) -> np.ndarray:
-        """World position of the scene object (geom) ``name``."""
+    def _geom_id(self, name) -> int:
+        """The geom id of scene object ``name`` (a ``KeyError`` naming the scene's objects if none)."""
         name = self._name("name", name)
         gid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
         if gid < 0:
             raise KeyError(f"scene {self.scene.name!r} has no object {name!r}; objects: {', '.join(self.scene.objects)}")
-        return self.data.geom_xpos[gid].copy()
+        return gid
+
+    def object_position(self, name: str) -> np.ndarray:
+        """World position of the scene object (geom) ``name``."""
+        return self.data.geom_xpos[self._geom_id(name)].copy()
 
     def object_positions(self, group: str) -> dict[str, np.ndarray]:
         """Positions of all objects in ``group`` (e.g. ``"flashes"``, ``"distractors"``)."""
@@ -405,11 +409,8 @@ class Head:
         """Show or hide the scene object (geom) ``name`` from now on (its alpha 1 or 0): e.g. the
         ``dots`` scene's ``ruler``, ``target`` or ``screen`` for the conditions of a paradigm.
         ``reset`` restores the scene's own visibility."""
-        name = self._name("name", name)
+        gid = self._geom_id(name)
         visible = checks.flag("visible", visible)
-        gid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
-        if gid < 0:
-            raise KeyError(f"scene {self.scene.name!r} has no object {name!r}; objects: {', '.join(self.scene.objects)}")
         if gid not in self._alpha0:
             self._alpha0[gid] = float(self.model.geom_rgba[gid, 3])
         self.model.geom_rgba[gid, 3] = 1.0 if visible else 0.0

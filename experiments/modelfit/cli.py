@@ -37,11 +37,9 @@ def _models(text: str) -> list[str]:
 
 
 def _model(text: str) -> str:
-    return _models(text)[0] if "," not in text else _fail(text)
-
-
-def _fail(text: str):
-    raise argparse.ArgumentTypeError(f"one model name; got {text!r} (compare fits several)")
+    if "," in text:
+        raise argparse.ArgumentTypeError(f"one model name; got {text!r} (compare fits several)")
+    return _models(text)[0]
 
 
 def _params(text: str) -> dict:

@@ -203,15 +203,15 @@ def _plot_fit(data: LocalizationData, pred: np.ndarray, result: dict, path: Path
     import matplotlib.pyplot as plt
 
     conds = sorted(set(data.condition))
+    err = data.perceived_deg[:, 0] - data.true_deg[:, 0]
+    perr = pred[:, 0] - data.true_deg[:, 0]
     fig, ax = plt.subplots(1, len(conds), figsize=(5.5 * len(conds), 3.8), squeeze=False)
     for c, cond in zip(ax[0], conds):
-        for j, amp in enumerate(sorted(set(data.amplitude_deg))):
+        for amp in sorted(set(data.amplitude_deg)):
             sel = (data.condition == cond) & (data.amplitude_deg == amp)
             ts = np.unique(data.flash_time_ms[sel])
-            err = data.perceived_deg[:, 0] - data.true_deg[:, 0]
-            perr = pred[:, 0] - data.true_deg[:, 0]
             m = [np.average(err[sel & (data.flash_time_ms == t)], weights=data.n[sel & (data.flash_time_ms == t)]) for t in ts]
-            pm = [pred_mean for pred_mean in (perr[sel & (data.flash_time_ms == t)].mean() for t in ts)]
+            pm = [perr[sel & (data.flash_time_ms == t)].mean() for t in ts]
             line, = c.plot(ts, m, "o", label=f"data {amp:g}°")
             c.plot(ts, pm, "-", color=line.get_color(), label=f"model {amp:g}°")
         c.axhline(0, color="0.7", lw=0.8)
@@ -300,12 +300,12 @@ def simulate_data(model: str, values: dict, design, conditions=("references", "d
     missing = [p.name for p in m.parameters if p.name not in values]
     if missing:
         raise ValueError(f"simulate_data: give every parameter of {model}: missing {', '.join(missing)}")
+    from ..psychophysics import TrialConfig, TrialRunner
+
     rng = np.random.default_rng(seed)
     rows = []
+    trials = list(design.trials())
     for cond in conditions:
-        trials = list(design.trials())
-        from ..psychophysics import TrialConfig, TrialRunner
-
         config = TrialConfig(image_size=image_size, condition=cond)
         obs = observe_trials(trials, config, None, workers=workers)
         runner = TrialRunner(config)

@@ -273,15 +273,24 @@ class TrialRunner:
         t_post = max(head.time_ms, plan.end_ms + POST_SACCADE_MS)
         head.step_ms(t_post - head.time_ms)
         self._show(t_post, plan)
+        zs = self._target_image_points()
+        self._show(t_post, plan)
+        return zs, int(t_post)
+
+    def _target_image_points(self) -> list[complex]:
+        """Each eye's retinal image point of the target as the scene is now: the centroid of the
+        retina's response to the target (a render with it minus one without; NaN where the retina
+        sees none, e.g. when it is off). Leaves the target shown."""
+        head = self.head
         lit = head.render()
         head.set_visible("target", False)
         unlit = head.render()
-        self._show(t_post, plan)
+        head.set_visible("target", True)
         zs = []
         for a, b in ((lit.left, unlit.left), (lit.right, unlit.right)):
             diff = np.clip(a.image.astype(float) - b.image.astype(float), 0, None) / 255.0
             zs.append(self._centroid(self.vision.see(diff), self.retina_grid))
-        return zs, int(t_post)
+        return zs
 
     def run(self, trial: Trial) -> dict:
         """Run one trial; returns its table row (see ``ROW_COLUMNS`` and ``TEXT_COLUMNS``):
@@ -420,17 +429,11 @@ class TrialRunner:
         """Step to ``t_ms``; the target's head-centred position (deg, mean of the eyes) as seen then
         through the eye-position signal of ``t_ms + latency`` (or the true eye), and its retinal
         offset from the fovea (deg)."""
-        head = self.head
-        head.step_ms(t_ms - head.time_ms)
-        lit = head.render()
-        head.set_visible("target", False)
-        unlit = head.render()
-        head.set_visible("target", True)
+        self.head.step_ms(t_ms - self.head.time_ms)
+        zs = self._target_image_points()
         axes, origins = self._pose(plan.angles(float(t_ms)) if true_eye else plan.eye_position_signal(t_ms + latency))
         pos, off = [], []
-        for e, (a, b) in enumerate(((lit.left, unlit.left), (lit.right, unlit.right))):
-            diff = np.clip(a.image.astype(float) - b.image.astype(float), 0, None) / 255.0
-            z = self._centroid(self.vision.see(diff), self.retina_grid)
+        for e, z in enumerate(zs):
             pos.append(self._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
             off.append(math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan)
         return _mean_of_eyes(pos), float(np.nanmean(off)) if np.isfinite(off).any() else float("nan")
