@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import pytest
 
+import models  # noqa: F401  (first: it picks MuJoCo's off-screen GL backend before anything loads mujoco)
+
 _ADVERSARIAL = {"passed": 0, "failed": 0, "skipped": 0}
 
 

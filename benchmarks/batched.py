@@ -1,0 +1,122 @@
+"""Batched env steps per second (``envs.BatchedBinocularSaccade``), per part, beside the single CPU env.
+
+For each number of worlds: env-steps/s (worlds x steps / s), the time of each part of a step
+(host: action decoding and the saccade plans; remap: the remapping predictions; physics: MuJoCo
+Warp; render: MJWarp's batch renderer, both eyes; retina: pooling; dpft; task: gaze errors and
+scores; host sync: the clocks, the eye-position signals and the observations), and the device
+memory (CUDA: torch's and Warp's peak allocations; CPU: the process's peak RSS). The single CPU
+env (``BinocularSaccadeEnv``, the classic renderer) runs the same actions in the same process first.
+
+    python benchmarks/batched.py                              # CUDA if Warp finds it, else the CPU backend
+    python benchmarks/batched.py --device cpu --num-envs 1 4 16 --steps 3
+    python benchmarks/batched.py --device cuda --num-envs 1 64 1024 4096 --image-size 128
+
+Each configuration is warmed up (kernel compilation, graph capture) before it is timed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+
+import numpy as np
+
+import envs
+
+PARTS = ("host", "remap", "physics", "render", "retina", "dpft", "task", "host sync")
+
+
+def _actions(rng: np.random.Generator, n: int) -> np.ndarray:
+    return rng.uniform(-0.4, 0.4, size=(n, 2)).astype(np.float32)
+
+
+def single_env(args) -> float:
+    env = envs.BinocularSaccadeEnv(image_size=args.image_size)
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        env.step(_actions(rng, 1)[0])
+    t0, steps = time.perf_counter(), 0
+    while steps < args.single_steps:
+        _, _, te, tr, _ = env.step(_actions(rng, 1)[0])
+        steps += 1
+        if te or tr:
+            env.reset()
+    env.close()
+    return steps / (time.perf_counter() - t0)
+
+
+def batched(args, n: int) -> dict:
+    import torch
+
+    env = envs.BatchedBinocularSaccade(n, device=args.device, image_size=args.image_size)
+    rng = np.random.default_rng(0)
+    env.reset(seed=0)
+    for _ in range(2):  # compile, capture
+        env.step(_actions(rng, n))
+    cuda = env.device.type == "cuda"
+    if cuda:
+        torch.cuda.reset_peak_memory_stats()
+    env.timings = {}
+    t0 = time.perf_counter()
+    for _ in range(args.steps):
+        env.step(_actions(rng, n))
+    if cuda:
+        torch.cuda.synchronize()
+    wall = time.perf_counter() - t0
+    parts = {k: v / args.steps * 1e3 for k, v in env.timings.items()}
+    env.timings = None
+    # a second timing without the per-part synchronisation, for the steps/s
+    t0 = time.perf_counter()
+    for _ in range(args.steps):
+        env.step(_actions(rng, n))
+    if cuda:
+        torch.cuda.synchronize()
+    wall = min(wall, time.perf_counter() - t0)
+    if cuda:
+        import warp as wp
+
+        mem = f"{torch.cuda.max_memory_allocated() / 2**20:.0f} MiB torch + {wp.get_mempool_used_mem_high(env.device.index or 0) / 2**20:.0f} MiB warp" if hasattr(wp, "get_mempool_used_mem_high") else f"{torch.cuda.max_memory_allocated() / 2**20:.0f} MiB torch"
+    else:
+        mem = f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10:.0f} MiB RSS (process)"
+    env.close()
+    return {"steps/s": n * args.steps / wall, "ms/step": wall / args.steps * 1e3, "parts": parts, "memory": mem}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--device", default=None, help="cuda, cuda:<i> or cpu (default: cuda if available)")
+    ap.add_argument("--num-envs", type=int, nargs="+", default=None,
+                    help="worlds per configuration (default: 1 64 1024 4096 on CUDA, 1 4 16 on the CPU)")
+    ap.add_argument("--image-size", type=int, default=128)
+    ap.add_argument("--steps", type=int, default=None, help="timed steps per configuration (default 20 CUDA, 3 CPU)")
+    ap.add_argument("--single-steps", type=int, default=20)
+    args = ap.parse_args(argv)
+    import warp as wp
+
+    if args.device is None:
+        args.device = "cuda" if wp.is_cuda_available() else "cpu"
+    cpu = args.device == "cpu"
+    args.num_envs = args.num_envs or ([1, 4, 16] if cpu else [1, 64, 1024, 4096])
+    args.steps = args.steps or (3 if cpu else 20)
+    device_name = "CPU backend" if cpu else wp.get_device(args.device).name
+    print(f"device: {args.device} ({device_name}); {args.image_size} px per eye; dots scene, fixate task")
+    single = single_env(args)
+    print(f"single CPU env (BinocularSaccadeEnv, classic renderer): {single:.0f} steps/s")
+    rows = []
+    for n in args.num_envs:
+        r = batched(args, n)
+        rows.append((n, r))
+        print(f"  {n} worlds: {r['steps/s']:.0f} env-steps/s", flush=True)
+    head = ["worlds", "env-steps/s", "x single", "ms/step"] + [f"{p} ms" for p in PARTS] + ["memory"]
+    print("\n| " + " | ".join(head) + " |")
+    print("|" + "---|" * len(head))
+    for n, r in rows:
+        cells = [str(n), f"{r['steps/s']:.0f}", f"{r['steps/s'] / single:.2f}", f"{r['ms/step']:.1f}"]
+        cells += [f"{r['parts'].get(p, 0.0):.2f}" for p in PARTS] + [r["memory"]]
+        print("| " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()

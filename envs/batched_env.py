@@ -1,0 +1,450 @@
+"""``BatchedBinocularSaccade``: N binocular heads stepped at once, physics and vision on a device.
+
+The vector entry point of ``BinocularSaccade-v0``::
+
+    envs = gymnasium.make_vec("BinocularSaccade-v0", num_envs=1024, vectorization_mode="vector_entry_point",
+                              device="cuda")
+
+Each world is one ``BinocularSaccadeEnv`` episode: the same spaces, tasks, rewards, seeding and
+info keys. What runs where, per step:
+
+* host (per world, numpy): the action's decoding and the saccade plan (``models.SaccadePlan``: the
+  burst generator's tabulated trajectory, vergence, endpoint noise, the efference copy and the
+  eye-position signal), i.e. the brain's side, with each world's ``models.Head`` keeping its clock
+  and saccade state (no CPU physics and no CPU rendering);
+* device: the remapping predictions of every model from the previous frame and the efference
+  copies (``envs.batched_vision.TorchVision``), the physics (MuJoCo Warp, the servo following each
+  world's command table in a kernel, ``envs.batched_physics.WarpHeads``), both eyes rendered by
+  MJWarp's batch renderer, retina pooling, DPFT, remapping errors and the task's score.
+
+Observations stay on the device as torch tensors (``output="torch"``, default) or come back as
+numpy arrays (``output="numpy"``). Rewards, terminations and truncations are numpy arrays (the
+autoreset needs them on the host anyway); ``info`` holds numpy arrays with gymnasium's ``_key``
+masks. Autoreset: ``NEXT_STEP`` (gymnasium's default): the step after a world's episode ends
+resets it and ignores its action.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import time
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+import models
+from conformal import checks
+
+from .saccade_env import BinocularSaccadeEnv, plan_clipped
+from .tasks import FixateTask, FreeViewingTask, SearchTask
+
+__all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]
+
+#: The most worlds one batched env holds.
+MAX_NUM_ENVS = 65_536
+_TASKS = (FixateTask, SearchTask, FreeViewingTask)
+_STEP_KEYS = ("saccade_amplitude_deg", "saccade_duration_ms", "peak_velocity_deg_s", "landing_error_deg",
+              "endpoint_error_deg", "efference_copy", "executed_rotation", "eye_angles", "clipped")
+
+
+def _resolve_device(device, wp) -> str:
+    if device is None:
+        return "cuda" if wp.is_cuda_available() else "cpu"
+    if not isinstance(device, str):
+        raise checks.InputTypeError(f"device must be a string such as 'cuda', 'cuda:1' or 'cpu', or None; got {device!r}")
+    if device.startswith("cuda") and not wp.is_cuda_available():
+        raise RuntimeError(f"device={device!r} but Warp finds no CUDA device here; use device='cpu' (Warp's CPU "
+                           "backend: slow, for tests) or run on a machine with an NVIDIA GPU")
+    if device != "cpu" and not device.startswith("cuda"):
+        raise ValueError(f"device must be 'cuda', 'cuda:<index>' or 'cpu'; got {device!r}")
+    return device
+
+
+class BatchedBinocularSaccade(VectorEnv):
+    """``num_envs`` worlds of ``BinocularSaccadeEnv`` stepped together (see the module docstring).
+
+    Args:
+        num_envs: the number of worlds, an integer in [1, 65536].
+        device: ``"cuda"`` (or ``"cuda:<i>"``), ``"cpu"`` (Warp's CPU backend and torch on the CPU:
+            slow, for tests and machines without a GPU) or None (CUDA when Warp finds it, else CPU).
+        output: ``"torch"`` (observations as torch tensors on the device) or ``"numpy"``.
+        chunk_ms: physics steps per captured CUDA graph (see ``envs.batched_physics.WarpHeads``).
+        autoreset_mode: ``"next_step"`` (default, gymnasium's: the step after an episode ends resets that
+            world, its action ignored, reward 0) or ``"same_step"`` (what GPU RL libraries expect: the world
+            is reset within the step that ended it; that step's observation is the new episode's first,
+            and the ended episode's last observations (a batched dict, all worlds) and info are in
+            ``info["final_obs"]`` / ``info["final_info"]``, masked by ``info["_final_obs"]``; costs a
+            second render in steps where any world ends).
+        retina_rays: None (default: render a pinhole image per eye, then pool it on the retina as the
+            single env does) or s in [1, 8]: render the retina natively, s x s rays per receptive field
+            (``envs.retina_rays``): no pixels, so no picture boundary; the samples differ from the
+            pooled pinhole picture's by the pixels' own quantisation (``tests/test_retina_rays.py``).
+        settle_ms: physics milliseconds simulated after the last world's saccade ends (default 20). The
+            rest of the fixation is only a clock: the eyes hold still (the servo has settled to within
+            1e-6 deg of the endpoint after 20 ms, as after the full 250: ``tests/test_batched_env.py``),
+            so simulating it would cost ~10x the physics and change nothing observed.
+        **kwargs: the single env's arguments (``task``, ``scene``, ``image_size``, ``action_mode``,
+            ``remap_model``, ...; each checked as ``BinocularSaccadeEnv`` checks it). Not supported
+            here: ``render_mode``, ``pooled_remap=True`` and tasks other than the built-in
+            ``fixate``, ``search`` and ``free`` (a ValueError says so).
+
+    The first step on a new machine compiles Warp's kernels (about 30 s on the CPU backend, a
+    minute on CUDA; cached in Warp's kernel cache afterwards).
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, num_envs: int, device: str | None = None, *, output: str = "torch", chunk_ms: int = 25,
+                 settle_ms: int = 20, autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+                 retina_rays: int | None = None, **kwargs: Any) -> None:
+        from .batched_physics import WarpHeads, require_gpu_extra
+        from .batched_vision import TorchVision
+
+        wp, _, torch = require_gpu_extra()
+        self._torch = torch
+        self.num_envs = checks.integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
+        self.output = checks.choice("output", output, ("torch", "numpy"))
+        chunk_ms = checks.integer("chunk_ms", chunk_ms, 1, 1000)
+        self.settle_ms = checks.integer("settle_ms", settle_ms, 0, BinocularSaccadeEnv.MAX_FIXATION_MS)
+        modes = {m.value: m for m in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)}
+        mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
+        self.autoreset_mode = modes[checks.choice("autoreset_mode", mode, tuple(modes))]
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
+        if retina_rays is not None:
+            from .retina_rays import MAX_SUBSAMPLES
+
+            retina_rays = checks.integer("retina_rays", retina_rays, 1, MAX_SUBSAMPLES,
+                                         hint="sub-rays per receptive-field side, or None for pinhole images")
+        self.retina_rays = retina_rays
+        device = _resolve_device(device, wp)
+        if kwargs.get("render_mode") is not None:
+            raise ValueError("the batched env does not render for display (render_mode must be None); "
+                             "use BinocularSaccadeEnv(render_mode='rgb_array') to look at an episode")
+        if kwargs.get("pooled_remap"):
+            raise ValueError("pooled_remap=True is not available in the batched env (its remapping predictions are "
+                             "the point prediction); use BinocularSaccadeEnv for pooled predictions")
+        self._template = env = BinocularSaccadeEnv(**kwargs)  # checks every single-env argument
+        if type(env.task) not in _TASKS:
+            env.close()
+            raise ValueError(f"the batched env scores the built-in tasks fixate, search and free on the device; "
+                             f"got a {type(env.task).__name__}")
+        self.task = env.task
+        self.single_observation_space = env.observation_space
+        self.single_action_space = env.action_space
+        self.observation_space = batch_space(env.observation_space, self.num_envs)
+        self.action_space = batch_space(env.action_space, self.num_envs)
+        self.render_mode = None
+        self.remap_models, self.remap_model = env.remap_models, env.remap_model
+        self._chosen = env.remap_models.index(env.remap_model)
+        self.heads = [env.head] + [models.Head(env.scene, **env._head_kwargs) for _ in range(self.num_envs - 1)]
+        directions = None
+        if retina_rays is not None:
+            from .retina_rays import field_ray_directions
+
+            directions = field_ray_directions(env.vision.grid, retina_rays)
+        self.physics = WarpHeads(env.head, self.num_envs, device, chunk_ms=chunk_ms, retina_directions=directions)
+        self.device = self.physics.torch_device
+        self.vision = TorchVision(env.vision, self.physics.torch_device)
+        self.grid = env.vision.grid
+        m = env.head.model
+        self._target_gid = m.geom("target").id if "target" in env.head.scene.objects else None
+        self._cam_ids = torch.as_tensor(self.physics._cam_ids, device=self.device)
+        self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
+        self._saccades = np.zeros(self.num_envs, np.int64)
+        self._autoreset = np.zeros(self.num_envs, bool)
+        self._frame = None
+        self._remapped = None
+        #: Set to a dict to accumulate each part's wall time per step (seconds, device synchronised
+        #: around each part: slower; for benchmarks/batched.py); None (default) to time nothing.
+        self.timings: dict[str, float] | None = None
+        self._cell_angles = None
+        if env.action_mode == "cell":
+            z = self.grid.points.ravel()
+            self._cell_angles = np.stack([np.arctan(z.real), np.arctan2(z.imag, np.hypot(1.0, z.real))], axis=1)
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
+        n = self.num_envs
+        if seed is None:
+            seeds = [None] * n
+        elif isinstance(seed, (list, tuple)):
+            if len(seed) != n:
+                raise ValueError(f"seed must be an int, None or a list of {n} seeds (one per world); got {len(seed)}")
+            seeds = [None if s is None else checks.integer("seed", s, 0, None, hint="or None") for s in seed]
+        else:
+            s0 = checks.integer("seed", seed, 0, None, hint="or None, or a list of one seed per world")
+            seeds = [s0 + i for i in range(n)]  # as gymnasium's SyncVectorEnv seeds its sub-envs
+        if options is not None and not isinstance(options, dict):
+            raise checks.InputTypeError(f"options must be a dict or None; got {type(options).__name__}")
+        if options:
+            raise ValueError(f"this environment takes no reset options; got {', '.join(map(str, options))}")
+        for i, s in enumerate(seeds):
+            if s is not None or self._rngs[i] is None:
+                self._rngs[i], _ = seeding.np_random(s)
+            self._reset_world(i)
+        self._autoreset[:] = False
+        self.physics.load(np.arange(n), self.heads)
+        self._see()
+        self._remapped = self._cortical_now()
+        info = {"sim_time_ms": np.array([h.time_ms for h in self.heads]), "_sim_time_ms": np.ones(n, bool),
+                "remap_error": self._masked({m: np.zeros(n) for m in self.remap_models}, np.ones(n, bool)),
+                "_remap_error": np.ones(n, bool)}
+        return self._observation(), info
+
+    def step(self, actions):
+        if self._frame is None:
+            raise RuntimeError("call reset() before step()")
+        torch = self._torch
+        n, g = self.num_envs, self.grid
+        part = self._part
+        with part("host"):
+            hv, factor = self._decode(actions)
+        resetting = self._autoreset.copy()
+        active = ~resetting
+        with part("host"):
+            for i in np.flatnonzero(resetting):
+                self._reset_world(i)
+            plans: list = [None] * n
+            clipped = np.zeros(n, bool)
+            rot_eye = np.broadcast_to(np.eye(3), (n, 2, 3, 3)).copy()
+            for i in np.flatnonzero(active):
+                plans[i], clipped[i] = plan_clipped(self.heads[i], hv[i, 0], hv[i, 1], factor[i])
+                rot_eye[i] = plans[i].efference_copy_eye
+            # the command tables: each world's commanded angles at every ms from now to its saccade's end
+            spans = np.zeros(n, np.int64)
+            advance = np.zeros(n, np.int64)
+            for i in np.flatnonzero(active):
+                head, plan = self.heads[i], plans[i]
+                head.start_saccade(plan)
+                spans[i] = plan.end_ms - head.time_ms
+                advance[i] = spans[i] + self._template.fixation_ms
+            commands = np.empty((n, int(spans.max()) + 1, 6), np.float32)
+            for i, head in enumerate(self.heads):
+                if active[i]:
+                    q = plans[i].angles(head.time_ms + np.arange(spans[i] + 1.0)).reshape(-1, 6)
+                    commands[i, :len(q)] = q
+                    commands[i, len(q):] = q[-1]
+                else:
+                    commands[i] = head._hold.reshape(6)
+        with part("remap"):
+            values, valid = self.vision.predict(self._frame, torch.as_tensor(rot_eye, dtype=torch.float32,
+                                                                             device=self.device), self.remap_models)
+        with part("physics"):
+            if resetting.any():
+                self.physics.load(np.flatnonzero(resetting), [self.heads[i] for i in np.flatnonzero(resetting)])
+            self.physics.run(commands, spans + 1, int(min(advance.max(), spans.max() + self.settle_ms)))
+        with part("host sync"):
+            eye_q = self.physics.eye_qpos().double().cpu().numpy()
+            for i in np.flatnonzero(active):
+                self.heads[i]._follow(int(advance[i]), eye_q[i])
+        self._see()
+        with part("remap"):
+            errors = self.vision.errors(values, valid, self._frame).mean(dim=1)  # (N, K): mean of both eyes
+            chosen = values[:, :, self._chosen, g.n_fovea:].reshape(n, 2, g.M, g.N, -1)
+            remapped = self.vision.cortical(chosen, self._template.cortex)
+            now = self._cortical_now()
+            keep = torch.as_tensor(active, device=self.device).view((n,) + (1,) * (remapped.dim() - 1))
+            self._remapped = torch.where(keep, remapped, now)
+        with part("task"):
+            target_err, landing = self._gaze_errors(plans, active)
+            reward, success = self._score(target_err)
+        self._saccades[active] += 1
+        terminated = active & success
+        truncated = active & ~terminated & (self._saccades >= self.task.max_saccades)
+        reward = np.where(active, reward, 0.0)
+        if self.autoreset_mode is AutoresetMode.NEXT_STEP:
+            self._autoreset = terminated | truncated
+
+        errors = errors.double().cpu().numpy()
+        remap_error = {m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)}
+        info: dict[str, Any] = {
+            "sim_time_ms": np.array([h.time_ms for h in self.heads]), "_sim_time_ms": np.ones(n, bool),
+            "remap_error": self._masked(remap_error, np.ones(n, bool)), "_remap_error": np.ones(n, bool),
+        }
+        per_world = {
+            "saccade_amplitude_deg": [p.amplitude_deg if p else 0.0 for p in plans],
+            "saccade_duration_ms": [p.duration_ms if p else 0.0 for p in plans],
+            "peak_velocity_deg_s": [math.degrees(p.peak_velocity) if p else 0.0 for p in plans],
+            "landing_error_deg": landing,
+            "endpoint_error_deg": [p.endpoint_error_deg if p else np.zeros(2) for p in plans],
+            "efference_copy": [p.efference_copy if p else np.eye(3)[None].repeat(2, 0) for p in plans],
+            "executed_rotation": [p.executed_rotation if p else np.eye(3)[None].repeat(2, 0) for p in plans],
+            "eye_angles": eye_q,
+            "clipped": clipped,
+        }
+        for k, v in per_world.items():
+            info[k], info["_" + k] = np.asarray(v, dtype=bool if k == "clipped" else float), active.copy()
+        if self._target_gid is not None:
+            info["target_error_deg"], info["_target_error_deg"] = np.where(active, target_err.mean(axis=1), 0.0), active.copy()
+        info["success"], info["_success"] = success & active, active.copy()
+        with part("host sync"):
+            obs = self._observation()
+        done = terminated | truncated
+        if self.autoreset_mode is AutoresetMode.SAME_STEP and done.any():
+            obs, info = self._reset_same_step(done, obs, info)
+        return obs, reward, terminated, truncated, info
+
+    def close(self, **kwargs) -> None:
+        for h in self.heads:
+            h.close()
+
+    # ------------------------------------------------------------------ helpers
+    def _reset_same_step(self, done: np.ndarray, final_obs: dict, final_info: dict) -> tuple[dict, dict]:
+        """SAME_STEP autoreset: reset the ``done`` worlds now and render again; the ended episodes'
+        last observations and infos go to ``info["final_obs"]`` / ``info["final_info"]``."""
+        idx = np.flatnonzero(done)
+        with self._part("host"):
+            for i in idx:
+                self._reset_world(i)
+        with self._part("physics"):
+            self.physics.load(idx, [self.heads[i] for i in idx])
+        self._see()
+        now = self._cortical_now()
+        keep = self._torch.as_tensor(~done, device=self.device).view((-1,) + (1,) * (now.dim() - 1))
+        self._remapped = self._torch.where(keep, self._remapped, now)
+        with self._part("host sync"):
+            obs = self._observation()
+        n = self.num_envs
+        info = {"sim_time_ms": np.array([h.time_ms for h in self.heads]), "_sim_time_ms": np.ones(n, bool),
+                "final_obs": final_obs, "_final_obs": done.copy(), "final_info": final_info, "_final_info": done.copy()}
+        for k, v in final_info.items():  # the running worlds' step info stays where it was
+            if k not in info and not k.startswith("_") and k != "remap_error":
+                info[k], info["_" + k] = v, final_info["_" + k] & ~done
+        info["remap_error"], info["_remap_error"] = final_info["remap_error"], ~done
+        return obs, info
+
+    @contextlib.contextmanager
+    def _part(self, name: str):
+        """Time a part of the step into ``timings`` (when set), the device synchronised at both ends."""
+        if self.timings is None:
+            yield
+            return
+        sync = self._torch.cuda.synchronize if self.device.type == "cuda" else (lambda: None)
+        sync()
+        t0 = time.perf_counter()
+        yield
+        sync()
+        self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - t0
+
+    def _reset_world(self, i: int) -> None:
+        """Reset world ``i`` on the host as ``BinocularSaccadeEnv.reset`` does (its rng continues)."""
+        rng = self._rngs[i]
+        if rng is None:
+            self._rngs[i] = rng = seeding.np_random(None)[0]
+        self.heads[i].reset(seed=int(rng.integers(2**31 - 1)))
+        self.task.initialize_episode(self.heads[i], rng)
+        self._saccades[i] = 0
+
+    def _see(self) -> None:
+        """Render both eyes of every world and see them: pinhole images pooled on the retina, or the
+        retina rendered along its fields' rays; then the DPFT."""
+        with self._part("render"):
+            pictures = self.physics.render() if self.retina_rays is None else self.physics.render_retina()
+        with self._part("retina"):
+            if self.retina_rays is None:
+                self._frame = self.vision.see(pictures, check_range=False)  # the renderer's floats lie in [0, 1]
+            else:
+                self._frame = self.vision.see_samples(pictures)
+        if self.timings is not None:  # the DPFT's share of that, timed once more on its own
+            before = self.timings.get("dpft", 0.0)
+            with self._part("dpft"):
+                self.vision._frame(self._frame.samples)
+            self.timings["retina"] -= self.timings["dpft"] - before
+
+    def _cortical_now(self):
+        return self.vision.cortical(self._frame.periphery, self._template.cortex)
+
+    @staticmethod
+    def _masked(values: dict, mask: np.ndarray) -> dict:
+        out = dict(values)
+        for k in values:
+            out["_" + k] = mask.copy()
+        return out
+
+    def _observation(self) -> dict:
+        torch = self._torch
+        f = self._frame
+        obs = {
+            "cortical": self._cortical_now(),
+            "fovea": f.fovea.clamp(0.0, 1.0),
+            "remapped": self._remapped.clone(),
+            "eyes": torch.as_tensor(np.stack([h.eye_position_signal() for h in self.heads]), dtype=torch.float32,
+                                    device=self.device),
+        }
+        if self._template.include_coeffs:
+            obs["coeffs"] = torch.view_as_real(f.coeffs).to(torch.float32)
+        if self.output == "numpy":
+            obs = {k: v.cpu().numpy() for k, v in obs.items()}
+        return obs
+
+    def _decode(self, actions) -> tuple[np.ndarray, np.ndarray]:
+        """Actions -> (N, 2) (horizontal, vertical) Fick increments (rad) and (N,) fixation-distance
+        factors, with the single env's checks (the message names the world)."""
+        torch, n, env = self._torch, self.num_envs, self._template
+        if isinstance(actions, torch.Tensor):
+            actions = actions.detach().cpu().numpy()
+        try:
+            a = np.asarray(actions)
+        except Exception:
+            raise ValueError(f"actions must be an array of shape {self.action_space.shape}; got {actions!r:.60}") from None
+        if env.action_mode == "cell":
+            k = env.action_space.n
+            if a.dtype.kind not in "iu":
+                raise checks.InputTypeError(f"actions must be integer cell indices in [0, {k}); got dtype {a.dtype}")
+            if a.shape != (n,):
+                raise ValueError(f"actions must have shape ({n},) (one cell per world); got {a.shape}")
+            bad = np.flatnonzero((a < 0) | (a >= k))
+            if bad.size:
+                raise ValueError(f"actions must be cell indices in [0, {k}); world {bad[0]} has {a[bad[0]]}")
+            return self._cell_angles[a.astype(np.int64)], np.ones(n)
+        if a.dtype.kind not in "iuf":
+            raise checks.InputTypeError(f"actions must be real numbers in [-1, 1]; got dtype {a.dtype}")
+        shape = self.action_space.shape
+        if a.shape != shape:
+            raise ValueError(f"actions must have shape {shape} (one action per world); got {a.shape}")
+        a = a.astype(np.float64)
+        bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
+        if bad.size:
+            raise ValueError(f"actions contain NaN or infinity: world {bad[0]} has {a[bad[0]].tolist()}")
+        bad = np.flatnonzero((np.abs(a) > 1.0 + 1e-6).any(axis=1))
+        if bad.size:
+            raise ValueError(f"action components must lie in [-1, 1]; world {bad[0]} has {a[bad[0]].tolist()}")
+        factor = 2.0 ** a[:, 2] if env.vergence else np.ones(n)
+        return a[:, :2] * env.max_amplitude, factor
+
+    def _gaze_errors(self, plans: list, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Both eyes' gaze errors (deg) to the task's target (N, 2) and the mean to each saccade's
+        intended target (N,), from the device's camera poses (tasks._gaze_errors_deg, batched)."""
+        torch = self._torch
+        pos = self.physics.cam_xpos[:, self._cam_ids].double()  # (N, 2, 3)
+        axis = -self.physics.cam_xmat[:, self._cam_ids, :, 2].double()  # the optical axis: camera -z
+        n = self.num_envs
+
+        def errors(points):  # points (N, 3) on the device
+            d = points[:, None, :] - pos
+            cross = torch.linalg.cross(axis, d, dim=-1).norm(dim=-1)
+            return torch.rad2deg(torch.atan2(cross, (axis * d).sum(-1)))
+
+        intended = np.array([p.intended_target if p else h.cyclopean_position for p, h in zip(plans, self.heads)])
+        landing = errors(torch.as_tensor(intended, device=self.device)).mean(dim=1).cpu().numpy()
+        landing = np.where(active, landing, 0.0)
+        if self._target_gid is None:
+            return np.zeros((n, 2)), landing
+        target = self.physics.geom_xpos[:, self._target_gid].double()
+        return errors(target).cpu().numpy(), landing
+
+    def _score(self, err: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rewards and successes of the built-in tasks for gaze errors (N, 2) (tasks.*.score, batched)."""
+        t = self.task
+        if isinstance(t, FreeViewingTask):
+            return np.zeros(self.num_envs), np.zeros(self.num_envs, bool)
+        success = np.all(err <= t.tolerance_deg, axis=1)
+        if isinstance(t, FixateTask):
+            e = err.mean(axis=1)
+            return np.exp(-0.5 * (e / t.tolerance_deg) ** 2) - t.saccade_cost, success
+        return np.where(success, 1.0, 0.0) - t.saccade_cost, success

@@ -1,0 +1,210 @@
+"""N binocular heads in MuJoCo Warp: the eye servo driven by a controller kernel, both eyes
+rendered by MJWarp's batch renderer (the physics and rendering half of
+``envs.BatchedBinocularSaccade``).
+
+One :class:`WarpHeads` holds ``mujoco_warp`` Model/Data for N worlds of one compiled head model
+(``models.Head.model``) and a render context for the two eye cameras. Per env step the host
+uploads, for each world, the commanded eye angles of its saccade at every millisecond from now
+(``models.SaccadePlan.angles``, the same command the CPU head's servo tracks); a Warp kernel then
+sets each world's position, velocity and inertial feed-forward set-points from that table before
+every physics step (as ``models.Head._saccade_table`` does on the CPU), so a whole step is a fixed
+sequence of kernel launches: on CUDA it is captured once in a graph (``chunk_ms`` physics steps per
+graph) and replayed; on Warp's CPU backend the same launches run one by one.
+
+Differences from the CPU head, by design: the physics steps at 1 ms throughout (the CPU head steps
+saccades at 0.25 ms), and the feed-forward torque uses one constant inertia per joint. Both
+only change how closely the servo tracks the command during the saccade; after the fixation the
+eyes rest on the same endpoint (``tests/test_batched_env.py`` measures the difference).
+
+Requires the ``gpu`` extra (``pip install -e ".[gpu]"``: mujoco-warp, warp-lang, torch).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import models  # before mujoco_warp: models chooses MuJoCo's off-screen GL backend before mujoco loads
+from models.render import EYES, HIDDEN_GEOM_GROUPS
+
+__all__ = ["WarpHeads", "require_gpu_extra"]
+
+#: The versions this module was written and tested against: the ray table of the render context
+#: (``RenderContext.ray``) that the retina-native option fills is an internal field of mujoco-warp.
+TESTED_MUJOCO_WARP = "4.0.0"
+
+
+def require_gpu_extra():
+    """Import and return (warp, mujoco_warp, torch), or raise ImportError saying how to install them."""
+    try:
+        import torch
+        import warp as wp
+        import mujoco_warp as mjw
+    except ImportError as e:
+        raise ImportError(
+            f"the batched env needs the gpu extra ({e.name} is missing): pip install -e \".[gpu]\" "
+            "(mujoco-warp, warp-lang, torch; on a machine without CUDA, torch's CPU build serves)"
+        ) from None
+    wp.config.quiet = True
+    return wp, mjw, torch
+
+
+class WarpHeads:
+    """N worlds of one head model in MuJoCo Warp, stepped by the saccade controller and rendered.
+
+    Args:
+        head: a ``models.Head`` whose compiled model (scene, image size, field of view) the worlds share.
+        num_worlds: N.
+        device: a Warp/torch device name (``"cuda"``, ``"cuda:1"``, ``"cpu"``).
+        chunk_ms: physics steps per captured CUDA graph (a step runs whole graphs, so up to
+            ``chunk_ms - 1`` extra milliseconds of settled fixation; unused on the CPU).
+        retina_directions: None (render pinhole images, :meth:`render`) or the retina's ray directions
+            (s^2, P, 3) (``envs.retina_rays.field_ray_directions``): render the samples themselves
+            (:meth:`render_retina`) instead of images.
+    """
+
+    def __init__(self, head: models.Head, num_worlds: int, device: str = "cuda", *, chunk_ms: int = 25,
+                 retina_directions: np.ndarray | None = None) -> None:
+        wp, mjw, torch = require_gpu_extra()
+        self._wp, self._mjw, self._torch = wp, mjw, torch
+        self.device = wp.get_device(device)
+        self.torch_device = torch.device(str(self.device) if self.device.is_cuda else "cpu")
+        mjm = head.model
+        self.num_worlds = n = int(num_worlds)
+        self.image_shape = head.image_shape
+        self.chunk_ms = int(chunk_ms)
+        self._qadr, self._vadr = head._qadr, head._vadr
+        self._pos0, self._vel0, self._ff0 = (int(a[0]) for a in (head._pos_act, head._vel_act, head._ff_act))
+        for a, a0 in ((head._pos_act, self._pos0), (head._vel_act, self._vel0), (head._ff_act, self._ff0)):
+            if not np.array_equal(a, np.arange(a0, a0 + 6)):
+                raise ValueError("the head model's eye actuators are not contiguous (pos, vel, ff of 6 joints each)")
+        M = np.zeros((mjm.nv, mjm.nv))
+        import mujoco
+
+        mujoco.mj_fullM(mjm, head.data, M)
+        Mee = M[np.ix_(self._vadr, self._vadr)]
+        # the feed-forward uses one inertia for every eye joint: the eyeball's (isotropic) inertia plus
+        # armature, the mass matrix's diagonal at primary position; the gimbal's coupling away from it
+        # (off-diagonal terms ~ I sin(elevation)) is left to the servo, as the CPU head leaves the
+        # change of M over a saccade
+        self._inertia = float(np.mean(np.diag(Mee)))
+        self._dt = float(mjm.opt.timestep)
+        if abs(self._dt - 1e-3) > 1e-12:
+            raise ValueError(f"the batched physics steps 1 ms; the model's timestep is {self._dt}")
+        from ._warp_kernels import advance, servo
+
+        self._servo, self._advance = servo, advance
+        self._cam_ids = [mjm.camera(e).id for e in EYES]
+        groups = [g for g in range(6) if g not in HIDDEN_GEOM_GROUPS]
+        h, w = self.image_shape
+        with wp.ScopedDevice(self.device):
+            self.model = mjw.put_model(mjm)
+            self.data = mjw.make_data(mjm, nworld=n)
+            if retina_directions is None:
+                self.render_context = mjw.create_render_context(
+                    mjm, nworld=n, cam_res=(w, h), render_rgb=True, render_depth=False, use_textures=True,
+                    use_shadows=False, enabled_geom_groups=groups, cam_active=self._cam_ids)
+                self._rgb = [wp.zeros((n, h, w), dtype=wp.vec3f) for _ in EYES]
+                self.retina = None
+            else:
+                from .retina_rays import RetinaRenderContext
+
+                self.retina = RetinaRenderContext(mjm, n, self._cam_ids, retina_directions, groups)
+            self._step = wp.zeros(1, dtype=wp.int32)
+            self._ncmd = wp.ones(n, dtype=wp.int32)
+            self._cmd = wp.zeros((n, 2, 6), dtype=wp.float32)
+        t = wp.to_torch
+        d = self.data
+        self.qpos, self.qvel, self.ctrl = t(d.qpos), t(d.qvel), t(d.ctrl)
+        self.mocap_pos, self.mocap_quat = t(d.mocap_pos), t(d.mocap_quat)
+        self.cam_xpos, self.cam_xmat = t(d.cam_xpos), t(d.cam_xmat)
+        self.geom_xpos = t(d.geom_xpos)
+        self._eye_q = torch.as_tensor(np.asarray(self._qadr), device=self.torch_device)
+        self._graph = None
+        self._graph_cmd_shape = None
+
+    # ------------------------------------------------------------------ state
+    def load(self, worlds: np.ndarray, heads: list[models.Head]) -> None:
+        """Copy the host heads' states (joints, velocities, set-points, mocap bodies) into ``worlds``."""
+        torch = self._torch
+        idx = torch.as_tensor(np.asarray(worlds, np.int64), device=self.torch_device)
+        dev = self.torch_device
+
+        def put(dst, arrays):
+            dst[idx] = torch.as_tensor(np.stack(arrays), dtype=dst.dtype, device=dev)
+
+        put(self.qpos, [h.data.qpos for h in heads])
+        put(self.qvel, [h.data.qvel for h in heads])
+        put(self.ctrl, [h.data.ctrl for h in heads])
+        if self.mocap_pos.shape[1]:
+            put(self.mocap_pos, [h.data.mocap_pos for h in heads])
+            put(self.mocap_quat, [h.data.mocap_quat for h in heads])
+        self.forward()
+
+    def forward(self) -> None:
+        with self._wp.ScopedDevice(self.device):
+            self._mjw.forward(self.model, self.data)
+
+    def eye_qpos(self):
+        """Both eyes' joint angles, (N, 2, 3) float32 on the device."""
+        return self.qpos[:, self._eye_q].reshape(-1, 2, 3)
+
+    # ------------------------------------------------------------------ physics
+    def run(self, commands: np.ndarray, lengths: np.ndarray, n_ms: int) -> int:
+        """Step every world ``n_ms`` ms (rounded up to whole ``chunk_ms`` on CUDA) following ``commands``
+        (N, T, 6) float32: world w's commanded angles at 0, 1, ... ``lengths[w] - 1`` ms from now, then
+        held at the last. Returns the milliseconds stepped."""
+        wp, mjw = self._wp, self._mjw
+        n, T = commands.shape[:2]
+        with wp.ScopedDevice(self.device):
+            if self._cmd.shape[1] < T or self._cmd.shape[1] > 4 * T + 64:
+                self._cmd = wp.zeros((n, T, 6), dtype=wp.float32)
+                self._graph = None  # the graph captured the old table
+            buf = np.zeros(self._cmd.shape, np.float32)
+            buf[:, :T] = commands
+            self._cmd.assign(buf)
+            self._ncmd.assign(np.asarray(lengths, np.int32))
+            self._step.zero_()
+            if self.device.is_cuda:
+                chunks = max(1, math.ceil(n_ms / self.chunk_ms))
+                if self._graph is None:
+                    with wp.ScopedCapture() as cap:
+                        for _ in range(self.chunk_ms):
+                            self._physics_step()
+                    self._graph = cap.graph
+                for _ in range(chunks):
+                    wp.capture_launch(self._graph)
+                stepped = chunks * self.chunk_ms
+            else:
+                for _ in range(n_ms):
+                    self._physics_step()
+                stepped = n_ms
+            mjw.forward(self.model, self.data)
+        return stepped
+
+    def _physics_step(self) -> None:
+        wp = self._wp
+        wp.launch(self._servo, dim=(self.num_worlds, 6),
+                  inputs=[self._cmd, self._ncmd, self._step, self._inertia, self._dt, self._pos0, self._vel0, self._ff0],
+                  outputs=[self.data.ctrl])
+        self._mjw.step(self.model, self.data)
+        wp.launch(self._advance, dim=1, inputs=[self._step])
+
+    # ------------------------------------------------------------------ rendering
+    def render_retina(self):
+        """Both eyes' retina samples rendered along the receptive fields' rays, (N, 2, P, 3) float32 in
+        [0, 1] on the device (``envs.retina_rays``)."""
+        with self._wp.ScopedDevice(self.device):
+            return self.retina.render(self.model, self.data)
+
+    def render(self):
+        """Both eyes' images of every world, (N, 2, H, W, 3) float32 in [0, 1] on the device (row 0 at the
+        top, as ``models.Head.render``)."""
+        wp, mjw, torch = self._wp, self._mjw, self._torch
+        with wp.ScopedDevice(self.device):
+            mjw.refit_bvh(self.model, self.data, self.render_context)
+            mjw.render(self.model, self.data, self.render_context)
+            for i, out in enumerate(self._rgb):
+                mjw.get_rgb(self.render_context, i, out)
+        return torch.stack([wp.to_torch(a) for a in self._rgb], dim=1)

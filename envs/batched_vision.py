@@ -1,0 +1,616 @@
+"""``TorchVision``: the per-frame visual pipeline of ``envs.vision.Vision`` for B worlds x E eyes at once, in torch.
+
+The batched env (``envs.batched_env``) renders every world's eyes on a device; this module takes
+those pictures through the same steps as ``Vision`` does for one world, all worlds and eyes in one
+set of tensor operations on the device ("cuda" or "cpu"):
+
+* ``see``: receptive-field pooling (``conformal.Retina``'s sparse operator as a torch sparse CSR
+  matrix; ``Retina._sample_many`` / ``kernels.pool_picture``), grayscale, the DPFT of the periphery
+  (``conformal.dpft._dpft``, eqs. ``lpdft``/``dpft``): ``Vision._see_frame`` / ``Vision._frame``;
+* ``predict``: the efference-copy remapping's point prediction of every model
+  (``Vision._predict_frame`` -> ``RemapPlan._evaluate`` with ``pooled=False``: ``kernels.map_points``,
+  the mirror series of eq. ``dppcc'`` via ``dpft._mirror_map``, ``kernels.tabulate_angles``,
+  ``kernels.contract_rings``), with the models' parameters from the rotations (``Vision._map_params``);
+* ``errors``: the normalized RMS errors of the predictions (``Vision._frame_errors`` ->
+  ``kernels.normalized_errors``);
+* ``cortical``: the env's ``cortical`` observation (``BinocularSaccadeEnv._cortical``, with
+  ``conformal.binocular_cortex``'s hemifield routing).
+
+Everything that depends only on the grid (the pooling operator, the DPFT weights and phases, the
+mirror-series map, the angular and ring frequencies, the foveal lattice look-up) is built once in
+float64 numpy from the CPU ``Vision`` and kept on the device in float32 (complex64); the per-frame
+work runs in float32. So the numbers are the CPU path's up to float32 rounding (the CPU samples and
+transforms in float64 and evaluates the series with float32 tables): ``tests/test_batched_vision.py``
+measures the differences.
+
+Memory: the series evaluation holds a few float32 tables of (E K P) x (N + 2 + M C) per world (E eyes,
+K models, P retina points, M rings, N sectors, C channels); ``predict`` processes the worlds in
+chunks whose tables stay under ``chunk_bytes`` (a Python loop over chunks of many worlds, never over
+single worlds).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from conformal import checks
+from conformal.dpft import _mirror_map, _tables, _weight
+from conformal.fovea import fovea_indices
+from conformal.geometry import _PERM_FLAT
+
+from .vision import REMAP_MODELS, Vision
+
+try:
+    import torch
+except ImportError:  # pragma: no cover - the module is only imported with torch (the gpu extra)
+    raise ImportError("envs.batched_vision needs torch: pip install -e \".[gpu]\" (torch's CPU build serves "
+                      "without a GPU)") from None
+
+__all__ = ["TorchVision", "TorchFrame", "KIND_PROJECTIVE", "KIND_MOBIUS"]
+
+#: ``RemapPlan``'s map kinds (``conformal.kernels``): a homography, or a Mobius transformation.
+KIND_PROJECTIVE = 0
+KIND_MOBIUS = 1
+
+_POLE_TOL = 1e-12  # as conformal.kernels / conformal.geometry
+_DEFAULT_CHUNK_BYTES = 1 << 30
+
+
+@dataclass(frozen=True)
+class TorchFrame:
+    """One frame of B worlds x E eyes as ``TorchVision.see`` computed it (cf. ``envs.vision._Frame``).
+
+    samples (B, E, P, C) float32 in retina order (the N_f foveal samples, then the periphery [k, l]
+    row-major; P = N_f + M N), periphery (B, E, M, N, C) and fovea (B, E, N_f, C) views of it, and
+    coeffs (B, E, M, N, C) complex64: the DPFT of the periphery (``conformal.dpft._dpft``)."""
+
+    samples: torch.Tensor
+    periphery: torch.Tensor
+    fovea: torch.Tensor
+    coeffs: torch.Tensor
+
+    @property
+    def batch_shape(self) -> tuple[int, int]:
+        """(B, E)."""
+        return tuple(self.samples.shape[:2])
+
+
+def _type_error(msg: str) -> checks.InputTypeError:
+    return checks.InputTypeError(msg)
+
+
+class TorchVision:
+    """Vision's per-frame pipeline for B worlds x E eyes at once, in torch (built from a CPU ``Vision``).
+
+    Parameters
+    ----------
+    vision : the CPU ``envs.vision.Vision`` whose grid, retina, channels and ``shift_rings`` this
+        replicates (its ``pooled_remap`` must be False: only the point prediction is ported).
+    device : a torch device or its name (``"cuda"``, ``"cuda:1"``, ``"cpu"``).
+    chunk_bytes : the most bytes one of ``predict``'s per-chunk float32 tables may take (default
+        1 GiB); the worlds are processed in as many chunks as that needs.
+
+    Attributes ``grid``, ``channels``, ``n_points`` (P), ``image_shape`` (H, W) and ``valid`` (P,) bool
+    on the device (``EyeView.valid``: the cells inside the picture) describe the retina.
+
+    On CUDA, ``predict``'s matrix products run at full float32 precision even where the caller enabled
+    TF32 (``torch.backends.cuda.matmul.fp32_precision``, ``allow_tf32`` or
+    ``torch.set_float32_matmul_precision("high")``):
+    TF32's 10-bit mantissa would put ~1e-3 relative errors into the series; the caller's setting is
+    restored after each call.
+    """
+
+    def __init__(self, vision: Vision, device: str | torch.device = "cpu", *,
+                 chunk_bytes: int = _DEFAULT_CHUNK_BYTES) -> None:
+        if not isinstance(vision, Vision):
+            raise _type_error(f"vision must be an envs.vision.Vision; got {type(vision).__name__}")
+        if vision.pooled_remap:
+            raise ValueError("TorchVision ports the point prediction only; build the Vision with pooled_remap=False")
+        self.device = _resolve_device(device)
+        self.chunk_bytes = checks.integer("chunk_bytes", chunk_bytes, 1 << 16, None)
+        self.vision = vision
+        g = self.grid = vision.grid
+        self.channels = vision.channels
+        self.grayscale = vision.grayscale
+        self.shift_rings = float(vision.shift_rings)
+        self.image_shape = tuple(vision.image_shape)
+        self.n_points = g.n_fovea + g.M * g.N
+        dev, f32 = self.device, torch.float32
+        retina = vision.retina
+
+        # --- sampling (Retina._sample_many): the receptive-field operator, rows normalised to averages
+        op = retina.operator.tocsr()
+        op.sort_indices()
+        index_dtype = torch.int32 if op.nnz < 2**31 - 1 else torch.int64
+        with warnings.catch_warnings():  # "sparse CSR support is in beta": the product used here is stable
+            warnings.simplefilter("ignore", UserWarning)
+            self._op = torch.sparse_csr_tensor(
+                torch.as_tensor(op.indptr.astype(np.int64), dtype=index_dtype),
+                torch.as_tensor(op.indices.astype(np.int64), dtype=index_dtype),
+                torch.as_tensor(op.data, dtype=f32), size=op.shape, check_invariants=True).to(dev)
+        self._fill = float(retina.fill)
+        self._empty = torch.as_tensor(np.flatnonzero(retina._empty), device=dev) if self._fill != 0.0 else None
+        self.valid = torch.as_tensor(np.array(vision._valid), device=dev)
+
+        # --- DPFT (dpft._dpft): w e^{u_k} per ring, the phase e^{-i (2 pi m u_0 / T + n theta_0)}
+        phase, _, exp_u, _ = _tables(g)
+        self._dpft_weight = torch.as_tensor(_weight(g) * np.array(exp_u), dtype=f32, device=dev).view(g.M, 1, 1)
+        self._dpft_phase = torch.as_tensor(np.array(phase), dtype=torch.complex64, device=dev).view(g.M, g.N, 1)
+
+        # --- the mirror series (dpft._mirror_map / _mirror_series): H = A F, D[q] = H[q] b1 + conj(H[-q]) b2
+        A, b1, b2, neg = _mirror_map(g)
+        self._nh = len(b1)
+        self._series_A = torch.as_tensor(np.array(A), dtype=torch.complex64, device=dev)
+        self._series_b1 = torch.as_tensor(np.array(b1), dtype=torch.complex64, device=dev).view(-1, 1)
+        self._series_b2 = torch.as_tensor(np.array(b2), dtype=torch.complex64, device=dev).view(-1, 1)
+        self._series_neg = torch.as_tensor(np.array(neg), dtype=torch.int64, device=dev)
+        # the angular frequencies n = 0..N/2 and the ring frequencies m = 0..M-1 (kernels.tabulate_angles,
+        # kernels.contract_rings: their cos/sin tables at the mapped points)
+        self._freq_n = torch.arange(self._nh, dtype=f32, device=dev).view(-1, 1)
+        self._freq_m = torch.arange(g.M, dtype=f32, device=dev).view(-1, 1)
+        self._cos_theta0, self._sin_theta0 = math.cos(g.theta[0]), math.sin(g.theta[0])
+        self._u0 = float(g.u[0])
+        self._t_scale = math.pi / (g.M * g.delta)
+        self._t_offset = math.pi / (2 * g.M)
+
+        self._perm_flat = torch.as_tensor(_PERM_FLAT, device=dev)
+        self._indices: dict[tuple[int, ...], torch.Tensor] = {}
+
+        # --- the output points (RemapPlan: the foveal points, then the periphery) and the validity radii
+        z = np.concatenate([g.fovea_points, g.points.ravel()])
+        self._zr = torch.as_tensor(z.real, dtype=f32, device=dev)
+        self._zi = torch.as_tensor(z.imag, dtype=f32, device=dev)
+        self._r0 = float(g.r0)
+        self._r0_sq = float(g.r0) ** 2
+        self._r_outer_sq = float(g.ring_edges[-1]) ** 2
+
+        # --- the foveal lattice (fovea.fovea_indices): lattice cell -> foveal sample (N_f: a zero)
+        rows, cols, size = fovea_indices(g)
+        lut = np.full(size * size, g.n_fovea, np.int64)
+        lut[rows * size + cols] = np.arange(g.n_fovea)
+        self._fovea_size = size
+        self._fovea_lut = torch.as_tensor(lut, device=dev)
+        self._fovea_spacing = float(g.fovea_spacing)
+
+        # --- the cortex (cortex.hemifields): right and left hemifield sectors from the upper meridian
+        self._hemifields = None
+        if g.N % 4 == 0:
+            q = g.N // 4
+            right = np.r_[np.arange(q - 1, -1, -1), np.arange(g.N - 1, 3 * q - 1, -1)]
+            left = np.arange(q, 3 * q)
+            self._hemifields = (torch.as_tensor(right, device=dev), torch.as_tensor(left, device=dev))
+
+    # ------------------------------------------------------------------ frames
+    def see(self, images: torch.Tensor, *, check_range: bool = True) -> TorchFrame:
+        """Sample every world's eyes' pictures on the retina and take the DPFT (``Vision._see_frame``).
+
+        images: (B, E, H, W, 3) on this device, uint8 (0..255) or floating point in [0, 1] (float16,
+        bfloat16, float64 are taken as float32), (H, W) this Vision's ``image_shape``, row 0 the top of
+        the picture (``models.Head.render``'s images). ``check_range`` (floating images only): check
+        the values lie in [0, 1] (to 1e-6, as ``Vision`` does; one reduction and a device sync).
+        """
+        x = self._check_images(images, check_range)
+        b, e = x.shape[:2]
+        h, w = self.image_shape
+        scale = 1.0 / 255.0 if x.dtype == torch.uint8 else 1.0
+        # the pictures as the columns of one dense matrix (H W, B E C'), converted and transposed in one copy;
+        # in grayscale the channels are summed first (the pooling is linear: the mean of the pooled channels)
+        view = x.permute(2, 3, 0, 1, 4)
+        if self.grayscale:
+            cols = torch.empty((h, w, b, e), dtype=torch.float32, device=self.device)
+            torch.sum(view, dim=-1, dtype=torch.float32, out=cols)
+            cols = cols.view(h * w, b * e)
+            scale /= 3.0
+        else:
+            cols = torch.empty((h, w, b, e, 3), dtype=torch.float32, device=self.device)
+            cols.copy_(view)
+            cols = cols.view(h * w, b * e * 3)
+        pooled = torch.sparse.mm(self._op, cols)  # (P, B E C)
+        samples = pooled.view(self.n_points, b, e, self.channels).permute(1, 2, 0, 3).contiguous()
+        samples.mul_(scale)
+        if self._empty is not None:  # cells with no pixel (Retina's fill; Vision's default fill is 0)
+            samples[:, :, self._empty] = self._fill
+        return self._frame(samples)
+
+    def see_samples(self, samples: torch.Tensor) -> TorchFrame:
+        """A frame from retina samples already taken (``Vision._frame``): samples (B, E, P, 3) floats in
+        [0, 1] (not checked) on this device in retina order (e.g. rendered along the receptive fields'
+        rays: ``WarpHeads.render_retina``); in grayscale the channels are averaged."""
+        if not isinstance(samples, torch.Tensor):
+            raise _type_error(f"samples must be a torch.Tensor (B, E, P, 3); got {type(samples).__name__}")
+        if samples.dim() != 4 or samples.shape[2:] != (self.n_points, 3) or 0 in samples.shape[:2]:
+            raise ValueError(f"samples must be (B, E, P, 3) = (B, E, {self.n_points}, 3) with B, E >= 1; "
+                             f"got {tuple(samples.shape)}")
+        if not samples.is_floating_point():
+            raise _type_error(f"samples must be floating point; got {samples.dtype}")
+        self._check_device("samples", samples)
+        s = samples.to(torch.float32)
+        if self.grayscale:
+            s = s.mean(dim=-1, keepdim=True)
+        return self._frame(s.contiguous())
+
+    def _frame(self, samples: torch.Tensor) -> TorchFrame:
+        """``Vision._frame``: the periphery and fovea views of (B, E, P, C) float32 samples and the DPFT of
+        the periphery (``dpft._dpft``: the FFT over (ring, sector) of w e^{u_k} f, times the phase)."""
+        g, n_f = self.grid, self.grid.n_fovea
+        b, e, _, c = samples.shape
+        periphery = samples[:, :, n_f:].view(b, e, g.M, g.N, c)
+        weighted = (periphery * self._dpft_weight).to(torch.complex64)
+        coeffs = torch.fft.fft2(weighted, dim=(2, 3))
+        coeffs.mul_(self._dpft_phase)
+        return TorchFrame(samples=samples, periphery=periphery, fovea=samples[:, :, :n_f], coeffs=coeffs)
+
+    # ------------------------------------------------------------------ remapping
+    def map_params(self, models: tuple[str, ...], rotations_eye: torch.Tensor) -> tuple[tuple[int, ...], torch.Tensor]:
+        """The ``RemapPlan`` description of each model's point map for each world's eyes' rotations,
+        ``Vision._map_params`` vectorised over (B, E): kinds (K,) (``KIND_PROJECTIVE`` for the homography,
+        else ``KIND_MOBIUS``) and params (B, E, K, 9) float64 on the device:
+
+        * homography: the rotation permuted, R.ravel()[_PERM_FLAT] (``rotation_homography``: P R P^T);
+        * mobius: the SU(2) element of the sphere's rotation (``_su2_params(*_su2_entries(R))``);
+        * shift: z -> z_t + e^{shift delta} z normalised to det 1, z_t the new optical axis (R's second
+          column) on the old retina plane (``_mobius_params(_target_shift_matrix(z_t, shift_rings, delta))``).
+
+        rotations_eye (B, E, 3, 3) floating point on this device (float32 rotations are taken in float64),
+        each a proper rotation (orthogonal to 1e-6, det +1: ``conformal.check_rotation``); with ``shift``,
+        each new optical axis must lie in front of the old eye (a rotation below 90 degrees). A
+        ValueError names the first world and eye that fails (one device sync)."""
+        models = self._check_models(models)
+        r = self._check_rotation_tensor(rotations_eye)
+        return self._map_params(models, r)
+
+    def _map_params(self, models: tuple[str, ...], r: torch.Tensor) -> tuple[tuple[int, ...], torch.Tensor]:
+        r = r.to(torch.float64)
+        b, e = r.shape[:2]
+        eye = torch.eye(3, dtype=torch.float64, device=r.device)
+        err = (r @ r.transpose(-1, -2) - eye).abs().amax(dim=(-1, -2))  # NaN for non-finite entries
+        (a_, b_, c_), (d_, e_, f_), (g_, h_, i_) = (row.unbind(-1) for row in r.unbind(-2))
+        det = a_ * (e_ * i_ - f_ * h_) - b_ * (d_ * i_ - f_ * g_) + c_ * (d_ * h_ - e_ * g_)
+        bad = ~(err <= 1e-6) | (det < 0)
+        flags = [bad]
+        shift = "shift" in models
+        if shift:
+            flags.append(~bad & (r[..., 1, 1] <= 1e-6))  # the new optical axis not in front (Vision._shift_target)
+        flags = torch.stack(flags).cpu()  # the one sync
+        if flags[0].any():
+            w, k = (int(i) for i in torch.nonzero(flags[0])[0])
+            raise ValueError(f"rotations_eye[{w}, {k}] (world {w}, eye {k}) must be a proper rotation matrix "
+                             "(orthogonal, det +1)")
+        if shift and flags[1].any():
+            w, k = (int(i) for i in torch.nonzero(flags[1])[0])
+            raise ValueError(f"world {w}, eye {k}: the shift model needs the new optical axis in front of the old eye "
+                             "(a rotation below 90 degrees)")
+        kinds = tuple(KIND_PROJECTIVE if m == "homography" else KIND_MOBIUS for m in models)
+        params = torch.zeros((b, e, len(models), 9), dtype=torch.float64, device=r.device)
+        flat = r.reshape(b, e, 9)
+        for k, m in enumerate(models):
+            if m == "homography":
+                params[:, :, k] = flat[..., self._perm_flat]
+            elif m == "mobius":  # _su2_entries, _su2_params
+                cos_t = (r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1.0) / 2.0
+                s1 = (r[..., 2, 1] - r[..., 1, 2]) / 2.0
+                s2 = (r[..., 0, 2] - r[..., 2, 0]) / 2.0
+                s3 = (r[..., 1, 0] - r[..., 0, 1]) / 2.0
+                norm = torch.sqrt(torch.hypot(cos_t, s2) ** 2 + torch.hypot(s1, s3) ** 2)
+                ar, ai, br, bi = cos_t / norm, s2 / norm, s1 / norm, -s3 / norm
+                params[:, :, k, :8] = torch.stack([ar, -ai, -br, bi, br, bi, ar, ai], dim=-1)
+            else:  # _shift_target, _target_shift_matrix, _mobius_params
+                axis = r[..., :, 1]
+                root = math.exp(self.shift_rings * self.grid.delta / 2)
+                zr, zi = axis[..., 2] / axis[..., 1], axis[..., 0] / axis[..., 1]
+                params[:, :, k, 0] = 1.0 / root
+                params[:, :, k, 4] = zr / root
+                params[:, :, k, 5] = zi / root
+                params[:, :, k, 6] = root
+        return kinds, params
+
+    def predict(self, frame: TorchFrame, rotations_eye: torch.Tensor,
+                models: tuple[str, ...]) -> tuple[torch.Tensor, torch.Tensor]:
+        """The remapping models' point predictions of the post-saccadic retina of every world's eyes from
+        the frame's pre-saccadic coefficients and foveal samples and the efference copies
+        (``Vision._predict_frame`` with ``pooled=False``: ``RemapPlan._evaluate``, point prediction).
+
+        rotations_eye (B, E, 3, 3) floating point on this device (what the env passes as
+        ``plan.efference_copy_eye``, per world), ``models`` names from ``REMAP_MODELS``. Returns values
+        (B, E, K, P, C) float32 in retina order and valid (B, E, K, P) bool; invalid points (the source
+        beyond r_b, behind the eye, or at a pole) hold 0. Each point z is mapped to w (``kernels.map_points``):
+        |w| < r0 takes the bilinear interpolant of the foveal lattice (``remap._fovea_lookup``),
+        r0 <= |w| < r_b the mirror series of eq. ``dppcc'`` at w (``kernels.tabulate_angles``: cos/sin of
+        n y for the angular frequencies; a matrix product with the series coefficients; ``contract_rings``:
+        the sum over the ring frequencies, cos(m t))."""
+        self._check_frame(frame)
+        models = self._check_models(models)
+        r = self._check_rotation_tensor(rotations_eye, frame.batch_shape)
+        kinds, params = self._map_params(models, r)
+        b, e = frame.batch_shape
+        c = frame.samples.shape[-1]
+        g = self.grid
+        n_pts, n_maps = self.n_points, len(models)
+        be = b * e
+        coeffs = frame.coeffs.reshape(be, g.M, g.N, c)
+        fovea = frame.fovea.reshape(be, g.n_fovea, c)
+        params = params.to(torch.float32).reshape(be, n_maps, 9)
+        values = torch.empty((be, n_maps, n_pts, c), dtype=torch.float32, device=self.device)
+        valid = torch.empty((be, n_maps, n_pts), dtype=torch.bool, device=self.device)
+        # float32 per (world, eye) in the largest tables: cs (J, K P), cos(m t) (M, K P), partial (M C, K P)
+        per_eye = 4 * n_maps * n_pts * (2 * self._nh + g.M + g.M * c + 16)
+        chunk = max(1, min(be, self.chunk_bytes // per_eye))
+        with _ieee_matmul(self.device):
+            for s in range(0, be, chunk):
+                sl = slice(s, min(be, s + chunk))
+                values[sl], valid[sl] = self._evaluate(coeffs[sl], fovea[sl], kinds, params[sl])
+        return values.view(b, e, n_maps, n_pts, c), valid.view(b, e, n_maps, n_pts)
+
+    def _evaluate(self, F: torch.Tensor, fov: torch.Tensor, kinds: tuple[int, ...],
+                  params: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``RemapPlan._evaluate`` (pooled=False) for n eyes: F (n, M, N, C) complex64, fov (n, N_f, C),
+        params (n, K, 9) float32. Returns values (n, K, P, C) float32 and valid (n, K, P)."""
+        g = self.grid
+        n, c = F.shape[0], F.shape[3]
+        n_maps, n_pts = len(kinds), self.n_points
+        # --- map_points: w = map(z) for every map and point, sorted by where it lands
+        u = torch.empty((n, n_maps, n_pts), dtype=torch.float32, device=self.device)
+        v = torch.empty_like(u)
+        ok = torch.empty((n, n_maps, n_pts), dtype=torch.bool, device=self.device)
+        x, y = self._zr, self._zi
+        for kind in (KIND_PROJECTIVE, KIND_MOBIUS):
+            ks = [k for k, kk in enumerate(kinds) if kk == kind]
+            if not ks:
+                continue
+            idx = self._index(tuple(ks))
+            p = params[:, idx].unsqueeze(-1)  # (n, K', 9, 1)
+            pk = [p[:, :, j] for j in range(9)]  # each (n, K', 1)
+            if kind == KIND_PROJECTIVE:
+                w3 = pk[6] * x + pk[7] * y + pk[8]
+                okk = w3 > _POLE_TOL  # in front of the old eye
+                uu = (pk[0] * x + pk[1] * y + pk[2]) / w3
+                vv = (pk[3] * x + pk[4] * y + pk[5]) / w3
+            else:  # (d z + c) / (b z + a)
+                nr = pk[6] * x - pk[7] * y + pk[4]
+                ni = pk[6] * y + pk[7] * x + pk[5]
+                dr = pk[2] * x - pk[3] * y + pk[0]
+                di = pk[2] * y + pk[3] * x + pk[1]
+                den = dr * dr + di * di
+                okk = den >= _POLE_TOL * _POLE_TOL
+                uu = (nr * dr + ni * di) / den
+                vv = (ni * dr - nr * di) / den
+            u[:, idx], v[:, idx], ok[:, idx] = uu, vv, okk
+        rr = u * u + v * v
+        series = ok & (rr >= self._r0_sq) & (rr < self._r_outer_sq)
+        in_fovea = ok & (rr < self._r0_sq)
+        valid = series | in_fovea
+
+        # --- the old fovea: bilinear on the foveal lattice (zeros off it), as kernels.map_points
+        size, half, h = self._fovea_size, self._fovea_size / 2, self._fovea_spacing
+        fu = torch.where(in_fovea, u, 0.0)
+        fv = torch.where(in_fovea, v, 0.0)
+        col = fu / h + (half - 0.5)
+        row = (half - 0.5) - fv / h
+        c0 = torch.floor(col).clamp_(0, size - 2)
+        q0 = torch.floor(row).clamp_(0, size - 2)
+        fc = (col - c0).clamp_(0.0, 1.0).unsqueeze(-1)
+        fr = (row - q0).clamp_(0.0, 1.0).unsqueeze(-1)
+        corner = (q0.long() * size + c0.long()).view(n, n_maps * n_pts)
+        fov_ext = torch.cat([fov, fov.new_zeros((n, 1, c))], dim=1)  # (n, N_f + 1, C)
+
+        def lattice(offset: int) -> torch.Tensor:
+            i = self._fovea_lut[corner + offset].unsqueeze(-1).expand(-1, -1, c)
+            return torch.gather(fov_ext, 1, i).view(n, n_maps, n_pts, c)
+
+        fovea_values = (lattice(0) * ((1 - fr) * (1 - fc)) + lattice(1) * ((1 - fr) * fc)
+                        + lattice(size) * (fr * (1 - fc)) + lattice(size + 1) * (fr * fc))
+
+        # --- the series: points not for it sit at w = r0 (as map_points), harmless for the tables
+        su = torch.where(series, u, self._r0).view(n, 1, n_maps * n_pts)
+        sv = torch.where(series, v, 0.0).view(n, 1, n_maps * n_pts)
+        r2 = torch.where(series, rr, self._r0_sq).view(n, 1, n_maps * n_pts)
+        # tabulate_angles: y with e^{i y} = (w / |w|) e^{-i theta_0}; rows cos(n y), then sin(n y) (the sign
+        # of kernels.tabulate_angles' -sin(n y) is folded into the coefficients below)
+        ang = torch.atan2(sv * self._cos_theta0 - su * self._sin_theta0, su * self._cos_theta0 + sv * self._sin_theta0)
+        nh = self._nh
+        cs = torch.empty((n, 2 * nh, n_maps * n_pts), dtype=torch.float32, device=self.device)
+        torch.mul(self._freq_n, ang, out=cs[:, :nh])  # n y
+        torch.sin(cs[:, :nh], out=cs[:, nh:])
+        cs[:, :nh].cos_()
+        # dpft._mirror_series: H = A F, D[q] = H[q] b1[q] + conj(H[-q]) b2[q]; rows m C + c, columns Re D, -Im D
+        H = torch.matmul(self._series_A, F.reshape(n, g.M, g.N * c)).view(n, g.M, g.N, c)
+        D = H[:, :, : self._nh] * self._series_b1 + H[:, :, self._series_neg].conj() * self._series_b2
+        Dm = torch.cat([D.real, -D.imag], dim=2).permute(0, 1, 3, 2).reshape(n, g.M * c, 2 * self._nh)
+        partial = torch.bmm(Dm, cs)  # (n, M C, K P): the angular sum
+        del cs
+        # contract_rings: sum_m cos(m t) partial[m C + c], t = pi (2 (fractional ring index) + 1) / 2M
+        t = (0.5 * torch.log(r2) - self._u0) * self._t_scale + self._t_offset
+        cos_mt = torch.mul(self._freq_m, t).cos_()  # (n, M, K P)
+        partial = partial.view(n, g.M, c, n_maps * n_pts)
+        partial.mul_(cos_mt.unsqueeze(2))
+        series_values = partial.sum(dim=1).view(n, c, n_maps, n_pts).permute(0, 2, 3, 1)
+        values = torch.where(series.unsqueeze(-1), series_values,
+                             torch.where(in_fovea.unsqueeze(-1), fovea_values, 0.0))
+        return values, valid
+
+    def errors(self, values: torch.Tensor, valid: torch.Tensor, frame: TorchFrame) -> torch.Tensor:
+        """(B, E, K) float32: each prediction's normalized RMS error against the frame's samples
+        (``Vision._frame_errors`` -> ``kernels.normalized_errors``): RMS(pred - actual) / RMS(actual -
+        mean actual) over the points valid in both (the prediction's ``valid`` and the retina's
+        ``valid``), the contrast floored at 1e-12; NaN where no point is valid."""
+        self._check_frame(frame)
+        b, e = frame.batch_shape
+        c = frame.samples.shape[-1]
+        if not isinstance(values, torch.Tensor) or not isinstance(valid, torch.Tensor):
+            raise _type_error(f"values and valid must be torch tensors (predict's output); got "
+                              f"{type(values).__name__} and {type(valid).__name__}")
+        if values.dim() != 5 or values.shape[:2] != (b, e) or values.shape[3:] != (self.n_points, c):
+            raise ValueError(f"values must be (B, E, K, P, C) = ({b}, {e}, K, {self.n_points}, {c}) "
+                             "(predict's output); "
+                             f"got {tuple(values.shape)}")
+        if values.dtype != torch.float32:
+            raise _type_error(f"values must be float32; got {values.dtype}")
+        if valid.dtype != torch.bool or valid.shape != values.shape[:4]:
+            raise ValueError(f"valid must be bool of shape {tuple(values.shape[:4])}; got {valid.dtype} "
+                             f"{tuple(valid.shape)}")
+        self._check_device("values", values)
+        self._check_device("valid", valid)
+        actual = frame.samples.unsqueeze(2)  # (B, E, 1, P, C)
+        mask = (valid & self.valid).unsqueeze(-1).to(torch.float32)  # (B, E, K, P, 1)
+        count = mask.sum(dim=(-2, -1)) * c  # n C
+        mean = (actual * mask).sum(dim=(-2, -1)) / count
+        diff = (values - actual).square_().mul_(mask).sum(dim=(-2, -1))
+        contrast = (actual - mean[..., None, None]).square_().mul_(mask).sum(dim=(-2, -1))
+        out = torch.sqrt(diff / count) / torch.sqrt(contrast / count).clamp(min=1e-12)
+        return torch.where(count > 0, out, torch.nan)
+
+    def cortical(self, periphery: torch.Tensor, cortex: str) -> torch.Tensor:
+        """The ``cortical`` observation of peripheral samples (``BinocularSaccadeEnv._cortical``), clipped to
+        [0, 1], float32: ``"eyes"``: (B, E, M, N, C) as given; ``"hemispheres"`` (E = 2, N divisible by 4):
+        (B, 2, 2, M, N/2, C) [world, hemisphere (left, right), eye (left, right), ring, sector-in-hemifield],
+        each hemisphere the contralateral hemifield of both eyes (``conformal.binocular_cortex``)."""
+        checks.choice("cortex", cortex, ("eyes", "hemispheres"))
+        g = self.grid
+        if not isinstance(periphery, torch.Tensor):
+            raise _type_error(f"periphery must be a torch.Tensor (B, E, M, N, C); got {type(periphery).__name__}")
+        if periphery.dim() != 5 or periphery.shape[2:4] != (g.M, g.N):
+            raise ValueError(f"periphery must be (B, E, M, N, C) = (B, E, {g.M}, {g.N}, C); "
+                             f"got {tuple(periphery.shape)}")
+        if not periphery.is_floating_point():
+            raise _type_error(f"periphery must be floating point; got {periphery.dtype}")
+        self._check_device("periphery", periphery)
+        p = periphery.to(torch.float32)
+        if cortex == "eyes":
+            return p.clamp(0.0, 1.0)
+        if self._hemifields is None:
+            raise ValueError(f"cortex='hemispheres' needs N divisible by 4; got N = {g.N}")
+        if periphery.shape[1] != 2:
+            raise ValueError(f"cortex='hemispheres' needs two eyes (E = 2); got E = {periphery.shape[1]}")
+        right, left = self._hemifields
+        # left hemisphere: both eyes' right hemifields; right hemisphere: both eyes' left hemifields
+        return torch.stack([p[:, :, :, right], p[:, :, :, left]], dim=1).clamp_(0.0, 1.0)
+
+    def _index(self, ks: tuple[int, ...]) -> torch.Tensor:
+        """The models' positions ``ks`` as an index tensor on the device (made once per tuple)."""
+        if ks not in self._indices:
+            self._indices[ks] = torch.as_tensor(ks, device=self.device)
+        return self._indices[ks]
+
+    # ------------------------------------------------------------------ checks
+    def _check_device(self, name: str, t: torch.Tensor) -> None:
+        if not _same_device(t.device, self.device):
+            raise ValueError(f"{name} is on {t.device}, but this TorchVision works on {self.device}; move it "
+                             f"there first (.to({str(self.device)!r}))")
+
+    def _check_images(self, images, check_range: bool) -> torch.Tensor:
+        h, w = self.image_shape
+        if not isinstance(images, torch.Tensor):
+            raise _type_error(f"images must be a torch.Tensor (B, E, {h}, {w}, 3); got {type(images).__name__}")
+        check_range = checks.flag("check_range", check_range)
+        if images.dim() != 5 or images.shape[2:] != (h, w, 3) or 0 in images.shape[:2]:
+            raise ValueError(f"images must be (B, E, H, W, 3) = (B, E, {h}, {w}, 3) with B, E >= 1 (this Vision's "
+                             f"image shape); got {tuple(images.shape)}")
+        if images.dtype != torch.uint8 and not images.is_floating_point():
+            raise _type_error(f"images must be uint8 (0..255) or floating point in [0, 1]; got {images.dtype}")
+        self._check_device("images", images)
+        if images.dtype == torch.uint8:
+            return images
+        if check_range:  # as Vision._check_images: a picture with NaN is not range-checked
+            lo, hi = torch.aminmax(images.reshape(images.shape[0], -1), dim=1)
+            bad = (lo < -1e-6) | (hi > 1 + 1e-6)
+            stats = torch.stack([bad.to(lo.dtype), lo, hi]).cpu()
+            if stats[0].any():
+                i = int(torch.nonzero(stats[0])[0])
+                raise ValueError(f"float images must hold intensities in [0, 1]; world {i} has values in "
+                                 f"[{float(stats[1, i]):.4g}, {float(stats[2, i]):.4g}] (pass uint8 images for 0..255)")
+        return images
+
+    def _check_frame(self, frame) -> None:
+        if not isinstance(frame, TorchFrame):
+            raise _type_error(f"frame must be a TorchFrame (from TorchVision.see); got {type(frame).__name__}")
+        g = self.grid
+        if frame.coeffs.shape[2:4] != (g.M, g.N) or frame.samples.shape[2] != self.n_points:
+            raise ValueError(f"frame does not belong to this TorchVision's retina ({g.M} rings x {g.N} sectors, "
+                             f"{self.n_points} points)")
+        self._check_device("frame", frame.samples)
+
+    def _check_models(self, models) -> tuple[str, ...]:
+        if isinstance(models, str) or not isinstance(models, (list, tuple)) or not models:
+            raise _type_error(f"models must be a non-empty tuple of model names from {REMAP_MODELS}; "
+                              f"got {models!r:.60}")
+        for m in models:
+            checks.choice("each model", m, REMAP_MODELS)
+        if "shift" in models and abs(self.shift_rings * self.grid.delta) > 40:  # target_shift_map's message
+            raise ValueError(f"shift * delta = {self.shift_rings * self.grid.delta:.4g}: the scale e^(shift delta) "
+                             "must lie within e^(+-40)")
+        return tuple(models)
+
+    def _check_rotation_tensor(self, rotations_eye, batch: tuple[int, int] | None = None) -> torch.Tensor:
+        if not isinstance(rotations_eye, torch.Tensor):
+            raise _type_error(f"rotations_eye must be a torch.Tensor (B, E, 3, 3); got {type(rotations_eye).__name__}")
+        if not rotations_eye.is_floating_point():
+            raise _type_error(f"rotations_eye must be floating point; got {rotations_eye.dtype}")
+        want = ("(B, E, 3, 3)" if batch is None
+                else f"(B, E, 3, 3) = ({batch[0]}, {batch[1]}, 3, 3) (one per world's eye)")
+        if rotations_eye.dim() != 4 or rotations_eye.shape[2:] != (3, 3) or 0 in rotations_eye.shape[:2] or (
+                batch is not None and tuple(rotations_eye.shape[:2]) != batch):
+            raise ValueError(f"rotations_eye must be {want}; got {tuple(rotations_eye.shape)}")
+        self._check_device("rotations_eye", rotations_eye)
+        return rotations_eye
+
+
+def _resolve_device(device) -> torch.device:
+    """A torch.device with its CUDA index filled in (so tensors' devices compare equal)."""
+    if isinstance(device, str):
+        try:
+            dev = torch.device(device)
+        except RuntimeError:
+            raise ValueError(f"device must be 'cpu', 'cuda' or 'cuda:<index>'; got {device!r}") from None
+    elif isinstance(device, torch.device):
+        dev = device
+    else:
+        raise _type_error(f"device must be a string or a torch.device; got {type(device).__name__}")
+    if dev.type == "cuda":
+        if not torch.cuda.is_available():
+            raise RuntimeError(f"device={str(dev)!r} but torch finds no CUDA device; use device='cpu'")
+        dev = torch.device("cuda", torch.cuda.current_device() if dev.index is None else dev.index)
+    elif dev.type != "cpu":
+        raise ValueError(f"device must be 'cpu', 'cuda' or 'cuda:<index>'; got {str(dev)!r}")
+    return dev
+
+
+def _same_device(a: torch.device, b: torch.device) -> bool:
+    return a.type == b.type and (a.type == "cpu" or a.index == b.index)
+
+
+@contextlib.contextmanager
+def _ieee_matmul(device: torch.device):
+    """Full float32 matrix products on CUDA for the duration (cuBLAS without TF32), the caller's setting
+    restored after it. Through ``torch.backends.cuda.matmul.fp32_precision`` where torch has it (reading
+    the legacy ``allow_tf32`` raises once a caller has used that newer API), else ``allow_tf32``."""
+    if device.type != "cuda":
+        yield
+        return
+    matmul = torch.backends.cuda.matmul
+    try:
+        before = matmul.fp32_precision
+    except AttributeError:  # torch < 2.9: the legacy flag only
+        before = None
+    if before is None:
+        if not matmul.allow_tf32:
+            yield
+            return
+        matmul.allow_tf32 = False
+        try:
+            yield
+        finally:
+            matmul.allow_tf32 = True
+        return
+    if before == "ieee":
+        yield
+        return
+    matmul.fp32_precision = "ieee"
+    try:
+        yield
+    finally:
+        matmul.fp32_precision = before

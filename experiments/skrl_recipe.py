@@ -1,0 +1,269 @@
+"""skrl recipe: PPO on the batched env (``envs.BatchedBinocularSaccade``), observations kept on the device.
+
+Needs the ``gpu`` extra (mujoco-warp, warp-lang, torch, skrl)::
+
+    pip install -e ".[gpu]"
+    python -m experiments.skrl_recipe --out runs/ppo_search --device cuda --num-envs 4096 --task search --timesteps 300
+    python -m experiments.skrl_recipe --out runs/ppo_cpu --device cpu --num-envs 8 --task fixate --timesteps 48
+
+Why skrl (Serrano-Muñoz, Chrysostomou, Arana-Arexolaleiba & Arana-Arexolaleiba 2023, JMLR 24:254):
+a maintained PyTorch RL library whose PPO stores rollouts as torch tensors on the env's device and
+whose trainers already drive GPU-batched simulators (its wrappers for Isaac Lab, ManiSkill and
+MuJoCo Playground); a gymnasium ``VectorEnv`` that returns torch tensors plugs in through one small
+``Wrapper`` (:class:`DeviceVectorWrapper`), with no host copy of the observations. (rsl_rl is
+leaner but tied to Isaac Lab's env interface; SB3 keeps its buffers in numpy on the host.)
+
+The env runs with ``autoreset_mode="same_step"`` (what skrl's trainers expect: the observation after
+a terminal step is the next episode's first). Observations ``cortical``, ``remapped``, ``fovea`` and
+``eyes`` are flattened and concatenated on the device; the policy is a Gaussian MLP on the vector
+action (the saccade, scaled by ``max_amplitude_deg``), the value an MLP; both standardised by skrl's
+running scaler. PPO: Schulman et al. 2017.
+
+Writes ``learning_curve.csv`` (per rollout: env steps, finished episodes, their mean return and
+success rate), ``learning_curve.png``, ``agent.pt`` (skrl's checkpoint) and ``ppo.json`` (the run's
+arguments).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from experiments.cli import int_in, out_dir
+
+__all__ = ["DeviceVectorWrapper", "OBS_KEYS", "train", "main"]
+
+#: The observations the policy sees, flattened and concatenated in this order.
+OBS_KEYS = ("cortical", "remapped", "fovea", "eyes")
+
+
+def _require():
+    try:
+        import skrl  # noqa: F401
+        import torch  # noqa: F401
+
+        from envs.batched_physics import require_gpu_extra
+    except ImportError as e:
+        sys.exit(f"this recipe needs the gpu extra ({e.name} is missing): pip install -e \".[gpu]\"")
+    require_gpu_extra()
+
+
+def DeviceVectorWrapper(env):
+    """Wrap a ``BatchedBinocularSaccade`` (``output="torch"``, ``autoreset_mode="same_step"``) as an skrl
+    env: flat float32 observations (N, D) on the device, rewards and dones as (N, 1) tensors; keeps the
+    finished episodes' returns and successes (``episodes``: (env steps, return, success) rows)."""
+    import gymnasium
+    import torch
+    from skrl.envs.wrappers.torch.base import Wrapper
+
+    class _Wrapper(Wrapper):
+        def __init__(self, env) -> None:
+            super().__init__(env)
+            if env.output != "torch" or env.autoreset_mode.value != "same_step":
+                raise ValueError("wrap a BatchedBinocularSaccade(output='torch', autoreset_mode='same_step')")
+            dim = sum(int(np.prod(env.single_observation_space[k].shape)) for k in OBS_KEYS)
+            self._obs_space = gymnasium.spaces.Box(-np.inf, np.inf, (dim,), np.float32)
+            self._returns = torch.zeros(env.num_envs, device=env.device)
+            self.env_steps = 0
+            self.episodes: list[tuple[int, float, bool]] = []
+
+        @property
+        def observation_space(self):
+            return self._obs_space
+
+        @property
+        def action_space(self):
+            return self._unwrapped.single_action_space
+
+        @property
+        def state_space(self):
+            return None
+
+        @property
+        def device(self):
+            return self._unwrapped.device
+
+        def _flat(self, obs) -> "torch.Tensor":
+            n = self._unwrapped.num_envs
+            return torch.cat([obs[k].reshape(n, -1) for k in OBS_KEYS], dim=1)
+
+        def reset(self):
+            obs, info = self._env.reset()
+            return self._flat(obs), info
+
+        def step(self, actions):
+            obs, reward, terminated, truncated, info = self._env.step(actions.clamp(-1.0, 1.0))
+            dev = self.device
+            r = torch.as_tensor(reward, dtype=torch.float32, device=dev)
+            te = torch.as_tensor(terminated, device=dev)
+            tr = torch.as_tensor(truncated, device=dev)
+            self.env_steps += self._unwrapped.num_envs
+            self._returns += r
+            done = np.flatnonzero(np.asarray(terminated) | np.asarray(truncated))
+            if done.size:
+                success = info["final_info"]["success"]
+                for i in done:
+                    self.episodes.append((self.env_steps, float(self._returns[i]), bool(success[i])))
+                self._returns[torch.as_tensor(done, device=dev)] = 0.0
+            return self._flat(obs), r.view(-1, 1), te.view(-1, 1), tr.view(-1, 1), info
+
+        def state(self):
+            return None
+
+        def render(self, *args, **kwargs):
+            return None
+
+        def close(self) -> None:
+            self._env.close()
+
+    return _Wrapper(env)
+
+
+def _models(obs_space, act_space, device, hidden: int):
+    import torch
+    from torch import nn
+    from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
+
+    class Policy(GaussianMixin, Model):
+        def __init__(self):
+            Model.__init__(self, observation_space=obs_space, action_space=act_space, device=device)
+            GaussianMixin.__init__(self, clip_actions=True, clip_log_std=True, min_log_std=-5, max_log_std=1)
+            d = obs_space.shape[0]
+            self.net = nn.Sequential(nn.Linear(d, hidden), nn.ELU(), nn.Linear(hidden, hidden // 2), nn.ELU(),
+                                     nn.Linear(hidden // 2, act_space.shape[0]), nn.Tanh())
+            self.log_std = nn.Parameter(torch.full((act_space.shape[0],), -0.7))
+
+        def compute(self, inputs, role=""):
+            return self.net(inputs["observations"]), {"log_std": self.log_std}
+
+    class Value(DeterministicMixin, Model):
+        def __init__(self):
+            Model.__init__(self, observation_space=obs_space, action_space=act_space, device=device)
+            DeterministicMixin.__init__(self)
+            d = obs_space.shape[0]
+            self.net = nn.Sequential(nn.Linear(d, hidden), nn.ELU(), nn.Linear(hidden, hidden // 2), nn.ELU(),
+                                     nn.Linear(hidden // 2, 1))
+
+        def compute(self, inputs, role=""):
+            return self.net(inputs["observations"]), {}
+
+    return Policy(), Value()
+
+
+def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps: int, image_size: int,
+          rollouts: int, hidden: int, seed: int, log=print) -> dict[str, Any]:
+    """Train PPO for ``timesteps`` batched steps (each ``num_envs`` env steps); returns the summary."""
+    _require()
+    import torch
+    from skrl.agents.torch.ppo import PPO, PPO_CFG
+    from skrl.memories.torch import RandomMemory
+    from skrl.resources.preprocessors.torch import RunningStandardScaler
+    from skrl.trainers.torch import SequentialTrainer
+    from skrl.utils import set_seed
+
+    import envs
+
+    set_seed(seed)
+    env = envs.BatchedBinocularSaccade(num_envs, device=device, task=task, image_size=image_size,
+                                       autoreset_mode="same_step", output="torch")
+    env.reset(seed=seed)
+    wrapped = DeviceVectorWrapper(env)
+    dev = wrapped.device
+    policy, value = _models(wrapped.observation_space, wrapped.action_space, dev, hidden)
+    cfg = PPO_CFG(rollouts=rollouts, learning_epochs=4, mini_batches=max(1, min(4, rollouts * num_envs // 64)),
+                  learning_rate=3e-4, discount_factor=0.95, entropy_loss_scale=0.0,
+                  observation_preprocessor=RunningStandardScaler,
+                  observation_preprocessor_kwargs={"size": wrapped.observation_space, "device": dev},
+                  value_preprocessor=RunningStandardScaler, value_preprocessor_kwargs={"size": 1, "device": dev})
+    cfg.experiment.directory = str(out)
+    cfg.experiment.experiment_name = "skrl"
+    cfg.experiment.write_interval = 0
+    cfg.experiment.checkpoint_interval = 0
+    memory = RandomMemory(memory_size=rollouts, num_envs=num_envs, device=dev)
+    agent = PPO(models={"policy": policy, "value": value}, memory=memory, observation_space=wrapped.observation_space,
+                action_space=wrapped.action_space, device=dev, cfg=cfg)
+    trainer = SequentialTrainer(env=wrapped, agents=agent,
+                                cfg={"timesteps": timesteps, "headless": True, "disable_progressbar": True,
+                                     "close_environment_at_exit": False})
+    t0 = time.perf_counter()
+    trainer.train()
+    wall = time.perf_counter() - t0
+    rows = _curve(wrapped.episodes, rollouts * num_envs, timesteps * num_envs)
+    with open(out / "learning_curve.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["env_steps", "episodes", "mean_return", "success_rate"])
+        w.writerows(rows)
+    _plot(rows, out / "learning_curve.png", f"PPO (skrl) on {task}, {num_envs} worlds, {env.device}")
+    agent.save(str(out / "agent.pt"))
+    summary = {"device": str(env.device), "num_envs": num_envs, "task": task, "timesteps": timesteps,
+               "env_steps": timesteps * num_envs, "image_size": image_size, "rollouts": rollouts, "hidden": hidden,
+               "seed": seed, "wall_s": round(wall, 1), "env_steps_per_s": round(timesteps * num_envs / wall, 1),
+               "episodes": len(wrapped.episodes)}
+    (out / "ppo.json").write_text(json.dumps(summary, indent=2))
+    env.close()
+    for r in rows:
+        log(f"  {r[0]:>9} env steps: {r[1]:>5} episodes, return {r[2]:+.3f}, success {r[3]:.2f}")
+    return summary
+
+
+def _curve(episodes, per_rollout: int, total: int) -> list[tuple[int, int, float, float]]:
+    """Per rollout: (env steps at its end, episodes finished in it, their mean return, success rate)."""
+    rows = []
+    for end in range(per_rollout, total + 1, per_rollout):
+        eps = [e for e in episodes if end - per_rollout < e[0] <= end]
+        if eps:
+            rows.append((end, len(eps), float(np.mean([e[1] for e in eps])), float(np.mean([e[2] for e in eps]))))
+    return rows
+
+
+def _plot(rows, path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(9, 3.4))
+    if rows:
+        x = [r[0] for r in rows]
+        ax[0].plot(x, [r[2] for r in rows], "o-")
+        ax[1].plot(x, [r[3] for r in rows], "o-")
+    ax[0].set(xlabel="env steps", ylabel="mean episode return")
+    ax[1].set(xlabel="env steps", ylabel="success rate", ylim=(-0.02, 1.02))
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m experiments.skrl_recipe", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", type=out_dir, required=True, help="folder for the curve, the checkpoint and ppo.json")
+    ap.add_argument("--device", default=None, help="cuda, cuda:<i> or cpu (default: cuda when available)")
+    ap.add_argument("--num-envs", type=int_in(1, 65536), default=8)
+    ap.add_argument("--task", choices=("fixate", "search"), default="fixate")
+    ap.add_argument("--timesteps", type=int_in(1, 10**7), default=48, help="batched steps (each num-envs env steps)")
+    ap.add_argument("--image-size", type=int_in(16, 1024), default=64)
+    ap.add_argument("--rollouts", type=int_in(1, 4096), default=8, help="batched steps per PPO update")
+    ap.add_argument("--hidden", type=int_in(8, 4096), default=256)
+    ap.add_argument("--seed", type=int_in(0, 2**31 - 1), default=0)
+    args = ap.parse_args(argv)
+    if args.timesteps < args.rollouts:
+        ap.error(f"--timesteps ({args.timesteps}) must be at least --rollouts ({args.rollouts}): PPO updates once per rollout")
+    args.out.mkdir(parents=True, exist_ok=True)
+    s = train(out=args.out, device=args.device, num_envs=args.num_envs, task=args.task, timesteps=args.timesteps,
+              image_size=args.image_size, rollouts=args.rollouts, hidden=args.hidden, seed=args.seed)
+    print(f"{s['env_steps']} env steps in {s['wall_s']} s ({s['env_steps_per_s']} env-steps/s) on {s['device']}; "
+          f"wrote {args.out}/learning_curve.csv, learning_curve.png, agent.pt, ppo.json")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
