@@ -4,7 +4,7 @@ For each number of worlds: env-steps/s (worlds x steps / s), the time of each pa
 (host: action decoding and the saccade plans; remap: the remapping predictions; physics: MuJoCo
 Warp; render: MJWarp's batch renderer, both eyes; retina: pooling; dpft; task: gaze errors and
 scores; host sync: the clocks, the eye-position signals and the observations), and the device
-memory (CUDA: torch's and Warp's peak allocations; CPU: the process's peak RSS). The single CPU
+memory (CUDA: the device's memory in use after the run, and torch's peak; CPU: the process's peak RSS). The single CPU
 env (``BinocularSaccadeEnv``, the classic renderer) runs the same actions in the same process first.
 
     python benchmarks/batched.py                              # CUDA if Warp finds it, else the CPU backend
@@ -52,32 +52,33 @@ def batched(args, n: int) -> dict:
 
     env = envs.BatchedBinocularSaccade(n, device=args.device, image_size=args.image_size)
     rng = np.random.default_rng(0)
+    actions = [_actions(rng, n) for _ in range(args.steps)]
     env.reset(seed=0)
-    for _ in range(2):  # compile, capture
-        env.step(_actions(rng, n))
+    for a in actions[:2]:  # compile, capture
+        env.step(a)
     cuda = env.device.type == "cuda"
+    sync = torch.cuda.synchronize if cuda else (lambda: None)
     if cuda:
         torch.cuda.reset_peak_memory_stats()
+
+    def run() -> float:  # the same episodes and actions each time: the same saccades and physics spans
+        env.reset(seed=0)
+        sync()
+        t0 = time.perf_counter()
+        for a in actions:
+            env.step(a)
+        sync()
+        return time.perf_counter() - t0
+
+    wall = run()  # steps/s without the per-part synchronisation
     env.timings = {}
-    t0 = time.perf_counter()
-    for _ in range(args.steps):
-        env.step(_actions(rng, n))
-    if cuda:
-        torch.cuda.synchronize()
-    wall = time.perf_counter() - t0
+    run()
     parts = {k: v / args.steps * 1e3 for k, v in env.timings.items()}
     env.timings = None
-    # a second timing without the per-part synchronisation, for the steps/s
-    t0 = time.perf_counter()
-    for _ in range(args.steps):
-        env.step(_actions(rng, n))
-    if cuda:
-        torch.cuda.synchronize()
-    wall = min(wall, time.perf_counter() - t0)
-    if cuda:
-        import warp as wp
-
-        mem = f"{torch.cuda.max_memory_allocated() / 2**20:.0f} MiB torch + {wp.get_mempool_used_mem_high(env.device.index or 0) / 2**20:.0f} MiB warp" if hasattr(wp, "get_mempool_used_mem_high") else f"{torch.cuda.max_memory_allocated() / 2**20:.0f} MiB torch"
+    wall = min(wall, run())
+    if cuda:  # everything on the device (Warp's arrays and graphs, torch's tensors, both contexts)
+        free, total = torch.cuda.mem_get_info(env.device)
+        mem = f"{(total - free) / 2**20:.0f} MiB in use on the device ({torch.cuda.max_memory_allocated() / 2**20:.0f} MiB torch peak)"
     else:
         mem = f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10:.0f} MiB RSS (process)"
     env.close()

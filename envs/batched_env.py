@@ -111,9 +111,10 @@ class BatchedBinocularSaccade(VectorEnv):
         self.output = checks.choice("output", output, ("torch", "numpy"))
         chunk_ms = checks.integer("chunk_ms", chunk_ms, 1, 1000)
         self.settle_ms = checks.integer("settle_ms", settle_ms, 0, BinocularSaccadeEnv.MAX_FIXATION_MS)
-        modes = {m.value: m for m in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)}
-        mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
-        self.autoreset_mode = modes[checks.choice("autoreset_mode", mode, tuple(modes))]
+        modes = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
+        if isinstance(autoreset_mode, AutoresetMode):
+            autoreset_mode = {m: k for k, m in modes.items()}.get(autoreset_mode, autoreset_mode.value)
+        self.autoreset_mode = modes[checks.choice("autoreset_mode", autoreset_mode, tuple(modes))]
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         if retina_rays is not None:
             from .retina_rays import MAX_SUBSAMPLES

@@ -67,7 +67,9 @@ def DeviceVectorWrapper(env):
     class _Wrapper(Wrapper):
         def __init__(self, env) -> None:
             super().__init__(env)
-            if env.output != "torch" or env.autoreset_mode.value != "same_step":
+            from gymnasium.vector import AutoresetMode
+
+            if env.output != "torch" or env.autoreset_mode is not AutoresetMode.SAME_STEP:
                 raise ValueError("wrap a BatchedBinocularSaccade(output='torch', autoreset_mode='same_step')")
             dim = sum(int(np.prod(env.single_observation_space[k].shape)) for k in OBS_KEYS)
             self._obs_space = gymnasium.spaces.Box(-np.inf, np.inf, (dim,), np.float32)
