@@ -134,17 +134,27 @@ class WarpHeads:
         def put(dst, arrays):
             dst[idx] = torch.as_tensor(np.stack(arrays), dtype=dst.dtype, device=dev)
 
+        self._handoff_to_torch()  # Warp's last writes land before torch's
         put(self.qpos, [h.data.qpos for h in heads])
         put(self.qvel, [h.data.qvel for h in heads])
         put(self.ctrl, [h.data.ctrl for h in heads])
         if self.mocap_pos.shape[1]:
             put(self.mocap_pos, [h.data.mocap_pos for h in heads])
             put(self.mocap_quat, [h.data.mocap_quat for h in heads])
+        if self.device.is_cuda:  # torch's writes (its stream) land before Warp's next kernels (its stream)
+            self._torch.cuda.synchronize(self.torch_device)
         self.forward()
 
     def forward(self) -> None:
         with self._wp.ScopedDevice(self.device):
             self._mjw.forward(self.model, self.data)
+        self._handoff_to_torch()
+
+    def _handoff_to_torch(self) -> None:
+        """Warp and torch run on different CUDA streams: wait for Warp's work before torch reads (or
+        overwrites) the arrays they share (a no-op on the CPU, where launches are synchronous)."""
+        if self.device.is_cuda:
+            self._wp.synchronize_device(self.device)
 
     def eye_qpos(self):
         """Both eyes' joint angles, (N, 2, 3) float32 on the device."""
@@ -158,8 +168,9 @@ class WarpHeads:
         wp, mjw = self._wp, self._mjw
         n, T = commands.shape[:2]
         with wp.ScopedDevice(self.device):
-            if self._cmd.shape[1] < T or self._cmd.shape[1] > 4 * T + 64:
-                self._cmd = wp.zeros((n, T, 6), dtype=wp.float32)
+            if self._cmd.shape[1] < T:  # grown with headroom: each growth means a new graph
+                rows = 64 * math.ceil(max(T, 1.5 * self._cmd.shape[1]) / 64)
+                self._cmd = wp.zeros((n, rows, 6), dtype=wp.float32)
                 self._graph = None  # the graph captured the old table
             buf = np.zeros(self._cmd.shape, np.float32)
             buf[:, :T] = commands
@@ -168,12 +179,18 @@ class WarpHeads:
             self._step.zero_()
             if self.device.is_cuda:
                 chunks = max(1, math.ceil(n_ms / self.chunk_ms))
+                todo = chunks
                 if self._graph is None:
+                    # the first chunk runs uncaptured (Warp loads its modules on first launch, which a
+                    # capture does not allow), then the same launches are captured for the rest
+                    for _ in range(self.chunk_ms):
+                        self._physics_step()
+                    todo -= 1
                     with wp.ScopedCapture() as cap:
                         for _ in range(self.chunk_ms):
                             self._physics_step()
                     self._graph = cap.graph
-                for _ in range(chunks):
+                for _ in range(todo):
                     wp.capture_launch(self._graph)
                 stepped = chunks * self.chunk_ms
             else:
@@ -181,6 +198,7 @@ class WarpHeads:
                     self._physics_step()
                 stepped = n_ms
             mjw.forward(self.model, self.data)
+        self._handoff_to_torch()
         return stepped
 
     def _physics_step(self) -> None:
@@ -196,7 +214,9 @@ class WarpHeads:
         """Both eyes' retina samples rendered along the receptive fields' rays, (N, 2, P, 3) float32 in
         [0, 1] on the device (``envs.retina_rays``)."""
         with self._wp.ScopedDevice(self.device):
-            return self.retina.render(self.model, self.data)
+            out = self.retina.render(self.model, self.data)
+        self._handoff_to_torch()
+        return out
 
     def render(self):
         """Both eyes' images of every world, (N, 2, H, W, 3) float32 in [0, 1] on the device (row 0 at the
@@ -207,4 +227,5 @@ class WarpHeads:
             mjw.render(self.model, self.data, self.render_context)
             for i, out in enumerate(self._rgb):
                 mjw.get_rgb(self.render_context, i, out)
+        self._handoff_to_torch()
         return torch.stack([wp.to_torch(a) for a in self._rgb], dim=1)
