@@ -11,10 +11,18 @@ before its opening fence says why::
 
 The skip reasons allowed are few (below): a display, an optional extra or a package install, a run
 of minutes (whose short form is a block beside it or a test), or the setup and test commands.
+
+A block that needs the ``gpu`` extra says so on the line before it::
+
+    <!-- readme-test: needs the gpu extra -->
+
+and runs wherever that extra is installed (CI installs it), skipping with that reason elsewhere: it
+counts as a block that runs.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import subprocess
@@ -27,6 +35,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 SKIP = re.compile(r"<!--\s*readme-test:\s*skip\s*\((?P<why>[^)]+)\)\s*-->")
+NEEDS_GPU = re.compile(r"<!--\s*readme-test:\s*needs the gpu extra\s*-->")
+#: what the gpu extra brings (envs.batched_physics.require_gpu_extra imports them)
+GPU_MODULES = ("torch", "warp", "mujoco_warp", "skrl")
 FENCE = re.compile(r"^```(?P<lang>[A-Za-z0-9_+-]*)\s*$")
 LANGS = {"bash": "bash", "sh": "bash", "shell": "bash", "python": "python", "py": "python"}
 # what may excuse a block from running, each with a reason a reader accepts
@@ -40,6 +51,7 @@ class Block:
     lang: str
     code: str
     skip: str | None
+    needs_gpu: bool = False
 
     @property
     def id(self) -> str:
@@ -61,7 +73,8 @@ def readme_blocks(text: str) -> list[Block]:
                 raise ValueError(f"README.md line {i + 1}: code block never closed")
             prev = next((lines[k] for k in range(i - 1, -1, -1) if lines[k].strip()), "")
             s = SKIP.search(prev)
-            blocks.append(Block(i + 1, m["lang"].lower(), "\n".join(lines[i + 1:j]) + "\n", s["why"] if s else None))
+            blocks.append(Block(i + 1, m["lang"].lower(), "\n".join(lines[i + 1:j]) + "\n", s["why"] if s else None,
+                                bool(NEEDS_GPU.search(prev))))
             i = j + 1
         else:
             i += 1
@@ -90,6 +103,8 @@ def test_parser_finds_skip_markers():
     a, b = readme_blocks(text)
     assert (a.lang, a.skip, a.code, a.line) == ("bash", "needs a display", "rerun a.rrd\n", 3)
     assert (b.lang, b.skip, b.code) == ("python", None, "print(1)\n")
+    (c,) = readme_blocks("<!-- readme-test: needs the gpu extra -->\n```python\nimport torch\n```\n")
+    assert (c.skip, c.needs_gpu) == (None, True) and not b.needs_gpu
 
 
 @pytest.fixture(scope="module")
@@ -107,6 +122,11 @@ def scratch(tmp_path_factory) -> Path:
 def test_readme_block_runs(block: Block, scratch: Path):
     if block.skip is not None:
         pytest.skip(f"README line {block.line}: {block.skip}")
+    if block.needs_gpu:
+        missing = [m for m in GPU_MODULES if importlib.util.find_spec(m) is None]
+        if missing:
+            pytest.skip(f"README line {block.line} needs the gpu extra ({', '.join(missing)} missing): "
+                        'pip install -e ".[gpu]"')
     env = dict(os.environ)
     env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
     env.setdefault("MUJOCO_GL", "egl")
