@@ -42,6 +42,7 @@ from conformal import checks
 from conformal.dpft import _mirror_map, _tables, _weight
 from conformal.fovea import fovea_indices
 from conformal.geometry import _PERM_FLAT
+from conformal.kernels import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
 
 from .vision import REMAP_MODELS, Vision
 
@@ -52,10 +53,6 @@ except ImportError:  # pragma: no cover - the module is only imported with torch
                       "without a GPU)") from None
 
 __all__ = ["TorchVision", "TorchFrame", "KIND_PROJECTIVE", "KIND_MOBIUS"]
-
-#: ``RemapPlan``'s map kinds (``conformal.kernels``): a homography, or a Mobius transformation.
-KIND_PROJECTIVE = 0
-KIND_MOBIUS = 1
 
 _POLE_TOL = 1e-12  # as conformal.kernels / conformal.geometry
 _DEFAULT_CHUNK_BYTES = 1 << 30
