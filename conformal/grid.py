@@ -144,6 +144,9 @@ class RetinaGrid:
         n_sectors = checks.integer("n_sectors", n_sectors, 4, MAX_SECTORS)
         k = (n_sectors - math.pi) / (2 * math.pi * r0)
         delta = math.log(1 + 1 / (r0 * k))
+        if not (math.isfinite(k) and delta > 0):  # a subnormal r0: the density N / r0 overflows
+            raise ValueError(f"r0 = {r0:.4g} is too small: the sampling density it implies ({n_sectors} sectors "
+                             f"around it) overflows a float; use r0 >= 1e-300")
         m = max(int(round((math.log(rb) - math.log(r0)) / delta)), 2)
         n_f = max(int(round(math.pi * (r0 * k) ** 2)), 1)
         return cls(r0=r0, delta=delta, M=m, N=n_sectors, fovea_spacing=1 / k, n_fovea=n_f)

@@ -1056,3 +1056,12 @@ def test_renderer_inherited_through_fork_raises_instead_of_hanging():
     run = subprocess.run([sys.executable, "-c", _FORKED_RENDERER_SCRIPT], cwd=root, env=env, capture_output=True,
                          text=True, timeout=60)
     assert "child exit 0" in run.stdout and "parent ok" in run.stdout, run.stdout + run.stderr[-3000:]
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("r0", [2.2250738585e-313, 5e-324, 1e-310])
+def test_subnormal_foveal_radius_is_refused(r0):
+    """Found by hypothesis (test_grids_are_bounded_or_refused): a subnormal r0 made the implied
+    sampling density overflow to inf and the log spacing 0 (ZeroDivisionError)."""
+    with pytest.raises(ValueError, match="r0"):
+        C.RetinaGrid.from_field_of_view(1.0, r0, 4)
