@@ -57,9 +57,10 @@ def batched(args, n: int) -> dict:
     for a in actions[:2]:  # compile, capture
         env.step(a)
     cuda = env.device.type == "cuda"
-    sync = torch.cuda.synchronize if cuda else (lambda: None)
+    dev = env.device
+    sync = (lambda: torch.cuda.synchronize(dev)) if cuda else (lambda: None)
     if cuda:
-        torch.cuda.reset_peak_memory_stats()
+        torch.cuda.reset_peak_memory_stats(dev)
 
     def run() -> float:  # the same episodes and actions each time: the same saccades and physics spans
         env.reset(seed=0)
@@ -78,7 +79,7 @@ def batched(args, n: int) -> dict:
     wall = min(wall, run())
     if cuda:  # everything on the device (Warp's arrays and graphs, torch's tensors, both contexts)
         free, total = torch.cuda.mem_get_info(env.device)
-        mem = f"{(total - free) / 2**20:.0f} MiB in use on the device ({torch.cuda.max_memory_allocated() / 2**20:.0f} MiB torch peak)"
+        mem = f"{(total - free) / 2**20:.0f} MiB in use on the device ({torch.cuda.max_memory_allocated(dev) / 2**20:.0f} MiB torch peak)"
     else:
         mem = f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10:.0f} MiB RSS (process)"
     env.close()
@@ -94,10 +95,11 @@ def main(argv=None) -> None:
     ap.add_argument("--steps", type=int, default=None, help="timed steps per configuration (default 20 CUDA, 3 CPU)")
     ap.add_argument("--single-steps", type=int, default=20)
     args = ap.parse_args(argv)
+    import torch
     import warp as wp
 
-    if args.device is None:
-        args.device = "cuda" if wp.is_cuda_available() else "cpu"
+    if args.device is None:  # as the env resolves it: CUDA needs both Warp's and torch's
+        args.device = "cuda" if wp.is_cuda_available() and torch.cuda.is_available() else "cpu"
     cpu = args.device == "cpu"
     args.num_envs = args.num_envs or ([1, 4, 16] if cpu else [1, 64, 1024, 4096])
     args.steps = args.steps or (3 if cpu else 20)

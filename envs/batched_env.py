@@ -52,16 +52,22 @@ _STEP_KEYS = ("saccade_amplitude_deg", "saccade_duration_ms", "peak_velocity_deg
               "endpoint_error_deg", "efference_copy", "executed_rotation", "eye_angles", "clipped")
 
 
-def _resolve_device(device, wp) -> str:
+def _resolve_device(device, wp, torch) -> str:
+    """The device both Warp and torch can use: CUDA needs a CUDA build of torch as well as Warp's CUDA."""
+    cuda = wp.is_cuda_available() and torch.cuda.is_available()
     if device is None:
-        return "cuda" if wp.is_cuda_available() else "cpu"
+        return "cuda" if cuda else "cpu"
     if not isinstance(device, str):
         raise checks.InputTypeError(f"device must be a string such as 'cuda', 'cuda:1' or 'cpu', or None; got {device!r}")
+    if device != "cpu" and not device.startswith("cuda"):
+        raise ValueError(f"device must be 'cuda', 'cuda:<index>' or 'cpu'; got {device!r}")
     if device.startswith("cuda") and not wp.is_cuda_available():
         raise RuntimeError(f"device={device!r} but Warp finds no CUDA device here; use device='cpu' (Warp's CPU "
                            "backend: slow, for tests) or run on a machine with an NVIDIA GPU")
-    if device != "cpu" and not device.startswith("cuda"):
-        raise ValueError(f"device must be 'cuda', 'cuda:<index>' or 'cpu'; got {device!r}")
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise RuntimeError(f"device={device!r}: Warp finds a CUDA device but this torch is a CPU-only build "
+                           f"(torch {torch.__version__}); install a CUDA build of torch (see pytorch.org) or use "
+                           "device='cpu'")
     return device
 
 
@@ -122,7 +128,7 @@ class BatchedBinocularSaccade(VectorEnv):
             retina_rays = checks.integer("retina_rays", retina_rays, 1, MAX_SUBSAMPLES,
                                          hint="sub-rays per receptive-field side, or None for pinhole images")
         self.retina_rays = retina_rays
-        device = _resolve_device(device, wp)
+        device = _resolve_device(device, wp, torch)
         if kwargs.get("render_mode") is not None:
             raise ValueError("the batched env does not render for display (render_mode must be None); "
                              "use BinocularSaccadeEnv(render_mode='rgb_array') to look at an episode")
@@ -170,6 +176,7 @@ class BatchedBinocularSaccade(VectorEnv):
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
+        self._check_open()
         n = self.num_envs
         if seed is None:
             seeds = [None] * n
@@ -198,6 +205,7 @@ class BatchedBinocularSaccade(VectorEnv):
         return self._observation(), info
 
     def step(self, actions):
+        self._check_open()
         if self._frame is None:
             raise RuntimeError("call reset() before step()")
         torch = self._torch
@@ -280,7 +288,7 @@ class BatchedBinocularSaccade(VectorEnv):
         }
         for k, v in per_world.items():
             info[k], info["_" + k] = np.asarray(v, dtype=bool if k == "clipped" else float), active.copy()
-        if self._target_gid is not None:
+        if self._target_gid is not None and not isinstance(self.task, FreeViewingTask):
             info["target_error_deg"], info["_target_error_deg"] = np.where(active, target_err.mean(axis=1), 0.0), active.copy()
         info["success"], info["_success"] = success & active, active.copy()
         with part("host sync"):
@@ -290,11 +298,16 @@ class BatchedBinocularSaccade(VectorEnv):
             obs, info = self._reset_same_step(done, obs, info)
         return obs, reward, terminated, truncated, info
 
-    def close(self, **kwargs) -> None:
+    def close_extras(self, **kwargs) -> None:
+        """Release the host heads (``VectorEnv.close`` calls this once and sets ``closed``)."""
         for h in self.heads:
             h.close()
 
     # ------------------------------------------------------------------ helpers
+    def _check_open(self) -> None:
+        if self.closed:
+            raise RuntimeError("this BatchedBinocularSaccade is closed; make a new one")
+
     def _reset_same_step(self, done: np.ndarray, final_obs: dict, final_info: dict) -> tuple[dict, dict]:
         """SAME_STEP autoreset: reset the ``done`` worlds now and render again; the ended episodes'
         last observations and infos go to ``info["final_obs"]`` / ``info["final_info"]``."""
@@ -312,11 +325,15 @@ class BatchedBinocularSaccade(VectorEnv):
             obs = self._observation()
         n = self.num_envs
         info = {"sim_time_ms": np.array([h.time_ms for h in self.heads]), "_sim_time_ms": np.ones(n, bool),
-                "final_obs": final_obs, "_final_obs": done.copy(), "final_info": final_info, "_final_info": done.copy()}
+                "final_obs": final_obs, "_final_obs": done.copy(),
+                "final_info": self._mask_info(final_info, done), "_final_info": done.copy()}
         for k, v in final_info.items():  # the running worlds' step info stays where it was
-            if k not in info and not k.startswith("_") and k != "remap_error":
-                info[k], info["_" + k] = v, final_info["_" + k] & ~done
-        info["remap_error"], info["_remap_error"] = final_info["remap_error"], ~done
+            if k not in info and not k.startswith("_") and not isinstance(v, dict):
+                info[k], info["_" + k] = v.copy(), final_info["_" + k] & ~done
+        # the reset worlds' remapping errors are a reset's (zeros), as BinocularSaccadeEnv.reset reports
+        info["remap_error"] = self._masked({m: np.where(done, 0.0, v) for m, v in final_info["remap_error"].items()
+                                            if not m.startswith("_")}, np.ones(n, bool))
+        info["_remap_error"] = np.ones(n, bool)
         return obs, info
 
     @contextlib.contextmanager
@@ -325,7 +342,8 @@ class BatchedBinocularSaccade(VectorEnv):
         if self.timings is None:
             yield
             return
-        sync = self._torch.cuda.synchronize if self.device.type == "cuda" else (lambda: None)
+        dev = self.device
+        sync = (lambda: self._torch.cuda.synchronize(dev)) if dev.type == "cuda" else (lambda: None)
         sync()
         t0 = time.perf_counter()
         yield
@@ -359,6 +377,17 @@ class BatchedBinocularSaccade(VectorEnv):
 
     def _cortical_now(self):
         return self.vision.cortical(self._frame.periphery, self._template.cortex)
+
+    @classmethod
+    def _mask_info(cls, info: dict, mask: np.ndarray) -> dict:
+        """A copy of a step's ``info`` whose ``_key`` masks are and-ed with ``mask`` (nested dicts too)."""
+        out = {}
+        for k, v in info.items():
+            if k.startswith("_"):
+                continue
+            out[k] = cls._mask_info(v, mask) if isinstance(v, dict) else np.copy(v)
+            out["_" + k] = info["_" + k] & mask
+        return out
 
     @staticmethod
     def _masked(values: dict, mask: np.ndarray) -> dict:

@@ -172,12 +172,14 @@ class WarpHeads:
                 rows = 64 * math.ceil(max(T, 1.5 * self._cmd.shape[1]) / 64)
                 self._cmd = wp.zeros((n, rows, 6), dtype=wp.float32)
                 self._graph = None  # the graph captured the old table
-            buf = np.zeros(self._cmd.shape, np.float32)
-            buf[:, :T] = commands
-            self._cmd.assign(buf)
+            # only the rows in use travel (the kernel never reads a world's rows past lengths[w] - 1)
+            wp.to_torch(self._cmd)[:, :T] = self._torch.as_tensor(commands, device=self.torch_device)
             self._ncmd.assign(np.asarray(lengths, np.int32))
+            if self.device.is_cuda:  # torch's copy (its stream) lands before Warp's kernels (Warp's stream)
+                self._torch.cuda.synchronize(self.torch_device)
             self._step.zero_()
-            if self.device.is_cuda:
+            stepped = 0
+            if self.device.is_cuda and self._graph is not False:
                 chunks = max(1, math.ceil(n_ms / self.chunk_ms))
                 todo = chunks
                 if self._graph is None:
@@ -185,21 +187,40 @@ class WarpHeads:
                     # capture does not allow), then the same launches are captured for the rest
                     for _ in range(self.chunk_ms):
                         self._physics_step()
-                    todo -= 1
-                    with wp.ScopedCapture() as cap:
-                        for _ in range(self.chunk_ms):
-                            self._physics_step()
-                    self._graph = cap.graph
-                for _ in range(todo):
-                    wp.capture_launch(self._graph)
-                stepped = chunks * self.chunk_ms
-            else:
-                for _ in range(n_ms):
-                    self._physics_step()
-                stepped = n_ms
+                    stepped, todo = self.chunk_ms, todo - 1
+                    self._graph = self._capture()
+                if self._graph is not False:
+                    for _ in range(todo):
+                        wp.capture_launch(self._graph)
+                    stepped = chunks * self.chunk_ms
+            for _ in range(stepped, n_ms):  # the CPU backend; CUDA where no graph could be captured
+                self._physics_step()
+            stepped = max(stepped, n_ms)
             mjw.forward(self.model, self.data)
         self._handoff_to_torch()
         return stepped
+
+    def _capture(self):
+        """Capture ``chunk_ms`` physics steps in a CUDA graph, or return False (and warn once) where the
+        driver cannot: MJWarp's solver loops with conditional graph nodes (``wp.capture_while``), which
+        need CUDA 12.4+ drivers; without a graph the same launches run one by one (slower, same result)."""
+        wp = self._wp
+        reason = None
+        if hasattr(wp, "is_conditional_graph_supported") and not wp.is_conditional_graph_supported():
+            reason = "this CUDA driver/toolkit has no conditional graph nodes"
+        else:
+            try:
+                with wp.ScopedCapture() as cap:
+                    for _ in range(self.chunk_ms):
+                        self._physics_step()
+                return cap.graph
+            except Exception as e:  # noqa: BLE001 - any capture failure: run uncaptured
+                reason = f"{type(e).__name__}: {e}"
+        import warnings
+
+        warnings.warn(f"the batched physics runs without a CUDA graph ({reason}); each physics step is launched "
+                      "from Python (slower, same result)", RuntimeWarning, stacklevel=3)
+        return False
 
     def _physics_step(self) -> None:
         wp = self._wp

@@ -14,7 +14,8 @@ MuJoCo Playground); a gymnasium ``VectorEnv`` that returns torch tensors plugs i
 leaner but tied to Isaac Lab's env interface; SB3 keeps its buffers in numpy on the host.)
 
 The env runs with ``autoreset_mode="same_step"`` (what skrl's trainers expect: the observation after
-a terminal step is the next episode's first). Observations ``cortical``, ``remapped``, ``fovea`` and
+a terminal step is the next episode's first; a truncation is reported to skrl as a termination, since
+the saccade budget is not observed and the next observation belongs to the next episode). Observations ``cortical``, ``remapped``, ``fovea`` and
 ``eyes`` are flattened and concatenated on the device; the policy is a Gaussian MLP on the vector
 action (the saccade, scaled by ``max_amplitude_deg``), the value an MLP; both standardised by skrl's
 running scaler. PPO: Schulman et al. 2017.
@@ -73,7 +74,7 @@ def DeviceVectorWrapper(env):
                 raise ValueError("wrap a BatchedBinocularSaccade(output='torch', autoreset_mode='same_step')")
             dim = sum(int(np.prod(env.single_observation_space[k].shape)) for k in OBS_KEYS)
             self._obs_space = gymnasium.spaces.Box(-np.inf, np.inf, (dim,), np.float32)
-            self._returns = torch.zeros(env.num_envs, device=env.device)
+            self._returns = np.zeros(env.num_envs)
             self.env_steps = 0
             self.episodes: list[tuple[int, float, bool]] = []
 
@@ -104,18 +105,18 @@ def DeviceVectorWrapper(env):
         def step(self, actions):
             obs, reward, terminated, truncated, info = self._env.step(actions.clamp(-1.0, 1.0))
             dev = self.device
-            r = torch.as_tensor(reward, dtype=torch.float32, device=dev)
-            te = torch.as_tensor(terminated, device=dev)
-            tr = torch.as_tensor(truncated, device=dev)
+            done = np.asarray(terminated) | np.asarray(truncated)
             self.env_steps += self._unwrapped.num_envs
-            self._returns += r
-            done = np.flatnonzero(np.asarray(terminated) | np.asarray(truncated))
-            if done.size:
-                success = info["final_info"]["success"]
-                for i in done:
-                    self.episodes.append((self.env_steps, float(self._returns[i]), bool(success[i])))
-                self._returns[torch.as_tensor(done, device=dev)] = 0.0
-            return self._flat(obs), r.view(-1, 1), te.view(-1, 1), tr.view(-1, 1), info
+            self._returns += reward  # host numpy: no per-step device synchronisation for the bookkeeping
+            for i in np.flatnonzero(done):
+                self.episodes.append((self.env_steps, float(self._returns[i]), bool(info["final_info"]["success"][i])))
+            self._returns[done] = 0.0
+            # The saccade budget is not in the observation, so a truncated episode is reported as terminated:
+            # skrl would otherwise bootstrap its value from the next observation, which under the same-step
+            # autoreset is already the next episode's first (a different, unrelated state).
+            te = torch.as_tensor(done, device=dev).view(-1, 1)
+            r = torch.as_tensor(reward, dtype=torch.float32, device=dev).view(-1, 1)
+            return self._flat(obs), r, te, torch.zeros_like(te), info
 
         def state(self):
             return None

@@ -344,3 +344,67 @@ def test_options_agree_with_the_single_env(kwargs):
         assert si["sim_time_ms"] == bi["sim_time_ms"][w]
         for m, e in si["remap_error"].items():  # that one flipped pixel moves an error by 0.009
             assert abs(e - bi["remap_error"][m][w]) < 0.02, (m, e, bi["remap_error"][m][w])
+
+
+def test_device_needs_a_cuda_build_of_torch(monkeypatch):
+    """Warp may see a GPU while torch is a CPU-only build: device=None then falls back to the CPU and
+    device="cuda" says what to install (not a crash later in a torch call)."""
+    import warp as wp
+
+    from envs.batched_env import _resolve_device
+
+    monkeypatch.setattr(wp, "is_cuda_available", lambda: True)
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    assert _resolve_device(None, wp, torch) == "cpu"
+    with pytest.raises(RuntimeError, match="CPU-only build"):
+        _resolve_device("cuda", wp, torch)
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    assert _resolve_device(None, wp, torch) == "cuda"
+    assert _resolve_device("cpu", wp, torch) == "cpu"
+
+
+def test_same_step_infos_are_masked_and_a_closed_env_refuses():
+    """SAME_STEP with a one-saccade budget: every world ends in its first step, so final_info carries the ended episodes' step info under masks and-ed with the ended worlds; the new
+    episodes' remap_error is a reset's (zeros). A closed env refuses step and reset."""
+    env = BatchedBinocularSaccade(N, device="cpu", image_size=32, task="free", scene="bar",
+                                  task_kwargs={"max_saccades": 1}, autoreset_mode="same_step", output="numpy")
+    env.reset(seed=1)
+    obs, r, te, tr, info = env.step(ACTIONS[0])
+    done = te | tr
+    assert done.all()
+    fi = info["final_info"]
+    for k in ("saccade_amplitude_deg", "eye_angles", "success"):
+        np.testing.assert_array_equal(fi["_" + k], done)
+        assert not info.get("_" + k, np.zeros(N, bool)).any()  # no running world had a step info
+    assert fi["saccade_amplitude_deg"].min() > 0
+    assert "target_error_deg" not in fi  # the free task reports none, as BinocularSaccadeEnv
+    for m in env.remap_models:
+        np.testing.assert_array_equal(info["remap_error"][m], 0.0)
+    np.testing.assert_array_equal(fi["_remap_error"], done)
+    fi["saccade_amplitude_deg"][0] = -1.0  # a copy: the env's own arrays are not shared
+    env.close()
+    env.close()  # twice is harmless
+    assert env.closed
+    with pytest.raises(RuntimeError, match="closed"):
+        env.step(ACTIONS[0])
+    with pytest.raises(RuntimeError, match="closed"):
+        env.reset(seed=0)
+
+
+def test_recipe_reports_truncation_as_termination():
+    """The saccade budget is not observed, so the skrl wrapper reports a truncated episode as terminated
+    (no bootstrap from the next episode's first observation) and keeps returns on the host."""
+    pytest.importorskip("skrl")
+    from experiments.skrl_recipe import DeviceVectorWrapper
+
+    env = BatchedBinocularSaccade(N, device="cpu", image_size=32, task="fixate", task_kwargs={"max_saccades": 1},
+                                  autoreset_mode="same_step")
+    try:
+        w = DeviceVectorWrapper(env)
+        env.reset(seed=3)
+        _, r, te, tr, _ = w.step(torch.zeros(N, 2))
+        assert te.shape == (N, 1) and te.all() and not tr.any()  # each world's one-saccade budget ran out
+        assert len(w.episodes) == N and isinstance(w._returns, np.ndarray)
+        np.testing.assert_allclose([e[1] for e in w.episodes], r.view(-1).numpy(), atol=1e-6)
+    finally:
+        env.close()
