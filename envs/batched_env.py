@@ -27,7 +27,6 @@ resets it and ignores its action.
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 from typing import Any
 
@@ -40,7 +39,8 @@ from gymnasium.vector.utils import batch_space
 import models
 from conformal import checks
 
-from .saccade_env import BinocularSaccadeEnv, plan_clipped
+from .batched_planner import BatchedPlanner
+from .saccade_env import BinocularSaccadeEnv
 from .tasks import FixateTask, FreeViewingTask, SearchTask
 
 __all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]
@@ -149,6 +149,7 @@ class BatchedBinocularSaccade(VectorEnv):
         self.remap_models, self.remap_model = env.remap_models, env.remap_model
         self._chosen = env.remap_models.index(env.remap_model)
         self.heads = [env.head] + [models.Head(env.scene, **env._head_kwargs) for _ in range(self.num_envs - 1)]
+        self.planner = BatchedPlanner(self.heads)
         directions = None
         if retina_rays is not None:
             from .retina_rays import field_ray_directions
@@ -199,7 +200,7 @@ class BatchedBinocularSaccade(VectorEnv):
         self.physics.load(np.arange(n), self.heads)
         self._see()
         self._remapped = self._cortical_now()
-        info = {"sim_time_ms": np.array([h.time_ms for h in self.heads]), "_sim_time_ms": np.ones(n, bool),
+        info = {"sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": np.ones(n, bool),
                 "remap_error": self._masked({m: np.zeros(n) for m in self.remap_models}, np.ones(n, bool)),
                 "_remap_error": np.ones(n, bool)}
         return self._observation(), info
@@ -215,42 +216,38 @@ class BatchedBinocularSaccade(VectorEnv):
             hv, factor = self._decode(actions)
         resetting = self._autoreset.copy()
         active = ~resetting
+        act = np.flatnonzero(active)
         with part("host"):
             for i in np.flatnonzero(resetting):
                 self._reset_world(i)
-            plans: list = [None] * n
-            clipped = np.zeros(n, bool)
             rot_eye = np.broadcast_to(np.eye(3), (n, 2, 3, 3)).copy()
-            for i in np.flatnonzero(active):
-                plans[i], clipped[i] = plan_clipped(self.heads[i], hv[i, 0], hv[i, 1], factor[i])
-                rot_eye[i] = plans[i].efference_copy_eye
-            # the command tables: each world's commanded angles at every ms from now to its saccade's end
+            clipped = np.zeros(n, bool)
             spans = np.zeros(n, np.int64)
-            advance = np.zeros(n, np.int64)
-            for i in np.flatnonzero(active):
-                head, plan = self.heads[i], plans[i]
-                head.start_saccade(plan)
-                spans[i] = plan.end_ms - head.time_ms
-                advance[i] = spans[i] + self._template.fixation_ms
-            commands = np.empty((n, int(spans.max()) + 1, 6), np.float32)
-            for i, head in enumerate(self.heads):
-                if active[i]:
-                    q = plans[i].angles(head.time_ms + np.arange(spans[i] + 1.0)).reshape(-1, 6)
-                    commands[i, :len(q)] = q
-                    commands[i, len(q):] = q[-1]
-                else:
-                    commands[i] = head._hold.reshape(6)
+            lengths = np.ones(n, np.int64)
+            plans = None
+            if len(act):
+                plans, clipped[act] = self.planner.plan(act, hv[act], factor[act])
+                rot_eye[act] = plans.efference_copy_eye
+                table, lengths[act] = self.planner.commands(plans)
+                spans[act] = plans.end_ms - plans.onset_ms
+            # the command tables: each world's commanded angles at every ms from now to its saccade's end
+            commands = np.empty((n, table.shape[1] if plans is not None else 1, 6), np.float32)
+            commands[:] = self.planner.hold.reshape(n, 1, 6)  # the worlds being reset hold their fixation
+            if plans is not None:
+                commands[act] = table
+            advance = np.where(active, spans + self._template.fixation_ms, 0)
         with part("remap"):
             values, valid = self.vision.predict(self._frame, torch.as_tensor(rot_eye, dtype=torch.float32,
                                                                              device=self.device), self.remap_models)
         with part("physics"):
             if resetting.any():
                 self.physics.load(np.flatnonzero(resetting), [self.heads[i] for i in np.flatnonzero(resetting)])
-            self.physics.run(commands, spans + 1, int(min(advance.max(), spans.max() + self.settle_ms)))
+            self.physics.run(commands, lengths, int(min(advance.max(), spans.max() + self.settle_ms)))
+        with part("host"):
+            if plans is not None:
+                self.planner.start(act, plans, advance[act])
         with part("host sync"):
             eye_q = self.physics.eye_qpos().double().cpu().numpy()
-            for i in np.flatnonzero(active):
-                self.heads[i]._follow(int(advance[i]), eye_q[i])
         self._see()
         with part("remap"):
             errors = self.vision.errors(values, valid, self._frame).mean(dim=1)  # (N, K): mean of both eyes
@@ -260,7 +257,7 @@ class BatchedBinocularSaccade(VectorEnv):
             keep = torch.as_tensor(active, device=self.device).view((n,) + (1,) * (remapped.dim() - 1))
             self._remapped = torch.where(keep, remapped, now)
         with part("task"):
-            target_err, landing = self._gaze_errors(plans, active)
+            target_err, landing = self._gaze_errors(plans, act)
             reward, success = self._score(target_err)
         self._saccades[active] += 1
         terminated = active & success
@@ -272,22 +269,24 @@ class BatchedBinocularSaccade(VectorEnv):
         errors = errors.double().cpu().numpy()
         remap_error = {m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)}
         info: dict[str, Any] = {
-            "sim_time_ms": np.array([h.time_ms for h in self.heads]), "_sim_time_ms": np.ones(n, bool),
+            "sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": np.ones(n, bool),
             "remap_error": self._masked(remap_error, np.ones(n, bool)), "_remap_error": np.ones(n, bool),
         }
         per_world = {
-            "saccade_amplitude_deg": [p.amplitude_deg if p else 0.0 for p in plans],
-            "saccade_duration_ms": [p.duration_ms if p else 0.0 for p in plans],
-            "peak_velocity_deg_s": [math.degrees(p.peak_velocity) if p else 0.0 for p in plans],
-            "landing_error_deg": landing,
-            "endpoint_error_deg": [p.endpoint_error_deg if p else np.zeros(2) for p in plans],
-            "efference_copy": [p.efference_copy if p else np.eye(3)[None].repeat(2, 0) for p in plans],
-            "executed_rotation": [p.executed_rotation if p else np.eye(3)[None].repeat(2, 0) for p in plans],
-            "eye_angles": eye_q,
-            "clipped": clipped,
+            "saccade_amplitude_deg": ((), lambda p: np.rad2deg(p.amplitude)),
+            "saccade_duration_ms": ((), lambda p: p.duration_ms),
+            "peak_velocity_deg_s": ((), lambda p: np.degrees(p.peak_velocity)),
+            "endpoint_error_deg": ((2,), lambda p: p.endpoint_error_deg),
+            "efference_copy": ((2, 3, 3), lambda p: p.efference_copy),
+            "executed_rotation": ((2, 3, 3), lambda p: p.executed_rotation),
         }
-        for k, v in per_world.items():
-            info[k], info["_" + k] = np.asarray(v, dtype=bool if k == "clipped" else float), active.copy()
+        for k, (shape, get) in per_world.items():
+            v = np.zeros((n,) + shape) if not shape or shape == (2,) else np.broadcast_to(np.eye(3), (n,) + shape).copy()
+            if plans is not None:
+                v[act] = get(plans)
+            info[k], info["_" + k] = v, active.copy()
+        for k, v in (("landing_error_deg", landing), ("eye_angles", eye_q), ("clipped", clipped)):
+            info[k], info["_" + k] = v, active.copy()
         if self._target_gid is not None and not isinstance(self.task, FreeViewingTask):
             info["target_error_deg"], info["_target_error_deg"] = np.where(active, target_err.mean(axis=1), 0.0), active.copy()
         info["success"], info["_success"] = success & active, active.copy()
@@ -324,7 +323,7 @@ class BatchedBinocularSaccade(VectorEnv):
         with self._part("host sync"):
             obs = self._observation()
         n = self.num_envs
-        info = {"sim_time_ms": np.array([h.time_ms for h in self.heads]), "_sim_time_ms": np.ones(n, bool),
+        info = {"sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": np.ones(n, bool),
                 "final_obs": final_obs, "_final_obs": done.copy(),
                 "final_info": self._mask_info(final_info, done), "_final_info": done.copy()}
         for k, v in final_info.items():  # the running worlds' step info stays where it was
@@ -357,6 +356,7 @@ class BatchedBinocularSaccade(VectorEnv):
             self._rngs[i] = rng = seeding.np_random(None)[0]
         self.heads[i].reset(seed=int(rng.integers(2**31 - 1)))
         self.task.initialize_episode(self.heads[i], rng)
+        self.planner.reset_worlds([i])
         self._saccades[i] = 0
 
     def _see(self) -> None:
@@ -403,8 +403,7 @@ class BatchedBinocularSaccade(VectorEnv):
             "cortical": self._cortical_now(),
             "fovea": f.fovea.clamp(0.0, 1.0),
             "remapped": self._remapped.clone(),
-            "eyes": torch.as_tensor(np.stack([h.eye_position_signal() for h in self.heads]), dtype=torch.float32,
-                                    device=self.device),
+            "eyes": torch.as_tensor(self.planner.eye_position_signal(), dtype=torch.float32, device=self.device),
         }
         if self._template.include_coeffs:
             obs["coeffs"] = torch.view_as_real(f.coeffs).to(torch.float32)
@@ -447,7 +446,7 @@ class BatchedBinocularSaccade(VectorEnv):
         factor = 2.0 ** a[:, 2] if env.vergence else np.ones(n)
         return a[:, :2] * env.max_amplitude, factor
 
-    def _gaze_errors(self, plans: list, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _gaze_errors(self, plans, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Both eyes' gaze errors (deg) to the task's target (N, 2) and the mean to each saccade's
         intended target (N,), from the device's camera poses (tasks._gaze_errors_deg, batched)."""
         torch = self._torch
@@ -460,7 +459,11 @@ class BatchedBinocularSaccade(VectorEnv):
             cross = torch.linalg.cross(axis, d, dim=-1).norm(dim=-1)
             return torch.rad2deg(torch.atan2(cross, (axis * d).sum(-1)))
 
-        intended = np.array([p.intended_target if p else h.cyclopean_position for p, h in zip(plans, self.heads)])
+        intended = np.broadcast_to(self.planner.cyclopean_position, (n, 3)).copy()
+        if plans is not None:
+            intended[act] = plans.intended_target
+        active = np.zeros(n, bool)
+        active[act] = True
         landing = errors(torch.as_tensor(intended, device=self.device)).mean(dim=1).cpu().numpy()
         landing = np.where(active, landing, 0.0)
         if self._target_gid is None:

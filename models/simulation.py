@@ -622,20 +622,6 @@ class Head:
         return EyeTrace(ts, np.array(qs).reshape(-1, 2, 3), np.array(vs).reshape(-1, 2, 3),
                         np.array(ps).reshape(-1, 2, 3), intended, eps)
 
-    def _follow(self, n_ms: int, eye_qpos: np.ndarray) -> None:
-        """Advance the clock by ``n_ms`` as :meth:`step_ms` does while an external engine (the batched
-        env's MuJoCo Warp) ran the physics: the saccade in flight finishes at its ``end_ms``, the
-        eye joints take that engine's angles ``eye_qpos`` (2, 3) and the kinematics are recomputed.
-        Internal (no checks); flashes are not handled (the batched env shows none)."""
-        self.time_ms += n_ms
-        if self._plan is not None and self.time_ms >= self._plan.end_ms:
-            self._finish_saccade()
-        self._table = None
-        self.data.qpos[self._qadr] = eye_qpos.ravel()
-        self.data.qvel[self._vadr] = 0.0
-        mujoco.mj_kinematics(self.model, self.data)
-        mujoco.mj_camlight(self.model, self.data)
-
     def _finish_saccade(self) -> None:
         self._hold = self._plan.end_angles.copy()
         self._signal_hold = self._plan.intended_end_angles.copy()

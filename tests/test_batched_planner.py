@@ -1,0 +1,145 @@
+"""The vectorised planner of the batched env (``envs.batched_planner``) against the per-world objects it
+batches: ``models.BurstGenerator.profile`` for every amplitude, and ``models.Head`` + ``models.SaccadePlan``
+(the single env's planning, ``envs.saccade_env.plan_clipped``) over sequences of saccades: plans,
+command tables, times, efference copies and the eye-position signal. Pure numpy (no GPU extra)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import models
+from envs.batched_planner import BatchedPlanner, burst_profiles
+from envs.saccade_env import plan_clipped
+
+PROFILE_FIELDS = ("onset_ms", "offset_ms", "duration_ms", "settle_ms", "peak_velocity_deg_s")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.0, 90.0, allow_nan=False), min_size=1, max_size=12))
+def test_profiles_equal_the_generators(amps):
+    """Detected onset/offset, settle time, peak speed and positions of every plant equal
+    ``BurstGenerator.profile``'s exactly (the same arithmetic, batched; the table's bounds only skip
+    entries that cannot matter)."""
+    gen = models.BurstGenerator()
+    amps = np.array(amps + [0.0, 0.25, 90.0, 1e-7])
+    batch = burst_profiles(gen, amps)
+    t = np.linspace(-1.0, 330.0, 400)
+    for k, a in enumerate(amps):
+        ref = gen.profile(a)
+        for name in PROFILE_FIELDS:
+            assert getattr(batch, name)[k] == getattr(ref, name), (a, name)
+    for plant in range(3):
+        ref = np.stack([gen.profile(a).position(t, plant) for a in amps])
+        np.testing.assert_array_equal(batch.position(np.broadcast_to(t, ref.shape), plant), ref)
+
+
+def test_profiles_of_another_generator():
+    gen = models.BurstGenerator(burst_max_deg_s=600.0, settle_deg=0.3, abducting_t2_ms=4.0)
+    amps = np.array([0.0, 0.1, 3.0, 17.3, 44.0, 88.8])
+    batch = burst_profiles(gen, amps)
+    for k, a in enumerate(amps):
+        ref = gen.profile(a)
+        for name in PROFILE_FIELDS:
+            assert getattr(batch, name)[k] == getattr(ref, name), (a, name)
+
+
+def _step(head: models.Head, ms: int, pose: np.ndarray) -> None:
+    """Step the head's physics ``ms`` and put its neck back where ``pose`` (qpos) had it: the planner
+    takes the head's pose at reset (the env never moves the neck; under the physics it drifts by
+    ~1e-7 m, which this comparison of the planning arithmetic leaves out)."""
+    import mujoco
+
+    head.step_ms(ms)
+    eyes = head.data.qpos[head._qadr].copy()
+    head.data.qpos[:] = pose
+    head.data.qpos[head._qadr] = eyes
+    mujoco.mj_forward(head.model, head.data)
+
+
+def _heads(n: int, seed: int, **kw) -> list[models.Head]:
+    heads = [models.Head("dots", 16, seed=seed + i, **kw) for i in range(n)]
+    for i, h in enumerate(heads):
+        h.reset(seed=seed + i)
+    return heads
+
+
+CASES = {
+    "burst": {},
+    "legacy": {"saccade_model": "legacy"},
+    "noise": {"endpoint_noise": 0.15},
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize("vergence", [False, True])
+def test_planner_follows_the_heads(case, vergence):
+    """Three worlds, four saccades each (one far out of range: clipped by bisection), against a
+    ``models.Head`` per world stepping its physics: the same plans and clipping, command tables
+    (< 1e-9 rad), end times (exact), efference copies, and eye-position signal during and after."""
+    kw = CASES[case]
+    n, fixation_ms = 3, 40
+    mine, ref = _heads(n, 11, **kw), _heads(n, 11, **kw)
+    poses = [h.data.qpos.copy() for h in ref]
+    planner = BatchedPlanner(mine)
+    planner.reset_worlds(np.arange(n))
+    rng = np.random.default_rng(5)
+    worlds = np.arange(n)
+    for step in range(4):
+        hv = rng.uniform(-0.35, 0.35, (n, 2))
+        if step == 2:
+            hv[1] = [1.4, -0.2]  # far beyond the 45 deg range: clipped
+        factor = 2.0 ** rng.uniform(-0.6, 0.6, n) if vergence else np.ones(n)
+        plans, clipped = planner.plan(worlds, hv, factor)
+        assert clipped[1] or step != 2
+        table, rows = planner.commands(plans)
+        advance = plans.end_ms - planner.time_ms + fixation_ms
+        for i in range(n):
+            head = ref[i]
+            plan, c = plan_clipped(head, hv[i, 0], hv[i, 1], factor[i])
+            assert c == clipped[i]
+            assert plans.onset_ms[i] == plan.onset_ms and plans.end_ms[i] == plan.end_ms
+            for a, b in ((plans.end[i], plan.end_angles), (plans.intended_end[i], plan.intended_end_angles),
+                         (plans.signal_start[i], plan.signal_start_angles), (plans.target[i], plan.target),
+                         (plans.efference_copy[i], plan.efference_copy),
+                         (plans.efference_copy_eye[i], plan.efference_copy_eye),
+                         (plans.executed_rotation[i], plan.executed_rotation),
+                         (plans.endpoint_error_deg[i], plan.endpoint_error_deg)):
+                np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+            for a, b in ((plans.amplitude[i], plan.amplitude), (plans.settle_ms[i], plan.settle_ms),
+                         (plans.duration_ms[i], plan.duration_ms), (plans.peak_velocity[i], plan.peak_velocity)):
+                assert abs(a - b) <= 1e-9 * max(1.0, abs(b))
+            span = plan.end_ms - plan.onset_ms
+            assert rows[i] == span + 1
+            q = plan.angles(plan.onset_ms + np.arange(span + 1.0)).reshape(-1, 6)
+            np.testing.assert_allclose(table[i, :span + 1], q, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(table[i, span + 1:], np.broadcast_to(q[-1], table[i, span + 1:].shape), atol=0)
+            t = plan.onset_ms + np.array([0.3, 7.0, 19.5, 60.0, 140.0])  # fractional times, mid-saccade
+            np.testing.assert_allclose(plans.angles(np.broadcast_to(t, (n, len(t))))[i], plan.angles(t), atol=1e-9)
+            head.start_saccade(plan)
+            _step(head, int(advance[i]), poses[i])
+        planner.start(worlds, plans, advance)
+        now = planner.eye_position_signal()
+        for i in range(n):
+            assert planner.time_ms[i] == ref[i].time_ms
+            np.testing.assert_allclose(now[i], ref[i].eye_position_signal(), atol=1e-9)
+            np.testing.assert_allclose(planner.hold[i], ref[i]._hold, atol=1e-12)
+            plan = ref[i].last_plan
+            times = plan.onset_ms + np.array([-60.0, 0.0, 25.5, 90.0, 400.0])
+            batch, k = planner._last[i]
+            got = batch.eye_position_signal(np.tile(times, (batch.n, 1)))[k]
+            np.testing.assert_allclose(got, plan.eye_position_signal(times), atol=1e-9)
+
+
+def test_planner_refuses_heads_mid_saccade_and_short_advances():
+    heads = _heads(2, 0)
+    planner = BatchedPlanner(heads)
+    planner.reset_worlds([0, 1])
+    plans, _ = planner.plan(np.arange(2), np.full((2, 2), 0.1), np.ones(2))
+    with pytest.raises(ValueError, match="past its saccade"):
+        planner.start(np.arange(2), plans, np.zeros(2, np.int64))
+    heads[0].start_saccade(heads[0].plan_saccade(0.1, 0.0))
+    with pytest.raises(RuntimeError, match="freshly reset"):
+        planner.reset_worlds([0])
