@@ -1,5 +1,5 @@
 """Compiled loops (numba) of ``envs.batched_planner``: the burst generator's trajectories and the
-eye-position signal of many saccades, element by element with the arithmetic of
+eye-position signal of many saccades (in parallel over saccades), element by element with the arithmetic of
 ``models.SaccadeProfile.position``, ``models.SaccadePlan._hv`` / ``eye_position_signal`` and
 ``models.EyePositionSignal.smooth`` (no fast-math: the tests compare them with those to 1e-9).
 Cached on disk as ``conformal.kernels``' kernels are."""
@@ -17,6 +17,9 @@ __all__ = ["trajectories", "signals"]
 
 _jit = nb.njit(cache=DISK_CACHE, nogil=True)
 _inline = nb.njit(cache=DISK_CACHE, nogil=True, inline="always")
+#: the batch kernels: one saccade per iteration, spread over numba's threads (``numba.set_num_threads``
+#: bounds them; by default as many as the machine's cores)
+_par = nb.njit(cache=DISK_CACHE, nogil=True, parallel=True)
 
 
 @_inline
@@ -39,30 +42,29 @@ def _position(tab, dt, lo, hi, wt, zero, prof_settle, t, plant):  # pragma: no c
 
 @_inline
 def _hv(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, speedup, verg_on, version, dv, verg,
-        plants, start, end, w, t, hv):  # pragma: no cover - compiled
-    """SaccadePlan._hv of saccade w at t_rel = t into hv (2 eyes, 2): (h, v) per eye."""
+        plants, start, end, w, t):  # pragma: no cover - compiled
+    """SaccadePlan._hv of saccade w at t_rel = t: (s_nom, h_left, v_left, h_right, v_right)."""
     s_nom = _position(tab, dt, lo[w], hi[w], wt[w], zero[w], prof_settle[w], t, 0)
+    if t >= plan_settle[w]:
+        return s_nom, end[w, 0, 0], end[w, 0, 1], end[w, 1, 0], end[w, 1, 1]
     if verg_on:
         fast = min(max(t, 0.0), offset[w]) * speedup
         slow = max(t - offset[w], 0.0)
         r = -math.expm1(-(fast + slow) / tau)
     else:
         r = s_nom
-    done = t >= plan_settle[w]
-    for e in range(2):
-        if done:
-            hv[e, 0], hv[e, 1] = end[w, e, 0], end[w, e, 1]
-            continue
-        if plants[w, e] == 0:
-            s = s_nom
-        else:
-            s = _position(tab, dt, lo[w], hi[w], wt[w], zero[w], prof_settle[w], t, plants[w, e])
-        hv[e, 0] = start[w, e, 0] + version[w] * s + verg[w, e] * r
-        hv[e, 1] = start[w, e, 1] + dv[w, e] * s_nom
-    return s_nom
+    s0 = s_nom if plants[w, 0] == 0 else _position(tab, dt, lo[w], hi[w], wt[w], zero[w], prof_settle[w], t, plants[w, 0])
+    s1 = s_nom if plants[w, 1] == 0 else _position(tab, dt, lo[w], hi[w], wt[w], zero[w], prof_settle[w], t, plants[w, 1])
+    return (s_nom, start[w, 0, 0] + version[w] * s0 + verg[w, 0] * r, start[w, 0, 1] + dv[w, 0] * s_nom,
+            start[w, 1, 0] + version[w] * s1 + verg[w, 1] * r, start[w, 1, 1] + dv[w, 1] * s_nom)
 
 
-@_jit
+@_inline
+def _listing(h, v):  # pragma: no cover - compiled
+    return 2.0 * math.atan(math.tan(h / 2) * math.tan(v / 2))
+
+
+@_par
 def trajectories(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, speedup, verg_on,
                  version, dv, verg, plants, start, end, step, count, out):  # pragma: no cover - compiled
     """Executed Fick angles (h, v, Listing torsion) per eye, out (n, T, 6), of n saccades at t_rel = k * step
@@ -70,26 +72,29 @@ def trajectories(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, ta
 
     Per saccade w: the profile's interpolation in amplitude (lo, hi, wt, zero, prof_settle), the plan's
     settle time and saccade offset, the decomposition (version, dv (2,), verg (2,), plants (2,)) and the
-    start and end angles (2, 3); vergence dynamics (tau, speedup) when verg_on.
+    start and end angles (2, 3); vergence dynamics (tau, speedup) when verg_on. Saccades in parallel.
     """
     n, T = out.shape[0], out.shape[1]
-    hv = np.empty((2, 2))
-    for w in range(n):
+    for w in nb.prange(n):
         last = count[w] - 1
         for k in range(T):
             if k > last:
-                out[w, k] = out[w, last]
+                for c in range(6):
+                    out[w, k, c] = out[w, last, c]
                 continue
-            _hv(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, speedup, verg_on, version, dv,
-                verg, plants, start, end, w, k * step, hv)
-            for e in range(2):
-                h, v = hv[e, 0], hv[e, 1]
-                out[w, k, 3 * e] = h
-                out[w, k, 3 * e + 1] = v
-                out[w, k, 3 * e + 2] = 2.0 * math.atan(math.tan(h / 2) * math.tan(v / 2))
+            _, h0, v0, h1, v1 = _hv(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, speedup,
+                                    verg_on, version, dv, verg, plants, start, end, w, k * step)
+            out[w, k, 0], out[w, k, 1], out[w, k, 2] = h0, v0, _listing(h0, v0)
+            out[w, k, 3], out[w, k, 4], out[w, k, 5] = h1, v1, _listing(h1, v1)
 
 
-@_jit
+@_inline
+def _norm(x, s, e, s_nom):  # pragma: no cover - compiled
+    total = e - s
+    return (x - s) / total if total != 0 else s_nom
+
+
+@_par
 def signals(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, speedup, verg_on,
             version, dv, verg, plants, start, end, knot, count, t_rel, sigma, out):  # pragma: no cover - compiled
     """The smoothed, normalised intended trajectory of n saccades (EyePositionSignal.smooth of
@@ -98,30 +103,31 @@ def signals(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, sp
     spread by the Gaussian's CDF, plus the rest. Arguments as ``trajectories`` (the intended plan)."""
     n, m = t_rel.shape
     r2 = 1.0 / math.sqrt(2.0)
-    hv = np.empty((2, 2))
-    prev = np.empty(4)
-    cur = np.empty(4)
-    for w in range(n):
+    for w in nb.prange(n):
         for j in range(m):
             for c in range(4):
                 out[w, j, c] = 0.0
+        p0 = p1 = p2 = p3 = 0.0
         for k in range(count[w]):
-            s_nom = _hv(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, speedup, verg_on, version,
-                        dv, verg, plants, start, end, w, k * knot, hv)
-            for e in range(2):
-                for c in range(2):
-                    total = end[w, e, c] - start[w, e, c]
-                    cur[2 * e + c] = (hv[e, c] - start[w, e, c]) / total if total != 0 else s_nom
+            s_nom, h0, v0, h1, v1 = _hv(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, speedup,
+                                        verg_on, version, dv, verg, plants, start, end, w, k * knot)
+            c0 = _norm(h0, start[w, 0, 0], end[w, 0, 0], s_nom)
+            c1 = _norm(v0, start[w, 0, 1], end[w, 0, 1], s_nom)
+            c2 = _norm(h1, start[w, 1, 0], end[w, 1, 0], s_nom)
+            c3 = _norm(v1, start[w, 1, 1], end[w, 1, 1], s_nom)
             if k > 0:
                 mid = 0.5 * (k * knot + (k - 1) * knot)
                 for j in range(m):
                     g = 0.5 * math.erfc(-((t_rel[w, j] - mid) / sigma) * r2)
-                    for c in range(4):
-                        out[w, j, c] += g * (cur[c] - prev[c])
-            for c in range(4):
-                prev[c] = cur[c]
+                    out[w, j, 0] += g * (c0 - p0)
+                    out[w, j, 1] += g * (c1 - p1)
+                    out[w, j, 2] += g * (c2 - p2)
+                    out[w, j, 3] += g * (c3 - p3)
+            p0, p1, p2, p3 = c0, c1, c2, c3
         lk = (count[w] - 1) * knot
         for j in range(m):
             g = 0.5 * math.erfc(-((t_rel[w, j] - lk) / sigma) * r2)
-            for c in range(4):
-                out[w, j, c] += g * (1.0 - prev[c])
+            out[w, j, 0] += g * (1.0 - p0)
+            out[w, j, 1] += g * (1.0 - p1)
+            out[w, j, 2] += g * (1.0 - p2)
+            out[w, j, 3] += g * (1.0 - p3)

@@ -39,7 +39,7 @@ from gymnasium.vector.utils import batch_space
 import models
 from conformal import checks
 
-from .batched_planner import BatchedPlanner
+from .batched_planner import BatchedPlanner, SettledReset
 from .saccade_env import BinocularSaccadeEnv
 from .tasks import FixateTask, FreeViewingTask, SearchTask
 
@@ -150,6 +150,7 @@ class BatchedBinocularSaccade(VectorEnv):
         self._chosen = env.remap_models.index(env.remap_model)
         self.heads = [env.head] + [models.Head(env.scene, **env._head_kwargs) for _ in range(self.num_envs - 1)]
         self.planner = BatchedPlanner(self.heads)
+        self._settled = SettledReset(env.head)
         directions = None
         if retina_rays is not None:
             from .retina_rays import field_ray_directions
@@ -354,7 +355,7 @@ class BatchedBinocularSaccade(VectorEnv):
         rng = self._rngs[i]
         if rng is None:
             self._rngs[i] = rng = seeding.np_random(None)[0]
-        self.heads[i].reset(seed=int(rng.integers(2**31 - 1)))
+        self._settled.apply(self.heads[i], int(rng.integers(2**31 - 1)))  # as heads[i].reset(seed=...)
         self.task.initialize_episode(self.heads[i], rng)
         self.planner.reset_worlds([i])
         self._saccades[i] = 0

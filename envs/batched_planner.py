@@ -37,7 +37,7 @@ from models.oculomotor import (H_RANGE, MIN_TARGET_DISTANCE, PRIMARY_EYE_BASIS, 
                                SaccadePlan, fick_matrix, gaze_direction)
 from models.saccade_generator import _AMP_STEP_DEG, _TABLE_DT_MS, DETECTION_THRESHOLD_DEG_S, BurstGenerator
 
-__all__ = ["BatchedPlanner", "PlanBatch", "burst_profiles"]
+__all__ = ["BatchedPlanner", "PlanBatch", "SettledReset", "burst_profiles"]
 
 _KNOT_MS = 0.5  # the eye-position signal's knots (SaccadePlan.eye_position_signal)
 _CHUNK = 128  # profiles derived per pass
@@ -459,12 +459,18 @@ class BatchedPlanner:
         clipped = np.zeros(m, bool)
         f_idx = np.flatnonzero(fast)
         if len(f_idx):
+            hv, factor = hv.astype(float), factor.copy()
+            ok, _ = self._targets(worlds[f_idx], hv[f_idx], factor[f_idx])[4:]
+            out = f_idx[~ok]
+            if len(out):  # shortened to the range's edge: plan_clipped's bisection, all such worlds at once
+                hv[out], factor[out] = self._bisect(worlds[out], hv[out], factor[out])
+                clipped[out] = True
             b, ok = self._plan_fast(worlds[f_idx], hv[f_idx], factor[f_idx])
+            if not ok.all():  # pragma: no cover - the bisection keeps only reachable attempts
+                raise RuntimeError("a clipped saccade left the oculomotor range")
             batches.append(b)
-            order.append(f_idx[ok])
-            slow = np.setdiff1d(np.arange(m), f_idx[ok])
-        else:
-            slow = np.arange(m)
+            order.append(f_idx)
+        slow = np.flatnonzero(~fast)  # vergence actions with endpoint noise: the world's own Head
         if len(slow):
             plans = []
             for k in slow:
@@ -500,9 +506,9 @@ class BatchedPlanner:
         d = p - self._c
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
-    def _plan_fast(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple[PlanBatch, np.ndarray]:
-        """``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) for worlds whose saccade stays
-        in range; returns the plans of those worlds and the mask of them."""
+    def _targets(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple:
+        """What ``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) aims at, before any noise:
+        head-frame targets, world targets, fixation angles, amplitudes, and whether each is reachable."""
         c = self._c
         d = self.fix_head[worlds] - c
         dist = np.linalg.norm(d, axis=1)
@@ -520,7 +526,32 @@ class BatchedPlanner:
         end, ok2 = self._fixation(p_head)
         cd0 = self._cdir(self.fix_head[worlds])
         amp = np.arccos(np.clip((cd0 * self._cdir(p_head)).sum(axis=1), -1, 1))
-        ok &= ok2 & (np.rad2deg(amp) <= 90.0)
+        return p_head, intended_world, end, amp, ok & ok2 & (np.rad2deg(amp) <= 90.0), cd0
+
+    def _bisect(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``plan_clipped``'s bisection on the saccade's length, for all ``worlds`` at once: the increments
+        and factors of the last reachable attempt (no attempt: a null saccade, ``plan_saccade(0, 0)``).
+        With endpoint noise every reachable attempt drew from the world's generator; those draws are
+        made here too, but for the last one, which ``_plan_fast`` makes."""
+        m = len(worlds)
+        lo, hi, best, wins = np.zeros(m), np.ones(m), np.full(m, -1.0), np.zeros(m, np.int64)
+        for _ in range(10):
+            mid = (lo + hi) / 2
+            _, _, _, amp, ok, _ = self._targets(worlds, hv * mid[:, None], factor)
+            best, lo, hi = np.where(ok, mid, best), np.where(ok, mid, lo), np.where(ok, hi, mid)
+            wins += ok & (amp > 0)
+        if self.heads[0].endpoint_noise > 0:
+            for w, k in zip(worlds, wins):
+                for _ in range(k - 1):
+                    self.heads[w]._rng.normal(0.0, 1.0, size=2)  # the same stream whatever the scale
+        none = best < 0
+        return np.where(none[:, None], 0.0, hv * best[:, None]), np.where(none, 1.0, factor)
+
+    def _plan_fast(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple[PlanBatch, np.ndarray]:
+        """``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) for worlds whose saccade stays
+        in range; returns the plans of those worlds and the mask of them."""
+        c = self._c
+        p_head, intended_world, end, amp, ok, cd0 = self._targets(worlds, hv, factor)
         idx = np.flatnonzero(ok)
         w = worlds[idx]
         p_head, intended_world, end, amp = p_head[idx], intended_world[idx], end[idx], amp[idx]
@@ -565,3 +596,59 @@ class BatchedPlanner:
         for k, i in enumerate(worlds):
             self._last[i] = (plans, k)
 
+
+
+# ------------------------------------------------------------------------------------------- reset
+class SettledReset:
+    """``models.Head.reset`` without its physics, for the many resets of a batched env.
+
+    A reset fixates the scene's default fixation point and lets the physics settle for 10 ms; only
+    the eyes and neck move, so the joints, set-points, clock and oculomotor state come out the same
+    in every world, whatever the layout drawn from the world's seed (the mocap bodies: a dots target,
+    the search display). This captures that settled state once from ``head`` and applies it with
+    each world's own layout. Usable (``usable``) when the fixation point is not moved by the layout;
+    ``tests/test_batched_planner.py`` checks the result against ``Head.reset`` in every scene.
+    """
+
+    def __init__(self, head: models.Head) -> None:
+        import mujoco
+
+        scene = head.scene
+        fix = scene.default_fixation
+        moved = scene.layout(np.random.default_rng(0)).keys() if scene.layout is not None else ()
+        self.usable = not (isinstance(fix, str) and fix in moved)
+        m = head.model
+        self._mocap_id = {name: int(m.body_mocapid[m.body(name).id]) for name in moved}
+        blank = mujoco.MjData(head.model)
+        mujoco.mj_resetData(head.model, blank)
+        self._mocap = blank.mocap_pos.copy(), blank.mocap_quat.copy()
+        head.reset(seed=0)
+        d = head.data
+        self._data = {k: getattr(d, k).copy() for k in ("qpos", "qvel", "ctrl", "act")}
+        self._time = float(d.time)
+        self._state = {"time_ms": head.time_ms, "_hold": head._hold.copy(), "_signal_hold": head._signal_hold.copy(),
+                       "_fix_head": head._fix_head.copy()}
+
+    def apply(self, head: models.Head, seed: int) -> None:
+        """Reset ``head`` as ``head.reset(seed=seed)`` would (same joints, set-points, clock, layout and
+        generator state; MuJoCo's other buffers, such as the solver's warm start, are not reset)."""
+        import mujoco
+
+        if not self.usable:
+            head.reset(seed=seed)
+            return
+        head._seed = seed
+        head._rng = np.random.default_rng(seed)
+        d = head.data
+        for k, v in self._data.items():
+            getattr(d, k)[:] = v
+        d.time = self._time
+        d.mocap_pos[:], d.mocap_quat[:] = self._mocap
+        if head.scene.layout is not None:  # Head._set_mocap of each, the names resolved once
+            for name, pos in head.scene.layout(head._rng).items():
+                d.mocap_pos[self._mocap_id[name]] = pos
+        head._plan = head._table = head.last_plan = head._signal_plan = None
+        head._flash_off = {}
+        for k, v in self._state.items():
+            setattr(head, k, v.copy() if isinstance(v, np.ndarray) else v)
+        mujoco.mj_forward(head.model, head.data)

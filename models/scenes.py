@@ -204,14 +204,18 @@ def _natural(spec, seed: int = 0) -> SceneInfo:
                      default_fixation=CYCLOPEAN_EYE + np.array([1.8, -0.35, 0.05]))
 
 
+_SEARCH_CELLS = np.array([(a, e) for a in np.arange(-20, 21, 5.0) for e in np.arange(-15, 16, 5.0) if (a, e) != (0.0, 0.0)])
+_SEARCH_NAMES = ["target"] + [f"distractor_{i:02d}" for i in range(SEARCH_N_GREEN_SPHERES + SEARCH_N_RED_CUBES)]
+
+
 def _search_layout(rng: np.random.Generator) -> dict[str, np.ndarray]:
-    az = np.arange(-20, 21, 5.0)
-    el = np.arange(-15, 16, 5.0)
-    cells = np.array([(a, e) for a in az for e in el if (a, e) != (0.0, 0.0)])
-    n = 1 + SEARCH_N_GREEN_SPHERES + SEARCH_N_RED_CUBES
-    pick = cells[rng.choice(len(cells), size=n, replace=False)] + rng.uniform(-1.0, 1.0, size=(n, 2))
-    names = ["target"] + [f"distractor_{i:02d}" for i in range(n - 1)]
-    return {nm: screen_point(np.deg2rad(a), np.deg2rad(e), SEARCH_DISTANCE) for nm, (a, e) in zip(names, pick)}
+    """Target and distractors in distinct cells of a 5 deg grid (not the centre), jittered by +-1 deg."""
+    n = len(_SEARCH_NAMES)
+    pick = _SEARCH_CELLS[rng.choice(len(_SEARCH_CELLS), size=n, replace=False)] + rng.uniform(-1.0, 1.0, size=(n, 2))
+    # screen_point for each (azimuth, elevation) in degrees, |angles| <= 21 deg: checked by construction
+    t = np.tan(np.deg2rad(pick))
+    pts = CYCLOPEAN_EYE + SEARCH_DISTANCE * np.stack([np.ones(n), -t[:, 0], t[:, 1]], axis=1)
+    return dict(zip(_SEARCH_NAMES, pts))
 
 
 def _search(spec) -> SceneInfo:

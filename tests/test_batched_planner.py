@@ -143,3 +143,25 @@ def test_planner_refuses_heads_mid_saccade_and_short_advances():
     heads[0].start_saccade(heads[0].plan_saccade(0.1, 0.0))
     with pytest.raises(RuntimeError, match="freshly reset"):
         planner.reset_worlds([0])
+
+
+@pytest.mark.parametrize("scene", models.SCENES)
+def test_settled_reset_equals_head_reset(scene):
+    """SettledReset (the batched env's resets) leaves a head as Head.reset does: joints, velocities,
+    set-points, mocap layout, clock, held angles, fixation point and the generator's state."""
+    from envs.batched_planner import SettledReset
+
+    a, b = models.Head(scene, 16, seed=0), models.Head(scene, 16, seed=0)
+    fast = SettledReset(a)
+    assert fast.usable
+    for seed in (3, 12345):
+        a.start_saccade(a.plan_saccade(0.1, 0.05))  # some state to reset from
+        a.step_ms(30)
+        fast.apply(a, seed)
+        b.reset(seed=seed)
+        for k in ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat", "geom_xpos", "cam_xpos"):
+            np.testing.assert_array_equal(getattr(a.data, k), getattr(b.data, k), err_msg=k)
+        assert a.time_ms == b.time_ms and a._plan is None and a._signal_plan is None
+        for k in ("_hold", "_signal_hold", "_fix_head"):
+            np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+        assert a._rng.bit_generator.state == b._rng.bit_generator.state
