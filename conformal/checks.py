@@ -20,6 +20,7 @@ allocate without limit; the bounds are far above any use in the paper or the exp
 
 from __future__ import annotations
 
+import math
 import numbers
 import operator
 from collections.abc import Sequence
@@ -68,19 +69,24 @@ def integer(name: str, value, lo: int | None = None, hi: int | None = None, *, h
     numbers (``7.5``: ``ValueError``, never truncated), NaN and infinity (``ValueError``) and
     bools, strings, complex numbers and other types (:class:`InputTypeError`).
     """
-    v = _scalar(value)
-    what = f"{name} must be an integer{_interval(lo, hi)}{f' ({hint})' if hint else ''}"
-    if isinstance(v, bool) or not isinstance(v, numbers.Real):
-        raise InputTypeError(f"{what}; got {_show(value)} of type {type(value).__name__}")
-    if isinstance(v, numbers.Integral):
+    v = value if type(value) is int else _scalar(value)
+
+    def what() -> str:  # the message is built only for a refusal (this check sits on hot paths)
+        return f"{name} must be an integer{_interval(lo, hi)}{f' ({hint})' if hint else ''}"
+
+    if type(v) is int:
+        i = v
+    elif isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise InputTypeError(f"{what()}; got {_show(value)} of type {type(value).__name__}")
+    elif isinstance(v, numbers.Integral):
         i = operator.index(v)
     else:
         f = float(v)
-        if not np.isfinite(f) or not f.is_integer():
-            raise ValueError(f"{what}; got {_show(value)}")
+        if not math.isfinite(f) or not f.is_integer():
+            raise ValueError(f"{what()}; got {_show(value)}")
         i = int(f)
     if (lo is not None and i < lo) or (hi is not None and i > hi):
-        raise ValueError(f"{what}; got {i}")
+        raise ValueError(f"{what()}; got {i}")
     return i
 
 
@@ -92,21 +98,27 @@ def real(name: str, value, lo: float | None = None, hi: float | None = None, *, 
     Rejects NaN, infinity and values outside the interval (``ValueError``) and bools, strings,
     ``None``, complex numbers and other types (:class:`InputTypeError`).
     """
-    v = _scalar(value)
-    what = f"{name} must be a finite real number{_interval(lo, hi, lo_open, hi_open)}{f' ({hint})' if hint else ''}"
-    if isinstance(v, bool) or not isinstance(v, numbers.Real):
-        raise InputTypeError(f"{what}; got {_show(value)} of type {type(value).__name__}")
-    try:
-        f = float(v)
-    except OverflowError:  # a huge int
-        raise ValueError(f"{what}; got {_show(value)}") from None
-    bad = not np.isfinite(f)
+    v = value if type(value) is float else _scalar(value)
+
+    def what() -> str:  # the message is built only for a refusal (this check sits on hot paths)
+        return f"{name} must be a finite real number{_interval(lo, hi, lo_open, hi_open)}{f' ({hint})' if hint else ''}"
+
+    if type(v) is float:
+        f = v
+    elif isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise InputTypeError(f"{what()}; got {_show(value)} of type {type(value).__name__}")
+    else:
+        try:
+            f = float(v)
+        except OverflowError:  # a huge int
+            raise ValueError(f"{what()}; got {_show(value)}") from None
+    bad = not math.isfinite(f)
     if lo is not None:
         bad |= f <= lo if lo_open else f < lo
     if hi is not None:
         bad |= f >= hi if hi_open else f > hi
     if bad:
-        raise ValueError(f"{what}; got {_show(value)}")
+        raise ValueError(f"{what()}; got {_show(value)}")
     return f
 
 

@@ -131,3 +131,38 @@ def signals(tab, dt, lo, hi, wt, zero, prof_settle, plan_settle, offset, tau, sp
             out[w, j, 1] += g * (1.0 - p1)
             out[w, j, 2] += g * (1.0 - p2)
             out[w, j, 3] += g * (1.0 - p3)
+
+
+@_par
+def profile_marks(tab, dt, lo, hi, wt, amp, bound, threshold, settle_deg, out):  # pragma: no cover - compiled
+    """SaccadeProfile's detected onset and offset (first and last step whose nominal speed exceeds
+    ``threshold`` deg/s, np.gradient's differences), settle time (after the last step at which a plant
+    is ``settle_deg`` or more from the endpoint) and peak speed, out (n, 4), of each interpolated
+    profile over its first bound[w] steps (past which nothing can change them: ``_burst_table``)."""
+    n = out.shape[0]
+    for w in nb.prange(n):
+        Kb, a, l, h, f = bound[w], amp[w], lo[w], hi[w], wt[w]
+        first = last = late = -1
+        peak = -math.inf
+        for k in range(Kb):
+            if Kb == 1:
+                rate = 0.0
+            else:
+                k0, k1 = max(k - 1, 0), min(k + 1, Kb - 1)
+                p0 = (1 - f) * tab[l, 0, k0] + f * tab[h, 0, k0]
+                p1 = (1 - f) * tab[l, 0, k1] + f * tab[h, 0, k1]
+                rate = (p1 - p0) / (2.0 * dt) if 0 < k < Kb - 1 else (p1 - p0) / dt
+            if rate * a * 1000.0 > threshold:
+                if first < 0:
+                    first = k
+                last = k
+            peak = max(peak, rate)
+            err = -math.inf
+            for pl in range(3):
+                err = max(err, 1.0 - ((1 - f) * tab[l, pl, k] + f * tab[h, pl, k]))
+            if err * a >= settle_deg:
+                late = k
+        out[w, 0] = first * dt if first >= 0 else 0.0
+        out[w, 1] = (last + 1) * dt if first >= 0 else 0.0
+        out[w, 2] = (late + 1) * dt if late >= 0 else 0.0
+        out[w, 3] = peak * a * 1000.0

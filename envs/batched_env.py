@@ -36,7 +36,6 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-import models
 from conformal import checks
 
 from .batched_planner import BatchedPlanner, SettledReset
@@ -148,8 +147,8 @@ class BatchedBinocularSaccade(VectorEnv):
         self.render_mode = None
         self.remap_models, self.remap_model = env.remap_models, env.remap_model
         self._chosen = env.remap_models.index(env.remap_model)
-        self.heads = [env.head] + [models.Head(env.scene, **env._head_kwargs) for _ in range(self.num_envs - 1)]
-        self.planner = BatchedPlanner(self.heads)
+        self.head = env.head  # one host head for all worlds: resets, geometry, and the rare per-world planning
+        self.planner = BatchedPlanner(env.head, self.num_envs)
         self._settled = SettledReset(env.head)
         directions = None
         if retina_rays is not None:
@@ -196,9 +195,9 @@ class BatchedBinocularSaccade(VectorEnv):
         for i, s in enumerate(seeds):
             if s is not None or self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(s)
-            self._reset_world(i)
+        self._reset_worlds(np.arange(n))
         self._autoreset[:] = False
-        self.physics.load(np.arange(n), self.heads)
+        self._load(np.arange(n))
         self._see()
         self._remapped = self._cortical_now()
         info = {"sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": np.ones(n, bool),
@@ -219,8 +218,7 @@ class BatchedBinocularSaccade(VectorEnv):
         active = ~resetting
         act = np.flatnonzero(active)
         with part("host"):
-            for i in np.flatnonzero(resetting):
-                self._reset_world(i)
+            self._reset_worlds(np.flatnonzero(resetting))
             rot_eye = np.broadcast_to(np.eye(3), (n, 2, 3, 3)).copy()
             clipped = np.zeros(n, bool)
             spans = np.zeros(n, np.int64)
@@ -242,7 +240,7 @@ class BatchedBinocularSaccade(VectorEnv):
                                                                              device=self.device), self.remap_models)
         with part("physics"):
             if resetting.any():
-                self.physics.load(np.flatnonzero(resetting), [self.heads[i] for i in np.flatnonzero(resetting)])
+                self._load(np.flatnonzero(resetting))
             self.physics.run(commands, lengths, int(min(advance.max(), spans.max() + self.settle_ms)))
         with part("host"):
             if plans is not None:
@@ -299,9 +297,8 @@ class BatchedBinocularSaccade(VectorEnv):
         return obs, reward, terminated, truncated, info
 
     def close_extras(self, **kwargs) -> None:
-        """Release the host heads (``VectorEnv.close`` calls this once and sets ``closed``)."""
-        for h in self.heads:
-            h.close()
+        """Release the host head (``VectorEnv.close`` calls this once and sets ``closed``)."""
+        self.head.close()
 
     # ------------------------------------------------------------------ helpers
     def _check_open(self) -> None:
@@ -313,10 +310,9 @@ class BatchedBinocularSaccade(VectorEnv):
         last observations and infos go to ``info["final_obs"]`` / ``info["final_info"]``."""
         idx = np.flatnonzero(done)
         with self._part("host"):
-            for i in idx:
-                self._reset_world(i)
+            self._reset_worlds(idx)
         with self._part("physics"):
-            self.physics.load(idx, [self.heads[i] for i in idx])
+            self._load(idx)
         self._see()
         now = self._cortical_now()
         keep = self._torch.as_tensor(~done, device=self.device).view((-1,) + (1,) * (now.dim() - 1))
@@ -350,15 +346,21 @@ class BatchedBinocularSaccade(VectorEnv):
         sync()
         self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - t0
 
-    def _reset_world(self, i: int) -> None:
-        """Reset world ``i`` on the host as ``BinocularSaccadeEnv.reset`` does (its rng continues)."""
-        rng = self._rngs[i]
-        if rng is None:
-            self._rngs[i] = rng = seeding.np_random(None)[0]
-        self._settled.apply(self.heads[i], int(rng.integers(2**31 - 1)))  # as heads[i].reset(seed=...)
-        self.task.initialize_episode(self.heads[i], rng)
-        self.planner.reset_worlds([i])
-        self._saccades[i] = 0
+    def _reset_worlds(self, idx: np.ndarray) -> None:
+        """Reset worlds ``idx`` on the host as ``BinocularSaccadeEnv.reset`` does (their rngs continue)."""
+        for i in idx:
+            rng = self._rngs[i]
+            if rng is None:
+                self._rngs[i] = rng = seeding.np_random(None)[0]
+            self._settled.apply(self.head, int(rng.integers(2**31 - 1)))  # as a world's head.reset(seed=...)
+            self.task.initialize_episode(self.head, rng)
+            self.planner.take_reset(i)
+        self._saccades[idx] = 0
+
+    def _load(self, idx: np.ndarray) -> None:
+        """Put the reset worlds ``idx`` on the device."""
+        p = self.planner
+        self.physics.load(idx, p.qpos[idx], p.qvel[idx], p.ctrl[idx], p.mocap_pos[idx], p.mocap_quat[idx])
 
     def _see(self) -> None:
         """Render both eyes of every world and see them: pinhole images pooled on the retina, or the

@@ -125,22 +125,23 @@ class WarpHeads:
         self._graph_cmd_shape = None
 
     # ------------------------------------------------------------------ state
-    def load(self, worlds: np.ndarray, heads: list[models.Head]) -> None:
-        """Copy the host heads' states (joints, velocities, set-points, mocap bodies) into ``worlds``."""
+    def load(self, worlds: np.ndarray, qpos, qvel, ctrl, mocap_pos, mocap_quat) -> None:
+        """Set ``worlds``' joints, velocities, set-points and movable bodies (arrays with one row per world,
+        as ``models.Head.data`` holds them) and recompute their kinematics."""
         torch = self._torch
         idx = torch.as_tensor(np.asarray(worlds, np.int64), device=self.torch_device)
         dev = self.torch_device
 
-        def put(dst, arrays):
-            dst[idx] = torch.as_tensor(np.stack(arrays), dtype=dst.dtype, device=dev)
+        def put(dst, array):
+            dst[idx] = torch.as_tensor(np.asarray(array), dtype=dst.dtype, device=dev)
 
         self._handoff_to_torch()  # Warp's last writes land before torch's
-        put(self.qpos, [h.data.qpos for h in heads])
-        put(self.qvel, [h.data.qvel for h in heads])
-        put(self.ctrl, [h.data.ctrl for h in heads])
+        put(self.qpos, qpos)
+        put(self.qvel, qvel)
+        put(self.ctrl, ctrl)
         if self.mocap_pos.shape[1]:
-            put(self.mocap_pos, [h.data.mocap_pos for h in heads])
-            put(self.mocap_quat, [h.data.mocap_quat for h in heads])
+            put(self.mocap_pos, mocap_pos)
+            put(self.mocap_quat, mocap_quat)
         if self.device.is_cuda:  # torch's writes (its stream) land before Warp's next kernels (its stream)
             self._torch.cuda.synchronize(self.torch_device)
         self.forward()

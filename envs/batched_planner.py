@@ -40,7 +40,6 @@ from models.saccade_generator import _AMP_STEP_DEG, _TABLE_DT_MS, DETECTION_THRE
 __all__ = ["BatchedPlanner", "PlanBatch", "SettledReset", "burst_profiles"]
 
 _KNOT_MS = 0.5  # the eye-position signal's knots (SaccadePlan.eye_position_signal)
-_CHUNK = 128  # profiles derived per pass
 
 
 def _listing(hv: np.ndarray) -> np.ndarray:
@@ -116,39 +115,19 @@ class _BurstProfiles(_Profiles):
         amps, normT = tab.amps, tab.norm
         j = np.minimum((amp / _AMP_STEP_DEG).astype(np.intp), len(amps) - 2)
         w = (amp - amps[j]) / _AMP_STEP_DEG
-        self._j, self._w, self._first = j, w, j == 0
+        first = j == 0
         # below 0.25 deg the profile is the 0.25 deg column itself: weight 0 on a second copy of it
         # ((1 - 0) a + 0 a == a exactly)
-        self._lo, self._hi = np.where(self._first, 1, j), np.where(self._first, 1, j + 1)
-        self._weff = np.where(self._first, 0.0, w)
+        self._lo, self._hi = np.where(first, 1, j), np.where(first, 1, j + 1)
+        self._weff = np.where(first, 0.0, w)
         self._K = normT.shape[2]
-        n = len(amp)
-        self.onset_ms, self.offset_ms, self.settle_ms, self.peak_velocity_deg_s = (np.zeros(n) for _ in range(4))
-        for c in range(0, n, _CHUNK):  # in chunks that stay in cache
-            sl = slice(c, c + _CHUNK)
-            (self.onset_ms[sl], self.offset_ms[sl], self.settle_ms[sl],
-             self.peak_velocity_deg_s[sl]) = self._derive(gen, j[sl], w[sl], amp[sl])
-        self.duration_ms = self.offset_ms - self.onset_ms
+        from ._planner_kernels import profile_marks
 
-    def _derive(self, gen: BurstGenerator, j, w, amp) -> tuple:
-        """``SaccadeProfile``'s detected onset and offset, settle time and peak speed, from each
-        interpolated profile up to the table's bound for its amplitude."""
-        tab, normT = self._tab, self._tab.norm
-        Kb = int(tab.bound[j].max())
-        first = j == 0
-        lo, hi = np.where(first, 1, j), np.where(first, 1, j + 1)
-        P = (1 - w)[:, None, None] * normT[lo, :, :Kb] + w[:, None, None] * normT[hi, :, :Kb]
-        P[first] = normT[1, :, :Kb]
-        rates = np.gradient(P[:, 0], _TABLE_DT_MS, axis=1)  # the nominal plant's (np.gradient of the row)
-        speed = rates * amp[:, None] * 1000.0
-        above = speed > DETECTION_THRESHOLD_DEG_S
-        anyab = above.any(axis=1)
-        onset = np.where(anyab, above.argmax(axis=1) * _TABLE_DT_MS, 0.0)
-        offset = np.where(anyab, (Kb - above[:, ::-1].argmax(axis=1)) * _TABLE_DT_MS, 0.0)
-        err = (1.0 - P).max(axis=1) * amp[:, None]
-        late = err >= gen.settle_deg
-        settle = np.where(late.any(axis=1), (Kb - late[:, ::-1].argmax(axis=1)) * _TABLE_DT_MS, 0.0)
-        return onset, offset, settle, rates.max(axis=1) * amp * 1000.0
+        marks = np.empty((len(amp), 4))
+        profile_marks(normT, _TABLE_DT_MS, self._lo, self._hi, self._weff, amp, tab.bound[j],
+                      DETECTION_THRESHOLD_DEG_S, gen.settle_deg, marks)
+        self.onset_ms, self.offset_ms, self.settle_ms, self.peak_velocity_deg_s = marks.T.copy()
+        self.duration_ms = self.offset_ms - self.onset_ms
 
     def position(self, t_rel: np.ndarray, plant) -> np.ndarray:
         """Normalised position of ``plant`` ((n,) or an int) at ``t_rel`` (n, ...) ms after burst onset
@@ -385,26 +364,33 @@ def _concat(batches: list[PlanBatch], order: np.ndarray, head: models.Head) -> P
 class BatchedPlanner:
     """The oculomotor state and saccade planning of N worlds (see the module docstring).
 
-    ``heads[i]`` is world i's ``models.Head``: the env resets it (scene layout, fixation, task) and
-    hands its state over with :meth:`reset_worlds`; it also plans the saccades that need the
-    single env's code (range clipping, vergence actions with endpoint noise) from the state this
-    planner gives it back. State per world: the clock ``time_ms``, the held eye angles, the fixation
-    point, and the last plan's eye-position signal.
+    One ``models.Head`` (``head``) serves every world as a scratch copy: the env resets it for a world
+    (scene layout, fixation, task: :class:`SettledReset`) and hands the result over with
+    :meth:`take_reset`; it also plans, from the world's state, the saccades that need the single
+    env's code (vergence actions with endpoint noise). State per world: the clock ``time_ms``, the
+    held eye angles, the fixation point, the eye-position signal now and the last plan behind it,
+    the generator of the world's endpoint noise (``rngs``) and its scene's movable objects
+    (``mocap_pos``, ``mocap_quat``).
     """
 
-    def __init__(self, heads: list[models.Head]) -> None:
-        self.heads = heads
-        h = heads[0]
-        self.num_worlds = n = len(heads)
-        self._centres = h._eye_centres_head
+    def __init__(self, head: models.Head, num_worlds: int) -> None:
+        self.head = head
+        self.num_worlds = n = int(num_worlds)
+        self._centres = head._eye_centres_head
         self._c = self._centres.mean(axis=0)
-        x, R = h._head_pose()
+        x, R = head._head_pose()
         self._x, self._R = x, R
         self.time_ms = np.zeros(n, np.int64)
         self.hold = np.zeros((n, 2, 3))
         self.signal_hold = np.zeros((n, 2, 3))
         self.fix_head = np.zeros((n, 3))
         self.signal_now = np.zeros((n, 2, 3))  # the eye-position signal at time_ms
+        self.rngs: list[np.random.Generator | None] = [None] * n
+        d = head.data
+        self.mocap_pos = np.zeros((n,) + d.mocap_pos.shape)
+        self.mocap_quat = np.zeros((n,) + d.mocap_quat.shape)
+        #: each world's joints, velocities and set-points at its last reset (what the physics loads)
+        self.qpos, self.qvel, self.ctrl = (np.zeros((n,) + getattr(d, k).shape) for k in ("qpos", "qvel", "ctrl"))
         self._last: list[tuple[PlanBatch, int] | None] = [None] * n
 
     @property
@@ -413,26 +399,32 @@ class BatchedPlanner:
         return self._world(self._c[None])[0]
 
     # ------------------------------------------------------------------ state
-    def reset_worlds(self, idx) -> None:
-        """Take over the state of the (just reset) heads of worlds ``idx``."""
-        for i in np.atleast_1d(idx):
-            head = self.heads[i]
-            if head._plan is not None or head._signal_plan is not None:
-                raise RuntimeError("reset_worlds expects freshly reset heads (no saccade planned yet)")
-            self.time_ms[i] = head.time_ms
-            self.hold[i] = head._hold
-            self.signal_hold[i] = head._signal_hold
-            self.fix_head[i] = head._fix_head
-            self.signal_now[i] = head._signal_hold
-            self._last[i] = None
+    def take_reset(self, i: int) -> None:
+        """Make world ``i``'s state that of the (just reset) head: clock, angles, fixation, signal,
+        generator and the positions of the scene's movable objects."""
+        head = self.head
+        if head._plan is not None or head._signal_plan is not None:
+            raise RuntimeError("take_reset expects a freshly reset head (no saccade planned yet)")
+        self.time_ms[i] = head.time_ms
+        self.hold[i] = head._hold
+        self.signal_hold[i] = head._signal_hold
+        self.fix_head[i] = head._fix_head
+        self.signal_now[i] = head._signal_hold
+        self.rngs[i] = head._rng
+        d = head.data
+        self.mocap_pos[i], self.mocap_quat[i] = d.mocap_pos, d.mocap_quat
+        self.qpos[i], self.qvel[i], self.ctrl[i] = d.qpos, d.qvel, d.ctrl
+        self._last[i] = None
 
     def eye_position_signal(self) -> np.ndarray:
         """Every world's eye-position signal now (N, 2, 3) (``models.Head.eye_position_signal``)."""
         return self.signal_now.copy()
 
     def _sync_head(self, i: int) -> models.Head:
-        """World i's head, brought to this planner's state (to plan with the single env's code)."""
-        head = self.heads[i]
+        """The head, brought to world i's state (to plan with the single env's code; its draws of
+        endpoint noise come from the world's generator)."""
+        head = self.head
+        head._rng = self.rngs[i]
         head.time_ms = int(self.time_ms[i])
         head._plan, head._table = None, None
         head._hold = self.hold[i].copy()
@@ -451,7 +443,7 @@ class BatchedPlanner:
 
         worlds = np.asarray(worlds, np.intp)
         m = len(worlds)
-        head = self.heads[0]
+        head = self.head
         noise = head.endpoint_noise
         factor = np.asarray(factor, float)
         fast = np.ones(m, bool) if noise == 0 else factor == 1.0
@@ -540,10 +532,10 @@ class BatchedPlanner:
             _, _, _, amp, ok, _ = self._targets(worlds, hv * mid[:, None], factor)
             best, lo, hi = np.where(ok, mid, best), np.where(ok, mid, lo), np.where(ok, hi, mid)
             wins += ok & (amp > 0)
-        if self.heads[0].endpoint_noise > 0:
+        if self.head.endpoint_noise > 0:
             for w, k in zip(worlds, wins):
                 for _ in range(k - 1):
-                    self.heads[w]._rng.normal(0.0, 1.0, size=2)  # the same stream whatever the scale
+                    self.rngs[w].normal(0.0, 1.0, size=2)  # the same stream whatever the scale
         none = best < 0
         return np.where(none[:, None], 0.0, hv * best[:, None]), np.where(none, 1.0, factor)
 
@@ -557,7 +549,7 @@ class BatchedPlanner:
         p_head, intended_world, end, amp = p_head[idx], intended_world[idx], end[idx], amp[idx]
         intended_end, intended_amp = end.copy(), amp.copy()
         end_point = p_head.copy()
-        noise = self.heads[0].endpoint_noise
+        noise = self.head.endpoint_noise
         if noise > 0:  # each world's own generator, as Head._plan_head draws it
             draw = np.flatnonzero(amp > 0)
             if len(draw):
@@ -565,13 +557,13 @@ class BatchedPlanner:
                 dd_n = np.linalg.norm(dd, axis=1)
                 gg = dd / dd_n[:, None]
                 Hn, Vn = np.arctan2(-gg[:, 1], gg[:, 0]), np.arcsin(gg[:, 2])
-                dHV = np.array([self.heads[w[k]]._rng.normal(0.0, noise * amp[k], size=2) for k in draw])
+                dHV = np.array([self.rngs[w[k]].normal(0.0, noise * amp[k], size=2) for k in draw])
                 moved = c + dd_n[:, None] * gaze_direction(Hn + dHV[:, 0], Vn + dHV[:, 1])
                 e2, ok3 = self._fixation(moved)
                 keep = draw[ok3]
                 end_point[keep], end[keep] = moved[ok3], e2[ok3]
                 amp[draw] = np.arccos(np.clip((cd0[idx][draw] * self._cdir(end_point[draw])).sum(axis=1), -1, 1))
-        plans = PlanBatch(self.heads[0], self.time_ms[w], self.hold[w], end, intended_end, amp, intended_amp,
+        plans = PlanBatch(self.head, self.time_ms[w], self.hold[w], end, intended_end, amp, intended_amp,
                           self.signal_now[w], self._world(end_point), intended_world)
         return plans, ok
 

@@ -59,6 +59,16 @@ def _step(head: models.Head, ms: int, pose: np.ndarray) -> None:
     mujoco.mj_forward(head.model, head.data)
 
 
+def _planner(n: int, seed: int, **kw) -> BatchedPlanner:
+    """A planner of n worlds, world i reset as Head.reset(seed=seed + i) resets a head."""
+    head = models.Head("dots", 16, seed=0, **kw)
+    planner = BatchedPlanner(head, n)
+    for i in range(n):
+        head.reset(seed=seed + i)
+        planner.take_reset(i)
+    return planner
+
+
 def _heads(n: int, seed: int, **kw) -> list[models.Head]:
     heads = [models.Head("dots", 16, seed=seed + i, **kw) for i in range(n)]
     for i, h in enumerate(heads):
@@ -81,10 +91,9 @@ def test_planner_follows_the_heads(case, vergence):
     (< 1e-9 rad), end times (exact), efference copies, and eye-position signal during and after."""
     kw = CASES[case]
     n, fixation_ms = 3, 40
-    mine, ref = _heads(n, 11, **kw), _heads(n, 11, **kw)
+    ref = _heads(n, 11, **kw)
     poses = [h.data.qpos.copy() for h in ref]
-    planner = BatchedPlanner(mine)
-    planner.reset_worlds(np.arange(n))
+    planner = _planner(n, 11, **kw)
     rng = np.random.default_rng(5)
     worlds = np.arange(n)
     for step in range(4):
@@ -134,15 +143,14 @@ def test_planner_follows_the_heads(case, vergence):
 
 
 def test_planner_refuses_heads_mid_saccade_and_short_advances():
-    heads = _heads(2, 0)
-    planner = BatchedPlanner(heads)
-    planner.reset_worlds([0, 1])
+    planner = _planner(2, 0)
     plans, _ = planner.plan(np.arange(2), np.full((2, 2), 0.1), np.ones(2))
     with pytest.raises(ValueError, match="past its saccade"):
         planner.start(np.arange(2), plans, np.zeros(2, np.int64))
-    heads[0].start_saccade(heads[0].plan_saccade(0.1, 0.0))
+    head = planner.head
+    head.start_saccade(head.plan_saccade(0.1, 0.0))
     with pytest.raises(RuntimeError, match="freshly reset"):
-        planner.reset_worlds([0])
+        planner.take_reset(0)
 
 
 @pytest.mark.parametrize("scene", models.SCENES)
