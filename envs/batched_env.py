@@ -8,10 +8,12 @@ The vector entry point of ``BinocularSaccade-v0``::
 Each world is one ``BinocularSaccadeEnv`` episode: the same spaces, tasks, rewards, seeding and
 info keys. What runs where, per step:
 
-* host (per world, numpy): the action's decoding and the saccade plan (``models.SaccadePlan``: the
-  burst generator's tabulated trajectory, vergence, endpoint noise, the efference copy and the
-  eye-position signal), i.e. the brain's side, with each world's ``models.Head`` keeping its clock
-  and saccade state (no CPU physics and no CPU rendering);
+* host (numpy and numba, all worlds at once): the action's decoding, the saccade plans, command
+  tables, efference copies and eye-position signals (``envs.batched_planner``: the arithmetic of
+  ``models.Head.plan_saccade`` and ``models.SaccadePlan`` batched, agreeing with them to 1e-9), i.e.
+  the brain's side; episode resets world by world on one host ``models.Head`` (the settled state of
+  ``Head.reset`` with each world's own seed, ``envs.batched_planner.SettledReset``), with no CPU physics
+  and no CPU rendering;
 * device: the remapping predictions of every model from the previous frame and the efference
   copies (``envs.batched_vision.TorchVision``), the physics (MuJoCo Warp, the servo following each
   world's command table in a kernel, ``envs.batched_physics.WarpHeads``), both eyes rendered by

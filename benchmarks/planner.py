@@ -1,0 +1,104 @@
+"""The batched env's host side per world and step: ``envs.batched_planner`` beside the per-world objects.
+
+Per env step the host of ``envs.BatchedBinocularSaccade`` resets the worlds whose episode ended
+(scene layout and task, from each world's seed), plans every other world's saccade, writes the
+command tables the device's servo follows, and advances the worlds' clocks and eye-position
+signals. The baseline does the same with one ``models.Head`` and ``models.SaccadePlan`` per world
+(``Head.reset`` + the task, ``envs.saccade_env.plan_clipped``, ``SaccadePlan.angles`` for the table,
+``SaccadePlan.eye_position_signal``), as the batched env did before the planner was vectorised. No GPU
+extra needed: this is numpy and numba on the host.
+
+    python benchmarks/planner.py [--num-envs 64 1024 4096] [--steps 5] [--task search] [--resets 0.1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numba
+import numpy as np
+
+import models
+from envs.batched_planner import BatchedPlanner, SettledReset
+from envs.saccade_env import plan_clipped
+from envs.tasks import TASKS
+
+FIXATION_MS = 250
+
+
+def _actions(rng: np.random.Generator, n: int) -> np.ndarray:
+    return rng.uniform(-0.4, 0.4, (n, 2)) * np.radians(30.0)  # the env's default 30 deg action scale
+
+
+def baseline(task, n: int, steps: int, resets: float) -> float:
+    """Seconds per world and step with a Head and SaccadePlans per world."""
+    heads = [models.Head(task.scene, 32, seed=i) for i in range(n)]
+    rngs = [np.random.default_rng(i) for i in range(n)]
+    rng = np.random.default_rng(0)
+    for h, r in zip(heads, rngs):
+        task.initialize_episode(h, r)
+    for k in range(steps + 1):  # the first step builds the burst generator's table
+        if k == 1:
+            t0 = time.perf_counter()
+        hv, done = _actions(rng, n), rng.random(n) < resets
+        for i, head in enumerate(heads):
+            if done[i]:
+                head.reset(seed=int(rngs[i].integers(2**31 - 1)))
+                task.initialize_episode(head, rngs[i])
+            plan, _ = plan_clipped(head, hv[i, 0], hv[i, 1], 1.0)
+            span = plan.end_ms - plan.onset_ms
+            plan.angles(plan.onset_ms + np.arange(span + 1.0))
+            plan.eye_position_signal(float(plan.end_ms + FIXATION_MS))
+            # (the head stays where it was: the next plan starts from the same fixation)
+    return (time.perf_counter() - t0) / (n * steps)
+
+
+def batched(task, n: int, steps: int, resets: float) -> float:
+    """Seconds per world and step with the vectorised planner (one scratch head)."""
+    head = models.Head(task.scene, 32, seed=0)
+    settled, planner = SettledReset(head), BatchedPlanner(head, n)
+    rngs = [np.random.default_rng(i) for i in range(n)]
+    rng = np.random.default_rng(0)
+
+    def reset(idx):
+        for i in idx:
+            settled.apply(head, int(rngs[i].integers(2**31 - 1)))
+            task.initialize_episode(head, rngs[i])
+            planner.take_reset(i)
+
+    reset(range(n))
+    worlds = np.arange(n)
+    for k in range(steps + 1):  # the first step loads numba's compiled kernels
+        if k == 1:
+            t0 = time.perf_counter()
+        hv, done = _actions(rng, n), rng.random(n) < resets
+        reset(np.flatnonzero(done))
+        plans, _ = planner.plan(worlds, hv, np.ones(n))
+        planner.commands(plans)
+        planner.start(worlds, plans, plans.end_ms - plans.onset_ms + FIXATION_MS)
+        planner.eye_position_signal()
+    return (time.perf_counter() - t0) / (n * steps)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--num-envs", type=int, nargs="+", default=[64, 1024, 4096])
+    ap.add_argument("--steps", type=int, default=5)
+    ap.add_argument("--task", choices=("fixate", "search"), default="search")
+    ap.add_argument("--resets", type=float, default=0.1, help="fraction of worlds reset per step (default 0.1)")
+    ap.add_argument("--baseline-envs", type=int, default=64, help="worlds in the per-world baseline (default 64)")
+    args = ap.parse_args(argv)
+    task = TASKS[args.task]()
+    base = baseline(task, args.baseline_envs, args.steps, args.resets)
+    print(f"host side, task {args.task}, {args.resets:.0%} of worlds reset per step, numba threads "
+          f"{numba.get_num_threads()}; baseline: {args.baseline_envs} worlds of models.Head + SaccadePlan")
+    print("\n| worlds | per-world objects us/world | batched planner us/world | speed-up | host ms per step |")
+    print("|---|---|---|---|---|")
+    for n in args.num_envs:
+        b = batched(task, n, args.steps, args.resets)
+        print(f"| {n} | {base * 1e6:.0f} | {b * 1e6:.1f} | {base / b:.0f}x | {b * n * 1e3:.1f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
