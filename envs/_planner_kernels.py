@@ -139,19 +139,17 @@ def profile_marks(tab, dt, lo, hi, wt, amp, bound, threshold, settle_deg, out): 
     ``threshold`` deg/s, np.gradient's differences), settle time (after the last step at which a plant
     is ``settle_deg`` or more from the endpoint) and peak speed, out (n, 4), of each interpolated
     profile over its first bound[w] steps (past which nothing can change them: ``_burst_table``)."""
-    n = out.shape[0]
+    n, K = out.shape[0], tab.shape[2]
     for w in nb.prange(n):
         Kb, a, l, h, f = bound[w], amp[w], lo[w], hi[w], wt[w]
         first = last = late = -1
         peak = -math.inf
         for k in range(Kb):
-            if Kb == 1:
-                rate = 0.0
-            else:
-                k0, k1 = max(k - 1, 0), min(k + 1, Kb - 1)
-                p0 = (1 - f) * tab[l, 0, k0] + f * tab[h, 0, k0]
-                p1 = (1 - f) * tab[l, 0, k1] + f * tab[h, 0, k1]
-                rate = (p1 - p0) / (2.0 * dt) if 0 < k < Kb - 1 else (p1 - p0) / dt
+            # np.gradient of the whole row: central differences but at the table's two ends
+            k0, k1 = max(k - 1, 0), min(k + 1, K - 1)
+            p0 = (1 - f) * tab[l, 0, k0] + f * tab[h, 0, k0]
+            p1 = (1 - f) * tab[l, 0, k1] + f * tab[h, 0, k1]
+            rate = (p1 - p0) / (2.0 * dt) if 0 < k < K - 1 else (p1 - p0) / dt
             if rate * a * 1000.0 > threshold:
                 if first < 0:
                     first = k

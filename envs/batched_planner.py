@@ -19,13 +19,14 @@ numpy arrays:
 Every expression follows the one it batches, in the same order, so the arrays agree with the
 per-world objects to rounding (``tests/test_batched_planner.py``: < 1e-9 rad and exact integer
 times, against ``models.Head`` and ``models.SaccadePlan``). Saccades that would leave the
-oculomotor range (shortened by bisection, ``envs.saccade_env.plan_clipped``) and vergence actions
-combined with endpoint noise are planned by the world's own ``models.Head``, the single env's code;
-their plans then join the arrays.
+oculomotor range are shortened by ``envs.saccade_env.plan_clipped``'s bisection, all such worlds at
+once. Vergence actions combined with endpoint noise are planned with the single env's code on the
+one host ``models.Head``, brought to each such world's state; their plans then join the arrays.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass, fields
 
@@ -33,8 +34,8 @@ import numpy as np
 from scipy.special import ndtr
 
 import models
-from models.oculomotor import (H_RANGE, MIN_TARGET_DISTANCE, PRIMARY_EYE_BASIS, V_RANGE, OculomotorRangeError,
-                               SaccadePlan, fick_matrix, gaze_direction)
+from models.oculomotor import (H_RANGE, MIN_TARGET_DISTANCE, NULL_SACCADE, PRIMARY_EYE_BASIS, V_RANGE,
+                               OculomotorRangeError, SaccadePlan, fick_matrix, gaze_direction)
 from models.saccade_generator import _AMP_STEP_DEG, _TABLE_DT_MS, DETECTION_THRESHOLD_DEG_S, BurstGenerator
 
 __all__ = ["BatchedPlanner", "PlanBatch", "SettledReset", "burst_profiles"]
@@ -109,7 +110,7 @@ class _BurstProfiles(_Profiles):
     def __init__(self, gen: BurstGenerator, amp_deg: np.ndarray) -> None:
         tab = _burst_table(gen)
         amp = np.asarray(amp_deg, float)
-        if amp.size and (amp.min() < 0 or amp.max() > 90.0):
+        if amp.size and not (np.isfinite(amp).all() and amp.min() >= 0 and amp.max() <= 90.0):
             raise OculomotorRangeError("saccade amplitudes must lie in [0, 90] deg for the burst generator")
         self.amplitude_deg, self._tab = amp, tab
         amps, normT = tab.amps, tab.norm
@@ -252,8 +253,8 @@ class PlanBatch:
         """``VergenceDynamics.settle_ms``, batched."""
         vd, settle_deg = self.vergence, self.generator.settle_deg
         off = self._prof.offset_ms
-        with np.errstate(divide="ignore", invalid="ignore"):
-            need = vd.tau_ms * np.log(change_deg / settle_deg)
+        # math.log per element, as VergenceDynamics.settle_ms (its result feeds ceil(settle) and so end_ms)
+        need = vd.tau_ms * np.array([math.log(c / settle_deg) if c > settle_deg else 0.0 for c in change_deg])
         fast = off * vd.saccade_speedup
         out = np.where(need <= fast, need / vd.saccade_speedup, off + (need - fast))
         return np.where(change_deg <= settle_deg, 0.0, out)
@@ -443,26 +444,38 @@ class BatchedPlanner:
 
         worlds = np.asarray(worlds, np.intp)
         m = len(worlds)
+        hv = np.asarray(hv, float).reshape(m, 2)
+        factor = np.asarray(factor, float).reshape(m)
         head = self.head
         noise = head.endpoint_noise
-        factor = np.asarray(factor, float)
+        # vergence actions with endpoint noise are planned by the single env's code, world by world
         fast = np.ones(m, bool) if noise == 0 else factor == 1.0
-        batches, order = [], []
         clipped = np.zeros(m, bool)
+        hv2, factor2 = hv.copy(), factor.copy()
         f_idx = np.flatnonzero(fast)
         if len(f_idx):
-            hv, factor = hv.astype(float), factor.copy()
-            ok, _ = self._targets(worlds[f_idx], hv[f_idx], factor[f_idx])[4:]
-            out = f_idx[~ok]
+            _, _, _, amp, reach, ok, _ = self._targets(worlds[f_idx], hv[f_idx], factor[f_idx])
+            drew = (noise > 0) & reach & (amp > NULL_SACCADE)  # Head._plan_head drew before failing
+            fast[f_idx[~ok & drew]] = False  # (only past the generator's 90 deg): replayed world by world
+            out = f_idx[~ok & ~drew]
             if len(out):  # shortened to the range's edge: plan_clipped's bisection, all such worlds at once
-                hv[out], factor[out] = self._bisect(worlds[out], hv[out], factor[out])
-                clipped[out] = True
-            b, ok = self._plan_fast(worlds[f_idx], hv[f_idx], factor[f_idx])
+                h_c, f_c, burn, odd = self._bisect(worlds[out], hv[out], factor[out])
+                fast[out[odd]] = False
+                keep = ~odd
+                hv2[out[keep]], factor2[out[keep]] = h_c[keep], f_c[keep]
+                clipped[out[keep]] = True
+                for w, k in zip(worlds[out[keep]], burn[keep]):  # the draws of the attempts before the last
+                    for _ in range(k):
+                        self.rngs[w].normal(0.0, 1.0, size=2)  # the same stream whatever the scale
+        batches, order = [], []
+        f_idx = np.flatnonzero(fast)
+        if len(f_idx) or m == 0:
+            b, ok = self._plan_fast(worlds[f_idx], hv2[f_idx], factor2[f_idx])
             if not ok.all():  # pragma: no cover - the bisection keeps only reachable attempts
                 raise RuntimeError("a clipped saccade left the oculomotor range")
             batches.append(b)
             order.append(f_idx)
-        slow = np.flatnonzero(~fast)  # vergence actions with endpoint noise: the world's own Head
+        slow = np.flatnonzero(~fast)
         if len(slow):
             plans = []
             for k in slow:
@@ -500,50 +513,61 @@ class BatchedPlanner:
 
     def _targets(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple:
         """What ``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) aims at, before any noise:
-        head-frame targets, world targets, fixation angles, amplitudes, and whether each is reachable."""
+        head-frame targets, world targets, fixation angles, amplitudes; ``reach``: the targets pass
+        ``Head._plan_head``'s checks made before it draws endpoint noise (the eyes can fixate them);
+        ``ok``: the plan is made (also within the burst generator's 90 deg, checked after the draw)."""
         c = self._c
+        legacy = self.head.saccade_model == "legacy"
+        cd0 = self._cdir(self.fix_head[worlds])
         d = self.fix_head[worlds] - c
         dist = np.linalg.norm(d, axis=1)
         g = d / dist[:, None]
         H, V = np.arctan2(-g[:, 1], g[:, 0]), np.arcsin(g[:, 2])
         p_head = c + dist[:, None] * gaze_direction(H + hv[:, 0], V + hv[:, 1])
         intended_world = self._world(p_head)
-        _, ok = self._fixation(p_head)
+        _, reach = self._fixation(p_head)
         scaled = factor != 1.0
         if scaled.any():  # plan_saccade_to(c + factor (intended_target - c)) from the cyclopean eye
+            amp1 = np.arccos(np.clip((cd0[scaled] * self._cdir(p_head[scaled])).sum(axis=1), -1, 1))
+            if not legacy:  # the first plan (plan_saccade) must be made too
+                reach[np.flatnonzero(scaled)[np.rad2deg(amp1) > 90.0]] = False
             cw = self._world(c[None])[0]
             pw = cw + factor[scaled, None] * (intended_world[scaled] - cw)
             intended_world[scaled] = pw
             p_head[scaled] = self._head(pw)
-        end, ok2 = self._fixation(p_head)
-        cd0 = self._cdir(self.fix_head[worlds])
+        end, reach2 = self._fixation(p_head)
+        reach &= reach2
         amp = np.arccos(np.clip((cd0 * self._cdir(p_head)).sum(axis=1), -1, 1))
-        return p_head, intended_world, end, amp, ok & ok2 & (np.rad2deg(amp) <= 90.0), cd0
+        ok = reach if legacy else reach & (np.rad2deg(amp) <= 90.0)
+        return p_head, intended_world, end, amp, reach, ok, cd0
 
-    def _bisect(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``plan_clipped``'s bisection on the saccade's length, for all ``worlds`` at once: the increments
-        and factors of the last reachable attempt (no attempt: a null saccade, ``plan_saccade(0, 0)``).
-        With endpoint noise every reachable attempt drew from the world's generator; those draws are
-        made here too, but for the last one, which ``_plan_fast`` makes."""
+    def _bisect(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple:
+        """``plan_clipped``'s bisection on the saccade's length, for all ``worlds`` at once. Returns the
+        increments and factors of the last attempt made (none: a null saccade, ``plan_saccade(0, 0)``),
+        the number of endpoint-noise draws the attempts before it made (``Head._plan_head`` draws at every
+        attempt that reaches its target; the last attempt's draw is ``_plan_fast``'s), and the worlds
+        whose attempts drew and then failed (past 90 deg: left to the single env's code)."""
         m = len(worlds)
-        lo, hi, best, wins = np.zeros(m), np.ones(m), np.full(m, -1.0), np.zeros(m, np.int64)
+        noise = self.head.endpoint_noise > 0
+        lo, hi, best = np.zeros(m), np.ones(m), np.full(m, -1.0)
+        wins, last_drew, odd = np.zeros(m, np.int64), np.zeros(m, bool), np.zeros(m, bool)
         for _ in range(10):
             mid = (lo + hi) / 2
-            _, _, _, amp, ok, _ = self._targets(worlds, hv * mid[:, None], factor)
+            _, _, _, amp, reach, ok, _ = self._targets(worlds, hv * mid[:, None], factor)
+            drew = noise & reach & (amp > NULL_SACCADE)
+            odd |= drew & ~ok
+            wins += drew & ok
+            last_drew = np.where(ok, drew, last_drew)
             best, lo, hi = np.where(ok, mid, best), np.where(ok, mid, lo), np.where(ok, hi, mid)
-            wins += ok & (amp > 0)
-        if self.head.endpoint_noise > 0:
-            for w, k in zip(worlds, wins):
-                for _ in range(k - 1):
-                    self.rngs[w].normal(0.0, 1.0, size=2)  # the same stream whatever the scale
         none = best < 0
-        return np.where(none[:, None], 0.0, hv * best[:, None]), np.where(none, 1.0, factor)
+        return (np.where(none[:, None], 0.0, hv * best[:, None]), np.where(none, 1.0, factor),
+                wins - last_drew, odd)
 
     def _plan_fast(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple[PlanBatch, np.ndarray]:
         """``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) for worlds whose saccade stays
         in range; returns the plans of those worlds and the mask of them."""
         c = self._c
-        p_head, intended_world, end, amp, ok, cd0 = self._targets(worlds, hv, factor)
+        p_head, intended_world, end, amp, _, ok, cd0 = self._targets(worlds, hv, factor)
         idx = np.flatnonzero(ok)
         w = worlds[idx]
         p_head, intended_world, end, amp = p_head[idx], intended_world[idx], end[idx], amp[idx]
@@ -551,7 +575,7 @@ class BatchedPlanner:
         end_point = p_head.copy()
         noise = self.head.endpoint_noise
         if noise > 0:  # each world's own generator, as Head._plan_head draws it
-            draw = np.flatnonzero(amp > 0)
+            draw = np.flatnonzero(amp > NULL_SACCADE)
             if len(draw):
                 dd = p_head[draw] - c
                 dd_n = np.linalg.norm(dd, axis=1)
@@ -611,6 +635,7 @@ class SettledReset:
         self.usable = not (isinstance(fix, str) and fix in moved)
         m = head.model
         self._mocap_id = {name: int(m.body_mocapid[m.body(name).id]) for name in moved}
+        self._flash_gids = np.array([m.geom(name).id for name in scene.flashes], np.intp)
         blank = mujoco.MjData(head.model)
         mujoco.mj_resetData(head.model, blank)
         self._mocap = blank.mocap_pos.copy(), blank.mocap_quat.copy()
@@ -622,8 +647,9 @@ class SettledReset:
                        "_fix_head": head._fix_head.copy()}
 
     def apply(self, head: models.Head, seed: int) -> None:
-        """Reset ``head`` as ``head.reset(seed=seed)`` would (same joints, set-points, clock, layout and
-        generator state; MuJoCo's other buffers, such as the solver's warm start, are not reset)."""
+        """Reset ``head`` as ``head.reset(seed=seed)`` would (same joints, set-points, clock, layout,
+        visibility of objects and generator state; MuJoCo's other buffers, such as the solver's warm
+        start, are not reset)."""
         import mujoco
 
         if not self.usable:
@@ -641,6 +667,11 @@ class SettledReset:
                 d.mocap_pos[self._mocap_id[name]] = pos
         head._plan = head._table = head.last_plan = head._signal_plan = None
         head._flash_off = {}
+        m = head.model  # what Head.reset restores of the model: set_visible's changes undone, flashes hidden
+        for gid, alpha in head._alpha0.items():
+            m.geom_rgba[gid, 3] = alpha
+        head._alpha0 = {}
+        m.geom_rgba[self._flash_gids, 3] = 0.0
         for k, v in self._state.items():
             setattr(head, k, v.copy() if isinstance(v, np.ndarray) else v)
         mujoco.mj_forward(head.model, head.data)

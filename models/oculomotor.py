@@ -54,6 +54,9 @@ V_RANGE = np.deg2rad(35.0)  #: vertical oculomotor range (+-), radians
 T_RANGE = np.deg2rad(20.0)  #: Fick-torsion joint range (+-); Listing torsion stays below 15 deg
 MAX_PEAK_VELOCITY = np.deg2rad(700.0)  #: physiological ceiling of eye speed, rad/s
 MIN_TARGET_DISTANCE = 0.05  #: metres from an eye's rotation centre
+#: Saccades no larger than this (rad) are null: no endpoint noise is drawn for them (their amplitude
+#: is an arccos near 1, where the last bit of a dot product moves it by ~1e-8 rad)
+NULL_SACCADE = 1e-7
 #: Trajectory models of ``Head(saccade_model=...)``: the brainstem burst generator (default) and
 #: the earlier analytic main-sequence planner.
 SACCADE_MODELS = ("burst", "legacy")

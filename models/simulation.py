@@ -37,6 +37,7 @@ from ._gl import mujoco
 from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, _path, _write_spec, build_spec
 from .eye_position_signal import EyePositionSignal
 from .oculomotor import (
+    NULL_SACCADE,
     SACCADE_MODELS,
     MainSequence,
     OculomotorRangeError,
@@ -492,7 +493,7 @@ class Head:
         end_point = np.asarray(p_head, float)
         end = fixation_angles(end_point, self._eye_centres_head)  # validates the intended target
         intended_end = end.copy()
-        if self.endpoint_noise > 0 and amp > 0:
+        if self.endpoint_noise > 0 and amp > NULL_SACCADE:
             d = end_point - c
             dist = np.linalg.norm(d)
             g = d / dist

@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import envs
 import models
 from envs.batched_planner import BatchedPlanner, burst_profiles
 from envs.saccade_env import plan_clipped
@@ -36,9 +37,15 @@ def test_profiles_equal_the_generators(amps):
         np.testing.assert_array_equal(batch.position(np.broadcast_to(t, ref.shape), plant), ref)
 
 
-def test_profiles_of_another_generator():
-    gen = models.BurstGenerator(burst_max_deg_s=600.0, settle_deg=0.3, abducting_t2_ms=4.0)
-    amps = np.array([0.0, 0.1, 3.0, 17.3, 44.0, 88.8])
+@settings(max_examples=8, deadline=None)
+@given(st.sampled_from([dict(burst_max_deg_s=600.0, settle_deg=0.3, abducting_t2_ms=4.0), dict(settle_deg=1.0),
+                        dict(settle_deg=1e-4, burst_lag_ms=20.0), dict(plant_t2_ms=15.0, burst_lag_ms=4.0)]),
+       st.lists(st.floats(0.0, 90.0, allow_nan=False), min_size=1, max_size=20))
+def test_profiles_of_other_generators(params, amps):
+    """Other generators, the settle margin included from 1e-4 to 1 deg (where the table's bounds on
+    the computed steps are the tightest)."""
+    gen = models.BurstGenerator(**params)
+    amps = np.array(amps + [0.0, 0.1, 3.0, 17.3, 44.0, 88.8])
     batch = burst_profiles(gen, amps)
     for k, a in enumerate(amps):
         ref = gen.profile(a)
@@ -86,60 +93,76 @@ CASES = {
 @pytest.mark.parametrize("case", sorted(CASES))
 @pytest.mark.parametrize("vergence", [False, True])
 def test_planner_follows_the_heads(case, vergence):
-    """Three worlds, four saccades each (one far out of range: clipped by bisection), against a
-    ``models.Head`` per world stepping its physics: the same plans and clipping, command tables
-    (< 1e-9 rad), end times (exact), efference copies, and eye-position signal during and after."""
+    """Four worlds, five steps, each planning a shuffled subset of the worlds (the others wait), against
+    a ``models.Head`` per world stepping its physics: the same plans and clipping, command tables
+    (< 1e-9 rad), end times (exact), efference copies, eye-position signal during and after, and the
+    generators' states. World 1 is sent far beyond the range (clipped by bisection) and then further
+    out from the edge (no attempt reachable: a null saccade); world 2 makes a zero saccade; with
+    vergence, world 0's factor is exactly 1 (with noise: planned in the batch beside worlds planned
+    by the single env's code)."""
     kw = CASES[case]
-    n, fixation_ms = 3, 40
+    n, fixation_ms = 4, 40
     ref = _heads(n, 11, **kw)
     poses = [h.data.qpos.copy() for h in ref]
     planner = _planner(n, 11, **kw)
     rng = np.random.default_rng(5)
-    worlds = np.arange(n)
-    for step in range(4):
+    nulls = 0
+    for step in range(5):
+        worlds = rng.permutation(n)[: n - step % 2]
         hv = rng.uniform(-0.35, 0.35, (n, 2))
-        if step == 2:
-            hv[1] = [1.4, -0.2]  # far beyond the 45 deg range: clipped
+        hv[2] = 0.0 if step == 1 else hv[2]
+        if step in (2, 3):
+            hv[1] = [1.4, -0.2]  # far beyond the 45 deg range: clipped; then pushed out from the edge
+            worlds = np.union1d(worlds, [1])[::-1]
         factor = 2.0 ** rng.uniform(-0.6, 0.6, n) if vergence else np.ones(n)
-        plans, clipped = planner.plan(worlds, hv, factor)
-        assert clipped[1] or step != 2
+        factor[0] = 1.0
+        plans, clipped = planner.plan(worlds, hv[worlds], factor[worlds])
         table, rows = planner.commands(plans)
-        advance = plans.end_ms - planner.time_ms + fixation_ms
-        for i in range(n):
+        advance = plans.end_ms - planner.time_ms[worlds] + fixation_ms
+        for k, i in enumerate(worlds):
             head = ref[i]
             plan, c = plan_clipped(head, hv[i, 0], hv[i, 1], factor[i])
-            assert c == clipped[i]
-            assert plans.onset_ms[i] == plan.onset_ms and plans.end_ms[i] == plan.end_ms
-            for a, b in ((plans.end[i], plan.end_angles), (plans.intended_end[i], plan.intended_end_angles),
-                         (plans.signal_start[i], plan.signal_start_angles), (plans.target[i], plan.target),
-                         (plans.efference_copy[i], plan.efference_copy),
-                         (plans.efference_copy_eye[i], plan.efference_copy_eye),
-                         (plans.executed_rotation[i], plan.executed_rotation),
-                         (plans.endpoint_error_deg[i], plan.endpoint_error_deg)):
+            assert c == clipped[k]
+            if step in (2, 3) and i == 1:
+                assert c
+                nulls += plan.amplitude < 1e-6
+            assert plans.onset_ms[k] == plan.onset_ms and plans.end_ms[k] == plan.end_ms
+            for a, b in ((plans.end[k], plan.end_angles), (plans.intended_end[k], plan.intended_end_angles),
+                         (plans.signal_start[k], plan.signal_start_angles), (plans.target[k], plan.target),
+                         (plans.efference_copy[k], plan.efference_copy),
+                         (plans.efference_copy_eye[k], plan.efference_copy_eye),
+                         (plans.executed_rotation[k], plan.executed_rotation),
+                         (plans.endpoint_error_deg[k], plan.endpoint_error_deg)):
                 np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
-            for a, b in ((plans.amplitude[i], plan.amplitude), (plans.settle_ms[i], plan.settle_ms),
-                         (plans.duration_ms[i], plan.duration_ms), (plans.peak_velocity[i], plan.peak_velocity)):
+            for a, b in ((plans.amplitude[k], plan.amplitude), (plans.settle_ms[k], plan.settle_ms),
+                         (plans.duration_ms[k], plan.duration_ms), (plans.peak_velocity[k], plan.peak_velocity)):
                 assert abs(a - b) <= 1e-9 * max(1.0, abs(b))
             span = plan.end_ms - plan.onset_ms
-            assert rows[i] == span + 1
+            assert rows[k] == span + 1
             q = plan.angles(plan.onset_ms + np.arange(span + 1.0)).reshape(-1, 6)
-            np.testing.assert_allclose(table[i, :span + 1], q, rtol=0, atol=1e-9)
-            np.testing.assert_allclose(table[i, span + 1:], np.broadcast_to(q[-1], table[i, span + 1:].shape), atol=0)
+            np.testing.assert_allclose(table[k, :span + 1], q, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(table[k, span + 1:], np.broadcast_to(q[-1], table[k, span + 1:].shape), atol=0)
             t = plan.onset_ms + np.array([0.3, 7.0, 19.5, 60.0, 140.0])  # fractional times, mid-saccade
-            np.testing.assert_allclose(plans.angles(np.broadcast_to(t, (n, len(t))))[i], plan.angles(t), atol=1e-9)
+            np.testing.assert_allclose(plans.angles(np.broadcast_to(t, (len(worlds), len(t))))[k], plan.angles(t),
+                                       atol=1e-9)
             head.start_saccade(plan)
-            _step(head, int(advance[i]), poses[i])
+            _step(head, int(advance[k]), poses[i])
         planner.start(worlds, plans, advance)
         now = planner.eye_position_signal()
         for i in range(n):
             assert planner.time_ms[i] == ref[i].time_ms
             np.testing.assert_allclose(now[i], ref[i].eye_position_signal(), atol=1e-9)
             np.testing.assert_allclose(planner.hold[i], ref[i]._hold, atol=1e-12)
+            assert planner.rngs[i].bit_generator.state == ref[i]._rng.bit_generator.state
             plan = ref[i].last_plan
+            if plan is None:
+                continue
             times = plan.onset_ms + np.array([-60.0, 0.0, 25.5, 90.0, 400.0])
             batch, k = planner._last[i]
             got = batch.eye_position_signal(np.tile(times, (batch.n, 1)))[k]
             np.testing.assert_allclose(got, plan.eye_position_signal(times), atol=1e-9)
+    if "endpoint_noise" not in kw:  # (a noisy landing may leave room inside the edge)
+        assert nulls >= 1  # the push from the edge found no reachable attempt at least once
 
 
 def test_planner_refuses_heads_mid_saccade_and_short_advances():
@@ -153,6 +176,18 @@ def test_planner_refuses_heads_mid_saccade_and_short_advances():
         planner.take_reset(0)
 
 
+def test_planner_input_edges():
+    """No worlds to plan, NaN amplitudes and float32 increments."""
+    planner = _planner(2, 0)
+    plans, clipped = planner.plan(np.arange(0), np.zeros((0, 2)), np.ones(0))
+    assert plans.n == 0 and clipped.shape == (0,) and planner.commands(plans)[0].shape[0] == 0
+    with pytest.raises(models.OculomotorRangeError, match="amplitudes"):
+        burst_profiles(models.BurstGenerator(), [np.nan])
+    a, _ = planner.plan(np.arange(2), np.full((2, 2), 0.1, np.float32), np.ones(2, np.float32))
+    b, _ = planner.plan(np.arange(2), np.full((2, 2), np.float32(0.1), np.float64), np.ones(2))
+    np.testing.assert_array_equal(a.end, b.end)
+
+
 @pytest.mark.parametrize("scene", models.SCENES)
 def test_settled_reset_equals_head_reset(scene):
     """SettledReset (the batched env's resets) leaves a head as Head.reset does: joints, velocities,
@@ -162,11 +197,20 @@ def test_settled_reset_equals_head_reset(scene):
     a, b = models.Head(scene, 16, seed=0), models.Head(scene, 16, seed=0)
     fast = SettledReset(a)
     assert fast.usable
+    task = {"dots": "fixate", "search": "search"}.get(scene, "free")
+    task = envs.TASKS[task]()
     for seed in (3, 12345):
         a.start_saccade(a.plan_saccade(0.1, 0.05))  # some state to reset from
         a.step_ms(30)
+        hidden = a.scene.objects[0]
+        a.set_visible(hidden, False)
+        if a.scene.flashes:
+            a.flash(a.scene.flashes[0])
         fast.apply(a, seed)
         b.reset(seed=seed)
+        np.testing.assert_array_equal(a.model.geom_rgba, b.model.geom_rgba)
+        task.initialize_episode(a, np.random.default_rng(seed))
+        task.initialize_episode(b, np.random.default_rng(seed))
         for k in ("qpos", "qvel", "ctrl", "act", "mocap_pos", "mocap_quat", "geom_xpos", "cam_xpos"):
             np.testing.assert_array_equal(getattr(a.data, k), getattr(b.data, k), err_msg=k)
         assert a.time_ms == b.time_ms and a._plan is None and a._signal_plan is None
