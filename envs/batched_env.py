@@ -258,7 +258,7 @@ class BatchedBinocularSaccade(VectorEnv):
             keep = torch.as_tensor(active, device=self.device).view((n,) + (1,) * (remapped.dim() - 1))
             self._remapped = torch.where(keep, remapped, now)
         with part("task"):
-            target_err, landing = self._gaze_errors(plans, act)
+            target_err, landing = self._gaze_errors(plans, act, active)
             reward, success = self._score(target_err)
         self._saccades[active] += 1
         terminated = active & success
@@ -451,7 +451,7 @@ class BatchedBinocularSaccade(VectorEnv):
         factor = 2.0 ** a[:, 2] if env.vergence else np.ones(n)
         return a[:, :2] * env.max_amplitude, factor
 
-    def _gaze_errors(self, plans, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _gaze_errors(self, plans, act: np.ndarray, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Both eyes' gaze errors (deg) to the task's target (N, 2) and the mean to each saccade's
         intended target (N,), from the device's camera poses (tasks._gaze_errors_deg, batched)."""
         torch = self._torch
@@ -467,8 +467,6 @@ class BatchedBinocularSaccade(VectorEnv):
         intended = np.broadcast_to(self.planner.cyclopean_position, (n, 3)).copy()
         if plans is not None:
             intended[act] = plans.intended_target
-        active = np.zeros(n, bool)
-        active[act] = True
         landing = errors(torch.as_tensor(intended, device=self.device)).mean(dim=1).cpu().numpy()
         landing = np.where(active, landing, 0.0)
         if self._target_gid is None:

@@ -453,8 +453,11 @@ class BatchedPlanner:
         clipped = np.zeros(m, bool)
         hv2, factor2 = hv.copy(), factor.copy()
         f_idx = np.flatnonzero(fast)
+        targets, row = None, np.full(m, -1)
         if len(f_idx):
-            _, _, _, amp, reach, ok, _ = self._targets(worlds[f_idx], hv[f_idx], factor[f_idx])
+            targets = self._targets(worlds[f_idx], hv[f_idx], factor[f_idx])
+            row[f_idx] = np.arange(len(f_idx))
+            _, _, _, amp, reach, ok, _ = targets
             drew = (noise > 0) & reach & (amp > NULL_SACCADE)  # Head._plan_head drew before failing
             fast[f_idx[~ok & drew]] = False  # (only past the generator's 90 deg): replayed world by world
             out = f_idx[~ok & ~drew]
@@ -467,10 +470,14 @@ class BatchedPlanner:
                 for w, k in zip(worlds[out[keep]], burn[keep]):  # the draws of the attempts before the last
                     for _ in range(k):
                         self.rngs[w].normal(0.0, 1.0, size=2)  # the same stream whatever the scale
+                redo = out[keep]  # their targets, from the shortened increments
+                for arr, new in zip(targets, self._targets(worlds[redo], hv2[redo], factor2[redo])):
+                    arr[row[redo]] = new
         batches, order = [], []
         f_idx = np.flatnonzero(fast)
         if len(f_idx) or m == 0:
-            b, ok = self._plan_fast(worlds[f_idx], hv2[f_idx], factor2[f_idx])
+            known = None if targets is None else tuple(a[row[f_idx]] for a in targets)
+            b, ok = self._plan_fast(worlds[f_idx], hv2[f_idx], factor2[f_idx], known)
             if not ok.all():  # pragma: no cover - the bisection keeps only reachable attempts
                 raise RuntimeError("a clipped saccade left the oculomotor range")
             batches.append(b)
@@ -563,11 +570,13 @@ class BatchedPlanner:
         return (np.where(none[:, None], 0.0, hv * best[:, None]), np.where(none, 1.0, factor),
                 wins - last_drew, odd)
 
-    def _plan_fast(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple[PlanBatch, np.ndarray]:
+    def _plan_fast(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray,
+                   targets: tuple | None = None) -> tuple[PlanBatch, np.ndarray]:
         """``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) for worlds whose saccade stays
-        in range; returns the plans of those worlds and the mask of them."""
+        in range; returns the plans of those worlds and the mask of them. ``targets``: ``_targets`` of
+        these arguments when already computed."""
         c = self._c
-        p_head, intended_world, end, amp, _, ok, cd0 = self._targets(worlds, hv, factor)
+        p_head, intended_world, end, amp, _, ok, cd0 = targets or self._targets(worlds, hv, factor)
         idx = np.flatnonzero(ok)
         w = worlds[idx]
         p_head, intended_world, end, amp = p_head[idx], intended_world[idx], end[idx], amp[idx]
