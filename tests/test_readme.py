@@ -12,6 +12,12 @@ before its opening fence says why::
 The skip reasons allowed are few (below): a display, an optional extra or a package install, a run
 of minutes (whose short form is a block beside it or a test), or the setup and test commands.
 
+No block reaches a package index from the suite: a ``pip install -e ".[extra]"`` line (the
+Benchmarks block installs OpenCV that way) is not run but checked, each requirement of the named
+extras must already be installed here, and the block is skipped naming what is missing otherwise;
+a block that installs anything else is skipped. A block is never killed by a wall-clock limit a
+loaded machine can reach (``HANG_S`` is only a hang guard).
+
 A block that needs the ``gpu`` extra says so on the line before it::
 
     <!-- readme-test: needs the gpu extra -->
@@ -22,11 +28,13 @@ counts as a block that runs.
 
 from __future__ import annotations
 
+import importlib.metadata
 import importlib.util
 import os
 import re
 import subprocess
 import sys
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,6 +49,10 @@ GPU_MODULES = ("torch", "warp", "mujoco_warp", "skrl")
 FENCE = re.compile(r"^```(?P<lang>[A-Za-z0-9_+-]*)\s*$")
 LANGS = {"bash": "bash", "sh": "bash", "shell": "bash", "python": "python", "py": "python"}
 # what may excuse a block from running, each with a reason a reader accepts
+#: a hang guard, never a limit a loaded machine reaches
+HANG_S = 3600
+PIP_INSTALL = re.compile(r"^\s*(?:python3? -m )?pip3? install\b(?P<args>[^#\n]*)(?:#.*)?$", re.M)
+EDITABLE_EXTRAS = re.compile(r"""^(?:-q\s+)?-e\s+["']?\.\[(?P<extras>[A-Za-z0-9_,-]+)\]["']?$""")
 ALLOWED_SKIPS = ("needs a display", "serves until Ctrl-C", "needs the rl extra", "installs packages", "minutes", "the test command",
                  "the setup command")
 
@@ -107,6 +119,56 @@ def test_parser_finds_skip_markers():
     assert (c.skip, c.needs_gpu) == (None, True) and not b.needs_gpu
 
 
+def _requirement_name(req: str) -> str:
+    return re.match(r"[A-Za-z0-9_.-]+", req).group(0)
+
+
+def _missing_for(extras: list[str]) -> list[str]:
+    """The requirements of the project's ``extras`` (pyproject.toml) not installed here."""
+    optional = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    missing = []
+    for extra in extras:
+        if extra not in optional:
+            missing.append(f"the extra {extra!r} (not in pyproject.toml)")
+            continue
+        for req in optional[extra]:
+            try:
+                importlib.metadata.distribution(_requirement_name(req))
+            except importlib.metadata.PackageNotFoundError:
+                missing.append(req)
+    return missing
+
+
+def without_installs(code: str) -> tuple[str, str | None]:
+    """``code`` with its ``pip install -e ".[extras]"`` lines replaced by no-ops when those extras
+    are installed here; otherwise (or for any other pip install) a reason to skip the block."""
+    def replace(m: re.Match) -> str:
+        args = m["args"].strip()
+        e = EDITABLE_EXTRAS.match(args)
+        if e is None:
+            raise LookupError(f"installs packages (pip install {args}), which the suite never does")
+        missing = _missing_for(e["extras"].split(","))
+        if missing:
+            raise LookupError(f"needs {', '.join(missing)} (pip install {args})")
+        return f": # pip install {args}: installed here"
+
+    try:
+        out = PIP_INSTALL.sub(replace, code)
+    except LookupError as why:
+        return code, str(why)
+    if re.search(r"\bpip3? install\b", out.replace(": # pip install", "")):  # inside a longer command line
+        return code, "installs packages (a pip install inside a longer command), which the suite never does"
+    return out, None
+
+
+def test_pip_install_lines_never_run():
+    code, why = without_installs('pip install -e ".[test]"   # the test extra\npython -c "print(1)"\n')
+    assert why is None and code.startswith(": # pip install") and "print(1)" in code
+    assert without_installs("python -m pip install torch\n")[1].startswith("installs packages")
+    assert "the extra 'nope'" in without_installs('pip install -e ".[nope]"\n')[1]
+    assert without_installs("a && pip install -e .\n")[1].startswith("installs packages")
+
+
 @pytest.fixture(scope="module")
 def scratch(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("readme")
@@ -127,6 +189,11 @@ def test_readme_block_runs(block: Block, scratch: Path):
         if missing:
             pytest.skip(f"README line {block.line} needs the gpu extra ({', '.join(missing)} missing): "
                         'pip install -e ".[gpu]"')
+    code = block.code
+    if LANGS[block.lang] == "bash":
+        code, why = without_installs(code)
+        if why is not None:
+            pytest.skip(f"README line {block.line}: {why}")
     env = dict(os.environ)
     env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
     env.setdefault("MUJOCO_GL", "egl")
@@ -134,11 +201,11 @@ def test_readme_block_runs(block: Block, scratch: Path):
     env.pop("WAYLAND_DISPLAY", None)
     if LANGS[block.lang] == "python":
         script = scratch / f"readme_block_{block.line}.py"
-        script.write_text(block.code)
+        script.write_text(code)
         cmd = [sys.executable, script.name]
     else:
-        cmd = ["bash", "-eo", "pipefail", "-c", block.code]
-    r = subprocess.run(cmd, cwd=scratch, env=env, capture_output=True, text=True, timeout=400,
+        cmd = ["bash", "-eo", "pipefail", "-c", code]
+    r = subprocess.run(cmd, cwd=scratch, env=env, capture_output=True, text=True, timeout=HANG_S,
                        stdin=subprocess.DEVNULL)
     assert r.returncode == 0, (f"README.md line {block.line} ({block.lang}) exited {r.returncode}:\n"
                                f"{block.code}\n--- stdout ---\n{r.stdout[-3000:]}\n--- stderr ---\n{r.stderr[-3000:]}")
