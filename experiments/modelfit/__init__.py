@@ -3,10 +3,10 @@
 ``python -m experiments fit`` / ``compare`` / ``simulate`` (``experiments.modelfit.cli``).
 """
 
-from .data import OPTIONAL, REQUIRED, DataFormatError, LocalizationData, read_data
+from .data import OPTIONAL, REQUIRED, DataConventionWarning, DataFormatError, LocalizationData, read_data
 from .fitting import IMAGE_SIZE, compare, fit, simulate_data
 from .likelihood import FIT_MODELS, NESTED, FitModel, Parameter
 from .observe import BACKENDS, observe_trials
 
-__all__ = ["REQUIRED", "OPTIONAL", "DataFormatError", "LocalizationData", "read_data", "fit", "compare",
-           "simulate_data", "IMAGE_SIZE", "FIT_MODELS", "NESTED", "FitModel", "Parameter", "BACKENDS", "observe_trials"]
+__all__ = ["REQUIRED", "OPTIONAL", "DataFormatError", "DataConventionWarning", "LocalizationData", "read_data", "fit",
+           "compare", "simulate_data", "IMAGE_SIZE", "FIT_MODELS", "NESTED", "FitModel", "Parameter", "BACKENDS", "observe_trials"]
