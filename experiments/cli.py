@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["int_in", "out_dir", "whole_number"]
+__all__ = ["int_in", "out_dir", "out_file", "whole_number", "amplitude_list"]
 
 
 def whole_number(text: str) -> int:
@@ -55,10 +55,23 @@ def _writable_parent(p: Path, text: str) -> None:
         raise argparse.ArgumentTypeError(f"cannot write under {str(anc)!r} (permission denied); choose another path")
 
 
+def _path_ok(text: str) -> None:
+    from .folders import check_path_length
+
+    if "\x00" in text:
+        raise argparse.ArgumentTypeError(f"the path contains a NUL character: {text!r}")
+    try:
+        check_path_length(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def out_dir(text: str) -> Path:
-    """An output folder: not empty, not an existing file, under a folder this user can write."""
+    """An output folder: not empty, not an existing file, under a folder this user can write, with
+    names the file system allows."""
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a folder path; got an empty string")
+    _path_ok(text)
     p = Path(text)
     if p.exists() and not p.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} exists and is not a folder; choose a folder path")
@@ -68,3 +81,47 @@ def out_dir(text: str) -> Path:
         return p
     _writable_parent(p, text)
     return p
+
+
+def out_file(*suffixes: str) -> Callable[[str], Path]:
+    """An output file with one of ``suffixes`` (e.g. ``.csv``): not a folder, under a folder this
+    user can write, with names the file system allows."""
+
+    def parse(text: str) -> Path:
+        if not text.strip():
+            raise argparse.ArgumentTypeError("expected a file path; got an empty string")
+        _path_ok(text)
+        p = Path(text)
+        if p.suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(f"expected a file name ending in {' or '.join(suffixes)}; got {text!r}")
+        if p.is_dir():
+            raise argparse.ArgumentTypeError(f"{text!r} is a folder; give a file name such as {p / ('data' + suffixes[0])}")
+        if p.exists() and not os.access(p, os.W_OK):
+            raise argparse.ArgumentTypeError(f"cannot overwrite {text!r} (permission denied); choose another path")
+        _writable_parent(p, text)
+        return p
+
+    parse.__name__ = "file"
+    return parse
+
+
+def amplitude_list(text: str) -> tuple[float, ...]:
+    """Comma-separated saccade amplitudes (deg), each a finite number within the design's bounds
+    (``psychophysics.bounds.LIMITS['amplitudes_deg']``), none repeated."""
+    from .psychophysics.bounds import LIMITS
+
+    lim = LIMITS["amplitudes_deg"]
+    try:
+        vals = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers in {lim.text()}; got {text!r}") from None
+    if not vals:
+        raise argparse.ArgumentTypeError(f"expected at least one number in {lim.text()}; got {text!r}")
+    bad = [v for v in vals if not lim.contains(v)]
+    if bad:
+        raise argparse.ArgumentTypeError(f"each amplitude must be in {lim.text()}; got {bad[0]!r} in {text!r}")
+    dup = sorted({v for v in vals if vals.count(v) > 1})
+    if dup:
+        raise argparse.ArgumentTypeError(f"amplitude {dup[0]:g} is listed twice in {text!r}; list each once "
+                                         "(use --repetitions for more trials)")
+    return vals

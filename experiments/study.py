@@ -19,18 +19,18 @@ another run; 2 a bad option, or a folder holding another configuration; 130 / 14
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
 import math
 import shlex
 import signal
 import sys
-import threading
 from pathlib import Path
 
 import numpy as np
 
-from .cli import whole_number
+from .cli import amplitude_list, whole_number
+from .folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
+from .folders import interruptible as _interruptible
 from .psychophysics.bounds import LIMITS, MAX_TRIALS
 
 __all__ = ["add_subcommand", "run_study", "record_study", "NonFiniteResultError"]
@@ -40,14 +40,6 @@ PROG = "python -m experiments run"
 
 class NonFiniteResultError(RuntimeError):
     """Trials produced NaN (or inf) where a number was expected."""
-
-
-class _Interrupted(KeyboardInterrupt):
-    """Raised in the main thread by SIGINT / SIGTERM while the command runs."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
 
 
 # ---------------------------------------------------------------------------------------------- option types
@@ -70,19 +62,7 @@ def _num_type(name: str, what: str = ""):
     return parse
 
 
-def _floats(text: str) -> tuple[float, ...]:
-    """Comma-separated saccade amplitudes (deg), each within ``LIMITS['amplitudes_deg']``."""
-    lim = LIMITS["amplitudes_deg"]
-    try:
-        vals = tuple(float(v) for v in text.split(",") if v.strip())
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers in {lim.text()}; got {text!r}") from None
-    if not vals:
-        raise argparse.ArgumentTypeError(f"expected at least one number in {lim.text()}; got {text!r}")
-    bad = [v for v in vals if not lim.contains(v)]
-    if bad:
-        raise argparse.ArgumentTypeError(f"each amplitude must be in {lim.text()}; got {bad[0]!r} in {text!r}")
-    return vals
+_floats = amplitude_list  # comma-separated saccade amplitudes (deg), checked (experiments.cli)
 
 
 def _times(text: str) -> tuple[int, ...]:
@@ -101,6 +81,10 @@ def _times(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(usage) from None
     if not vals or not all(lim.contains(v) for v in vals):
         raise argparse.ArgumentTypeError(usage)
+    dup = sorted({v for v in vals if vals.count(v) > 1})
+    if dup:
+        raise argparse.ArgumentTypeError(f"flash time {dup[0]} ms is listed twice in {text!r}; list each once "
+                                         "(use --repetitions for more trials)")
     return vals
 
 
@@ -437,28 +421,6 @@ def _command(args: argparse.Namespace) -> str:
         s = text(v)
         words += [f"{opt}={s}"] if s.startswith("-") else [opt, s]
     return shlex.join(words)
-
-
-@contextlib.contextmanager
-def _interruptible():
-    """SIGINT and SIGTERM raise ``_Interrupted`` in the main thread; a second signal is ignored while
-    the first one's clean-up (stopping the workers) runs."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    sigs = (signal.SIGINT, signal.SIGTERM)
-
-    def handler(signum, frame):
-        for s in sigs:
-            signal.signal(s, signal.SIG_IGN)
-        raise _Interrupted(signum)
-
-    old = {s: signal.signal(s, handler) for s in sigs}
-    try:
-        yield
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
 
 
 def _saved(csv_path: Path) -> int:

@@ -1,11 +1,21 @@
 """Maximum-likelihood fits, model comparison and simulated data sets.
 
 ``fit`` estimates a model's free parameters (``likelihood.FIT_MODELS``) by maximum likelihood
-(scipy's Nelder-Mead on parameters mapped to their bounds by a logistic), with standard errors from
-the numerical Hessian of the negative log-likelihood at the optimum (95 % Wald intervals, clipped
-to the bounds; ``hessian_ok`` false and NaN intervals where it is not positive definite).
-Every evaluation is appended to ``fit_log.csv``; a fit that is run again starts from the best
-logged parameters and re-uses the cached observations, so an interrupted fit resumes.
+(scipy's Nelder-Mead on parameters mapped to their bounds by a logistic, from the best point of a
+fixed 3-level grid), with standard errors from a quadratic fitted to the negative log-likelihood
+around the optimum (95 % Wald intervals, clipped to the bounds; ``hessian_ok`` false and ``null``
+intervals where it is not positive definite).
+
+A fit is a function of its data and options (``fit_key``: the model, a hash of the data, the
+forward model's configuration, ``max_evals``). Every evaluation is appended to ``fit_log.csv``
+(each row with the fit key and a CRC-32); a fit that is run again replays the same optimization,
+reading the logged evaluations instead of computing them, so a fit resumed after ``kill -9`` ends
+with the same ``fit.json`` as one that was never interrupted, and a finished fit run again is a
+no-op that says so. A folder holding another fit is refused; one writer per folder (a lock).
+
+A model that loses the flashes of some rows (no activity to read out, e.g. a flash outside the
+field of view) at every starting point cannot be fitted: :class:`FitError` names the rows. Outputs
+are strict JSON (undefined intervals are ``null``).
 
 ``compare`` fits several models on the same observations and ranks them by AIC (BIC beside it),
 with likelihood-ratio tests for nested pairs (``likelihood.NESTED``).
@@ -15,20 +25,35 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
+import itertools
 import json
 import math
+import sys
+import zlib
 from pathlib import Path
 
 import numpy as np
 
 from .data import LocalizationData
+from .forward import ForwardModel, forward_model
 from .likelihood import FIT_MODELS, NESTED, Evaluator, FitModel
 from .observe import observe_trials
 
-__all__ = ["fit", "compare", "simulate_data", "prepare", "IMAGE_SIZE"]
+__all__ = ["fit", "compare", "simulate_data", "prepare", "fit_key", "IMAGE_SIZE", "FitError", "FitFolderError"]
 
-#: Eye image size of the fits' observations (px): the study's 256 px cost 4x the rendering.
+#: Eye image size (px) that ``simulate`` uses by default (recorded in its sidecar, so fits match).
 IMAGE_SIZE = 128
+#: Version of the fit procedure and its files: part of every fit key.
+FIT_FORMAT = 2
+
+
+class FitError(RuntimeError):
+    """The model cannot be fitted to these data (rows whose flashes it loses at every start)."""
+
+
+class FitFolderError(ValueError):
+    """The output folder holds a fit of another model, data set or options."""
 
 
 def _model(name: str) -> FitModel:
@@ -37,28 +62,50 @@ def _model(name: str) -> FitModel:
     return FIT_MODELS[name]
 
 
-def prepare(data: LocalizationData, out: Path | None, *, backend: str = "local", workers: int = 1,
-            ray_address: str | None = None, image_size: int = IMAGE_SIZE):
-    """The unique trials behind the data rows, observed once per condition: (runners, observations,
-    row_trial)."""
-    from ..psychophysics import Trial, TrialConfig, TrialRunner
+def _data_hash(data: LocalizationData) -> str:
+    h = hashlib.sha256()
+    for a in (data.amplitude_deg, data.flash_time_ms, data.true_deg, data.perceived_deg, data.n, data.sd_deg):
+        h.update(np.ascontiguousarray(a, float).tobytes())
+    h.update("|".join(data.condition).encode())
+    return h.hexdigest()[:12]
 
+
+def fit_key(model: str, data: LocalizationData, fwd: ForwardModel, max_evals: int) -> str:
+    """16 hex digits naming a fit: what it fits (model, data, forward model) and how (``max_evals``)."""
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(fwd.offset_deg, float).tobytes())
+    h.update(np.ascontiguousarray(fwd.seed, np.int64).tobytes())
+    text = json.dumps({"format": FIT_FORMAT, "model": model, "data": _data_hash(data), "trials": h.hexdigest(),
+                       "forward": fwd.fingerprint(), "max_evals": int(max_evals)}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def prepare(data: LocalizationData, out: Path | None, fwd: ForwardModel | None = None, *, backend: str = "local",
+            workers: int = 1, ray_address: str | None = None, progress: bool = False):
+    """The unique trials behind the data rows, observed once per condition under the forward model
+    ``fwd`` (default: ``forward_model(data)``): (runners, observations, row_trial)."""
+    from dataclasses import replace
+
+    from ..psychophysics import Trial, TrialRunner
+
+    fwd = fwd or forward_model(data)
+    noisy = fwd.config.endpoint_noise > 0  # only then do trials differ by seed
     runners, observations = {}, {}
     row_trial = np.zeros(len(data), int)
     for cond in sorted(set(data.condition)):
         rows = np.flatnonzero(data.condition == cond)
         keys: dict = {}
         for r in rows:
-            a = float(data.amplitude_deg[r])
-            k = (a, int(data.flash_time_ms[r]), round(float(data.true_deg[r, 0]) - a / 2, 6),
-                 round(float(data.true_deg[r, 1]), 6))
+            k = (float(data.amplitude_deg[r]), int(data.flash_time_ms[r]), round(float(fwd.offset_deg[r, 0]), 6),
+                 round(float(fwd.offset_deg[r, 1]), 6), int(fwd.seed[r]) if noisy else 0)
             row_trial[r] = keys.setdefault(k, len(keys))
         trials = [Trial(trial_id=i, amplitude_deg=k[0], flash_dx_deg=k[2], flash_dy_deg=k[3], flash_time_ms=k[1],
-                        repetition=0, seed=0) for k, i in sorted(keys.items(), key=lambda kv: kv[1])]
-        config = TrialConfig(image_size=image_size, condition=cond)
-        observations[cond] = observe_trials(trials, config, None if out is None else out / "observations",
-                                            backend=backend, workers=workers, ray_address=ray_address)
+                        repetition=0, seed=k[4]) for k, i in sorted(keys.items(), key=lambda kv: kv[1])]
+        config = replace(fwd.config, condition=cond)
         runners[cond] = TrialRunner(config)
+        observations[cond] = observe_trials(trials, config, None if out is None else out / "observations",
+                                            backend=backend, workers=workers, ray_address=ray_address,
+                                            progress=progress, runner=runners[cond])
     return runners, observations, row_trial
 
 
@@ -73,14 +120,6 @@ def _to_z(model: FitModel, values: dict) -> np.ndarray:
 
 def _from_z(model: FitModel, z) -> dict:
     return {p.name: p.lo + (p.hi - p.lo) / (1 + math.exp(-float(v))) for p, v in zip(model.parameters, z)}
-
-
-def _data_hash(data: LocalizationData) -> str:
-    h = hashlib.sha256()
-    for a in (data.amplitude_deg, data.flash_time_ms, data.true_deg, data.perceived_deg, data.n, data.sd_deg):
-        h.update(np.ascontiguousarray(a, float).tobytes())
-    h.update("|".join(data.condition).encode())
-    return h.hexdigest()[:12]
 
 
 def _quadratic_hessian(f, x: np.ndarray, steps: np.ndarray) -> np.ndarray:
@@ -106,94 +145,242 @@ def _quadratic_hessian(f, x: np.ndarray, steps: np.ndarray) -> np.ndarray:
     return H / np.outer(steps, steps)
 
 
-def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: Path | None, max_evals: int) -> dict:
-    """Maximize the likelihood over the model's parameters with the report noise profiled out
-    (its closed-form maximum for the others), Nelder-Mead from the best of a coarse grid."""
-    import itertools
+# ---------------------------------------------------------------------------------------------- the log
+_NOISE = ("noise_x_deg", "noise_y_deg")
 
+
+class _Log:
+    """``fit_log.csv``: one row per evaluation (``fit_key``, log-likelihood, the free parameters and
+    the profiled noise, ``crc32`` of the row's text), read back as a memo of evaluations. Rows of
+    another fit, torn or damaged rows are dropped (and the file rewritten without them)."""
+
+    def __init__(self, path: Path | None, key: str, free: list[str]):
+        self.path, self.key, self.free = path, key, free
+        self.header = ["fit_key", "log_likelihood", *free, *_NOISE, "crc32"]
+        self.memo: dict[tuple, tuple] = {}
+        self.fh = None
+        if path is None:
+            return
+        kept, dropped = [], 0
+        if path.exists():
+            lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+            if lines and lines[0].split(",") == self.header:
+                for line in lines[1:]:
+                    row = self._parse(line)
+                    if row is None:
+                        dropped += 1
+                        continue
+                    kept.append(line)
+                    self.memo[row[0]] = row[1]
+            elif lines:
+                raise FitFolderError(f"{path} is the log of another fit (its header differs); use another --out "
+                                     "folder or delete it")
+        if dropped:
+            print(f"{path}: dropped {dropped} torn, damaged or foreign row(s); those evaluations are redone",
+                  file=sys.stderr)
+        from ..folders import atomic_write_text
+
+        atomic_write_text(path, "\n".join([",".join(self.header), *kept]) + "\n")
+        self.fh = path.open("a", encoding="utf-8")
+
+    def _parse(self, line: str):
+        body, sep, crc = line.rpartition(",")
+        if not sep or f"{zlib.crc32(body.encode()):08x}" != crc:
+            return None
+        f = body.split(",")
+        if len(f) != len(self.header) - 1 or f[0] != self.key:
+            return None
+        try:
+            vals = [float(v) for v in f[1:]]
+        except ValueError:
+            return None
+        k = len(self.free)
+        return tuple(f[2:2 + k]), (vals[0], vals[1 + k], vals[2 + k])
+
+    def add(self, key: tuple, ll: float, noise: tuple) -> None:
+        self.memo[key] = (ll, *noise)
+        if self.fh is not None:
+            body = ",".join([self.key, repr(float(ll)), *key, *(repr(float(v)) for v in noise)])
+            self.fh.write(f"{body},{zlib.crc32(body.encode()):08x}\n")
+            self.fh.flush()
+
+    def close(self) -> None:
+        if self.fh is not None:
+            self.fh.close()
+            self.fh = None
+
+
+# ---------------------------------------------------------------------------------------------- fit
+def _lost_rows(data: LocalizationData, preds: list[np.ndarray]) -> np.ndarray:
+    """Rows whose prediction is not finite under every one of ``preds``."""
+    lost = np.ones(len(data), bool)
+    for p in preds:
+        lost &= ~np.isfinite(p).all(axis=1)
+    return np.flatnonzero(lost)
+
+
+def _rows_text(data: LocalizationData, rows: np.ndarray) -> str:
+    shown = ", ".join(str(int(i) + 2) for i in rows[:10]) + (f" and {len(rows) - 10} more" if len(rows) > 10 else "")
+    i = int(rows[0])
+    return (f"{len(rows)} of {len(data)} rows ({shown}; row {i + 2}: amplitude {data.amplitude_deg[i]:g} deg, flash "
+            f"at ({data.true_deg[i, 0]:g}, {data.true_deg[i, 1]:g}) deg, {data.flash_time_ms[i]} ms, "
+            f"{data.condition[i]})")
+
+
+def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: Path | None, max_evals: int,
+                  key: str = "", progress: bool = False) -> dict:
+    """Maximize the likelihood over the model's parameters with the report noise profiled out
+    (its closed-form maximum for the others): Nelder-Mead from the best point of a fixed grid.
+    Deterministic: the same data, model and options give the same evaluations in the same order."""
     from scipy.optimize import minimize
 
     ev = Evaluator(model, data, runners, observations, row_trial)
     free = [p for p in model.parameters if not p.name.startswith("noise")]
+    free_names = [p.name for p in free]
     sub = FitModel(model.name, model.config, tuple(free))
     names = [p.name for p in model.parameters]
-    log_path = None if out is None else out / "fit_log.csv"
-    tag = f"{model.name}|{_data_hash(data)}"
-    start, best_logged = None, -math.inf
-    if log_path is not None and log_path.exists():  # resume: start from the best logged parameters
-        with log_path.open(newline="") as fh:
-            for row in csv.DictReader(fh):
-                try:
-                    if row["fit"] == tag and float(row["log_likelihood"]) > best_logged:
-                        best_logged, start = float(row["log_likelihood"]), {p.name: float(row[p.name]) for p in free}
-                except (KeyError, ValueError, TypeError):
-                    continue  # a torn last line of an interrupted fit
-    fh = None
-    if log_path is not None:
-        new = not log_path.exists()
-        fh = log_path.open("a", newline="")
-        w = csv.writer(fh)
-        if new:
-            w.writerow(["fit", "log_likelihood"] + names)
+    log = _Log(None if out is None else out / "fit_log.csv", key, free_names)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=3 ** len(free) + max_evals + 1 + 2 * len(free) ** 2 + 2 * len(free) + 1, unit="eval",
+                   desc=f"fitting {model.name}")
+    replayed = 0
 
     def profiled(values: dict) -> tuple[float, dict]:
-        full = ev.noise_mle(values)
-        ll = ev.log_likelihood(full)
-        if fh is not None:
-            w.writerow([tag, repr(ll)] + [repr(full[n]) for n in names])
-            fh.flush()
-        return (ll if math.isfinite(ll) else -1e12), full
+        nonlocal replayed
+        k = tuple(repr(float(values[n])) for n in free_names)
+        hit = log.memo.get(k)
+        if hit is not None:
+            replayed += 1
+            ll, nx, ny = hit
+            full = {**{n: float(v) for n, v in zip(free_names, k)}, "noise_x_deg": nx, "noise_y_deg": ny}
+        else:
+            full = ev.noise_mle(values)
+            ll = ev.log_likelihood(full)
+            log.add(k, ll, (full["noise_x_deg"], full["noise_y_deg"]))
+        if bar is not None:
+            bar.update(1)
+        return ll, full
+
+    def objective(values: dict) -> float:
+        ll = profiled(values)[0]
+        return ll if math.isfinite(ll) else -1e12  # a penalty the optimizer can compare, never an output
 
     try:
-        if start is None:  # the best of a coarse grid (the default and 2 more levels per parameter)
-            grid = [[p.lo + f * (p.hi - p.lo) for f in (0.2, 0.6)] + [p.default] for p in free]
-            start = max(({p.name: v for p, v in zip(free, combo)} for combo in itertools.product(*grid)),
-                        key=lambda v: profiled(v)[0])
-        res = minimize(lambda z: -profiled(_from_z(sub, z))[0], _to_z(sub, start), method="Nelder-Mead",
+        grid = [[p.lo + f * (p.hi - p.lo) for f in (0.2, 0.6)] + [p.default] for p in free]
+        starts = [dict(zip(free_names, combo)) for combo in itertools.product(*grid)]
+        lls = [profiled(v)[0] for v in starts]
+        if not any(math.isfinite(v) for v in lls):
+            lost = _lost_rows(data, [ev.predict(v) for v in starts])
+            lost = lost if lost.size else np.flatnonzero(~np.isfinite(ev.predict(starts[-1])).all(axis=1))
+            raise FitError(f"{model.name} cannot be fitted: at every starting point it loses the flash of "
+                           f"{_rows_text(data, lost)} -- no activity to read out (a flash outside the eyes' field "
+                           "of view, or one the read-out's threshold drops); remove those rows or check their units")
+        start = starts[int(np.argmax([v if math.isfinite(v) else -np.inf for v in lls]))]
+        res = minimize(lambda z: -objective(_from_z(sub, z)), _to_z(sub, start), method="Nelder-Mead",
                        options={"maxfev": max_evals, "xatol": 1e-3, "fatol": 1e-2, "adaptive": True})
         ll, best = profiled(_from_z(sub, res.x))
-        x = np.array([best[p.name] for p in free])
+        x = np.array([best[n] for n in free_names])
         span = np.array([p.hi - p.lo for p in free])
         room = np.minimum(x - [p.lo for p in free], [p.hi for p in free] - x)
         steps = np.maximum(np.minimum(0.01 * span, room / 2.5), 1e-4 * span)
-        H = _quadratic_hessian(lambda v: -profiled(dict(zip([p.name for p in free], v)))[0], x, steps)
+        H = _quadratic_hessian(lambda v: -profiled(dict(zip(free_names, v)))[0], x, steps)
     finally:
-        if fh is not None:
-            fh.close()
-    try:
-        cov = np.linalg.inv(H)
-        ok = bool(np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(0.5 * (H + H.T)) > 0))
-    except np.linalg.LinAlgError:
-        cov, ok = np.full_like(H, np.nan), False
-    se = dict(zip([p.name for p in free], np.sqrt(np.diag(cov)) if ok else np.full(len(free), np.nan)))
+        log.close()
+        if bar is not None:
+            bar.close()
+    if replayed and progress:
+        print(f"{model.name}: {replayed} evaluations read back from {log.path}", file=sys.stderr)
+    if not math.isfinite(ll):  # pragma: no cover - the optimum is at least the best finite start
+        raise FitError(f"{model.name}: the optimum has no finite likelihood")
+    pred = ev.predict(best)
+    lost = np.flatnonzero(~np.isfinite(pred).all(axis=1))
+    if lost.size:  # pragma: no cover - a finite log-likelihood has finite predictions
+        raise FitError(f"{model.name}: at the optimum the model loses the flash of {_rows_text(data, lost)}")
+    ok = bool(np.all(np.isfinite(H)))
+    cov = np.full_like(H, np.nan)
+    if ok:
+        try:
+            cov = np.linalg.inv(H)
+            ok = bool(np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(0.5 * (H + H.T)) > 0))
+        except np.linalg.LinAlgError:
+            ok = False
+    se = dict(zip(free_names, np.sqrt(np.diag(cov)) if ok else np.full(len(free), np.nan)))
     n_eff = len(data) + float(np.sum(np.where(np.isfinite(data.sd_deg[:, 0]), data.n - 1, 0)))
-    for nm in ("noise_x_deg", "noise_y_deg"):  # the MLE of a Gaussian s.d.: SE = s / sqrt(2 N)
+    for nm in _NOISE:  # the MLE of a Gaussian s.d.: SE = s / sqrt(2 N)
         se[nm] = best[nm] / math.sqrt(2 * n_eff)
     bounds = {p.name: (p.lo, p.hi) for p in model.parameters}
     ci = {n: ([max(bounds[n][0], best[n] - 1.96 * se[n]), min(bounds[n][1], best[n] + 1.96 * se[n])]
-              if math.isfinite(se[n]) else [float("nan")] * 2) for n in names}
+              if math.isfinite(se[n]) else [None, None]) for n in names}
+    at_bound = [n for n in names if min(best[n] - bounds[n][0], bounds[n][1] - best[n]) <= 1e-3 * (bounds[n][1]
+                                                                                                   - bounds[n][0])]
     k, n_obs = len(names), data.n_observations
+    resid = data.perceived_deg - pred
+    rms = np.sqrt(np.sum(data.n[:, None] * resid**2, axis=0) / data.n.sum())
     return {"model": model.name, "parameters": {n: float(best[n]) for n in names},
-            "se": {n: float(se[n]) for n in names}, "ci": ci, "log_likelihood": ll,
-            "aic": 2 * k - 2 * ll, "bic": k * math.log(n_obs) - 2 * ll, "n": n_obs, "n_parameters": k,
-            "n_rows": len(data), "converged": bool(res.success), "evaluations": ev.evaluations,
-            "hessian_ok": ok, "data": data.source, "data_hash": _data_hash(data),
-            "_predict": ev.predict(best)}
+            "se": {n: (float(se[n]) if math.isfinite(se[n]) else None) for n in names}, "ci": ci,
+            "log_likelihood": float(ll), "aic": 2 * k - 2 * ll, "bic": k * math.log(n_obs) - 2 * ll, "n": n_obs,
+            "n_parameters": k, "n_rows": len(data), "converged": bool(res.success), "evaluations": len(log.memo),
+            "hessian_ok": ok, "at_bounds": at_bound, "residual_rms_deg": [float(rms[0]), float(rms[1])],
+            "data": data.source, "data_hash": _data_hash(data), "fit_key": key, "_predict": pred}
 
 
-def _write_fit(result: dict, data: LocalizationData, out: Path) -> None:
+def _checksum(result: dict) -> str:
+    body = {k: v for k, v in result.items() if k != "checksum"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, allow_nan=False).encode()).hexdigest()[:16]
+
+
+def finished_fit(out: Path, key: str) -> dict | None:
+    """The verified ``fit.json`` of the fit ``key`` in ``out`` (with its other outputs present), or
+    ``None`` when there is none or it is damaged; :class:`FitFolderError` if ``out`` holds another fit."""
+    path = out / "fit.json"
+    if not path.exists():
+        return None
+    try:
+        result = json.loads(path.read_text(encoding="utf-8"))
+        ok = isinstance(result, dict) and result.get("checksum") == _checksum(result)
+    except (OSError, UnicodeDecodeError, ValueError, TypeError):
+        ok = False
+    if not ok:
+        print(f"{path} is damaged (unreadable or its checksum fails); fitting again", file=sys.stderr)
+        return None
+    if result.get("fit_key") != key:
+        raise FitFolderError(f"{out} holds a fit of another model, data set or options (fit_key "
+                             f"{result.get('fit_key')}; this fit: {key}); use another --out folder or delete it")
+    if not all((out / f).exists() for f in ("fitted_trials.csv", "fit.png")):
+        return None
+    return result
+
+
+def _write_fit(result: dict, data: LocalizationData, out: Path, fwd: ForwardModel) -> dict:
+    """Write ``fitted_trials.csv``, ``fit.png`` and last (marking the fit finished) ``fit.json``."""
+    from ..folders import atomic_write_text, json_safe, write_json
+
     pred = result.pop("_predict")
-    tmp = out / "fit.json.tmp"
-    tmp.write_text(json.dumps(result, indent=2, allow_nan=True) + "\n")
-    tmp.replace(out / "fit.json")
-    with (out / "fitted_trials.csv").open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["saccade_amplitude_deg", "flash_time_ms", "condition", "true_x_deg", "true_y_deg", "n",
-                    "perceived_x_deg", "perceived_y_deg", "predicted_x_deg", "predicted_y_deg"])
-        for i in range(len(data)):
-            w.writerow([data.amplitude_deg[i], data.flash_time_ms[i], data.condition[i], *data.true_deg[i], data.n[i],
-                        *data.perceived_deg[i], *pred[i]])
+    result["forward_model"] = {"source": fwd.source, "config": fwd.fingerprint()}
+    result = json_safe(result)
+    result["checksum"] = _checksum(result)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["saccade_amplitude_deg", "flash_time_ms", "condition", "true_x_deg", "true_y_deg", "n",
+                "perceived_x_deg", "perceived_y_deg", "predicted_x_deg", "predicted_y_deg"])
+    for i in range(len(data)):
+        w.writerow([data.amplitude_deg[i], data.flash_time_ms[i], data.condition[i], *data.true_deg[i], data.n[i],
+                    *data.perceived_deg[i], *pred[i]])
+    atomic_write_text(out / "fitted_trials.csv", buf.getvalue())
     _plot_fit(data, pred, result, out / "fit.png")
+    write_json(out / "fit.json", result)
+    return result
+
+
+def _save_figure(fig, path: Path) -> None:
+    from ..folders import atomic_write_bytes
+
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=100, format="png")
+    atomic_write_bytes(path, buf.getvalue())
 
 
 def _plot_fit(data: LocalizationData, pred: np.ndarray, result: dict, path: Path) -> None:
@@ -219,62 +406,88 @@ def _plot_fit(data: LocalizationData, pred: np.ndarray, result: dict, path: Path
         c.legend(fontsize=7)
     fig.suptitle(f"{result['model']}: log L = {result['log_likelihood']:.1f}, AIC {result['aic']:.1f}")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    _save_figure(fig, path)
     plt.close(fig)
 
 
 def fit(data: LocalizationData, model: str, out, *, backend: str = "local", workers: int = 1,
-        ray_address: str | None = None, max_evals: int = 300, image_size: int = IMAGE_SIZE) -> dict:
+        ray_address: str | None = None, max_evals: int = 300, observing: dict | None = None,
+        progress: bool = False) -> dict:
     """Fit ``model`` to ``data``; writes ``out/fit.json``, ``fitted_trials.csv``, ``fit.png`` and
-    ``fit_log.csv``; returns the fit.json content."""
+    ``fit_log.csv``; returns the fit.json content (with ``already_done`` true when it was finished).
+
+    ``observing``: ``forward.OBSERVING_OPTIONS`` overriding the data's sidecar (``forward_model``)."""
+    from ..psychophysics.runner import folder_lock
+
     m = _model(model)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    runners, observations, row_trial = prepare(data, out, backend=backend, workers=workers, ray_address=ray_address,
-                                               image_size=image_size)
-    result = _fit_prepared(m, data, runners, observations, row_trial, out, max_evals)
-    _write_fit(result, data, out)
-    return result
+    fwd = forward_model(data, observing)
+    with folder_lock(out) as out:
+        return _fit_in(m, data, fwd, out, out, max_evals, progress, dict(backend=backend, workers=workers,
+                                                                         ray_address=ray_address, progress=progress))
+
+
+def _fit_in(m, data, fwd, out: Path, root: Path, max_evals: int, progress: bool, options: dict,
+            prepared: list | None = None) -> dict:
+    prepared = [] if prepared is None else prepared
+    key = fit_key(m.name, data, fwd, max_evals)
+    done = finished_fit(out, key)
+    if done is not None:
+        print(f"{m.name}: already fitted in {out} (fit_key {key}): nothing to do", file=sys.stderr)
+        return {**done, "already_done": True}
+    if not prepared:
+        prepared.append(prepare(data, root, fwd, **options))
+    runners, observations, row_trial = prepared[0]
+    r = _fit_prepared(m, data, runners, observations, row_trial, out, max_evals, key, progress)
+    return {**_write_fit(r, data, out, fwd), "already_done": False}
 
 
 def compare(data: LocalizationData, models: list[str], out, *, backend: str = "local", workers: int = 1,
-            ray_address: str | None = None, max_evals: int = 300, image_size: int = IMAGE_SIZE) -> list[dict]:
-    """Fit each of ``models`` (observations shared); writes ``out/comparison.csv`` (ranked by AIC),
-    ``out/lrt.csv`` (nested pairs), each fit in ``out/<model>/`` and ``comparison.png``."""
+            ray_address: str | None = None, max_evals: int = 300, observing: dict | None = None,
+            progress: bool = False) -> list[dict]:
+    """Fit each of ``models`` (observations shared; each fit a no-op when finished); writes
+    ``out/comparison.csv`` (ranked by AIC), ``out/lrt.csv`` (nested pairs), each fit in
+    ``out/<model>/`` and ``comparison.png``."""
     from scipy.stats import chi2
 
+    from ..folders import atomic_write_text
+    from ..psychophysics.runner import folder_lock
+
     ms = [_model(m) for m in models]
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    runners, observations, row_trial = prepare(data, out, backend=backend, workers=workers, ray_address=ray_address,
-                                               image_size=image_size)
-    fits = {}
-    for m in ms:
-        sub = out / m.name.replace("/", "_")
-        sub.mkdir(exist_ok=True)
-        r = _fit_prepared(m, data, runners, observations, row_trial, sub, max_evals)
-        _write_fit(r, data, sub)
-        fits[m.name] = r
-    rows = sorted(({"model": k, "log_likelihood": r["log_likelihood"], "aic": r["aic"], "bic": r["bic"],
-                    "n_parameters": r["n_parameters"], "n": r["n"]} for k, r in fits.items()), key=lambda r: r["aic"])
-    for r in rows:
-        r["delta_aic"] = r["aic"] - rows[0]["aic"]
-        r["delta_bic"] = r["bic"] - min(x["bic"] for x in rows)
-    with (out / "comparison.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+    dup = sorted({m.name for m in ms if [x.name for x in ms].count(m.name) > 1})
+    if dup:
+        raise ValueError(f"models listed twice: {', '.join(dup)}")
+    fwd = forward_model(data, observing)
+    options = dict(backend=backend, workers=workers, ray_address=ray_address, progress=progress)
+    fits, prepared = {}, []
+    with folder_lock(out) as out:
+        for m in ms:
+            sub = out / m.name.replace("/", "_")
+            with folder_lock(sub):
+                fits[m.name] = _fit_in(m, data, fwd, sub, out, max_evals, progress, options, prepared)
+        rows = sorted(({"model": k, "log_likelihood": r["log_likelihood"], "aic": r["aic"], "bic": r["bic"],
+                        "n_parameters": r["n_parameters"], "n": r["n"]} for k, r in fits.items()),
+                      key=lambda r: r["aic"])
+        for r in rows:
+            r["delta_aic"] = r["aic"] - rows[0]["aic"]
+            r["delta_bic"] = r["bic"] - min(x["bic"] for x in rows)
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
         w.writeheader()
         w.writerows(rows)
-    tests = []
-    for restricted, (full, df, on_bound) in NESTED.items():
-        if restricted in fits and full in fits:
-            lr = max(0.0, 2 * (fits[full]["log_likelihood"] - fits[restricted]["log_likelihood"]))
-            p = float(chi2.sf(lr, df)) * (0.5 if on_bound else 1.0)
-            tests.append({"restricted": restricted, "full": full, "lr_statistic": lr, "df": df, "p_value": p})
-    with (out / "lrt.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=["restricted", "full", "lr_statistic", "df", "p_value"])
+        atomic_write_text(out / "comparison.csv", buf.getvalue())
+        tests = []
+        for restricted, (full, df, on_bound) in NESTED.items():
+            if restricted in fits and full in fits:
+                lr = max(0.0, 2 * (fits[full]["log_likelihood"] - fits[restricted]["log_likelihood"]))
+                p = float(chi2.sf(lr, df)) * (0.5 if on_bound else 1.0)
+                tests.append({"restricted": restricted, "full": full, "lr_statistic": lr, "df": df, "p_value": p})
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=["restricted", "full", "lr_statistic", "df", "p_value"],
+                           lineterminator="\n")
         w.writeheader()
         w.writerows(tests)
-    _plot_comparison(rows, out / "comparison.png")
+        atomic_write_text(out / "lrt.csv", buf.getvalue())
+        _plot_comparison(rows, out / "comparison.png")
     return rows
 
 
@@ -288,43 +501,74 @@ def _plot_comparison(rows: list[dict], path: Path) -> None:
     ax.barh([r["model"] for r in rows][::-1], [r["delta_aic"] for r in rows][::-1], color="C0")
     ax.set(xlabel="AIC - best AIC", title="model comparison (lower is better)")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    _save_figure(fig, path)
     plt.close(fig)
 
 
+SIMULATED_COLUMNS = ("saccade_amplitude_deg", "flash_time_ms", "true_x_deg", "true_y_deg", "perceived_x_deg",
+                     "perceived_y_deg", "condition", "seed", "flash_dx_deg", "flash_dy_deg")
+
+
 def simulate_data(model: str, values: dict, design, conditions=("references", "dark"), reports: int = 1,
-                  seed: int = 0, out_csv=None, *, workers: int = 1, image_size: int = IMAGE_SIZE) -> LocalizationData:
+                  seed: int = 0, out_csv=None, *, workers: int = 1, image_size: int = IMAGE_SIZE, config=None,
+                  progress: bool = False, meta: dict | None = None) -> LocalizationData:
     """A data set from ``model`` at parameter ``values`` (noise included): every trial of ``design``
-    in each condition, ``reports`` noisy reports each (seeded). Written to ``out_csv`` if given."""
+    in each condition, ``reports`` noisy reports each (seeded).
+
+    ``config``: the observing ``TrialConfig`` (default: the defaults at ``image_size`` px). Written
+    to ``out_csv`` if given (atomically; columns ``SIMULATED_COLUMNS``), with a sidecar
+    ``out_csv.with_suffix(".json")`` holding ``meta``, the parameters, the design and the
+    configuration that ``fit`` reads to reproduce the forward model."""
+    from dataclasses import replace
+
+    from ..psychophysics import TrialConfig, TrialRunner, config_fingerprint
+
     m = _model(model)
     missing = [p.name for p in m.parameters if p.name not in values]
     if missing:
         raise ValueError(f"simulate_data: give every parameter of {model}: missing {', '.join(missing)}")
-    from ..psychophysics import TrialConfig, TrialRunner
-
+    base = config if config is not None else TrialConfig(image_size=image_size)
     rng = np.random.default_rng(seed)
     rows = []
     trials = list(design.trials())
     for cond in conditions:
-        config = TrialConfig(image_size=image_size, condition=cond)
-        obs = observe_trials(trials, config, None, workers=workers)
-        runner = TrialRunner(config)
-        cfg = m.trial_config(config, values)
-        for o in obs:
-            r = runner.readout(o, cfg)
-            for _ in range(reports):
-                rows.append((r["saccade_amplitude_deg"], r["flash_time_ms"], r["true_x_deg"], r["true_y_deg"],
-                             r["perceived_x_deg"] + rng.normal(0, values["noise_x_deg"]),
-                             r["perceived_y_deg"] + rng.normal(0, values["noise_y_deg"]), cond))
-        runner.close()
+        cfg0 = replace(base, condition=cond)
+        obs = observe_trials(trials, cfg0, None, workers=workers, progress=progress)
+        runner = TrialRunner(cfg0)
+        cfg = m.trial_config(cfg0, values)
+        try:
+            for t, o in zip(trials, obs):
+                r = runner.readout(o, cfg)
+                if not (math.isfinite(r["perceived_x_deg"]) and math.isfinite(r["perceived_y_deg"])):
+                    raise FitError(f"{model} loses the flash of trial {t.trial_id} ({cond}: amplitude "
+                                   f"{t.amplitude_deg:g} deg, offset ({t.flash_dx_deg:g}, {t.flash_dy_deg:g}) deg, "
+                                   f"{t.flash_time_ms} ms) at these parameters: no report can be simulated")
+                for _ in range(reports):
+                    rows.append((r["saccade_amplitude_deg"], r["flash_time_ms"], r["true_x_deg"], r["true_y_deg"],
+                                 r["perceived_x_deg"] + rng.normal(0, values["noise_x_deg"]),
+                                 r["perceived_y_deg"] + rng.normal(0, values["noise_y_deg"]), cond, t.seed,
+                                 t.flash_dx_deg, t.flash_dy_deg))
+        finally:
+            runner.close()
     a = np.array([r[:6] for r in rows], float)
     data = LocalizationData(a[:, 0], a[:, 1].astype(int), a[:, 2:4], a[:, 4:6], np.array([r[6] for r in rows]),
-                            np.ones(len(rows), int), np.full((len(rows), 2), np.nan), "simulated")
+                            np.ones(len(rows), int), np.full((len(rows), 2), np.nan),
+                            str(out_csv) if out_csv is not None else "simulated")
     if out_csv is not None:
-        with open(out_csv, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["saccade_amplitude_deg", "flash_time_ms", "true_x_deg", "true_y_deg", "perceived_x_deg",
-                        "perceived_y_deg", "condition"])
-            for r in rows:
-                w.writerow([f"{r[0]:g}", int(r[1]), f"{r[2]:.4f}", f"{r[3]:.4f}", f"{r[4]:.4f}", f"{r[5]:.4f}", r[6]])
+        from ..folders import atomic_write_text, json_safe, write_json
+
+        out_csv = Path(out_csv)
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(SIMULATED_COLUMNS)
+        for r in rows:
+            w.writerow([f"{r[0]:g}", int(r[1]), *(f"{v:.10g}" for v in r[2:6]), r[6], int(r[7]), f"{r[8]:g}",
+                        f"{r[9]:g}"])
+        fp = config_fingerprint(design, m.trial_config(base, values))
+        fp["config"].pop("condition", None)
+        side = {**(meta or {}), "generated_by": "python -m experiments simulate", "model": model,
+                "parameters": dict(values), "design": fp["design"], "conditions": list(conditions),
+                "reports_per_trial": reports, "seed": seed, "rows": len(rows), "config": fp["config"]}
+        write_json(out_csv.with_suffix(".json"), json_safe(side))
+        atomic_write_text(out_csv, buf.getvalue())
     return data

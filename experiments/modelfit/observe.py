@@ -3,8 +3,14 @@
 A model fit changes only read-out parameters (``psychophysics.READOUT_PARAMETERS``), so each trial
 is rendered and seen by the retina once (``TrialRunner.observe``) and re-read for every parameter
 set (``TrialRunner.readout``): the real pipeline, not a surrogate. Observations are cached on
-disk (``DIR/observations/*.pkl``, written atomically, keyed by a hash of the trials and the
-observing configuration), so a fit that is interrupted resumes without rendering again.
+disk (``DIR/observations/*.npz``: numeric arrays only, read without pickle, keyed by a hash of the
+trials and the observing configuration and verified by a checksum; ``modelfit.cache``), so a fit
+that is interrupted resumes without rendering again. A cache that fails its checks is rebuilt,
+with a message on stderr. A fit always reads its observations back from the cache it wrote, so an
+uninterrupted fit and a resumed one start from the same bytes.
+
+Worker processes exit with their parent, even after ``kill -9`` (``folders.die_with_parent``), and
+use one BLAS/OpenMP thread each.
 
 Backends: ``local`` (in-process for ``workers=1``, else spawned processes) and ``ray`` (actors on
 a local Ray instance, or on a cluster with ``ray_address``). Both give identical observations: a
@@ -16,8 +22,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import pickle
-from concurrent.futures import ProcessPoolExecutor
+import sys
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 __all__ = ["BACKENDS", "observe_trials", "observation_key"]
@@ -40,14 +46,21 @@ def _strip(obs):
     return obs
 
 
-def _init(config) -> None:
+def _init(config, parent_pid: int | None = None) -> None:
     global _RUNNER
+    import signal
+
     from threadpoolctl import threadpool_limits
 
     from ..psychophysics import TrialRunner
 
-    threadpool_limits(1)
+    if parent_pid is not None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the process group: the parent stops us
+        from ..folders import die_with_parent
+
+        die_with_parent(parent_pid)
     _RUNNER = TrialRunner(config)
+    threadpool_limits(1)  # after TrialRunner: every BLAS/OpenMP library it loads is limited
 
 
 def _observe_batch(trials) -> list:
@@ -59,24 +72,36 @@ def _batches(items: list, n: int) -> list[list]:
     return [items[i::n] for i in range(n)]
 
 
-def _local(trials, config, workers: int) -> list:
+def _local(trials, config, workers: int, progress) -> list:
     if workers <= 1:
         _init(config)
-        return _observe_batch(trials)
+        out = []
+        for i in range(0, len(trials), 8):
+            out += _observe_batch(trials[i:i + 8])
+            progress(len(trials[i:i + 8]))
+        return out
     import multiprocessing as mp
 
-    order = {id(t): i for i, t in enumerate(trials)}
+    from ..psychophysics.runner import _stop_pool
+
     out = [None] * len(trials)
-    chunks = [trials[i:i + 8] for i in range(0, len(trials), 8)]
-    with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_init,
-                             initargs=(config,)) as pool:
-        for chunk, res in zip(chunks, pool.map(_observe_batch, chunks)):
-            for t, o in zip(chunk, res):
-                out[order[id(t)]] = o
+    chunks = [list(range(i, min(i + 8, len(trials)))) for i in range(0, len(trials), 8)]
+    pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_init,
+                               initargs=(config, os.getpid()))
+    try:
+        futures = {pool.submit(_observe_batch, [trials[i] for i in idx]): idx for idx in chunks}
+        for f in as_completed(futures):
+            for i, o in zip(futures[f], f.result()):
+                out[i] = o
+            progress(len(futures[f]))
+    except BaseException:
+        _stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
     return out
 
 
-def _ray(trials, config, workers: int, address: str | None) -> list:
+def _ray(trials, config, workers: int, address: str | None, progress) -> list:
     try:
         import ray
     except ImportError:
@@ -100,11 +125,16 @@ def _ray(trials, config, workers: int, address: str | None) -> list:
         n_actors = max(1, min(workers, len(trials)))
         actors = [Observer.remote(config) for _ in range(n_actors)]
         batches = _batches(list(range(len(trials))), n_actors)
-        results = ray.get([a.observe.remote([trials[i] for i in idx]) for a, idx in zip(actors, batches)])
+        small = [idx[j:j + 8] for idx in batches for j in range(0, len(idx), 8)]
+        refs = {actors[k % n_actors].observe.remote([trials[i] for i in idx]): idx for k, idx in enumerate(small)}
         out = [None] * len(trials)
-        for idx, res in zip(batches, results):
-            for i, o in zip(idx, res):
-                out[i] = o
+        pending = list(refs)
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=1)
+            for r in ready:
+                for i, o in zip(refs[r], ray.get(r)):
+                    out[i] = o
+                progress(len(refs[r]))
         for a in actors:
             ray.kill(a)
         return out
@@ -114,27 +144,47 @@ def _ray(trials, config, workers: int, address: str | None) -> list:
 
 
 def observe_trials(trials: list, config, cache_dir: Path | None = None, *, backend: str = "local", workers: int = 1,
-                   ray_address: str | None = None) -> list:
-    """Observations of ``trials`` under ``config`` (cached in ``cache_dir`` when given)."""
+                   ray_address: str | None = None, progress: bool = False, runner=None) -> list:
+    """Observations of ``trials`` under ``config``.
+
+    With ``cache_dir``, they are read from (or computed and written to) its verified ``.npz``
+    cache (``modelfit.cache``) and always returned as read back from it; ``runner`` is a
+    ``TrialRunner`` of ``config`` to rebuild them against (made here when not given). ``progress``
+    shows a progress bar (tqdm, on stderr) while trials are observed."""
+    from . import cache
+
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {', '.join(BACKENDS)}; got {backend!r}")
-    path = None
+    path = key = None
     if cache_dir is not None:
+        from ..psychophysics import TrialRunner
+
         cache_dir = Path(cache_dir)
         cache_dir.mkdir(parents=True, exist_ok=True)
-        path = cache_dir / f"{config.condition}-{observation_key(trials, config)}.pkl"
+        key = observation_key(trials, config)
+        path = cache_dir / f"{config.condition}-{key}.npz"
+        runner = runner if runner is not None else TrialRunner(config)
+        cached, why = cache.load(path, key, trials, runner)
+        if cached is not None:
+            return cached
         if path.exists():
-            try:
-                with path.open("rb") as fh:
-                    cached = pickle.load(fh)
-                if len(cached) == len(trials):
-                    return cached
-            except (OSError, pickle.UnpicklingError, EOFError, AttributeError):
-                pass  # a damaged cache is redone
-    obs = _ray(trials, config, workers, ray_address) if backend == "ray" else _local(trials, config, workers)
-    if path is not None:
-        tmp = path.with_name(path.name + f".tmp{os.getpid()}")
-        with tmp.open("wb") as fh:
-            pickle.dump(obs, fh, protocol=pickle.HIGHEST_PROTOCOL)
-        tmp.replace(path)
-    return obs
+            print(f"{path}: {why}; observing its {len(trials)} trials again", file=sys.stderr)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(trials), unit="trial", desc=f"observing ({config.condition})")
+    tick = bar.update if bar is not None else (lambda n: None)
+    try:
+        obs = (_ray(trials, config, workers, ray_address, tick) if backend == "ray"
+               else _local(trials, config, workers, tick))
+    finally:
+        if bar is not None:
+            bar.close()
+    if path is None:
+        return obs
+    cache.save(path, obs, key)
+    back, why = cache.load(path, key, trials, runner)
+    if back is None:
+        raise RuntimeError(f"{path}: the observations just written do not read back ({why})")
+    return back

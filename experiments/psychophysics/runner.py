@@ -79,26 +79,10 @@ def _limit_threads() -> None:
 
 
 def _die_with_parent(parent_pid: int) -> None:
-    """Make this worker exit when ``parent_pid`` dies, even by SIGKILL."""
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
+    """Make this worker exit when ``parent_pid`` dies, even by SIGKILL (``folders.die_with_parent``)."""
+    from ..folders import die_with_parent
 
-            libc = ctypes.CDLL(None, use_errno=True)
-            PR_SET_PDEATHSIG = 1
-            libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
-        except (OSError, AttributeError):  # pragma: no cover - no prctl: the watchdog below still works
-            pass
-    if os.getppid() != parent_pid:  # the parent died before the line above
-        os._exit(1)
-
-    def watch() -> None:  # portable fallback: the parent's pid changes when it dies (re-parenting)
-        while True:
-            time.sleep(0.5)
-            if os.getppid() != parent_pid:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="parent-watchdog", daemon=True).start()
+    die_with_parent(parent_pid)
 
 
 def _init_worker(config: TrialConfig, parent_pid: int | None = None) -> None:
@@ -177,11 +161,8 @@ def prepare_output_folder(out_dir: str | os.PathLike) -> Path:
         raise OutputFolderError(f"{out} is a file, not a folder") from None
     except OSError as e:
         raise OutputFolderError(f"cannot create the folder {out}: {e.strerror or e}") from None
-    try:
-        fd = os.open(out / _LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
-        os.close(fd)
-    except OSError as e:
-        raise OutputFolderError(f"cannot write in the folder {out}: {e.strerror or e}") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise OutputFolderError(f"cannot write in the folder {out}: permission denied")
     return out
 
 
@@ -206,38 +187,23 @@ def folder_lock(out_dir: str | os.PathLike) -> Iterator[Path]:
             with _HELD_LOCK:
                 held[1] -= 1
         return
+    from ..folders import LockBusyError, path_lock
+
     try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not POSIX: no locking
-        yield out
-        return
-    path = out / _LOCK_NAME
-    try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        lock = path_lock(out / _LOCK_NAME, str(out))
+        lock.__enter__()
+    except LockBusyError as e:
+        raise FolderBusyError(str(e)) from None
     except OSError as e:
         raise OutputFolderError(f"cannot write in the folder {out}: {e.strerror or e}") from None
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        try:
-            owner = os.pread(fd, 64, 0).decode(errors="replace").strip()
-        except OSError:
-            owner = ""
-        os.close(fd)
-        raise FolderBusyError(f"{out} is in use by another run{f' (pid {owner})' if owner.isdigit() else ''}: "
-                              "wait for it to finish, or use another --out folder") from None
-    try:
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
         with _HELD_LOCK:
-            _HELD[key] = [fd, 1]
+            _HELD[key] = [None, 1]
         yield out
     finally:
         with _HELD_LOCK:
             _HELD.pop(key, None)
-        with contextlib.suppress(OSError):
-            fcntl.flock(fd, fcntl.LOCK_UN)
-        os.close(fd)
+        lock.__exit__(None, None, None)
 
 
 # ---------------------------------------------------------------------------------------------- table
@@ -376,12 +342,9 @@ def read_table(path: str | os.PathLike, *, partial: bool = False) -> dict[str, n
 
 
 def _write_sorted(path: Path, rows: list[dict], chash: str) -> None:
-    tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as fh:
-        fh.write(_header())
-        for r in sorted(rows, key=lambda r: r["trial_id"]):
-            fh.write(_line(r, chash))
-    tmp.replace(path)
+    from ..folders import atomic_write_text
+
+    atomic_write_text(path, _header() + "".join(_line(r, chash) for r in sorted(rows, key=lambda r: r["trial_id"])))
 
 
 def write_parquet(csv_path: str | os.PathLike, parquet_path: str | os.PathLike) -> None:
@@ -395,10 +358,11 @@ def write_parquet(csv_path: str | os.PathLike, parquet_path: str | os.PathLike) 
     for c in TEXT_COLUMNS:
         cols[c] = pa.array(t[c].tolist(), type=pa.string())
     cols["config_hash"] = pa.array(t["config_hash"].tolist(), type=pa.string())
-    target = Path(parquet_path)
-    tmp = target.with_name(target.name + ".tmp")
-    pq.write_table(pa.table(cols), tmp, write_page_checksum=True)
-    tmp.replace(target)
+    from ..folders import atomic_write_bytes
+
+    sink = pa.BufferOutputStream()
+    pq.write_table(pa.table(cols), sink, write_page_checksum=True)
+    atomic_write_bytes(parquet_path, sink.getvalue().to_pybytes())
 
 
 def _batches(trials: list[Trial], size: int) -> Iterable[list[Trial]]:
@@ -470,9 +434,9 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
         n = len(scan.bad)
         print(f"{csv_path}: dropped {n} torn or damaged row(s) ({scan.problems()}); their trials are run again"
               if n else f"{csv_path}: dropped {len(scan.duplicates)} repeated row(s)", file=sys.stderr)
-    tmp = meta_path.with_name(meta_path.name + ".tmp")
-    tmp.write_text(json.dumps({**fp, "config_hash": chash}, indent=1))
-    tmp.replace(meta_path)
+    from ..folders import atomic_write_text
+
+    atomic_write_text(meta_path, json.dumps({**fp, "config_hash": chash}, indent=1))
     done = [scan.rows[k] for k in sorted(scan.rows)]
     done_ids = set(scan.rows)
     todo = [t for t in design.trials() if t.trial_id not in done_ids]
