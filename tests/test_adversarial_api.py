@@ -1,25 +1,49 @@
-"""Hostile input to every public name of ``conformal``, ``models`` and ``envs`` (issue 11, item 5).
+"""Hostile input to every public name of ``conformal``, ``models`` and ``envs`` (issue 11, item 5;
+issue 21, item 10: the same guarantees in a fraction of the items and the time).
 
-Each case is one test item marked ``adversarial`` (``tests/conftest.py`` counts them): a public
-function, constructor, method or env action is called with NaN, infinity, a wrong type, a wrong
-shape, zero, a negative, a huge or a non-integral value, and must raise a ``ValueError`` or
+The contract: a public function, constructor, method or env action given NaN, infinity, a wrong
+type, a wrong shape, zero, a negative, a huge or a non-integral value raises a ``ValueError`` or
 ``TypeError`` (``conformal.checks.InputTypeError`` is both) whose message names the argument,
 never a silent NaN, a truncation, an internal traceback (numba, IndexError, LinAlgError), a hang
-or an unbounded allocation. A few cases check what must keep working at the edges (integral
-floats, float16 and big-endian images, numpy scalars), and hypothesis properties check that any
-finite valid input gives a finite result. ``test_fork_after_render_raises_naming_spawn`` checks
-that an ``AsyncVectorEnv`` forked after the parent rendered fails fast instead of deadlocking.
+or an unbounded allocation. It is checked in three layers, each once:
+
+* ``tests/test_checks.py`` tries every kind of hostile value on each check of ``conformal.checks``
+  (the helpers every public argument goes through);
+* ``test_public_api_validates_every_argument`` walks the public API: every callable named in
+  ``conformal.__all__``, ``models.__all__`` and ``envs.__all__`` (functions, constructors and the
+  public methods the packages define, ``__call__`` and ``__getitem__`` included) must have an
+  entry in ``API`` (a valid call) or a reason in ``EXEMPT``; the walk then calls it once with valid
+  arguments (which must work) and, for each parameter in turn, with probes chosen from the kind of
+  the valid value (a number: NaN, inf, a string, a bool and None; a bool: a string and an int; a
+  string: an int; an array: all-NaN, a string and an object array; any other object: a bare
+  ``object()`` and an int; None wherever None is not the default), plus the entry's own
+  domain values (bounds, non-integral counts, sizes that would allocate without limit, wrong
+  shapes, unknown choices). Each must raise ``ValueError``/``TypeError`` (or the entry's listed
+  types) with a message naming the parameter. A public callable added without an entry fails the
+  walk. ``KNOWN_GAPS`` lists the arguments the walk found unvalidated (reported in issue 21),
+  and the walk fails when one of them becomes validated, so the list cannot go stale;
+* ``CASES``: the refusals that are not "a bad value of one argument" (overflow, poles, singular
+  and non-unimodular matrices, argument combinations, read-only constants, calls before
+  ``reset``, missing files), one item each.
+
+A few cases check what must keep working at the edges (integral floats, float16 and big-endian
+images, numpy scalars), hypothesis properties check that any finite valid input gives a finite
+result, and two subprocess tests check that rendering after a ``fork`` raises instead of
+deadlocking (``test_fork_after_render_raises_naming_spawn``,
+``test_renderer_inherited_through_fork_raises_instead_of_hanging``).
 """
 
 from __future__ import annotations
 
+import inspect
+import numbers
 import os
 import re
 import signal
 import subprocess
 import sys
 import textwrap
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable
 
@@ -36,12 +60,13 @@ from conformal.checks import InputTypeError
 pytestmark = pytest.mark.adversarial
 
 NAN, INF = float("nan"), float("inf")
-HANG_S = 30  # a case running this long is a hang
+#: a call running this long is a hang (the guard never fires on a merely loaded machine)
+HANG_S = 600
 
 
 @pytest.fixture(autouse=True)
 def _no_hang():
-    """Fail a case that runs longer than HANG_S seconds (a hang), instead of blocking the suite."""
+    """Fail a test that runs longer than HANG_S seconds (a hang), instead of blocking the suite."""
 
     def timeout(signum, frame):
         raise TimeoutError(f"hung for {HANG_S} s")
@@ -104,6 +129,10 @@ class World:
         return F, fv, maps
 
     @cached_property
+    def plan_values(self):
+        return self.plan(*self.plan_args)
+
+    @cached_property
     def head(self):
         return models.Head("dots", image_size=32, seed=0)
 
@@ -156,6 +185,29 @@ class World:
     def predictions(self):
         return self.vision.predict_eyes(self.views, ("homography",), [np.eye(3)] * 2)
 
+    @cached_property
+    def n_points(self) -> int:
+        return self.vision.grid.n_fovea + self.vision.grid.M * self.vision.grid.N
+
+    @cached_property
+    def profile(self):
+        return models.BurstGenerator().profile(10.0)
+
+    @cached_property
+    def trace(self):
+        self.head.reset(settle_ms=0)
+        return self.head.step_ms(3, record=True)
+
+    @cached_property
+    def planner(self):
+        return envs.BatchedPlanner(self.head, 2)
+
+    @cached_property
+    def plan_batch(self):
+        self.head.reset(settle_ms=0)
+        batch, _ = self.planner.plan(np.arange(2), np.full((2, 2), 0.05), np.ones(2))
+        return batch
+
     def close(self):
         for name in ("env", "cell_env", "vergence_env", "fresh_env"):
             if name in self.__dict__:
@@ -173,13 +225,21 @@ def o():
     w.close()
 
 
-# ---------------------------------------------------------------------- value families
-def reals(lo=None, hi=None, *, lo_open=False, hi_open=False, nan=True) -> dict[str, Any]:
-    """Bad values for a finite real number in the given interval."""
-    out = {"inf": INF, "-inf": -INF, "str": "1.0", "none": None, "complex": 1 + 1j, "bool": True,
-           "list": [1.0], "array2": np.ones(2)}
-    if nan:
-        out["nan"] = NAN
+class Lazy:
+    """A value that depends on the shared objects: ``Lazy(lambda o: ...)``."""
+
+    def __init__(self, make: Callable[[World], Any]):
+        self.make = make
+
+
+def _resolve(v, o: World):
+    return v.make(o) if isinstance(v, Lazy) else v
+
+
+# ---------------------------------------------------------------------- domain values (beyond the generic probes)
+def bounds(lo=None, hi=None, *, lo_open=False, hi_open=False) -> dict[str, Any]:
+    """Values just outside the interval of a real argument (and a huge one when it is bounded above)."""
+    out: dict[str, Any] = {}
     if lo is not None:
         out["below"] = lo - max(1.0, abs(lo))
         if lo_open:
@@ -192,14 +252,12 @@ def reals(lo=None, hi=None, *, lo_open=False, hi_open=False, nan=True) -> dict[s
     return out
 
 
-def ints(lo=None, hi=None) -> dict[str, Any]:
-    """Bad values for an integer in [lo, hi]: never truncated, never coerced from another type."""
+def counts(lo=None, hi=None) -> dict[str, Any]:
+    """Bad values for an integer in [lo, hi]: non-integral (never truncated), outside, huge."""
     base = lo if lo is not None else 0
-    out = {"nan": NAN, "inf": INF, "frac": base + 1.5 if hi is None or base + 2 <= hi else base + 0.5, "str": "8",
-           "none": None, "bool": True, "complex": 8 + 0j, "list": [8]}
+    out: dict[str, Any] = {"frac": base + 1.5 if hi is None or base + 2 <= hi else base + 0.5}
     if lo is not None:
         out["below"] = lo - 1
-        out["negative"] = min(lo - 1, -1)
     if hi is not None:
         out["above"] = hi + 1
         out["huge"] = 10**12
@@ -207,646 +265,765 @@ def ints(lo=None, hi=None) -> dict[str, Any]:
     return out
 
 
-FLAGS = {"str_no": "no", "str_false": "False", "int1": 1, "int0": 0, "none": None, "float": 1.0, "array": np.array([True])}
+def unknown(valid: str) -> dict[str, Any]:
+    """Bad values for a string choice."""
+    return {"unknown": "nonsense", "empty": "", "upper": valid.upper(), "list": [valid]}
 
 
-def choices(valid: tuple[str, ...], none_ok: bool = False) -> dict[str, Any]:
-    out = {"unknown": "nonsense", "empty": "", "int": 1, "upper": valid[0].upper(), "list": [valid[0]],
-           "bytes": valid[0].encode()}
-    if not none_ok:
-        out["none"] = None
-    return out
-
-
-def arrays(good: np.ndarray, *, complex_ok: bool = False, nan: bool = True, batch: bool = False) -> dict[str, Any]:
-    """Bad versions of a valid array ``good`` (``batch``: its first axis may have any length)."""
+def shapes(good, complex_ok: bool = False) -> dict[str, Any]:
+    """Wrong shapes and kinds for an array argument (its NaN, string and object forms are generic probes)."""
     good = np.asarray(good)
-    out = {"str": "abc", "none": None, "object": np.array([object()] * max(good.size, 1)).reshape(good.shape or (1,)),
-           "ragged": [[1.0, 2.0], [3.0]], "empty": np.zeros((0,)),
-           "extra_dims": good[..., None, None] if good.ndim else np.ones((2, 2)),
-           "scalar": 1.0 if good.ndim else np.ones(5)}
-    if good.ndim >= 1 and not batch:
+    out = {"ragged": [[1.0, 2.0], [3.0]], "empty": np.zeros((0,)), "extra_dims": good[..., None, None]}
+    if good.ndim >= 1:
         out["short"] = np.take(good, np.arange(max(good.shape[0] - 1, 0)), axis=0)
-    if nan:
-        bad = good.astype(complex if good.dtype.kind == "c" else float)
-        flat = bad.reshape(-1)
-        if flat.size:
-            flat[0] = NAN
-            out["nan"] = bad.copy()
-            flat[0] = INF
-            out["inf"] = bad.copy()
-    if not complex_ok:
+    if good.dtype.kind != "c" and not complex_ok:
         out["complex"] = good.astype(complex) + 1j
     return out
 
 
+G_OK = np.eye(2, dtype=complex)
+R_OK = np.eye(3)
+Z_OK = np.array([0.1 + 0.2j, -0.3j])
+GRID_KW = dict(r0=0.05, delta=0.3, M=8, N=16, fovea_spacing=0.04, n_fovea=13)
+IMG = np.zeros((40, 40))
+UINT_IMG = np.zeros((32, 32, 3), np.uint8)
+SP = dict(onset_ms=0, start_angles=np.zeros((2, 3)), end_angles=np.full((2, 3), 0.1), amplitude=0.1)
+RS = dict(fovea=np.zeros(13), periphery=np.zeros((8, 16)), mask=np.ones((8, 16), bool), fovea_mask=np.ones(13, bool))
+SL2_BAD = {"det2": np.diag([2.0, 1.0]), "singular": np.zeros((2, 2)), "3x3": np.eye(3)}
+ROT_BAD = {"reflection": np.diag([1, 1, -1.0]), "scaled": 2 * np.eye(3), "2x2": np.eye(2)}
+H_BAD = {"4x4": np.eye(4), "2x2": np.eye(2), "singular": np.zeros((3, 3)), "rank1": np.ones((3, 3))}
+PIXEL_SHAPE_BAD = {"zero": (0, 8), "negative": (-1, 8), "frac": (7.5, 8), "huge": (10**9, 10**9), "one": (8,),
+                   "bool": (True, 8)}
+ALL_ERRORS = (ValueError, TypeError)
+
+
+# ---------------------------------------------------------------------- the public API: one valid call each
+@dataclass
+class Api:
+    """How to call one public callable validly, and what else it must refuse.
+
+    ``get(o)`` gives the callable (a function, a class or a bound method); ``valid`` its valid
+    arguments by parameter name (values may be ``Lazy``; a ``*args`` parameter takes a tuple);
+    parameters left out take their defaults. ``bad`` adds domain values per parameter, ``names``
+    the regex a message must match for a parameter (default: its name), ``free`` parameters that
+    take any value of the probed kind, with the reason, ``types`` the accepted exception types,
+    ``run_valid=False`` skips the valid call (one with side effects the later entries must not see).
+    """
+
+    get: Callable[[World], Callable]
+    valid: dict[str, Any] = field(default_factory=dict)
+    bad: dict[str, dict[str, Any]] = field(default_factory=dict)
+    names: dict[str, str] = field(default_factory=dict)
+    free: dict[str, str] = field(default_factory=dict)
+    types: tuple = ALL_ERRORS
+    run_valid: bool = True
+
+
+API: dict[str, Api] = {
+    # ---------------------------------------------------------------- conformal: geometry
+    "conformal.act": Api(lambda o: C.act, dict(g=G_OK, z=Z_OK), bad={"g": SL2_BAD}, names={"g": r"\bg\b", "z": r"\bz\b"}),
+    "conformal.apply_homography": Api(lambda o: C.apply_homography, dict(H=R_OK, z=Z_OK), bad={"H": H_BAD},
+                                      names={"H": r"\bH\b", "z": r"\bz\b"}),
+    "conformal.check_sl2": Api(lambda o: C.check_sl2, dict(g=G_OK), bad={"g": SL2_BAD, "tol": bounds(0.0, 0.01, lo_open=True)},
+                               names={"g": r"\bg\b"}),
+    "conformal.check_rotation": Api(lambda o: C.check_rotation, dict(R=R_OK), bad={"R": ROT_BAD}, names={"R": r"\bR\b"}),
+    "conformal.compose": Api(lambda o: C.compose, dict(gs=(G_OK, G_OK)), bad={"gs": {"det3": (G_OK, 3 * np.eye(2))}},
+                             names={"gs": "g2"}),
+    "conformal.cortical_map": Api(lambda o: C.cortical_map, dict(samples=np.zeros((8, 16)), grid=Lazy(lambda o: o.grid)),
+                                  bad={"samples": shapes(np.zeros((8, 16)), complex_ok=True)}),
+    "conformal.hemifields": Api(lambda o: C.hemifields, dict(samples=np.zeros((8, 16, 3)), grid=Lazy(lambda o: o.grid)),
+                                bad={"samples": shapes(np.zeros((8, 16, 3)), complex_ok=True)}),
+    "conformal.binocular_cortex": Api(lambda o: C.binocular_cortex, dict(
+        left_eye=np.zeros((8, 16)), right_eye=np.zeros((8, 16)), grid=Lazy(lambda o: o.grid)),
+        bad={"left_eye": shapes(np.zeros((8, 16)), complex_ok=True), "right_eye": {"short": np.zeros((7, 16))}}),
+    "conformal.BinocularCortex": Api(lambda o: C.BinocularCortex, dict(
+        left_hemisphere=np.zeros((2, 8, 8)), right_hemisphere=np.zeros((2, 8, 8))),
+        bad={"left_hemisphere": {"one_eye": np.zeros((1, 8, 8)), **shapes(np.zeros((2, 8, 8)), complex_ok=True)}},
+        names={"left_hemisphere": "hemisphere", "right_hemisphere": "hemisphere"}),
+    "conformal.k_matrix": Api(lambda o: C.k_matrix, dict(psi=0.1, phi=0.1, psi2=0.1)),
+    "conformal.euler_rotation": Api(lambda o: C.euler_rotation, dict(psi=0.1, phi=0.1, psi2=0.1)),
+    "conformal.h_matrix": Api(lambda o: C.h_matrix, dict(b1=0.1, b2=0.1, b3=0.1), bad={"b2": {"-1": -1.0}},
+                              names={"b2": "b2"}),
+    "conformal.inverse": Api(lambda o: C.inverse, dict(g=G_OK), bad={"g": SL2_BAD}, names={"g": r"\bg\b"}),
+    "conformal.lift_to_sphere": Api(lambda o: C.lift_to_sphere, dict(z=Z_OK), bad={"z": {"inf": [1j * INF]}},
+                                    names={"z": r"\bz\b"}),
+    "conformal.mobius_from_points": Api(lambda o: C.mobius_from_points, dict(z=[0, 1, 1j], w=[0, 1, 1j]), bad={
+        "z": {"two": [0, 1], "repeated": [0, 0, 1]}, "w": {"four": [0, 1, 2, 3], "repeated": [1j, 1j, 1]}},
+        names={"z": r"\bz\b|three points", "w": r"\bw\b|three points"}),
+    "conformal.project": Api(lambda o: C.project, dict(points=np.array([[0.0, 1.0, 0.0]])),
+                             bad={"points": {"x2=0": [1.0, 0.0, 2.0], "2d": [1.0, 2.0], "ragged": [[1.0, 2.0], [3.0]]}},
+                             names={"points": "points|x2 = 0"}),
+    "conformal.rotation_from_su2": Api(lambda o: C.rotation_from_su2, dict(k=G_OK),
+                                       bad={"k": {"not_unitary": np.array([[1, 1], [0, 1.0]]), "3x3": np.eye(3)}},
+                                       names={"k": r"\bk\b"}),
+    "conformal.rotation_matrix": Api(lambda o: C.rotation_matrix, dict(axis=[0.0, 0.0, 1.0], angle=0.1),
+                                     bad={"axis": {"zero": np.zeros(3), "3x3": np.eye(3)}}),
+    "conformal.schwartz_map": Api(lambda o: C.schwartz_map, dict(z=Z_OK, a=1.0), bad={"a": bounds(0.0, lo_open=True)},
+                                  names={"z": r"\bz\b", "a": r"\ba\b"}),
+    "conformal.transform_image": Api(lambda o: C.transform_image, dict(f=abs, g=G_OK), bad={"g": SL2_BAD},
+                                     names={"f": r"\bf\b", "g": r"\bg\b"}),
+    # ---------------------------------------------------------------- conformal: grid
+    "conformal.RetinaGrid": Api(lambda o: C.RetinaGrid, GRID_KW, bad={
+        "r0": bounds(0.0, 1e6, lo_open=True), "delta": bounds(0.0, 100.0, lo_open=True),
+        "fovea_spacing": bounds(0.0, 1e6, lo_open=True), "M": {**counts(2, 4096), "1e9": 1e9}, "N": counts(2, 8192),
+        "n_fovea": counts(1, 2**20)}, names={"M": r"\bM\b", "N": r"\bN\b"}),
+    "conformal.RetinaGrid.from_picture": Api(lambda o: C.RetinaGrid.from_picture, dict(
+        width=64, height=64, dots_per_unit=4.0, foveal_pixels=64, extent="diagonal", r0_decimals=3), bad={
+        "width": counts(1, 65536), "height": counts(1, 65536), "foveal_pixels": counts(1, 2**20),
+        "dots_per_unit": bounds(0.0, 1e9, lo_open=True), "extent": unknown("diagonal"), "r0_decimals": counts(0, 15)}),
+    "conformal.RetinaGrid.from_field_of_view": Api(lambda o: C.RetinaGrid.from_field_of_view, dict(
+        rb=1.0, r0=0.05, n_sectors=16), bad={"rb": bounds(0.0, lo_open=True), "r0": bounds(0.0, 1e6, lo_open=True),
+                                           "n_sectors": {**counts(4, 8192), "100000": 100000}}),
+    "conformal.RetinaGrid.from_angles": Api(lambda o: C.RetinaGrid.from_angles, dict(field_deg=40.0, fovea_deg=1.0), bad={
+        "field_deg": bounds(0.0, 90.0, lo_open=True, hi_open=True), "fovea_deg": bounds(0.0, 90.0, lo_open=True, hi_open=True),
+        "n_sectors": counts(4, 8192)}),
+    "conformal.RetinaGrid.locate": Api(lambda o: o.grid.locate, dict(z=Z_OK), bad={"z": {"inf": 1j * INF}},
+                                       names={"z": r"\bz\b"}),
+    # ---------------------------------------------------------------- conformal: DPFT, fovea, shift
+    "conformal.dpft": Api(lambda o: C.dpft, dict(samples=np.zeros((8, 16)), grid=Lazy(lambda o: o.grid)),
+                          bad={"samples": {**shapes(np.zeros((8, 16))), "longdouble": np.zeros((8, 16), np.longdouble)}}),
+    "conformal.dpft_direct": Api(lambda o: C.dpft_direct, dict(samples=np.zeros((8, 16)), grid=Lazy(lambda o: o.grid)),
+                                 bad={"samples": {**shapes(np.zeros((8, 16))), "longdouble": np.zeros((8, 16), np.longdouble)}}),
+    "conformal.idpft": Api(lambda o: C.idpft, dict(coeffs=np.zeros((8, 16), complex), grid=Lazy(lambda o: o.grid)),
+                           bad={"coeffs": shapes(np.zeros((8, 16), complex))}),
+    "conformal.idpft_direct": Api(lambda o: C.idpft_direct, dict(coeffs=np.zeros((8, 16), complex),
+                                                                 grid=Lazy(lambda o: o.grid)),
+                                  bad={"coeffs": shapes(np.zeros((8, 16), complex))}),
+    "conformal.pft_frequencies": Api(lambda o: C.pft_frequencies, dict(grid=Lazy(lambda o: o.grid))),
+    "conformal.field_moments": Api(lambda o: C.field_moments, dict(grid=Lazy(lambda o: o.grid))),
+    "conformal.evaluate": Api(lambda o: C.evaluate, dict(coeffs=Lazy(lambda o: o.coeffs), grid=Lazy(lambda o: o.grid),
+                                                         points=[0.3]),
+                              bad={"points": {"zero": [0j]}, "extension": unknown("mirror"),
+                                   "coeffs": shapes(np.zeros((8, 16), complex))}, names={"points": "points|z = 0"}),
+    "conformal.evaluate_direct": Api(lambda o: C.evaluate_direct, dict(
+        coeffs=Lazy(lambda o: o.coeffs), grid=Lazy(lambda o: o.grid), points=[0.3]),
+        bad={"points": {"zero": [0j]}, "extension": unknown("mirror")}, names={"points": "points|z = 0"}),
+    "conformal.OffGridEvaluator": Api(lambda o: C.OffGridEvaluator, dict(grid=Lazy(lambda o: o.grid), points=[0.3]), bad={
+        "eps": {**bounds(1e-15, 1e-2), "ten": 10.0}, "method": unknown("auto"), "extension": unknown("mirror"),
+        "points": {"zero": [0.0]},
+        "dtype": {"float16": np.float16, "complex": complex, "int": int, "str": "fast", "longdouble": np.longdouble}}),
+    "conformal.OffGridEvaluator.__call__": Api(lambda o: o.evaluator, dict(coeffs=Lazy(lambda o: o.coeffs)),
+                                               bad={"coeffs": shapes(np.zeros((8, 16), complex))}),
+    "conformal.transform": Api(lambda o: C.transform, dict(coeffs=Lazy(lambda o: o.coeffs), grid=Lazy(lambda o: o.grid),
+                                                           g=G_OK), bad={"g": SL2_BAD, "extension": unknown("mirror")},
+                               names={"g": r"\bg\b"}),
+    "conformal.warp": Api(lambda o: C.warp, dict(coeffs=Lazy(lambda o: o.coeffs), grid=Lazy(lambda o: o.grid),
+                                                 point_map=lambda z: z), bad={"point_map": {
+        "wrong_shape": lambda z: z.ravel()[:3], "scalar": lambda z: 0.3 + 0j, "nan": lambda z: z * NAN,
+        "strings": lambda z: np.full(z.shape, "x"),
+        "behind_eye": C.homography_map(C.rotation_matrix([0, 0, 1.0], np.radians(120)))}, "extension": unknown("mirror")}),
+    "conformal.fovea_indices": Api(lambda o: C.fovea_indices, dict(grid=Lazy(lambda o: o.grid))),
+    "conformal.fovea_image": Api(lambda o: C.fovea_image, dict(fovea=np.zeros(13), grid=Lazy(lambda o: o.grid)),
+                                 bad={"fovea": shapes(np.zeros(13), complex_ok=True)}, free={"outside": "NaN marks outside the fovea"}),
+    "conformal.fovea_dft": Api(lambda o: C.fovea_dft, dict(fovea=np.zeros(13), grid=Lazy(lambda o: o.grid)),
+                               bad={"fovea": shapes(np.zeros(13), complex_ok=True)}),
+    "conformal.fovea_idft": Api(lambda o: C.fovea_idft, dict(coeffs=Lazy(lambda o: C.fovea_dft(o.fovea, o.grid)),
+                                                         grid=Lazy(lambda o: o.grid)),
+                                bad={"coeffs": shapes(np.zeros((4, 4), complex))}, names={"coeffs": "coeffs|foveal coefficients"}),
+    "conformal.log_radius_shift": Api(lambda o: C.log_radius_shift, dict(
+        samples=Lazy(lambda o: o.samples), grid=Lazy(lambda o: o.grid), shift=0.5), bad={"samples": shapes(np.zeros((8, 16)))}),
+    # ---------------------------------------------------------------- conformal: sampling
+    "conformal.pixel_points": Api(lambda o: C.pixel_points, dict(shape=(4, 4), pixels_per_unit=10.0), bad={
+        "shape": {**PIXEL_SHAPE_BAD, "huge_float": (1e9, 1e9), "three": (4, 4, 4)},
+        "pixels_per_unit": bounds(0.0, 1e9, lo_open=True)}),
+    "conformal.Retina": Api(lambda o: C.Retina, dict(grid=Lazy(lambda o: o.grid), image_shape=(40, 40),
+                                                     pixels_per_unit=20.0), bad={
+        "image_shape": {"zero": (0, 40), "frac": (40.5, 40), "huge": (10**6, 10**6), "one": (40,), "four": (4, 4, 3, 1),
+                        "channels": (4, 4, 10**6)},
+        "pixels_per_unit": bounds(0.0, 1e9, lo_open=True), "mode": unknown("pool"), "supersample": counts(1, 16),
+        "min_coverage": bounds(0.0, 1.0, lo_open=True)}),
+    "conformal.Retina.sample": Api(lambda o: o.retina.sample, dict(image=IMG), bad={"image": {
+        **shapes(IMG), "longdouble": IMG.astype(np.longdouble), "complex64": IMG.astype(np.complex64),
+        "datetime": IMG.astype("datetime64[s]"), "rgb_channels_5": np.zeros((40, 40, 5)), "transposed": np.zeros((40, 41)),
+        "float16_nan": np.full((40, 40), NAN, np.float16), "bigendian_inf": np.full((40, 40), INF, ">f8")}}),
+    "conformal.Retina.sample_many": Api(lambda o: o.retina.sample_many, dict(images=[IMG]), bad={
+        "images": {"one_picture": IMG, "bad_member": [IMG, np.zeros((3, 3))]}}, names={"images": "image"}),
+    "conformal.Retina.render": Api(lambda o: o.retina.render, dict(samples=Lazy(lambda o: o.retina_samples)), bad={
+        "samples": {"dict": {"fovea": 0}, "array": np.zeros((8, 16))}}),
+    "conformal.RetinaSamples": Api(lambda o: C.RetinaSamples, RS, bad={
+        "fovea": {"complex": np.zeros(13, complex), "3d": np.zeros((13, 1, 1))},
+        "periphery": {"1d": np.zeros(5), "channels": np.zeros((8, 16, 2))},
+        "mask": {"float": np.ones((8, 16)), "shape": np.ones((8, 15), bool)},
+        "fovea_mask": {"int": np.ones(13, int), "shape": np.ones(12, bool)}},
+        names={"periphery": "periphery|channels"},
+        free={"fovea": "nan: samples outside the picture are NaN-free by mask, NaN values are data",
+              "periphery": "nan: as fovea"}),
+    # ---------------------------------------------------------------- conformal: remapping
+    "conformal.ProjectiveMap": Api(lambda o: C.ProjectiveMap, dict(H=R_OK), bad={"H": H_BAD}, names={"H": r"\bH\b"}),
+    "conformal.ProjectiveMap.__call__": Api(lambda o: C.ProjectiveMap(R_OK), dict(z=Z_OK), names={"z": r"\bz\b"}),
+    "conformal.MobiusMap": Api(lambda o: C.MobiusMap, dict(g=G_OK), bad={"g": {"singular": np.ones((2, 2)), "3x3": np.eye(3)}},
+                               names={"g": r"\bg\b"}),
+    "conformal.MobiusMap.__call__": Api(lambda o: C.MobiusMap(G_OK), dict(z=Z_OK), names={"z": r"\bz\b"}),
+    "conformal.homography_map": Api(lambda o: C.homography_map, dict(R=R_OK), bad={"R": ROT_BAD}, names={"R": r"\bR\b"}),
+    "conformal.mobius_map": Api(lambda o: C.mobius_map, dict(R=R_OK), bad={"R": ROT_BAD}, names={"R": r"\bR\b"}),
+    "conformal.mobius_for_rotation": Api(lambda o: C.mobius_for_rotation, dict(R=R_OK), bad={"R": ROT_BAD},
+                                         names={"R": r"\bR\b"}),
+    "conformal.rotation_homography": Api(lambda o: C.rotation_homography, dict(R=R_OK), bad={"R": ROT_BAD},
+                                         names={"R": r"\bR\b"}),
+    "conformal.su2_from_rotation": Api(lambda o: C.su2_from_rotation, dict(R=R_OK), bad={"R": ROT_BAD}, names={"R": r"\bR\b"}),
+    "conformal.target_shift_map": Api(lambda o: C.target_shift_map, dict(z_target=0.1 + 0j, shift=1.0, delta=0.1), bad={
+        "z_target": {"list": [0.1, 0.2], "inf": complex(0, INF)}, "delta": bounds(0.0, 100.0, lo_open=True)}),
+    "conformal.predict": Api(lambda o: C.predict, dict(coeffs=Lazy(lambda o: o.coeffs), fovea=Lazy(lambda o: o.fovea),
+                                                       grid=Lazy(lambda o: o.grid), point_map=lambda z: z,
+                                                       on=Lazy(lambda o: o.grid)),
+                             bad={"point_map": {"wrong_shape": lambda z: z[:3], "strings": lambda z: np.full(z.shape, "x")},
+                                  "fovea": {"channels": np.zeros((13, 3)), "short": np.zeros(12)}},
+                             names={"point_map": "point map", "on": r"\bon\b"}),
+    "conformal.predict_many": Api(lambda o: C.predict_many, dict(
+        coeffs=Lazy(lambda o: o.coeffs), fovea=Lazy(lambda o: o.fovea), grid=Lazy(lambda o: o.grid),
+        point_maps=[lambda z: z], on=Lazy(lambda o: o.grid), dtype=np.float32),
+        bad={"point_maps": {"empty": [], "callable": lambda z: z, "member": [lambda z: z, 3]},
+             "dtype": {"float16": np.float16, "str": "fast"}}, names={"point_maps": "point map", "on": r"\bon\b"}),
+    "conformal.RemapPlan": Api(lambda o: C.RemapPlan, dict(grid=Lazy(lambda o: o.grid), on=Lazy(lambda o: o.grid)),
+                               names={"on": "grid"}),
+    "conformal.RemapPlan.__call__": Api(lambda o: o.plan, dict(coeffs=Lazy(lambda o: o.plan_args[0]),
+                                                               fovea=Lazy(lambda o: o.plan_args[1]),
+                                                               maps=Lazy(lambda o: o.plan_args[2])), bad={
+        "coeffs": {"3d": np.zeros((8, 16, 1), complex), "one_eye": np.zeros((1, 8, 16, 1), complex)},
+        "fovea": {"complex": np.zeros((2, 13, 1), complex), "short": np.zeros((2, 12, 1))},
+        "maps": {"flat": [C.homography_map(np.eye(3))] * 2, "one_eye": [[C.homography_map(np.eye(3))]],
+                 "callables": [[abs], [abs]], "strings": [["homography"], ["homography"]]}},
+        names={"coeffs": "coeffs|fovea", "maps": "maps|point maps|ProjectiveMap"}),
+    "conformal.RemapPlan.series_coefficients": Api(lambda o: o.plan.series_coefficients, dict(
+        coeffs=Lazy(lambda o: o.plan_args[0])), bad={"coeffs": {"3d": np.zeros((8, 16, 1), complex)}}),
+    "conformal.RemapPlan.samples": Api(lambda o: o.plan.samples, dict(
+        values=Lazy(lambda o: o.plan_values[0]), valid=Lazy(lambda o: o.plan_values[1])), bad={
+        "values": {"wrong_points": np.zeros((2, 1, 5, 1), np.float32), "3d": np.zeros((2, 1, 5))},
+        "valid": {"float": Lazy(lambda o: np.ones((2, 1, o.plan.n_points))), "shape": np.ones((2, 1, 3), bool)}},
+        free={"values": "nan: the values are data (invalid points are masked by valid)"}),
+    "conformal.blas_threads": Api(lambda o: C.blas_threads, dict(n=1), bad={"n": {"zero": 0, "negative": -1, "frac": 1.5}},
+                                  names={"n": r"\bn\b"}),
+    # ---------------------------------------------------------------- models: building
+    "models.build_spec": Api(lambda o: models.build_spec, dict(scene="bar", head_xml=str(models.HEAD_XML)), bad={
+        "scene": unknown("bar"), "quality": unknown("fast"), "ipd": bounds(0.01, 0.15), "fovy_deg": bounds(5.0, 170.0),
+        "offscreen_size": {"zero": (0, 480), "frac": (640.5, 480), "huge": (10**9, 10**9), "three": (1, 2, 3),
+                           "negative": (-640, 480)},
+        "head_xml": {"empty": "", "list": ["head.xml"]}}, free={"scene": "None builds the head without a scene"}),
+    "models.build_model": Api(lambda o: models.build_model, dict(scene="bar"), bad={"scene": unknown("bar")},
+                              free={"scene": "none: builds the head without a scene"}),
+    "models.export_xml": Api(lambda o: models.export_xml, dict(scene="bar", path=Lazy(lambda o: _tmp("export.xml"))),
+                             bad={"path": {"empty": "", "folder": "/tmp"}},
+                             free={"scene": "None exports the head without a scene"}),
+    "models.load_model": Api(lambda o: models.load_model, dict(path=str(models.HEAD_XML)), bad={"path": {"empty": ""}}),
+    "models.screen_point": Api(lambda o: models.screen_point, dict(azimuth=0.1, elevation=0.1, distance=1.0), bad={
+        "azimuth": bounds(-np.pi / 2, np.pi / 2, lo_open=True, hi_open=True),
+        "elevation": bounds(-np.pi / 2, np.pi / 2, lo_open=True, hi_open=True), "distance": bounds(0.0, 1000.0, lo_open=True)}),
+    "models.gl_install_hint": Api(lambda o: models.gl_install_hint, dict(backend="egl"), bad={"backend": {"list": ["egl"]}}),
+    # ---------------------------------------------------------------- models: the head
+    "models.Head": Api(lambda o: models.Head, dict(scene="bar", image_size=16, seed=0, generator=models.BurstGenerator(),
+                                                   vergence=models.VergenceDynamics(),
+                                                   eye_position=models.EyePositionSignal()), bad={
+        "scene": {"unknown": "moon"},
+        "image_size": {**counts(1, 4096), "pair_frac": (32, 7.5), "pair_huge": (32, 10**6), "triple": (32, 32, 3)},
+        "fovy_deg": bounds(5.0, 170.0), "ipd": bounds(0.01, 0.15), "quality": unknown("fast"),
+        "seed": {"negative": -1, "frac": 1.5}, "endpoint_noise": bounds(0.0, 1.0),
+        "main_sequence": {"dict": {"m0_deg": 7.0}, "burst": models.BurstGenerator(), "object": object(), "int": 3,
+                          "str": "vanwetter", "with_burst": models.MainSequence()},
+        "saccade_model": unknown("burst"), "generator": {"dict": {}, "main_sequence": models.MainSequence()},
+        "vergence": {"dict": {}, "float": 150.0}, "eye_position": {"dict": {}, "float": 50.0},
+        "timestep_ms": {**bounds(0.01, 1.0), "not_a_divisor": 0.3, "tiny": 1e-9},
+        "saccade_timestep_ms": {**bounds(0.01, 1.0), "not_a_divisor": 0.7}},
+        names={"main_sequence": "main_sequence|saccade_model"},
+        free={"main_sequence": "probed by its domain values (valid only with saccade_model='legacy')"}),
+    "models.Head.step_ms": Api(lambda o: o.head.step_ms, dict(n=1), bad={"n": {**counts(0, 60_000), "1e9": 1e9}},
+                               names={"n": r"\bn\b"}),
+    "models.Head.reset": Api(lambda o: o.head.reset, dict(seed=0, fixate="fixation", settle_ms=0), bad={
+        "seed": {"negative": -1, "frac": 1.5}, "settle_ms": counts(0, 60_000),
+        "fixate": {"nan": [NAN, 0, 1], "short": [1.0, 2.0], "unknown": "unicorn"}},
+        names={"fixate": "fixate|target|unicorn"}, types=ALL_ERRORS + (KeyError,)),
+    "models.Head.set_gaze": Api(lambda o: o.head.set_gaze, dict(target="fixation", settle_ms=0), bad={
+        "settle_ms": counts(0, 60_000), "target": {"inf": [INF, 0, 1], "2d": [1.0, 2.0], "complex": [1j, 0, 1],
+                                                  "str_list": ["a", "b", "c"]}}),
+    "models.Head.set_neck": Api(lambda o: o.head.set_neck, dict(pan=0.0, tilt=0.0), bad={"pan": {"far": 10.0},
+                                                                                     "tilt": {"far": -10.0}},
+                                names={"pan": "pan|neck", "tilt": "tilt|neck"}),
+    "models.Head.plan_saccade": Api(lambda o: o.head.plan_saccade, dict(horizontal=0.05, vertical=0.0, latency_ms=0),
+                                    bad={"latency_ms": counts(0, 60_000), "horizontal": {"huge": 1e300}}),
+    "models.Head.plan_saccade_to": Api(lambda o: o.head.plan_saccade_to, dict(target="target"), bad={
+        "target": {"nan": [NAN, 0, 1.2], "matrix": np.eye(3), "unknown": "unicorn"}, "latency_ms": counts(0, 60_000)},
+        names={"target": "target|unicorn"}, types=ALL_ERRORS + (KeyError,)),
+    "models.Head.start_saccade": Api(lambda o: o.head.start_saccade, dict(plan=Lazy(lambda o: o.saccade)), bad={
+        "plan": {"dict": {"onset_ms": 0}}}, run_valid=False),
+    "models.Head.run_saccade": Api(lambda o: o.head.run_saccade, dict(plan=Lazy(lambda o: o.saccade)), bad={
+        "before_ms": counts(0, 60_000), "after_ms": counts(0, 60_000)}, run_valid=False),
+    "models.Head.saccade_to": Api(lambda o: o.head.saccade_to, dict(target="target"), bad={
+        "after_ms": counts(0, 60_000), "latency_ms": counts(0, 60_000), "target": {"unknown": "unicorn"}},
+        names={"target": "target|unicorn"}, types=ALL_ERRORS + (KeyError,), run_valid=False),
+    "models.Head.flash": Api(lambda o: o.head.flash, dict(names="flash_00"), bad={
+        "duration_ms": counts(1, 60_000), "names": {"empty": [], "member": [1]}}, names={"names": "name"}),
+    "models.Head.object_position": Api(lambda o: o.head.object_position, dict(name="target"), bad={"name": {"list": ["a"]}}),
+    "models.Head.object_positions": Api(lambda o: o.head.object_positions, dict(group="flashes")),
+    "models.Head.set_object_position": Api(lambda o: o.head.set_object_position, dict(
+        name="target", pos=Lazy(lambda o: o.head.object_position("target"))), bad={"pos": {"short": [1, 2]}},
+        names={"pos": "target|pos"}),
+    "models.Head.set_visible": Api(lambda o: o.head.set_visible, dict(name="flash_00", visible=False),
+                                   bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
+                                   types=ALL_ERRORS + (KeyError,)),
+    "models.Head.to_head": Api(lambda o: o.head.to_head, dict(point=[1.0, 0.0, 1.2]), bad={"point": {"short": [1.0]}},
+                               names={"point": "target|point"}),
+    "models.Head.to_world": Api(lambda o: o.head.to_world, dict(point_head=[1.0, 0.0, 0.0]),
+                                bad={"point_head": {"short": [1.0]}}),
+    "models.Head.fixation_angles": Api(lambda o: o.head.fixation_angles, dict(point=[1.0, 0.0, 1.2]),
+                                       names={"point": "target|point"}),
+    "models.Head.project": Api(lambda o: o.head.project, dict(points=np.array([[1.0, 0.0, 1.2]])), bad={
+        "points": {"four_columns": np.zeros((2, 4)), "ragged": [[1.0, 2.0], [3.0]]}}),
+    "models.Head.project_to_pixels": Api(lambda o: o.head.project_to_pixels, dict(points=np.array([[1.0, 0.0, 1.2]]))),
+    "models.Head.render": Api(lambda o: o.head.render, dict(depth=False, exposure_ms=2.0, samples=2), bad={
+        "exposure_ms": bounds(0.0, 1000.0), "samples": counts(1, 1000)}),
+    "models.Head.eye_position_signal": Api(lambda o: o.head.eye_position_signal, dict(t_ms=Lazy(lambda o: o.head.time_ms)),
+                                           bad={"t_ms": {"below": -1.0}}),
+    "models.Head.export_xml": Api(lambda o: o.head.export_xml, dict(path=Lazy(lambda o: _tmp("head.xml"))),
+                                  bad={"path": {"empty": "", "folder": "/tmp"}}),
+    "models.EyeState.project": Api(lambda o: o.head.eye_states()[0].project, dict(points=np.array([[1.0, 0.0, 1.2]]))),
+    "models.EyeRenderer": Api(lambda o: models.EyeRenderer, dict(model=Lazy(lambda o: o.head.model), height=16, width=16),
+                              bad={"height": counts(1, 4096), "width": counts(1, 4096)}, run_valid=False),
+    "models.EyeRenderer.render": Api(lambda o: o.renderer.render, dict(data=Lazy(lambda o: o.head.data), time_ms=0),
+                                     bad={"time_ms": {"frac": 2.5}}),
+    "models.EyeImage.pixel_to_plane": Api(lambda o: o.frame.left.pixel_to_plane, dict(rows=[1.0, 2.0], cols=[1.0, 2.0]),
+                                          bad={"rows": {"mismatch": [1.0, 2.0, 3.0]}}),
+    "models.EyeImage.plane_to_pixel": Api(lambda o: o.frame.left.plane_to_pixel, dict(z=Z_OK), names={"z": r"\bz\b"}),
+    "models.StereoFrame.__getitem__": Api(lambda o: o.frame.__getitem__, dict(name="left"),
+                                          bad={"name": {"unknown": "middle"}}, names={"name": "eye"},
+                                          types=(KeyError,)),
+    # ---------------------------------------------------------------- models: oculomotor plant
+    "models.MainSequence": Api(lambda o: models.MainSequence, {}, bad={
+        "m0_deg": bounds(0.0, 100.0, lo_open=True), "vpk_deg_per_ms": bounds(0.0, 0.7, lo_open=True),
+        "end_velocity_deg_s": bounds(0.0, 525.0, lo_open=True, hi_open=True), "settle_deg": bounds(0.0, 1.0, lo_open=True)}),
+    **{f"models.MainSequence.{m}": Api(lambda o, m=m: getattr(models.MainSequence(), m), dict(t_ms=[1.0], amp_deg=10.0),
+                                       bad={"amp_deg": bounds(0.0, 180.0)})
+       for m in ("position_deg", "velocity_deg_per_ms")},
+    **{f"models.MainSequence.{m}": Api(lambda o, m=m: getattr(models.MainSequence(), m), dict(amp_deg=10.0),
+                                       bad={"amp_deg": bounds(0.0, 180.0)})
+       for m in ("peak_velocity_deg_s", "duration_ms", "settle_ms")},
+    "models.BurstGenerator": Api(lambda o: models.BurstGenerator, {}, bad={
+        p: {"huge": 1e9, "negative": -1e9} for p in ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms", "adaptation_gain",
+                                                     "adaptation_ms", "plant_t2_ms", "abducting_t2_ms", "adducting_t2_ms",
+                                                     "settle_deg")}),
+    **{f"models.BurstGenerator.{m}": Api(lambda o, m=m: getattr(models.BurstGenerator(), m), dict(amp_deg=10.0),
+                                         bad={"amp_deg": bounds(0.0, 90.0)})
+       for m in ("profile", "peak_velocity_deg_s", "duration_ms")},
+    "models.SaccadeProfile": Api(lambda o: models.SaccadeProfile, dict(
+        amplitude_deg=10.0, dt_ms=0.25, positions=Lazy(lambda o: o.profile.positions), burst=Lazy(lambda o: o.profile.burst),
+        settle_deg=0.01)),
+    "models.SaccadeProfile.position": Api(lambda o: o.profile.position, dict(t_rel=np.array([1.0, 2.0]), plant=0),
+                                          bad={"plant": {"above": 3}}),
+    "models.SaccadeProfile.rate": Api(lambda o: o.profile.rate, dict(t_rel=np.array([1.0, 2.0]), plant=0),
+                                      bad={"plant": {"above": 3}}),
+    "models.VergenceDynamics": Api(lambda o: models.VergenceDynamics, {}, bad={
+        p: {"huge": 1e9, "negative": -1e9} for p in ("tau_ms", "saccade_speedup")}),
+    "models.VergenceDynamics.fraction": Api(lambda o: models.VergenceDynamics().fraction, dict(
+        t_rel_ms=np.array([1.0, 20.0]), saccade_offset_ms=30.0)),
+    "models.VergenceDynamics.rate": Api(lambda o: models.VergenceDynamics().rate, dict(
+        t_rel_ms=np.array([1.0, 20.0]), saccade_offset_ms=30.0)),
+    "models.VergenceDynamics.settle_ms": Api(lambda o: models.VergenceDynamics().settle_ms, dict(
+        change_deg=1.0, saccade_offset_ms=30.0, settle_deg=0.01)),
+    "models.EyePositionSignal": Api(lambda o: models.EyePositionSignal, {}, bad={
+        p: {"huge": 1e9, "negative": -1e9} for p in ("sigma_ms", "delay_ms")}),
+    "models.EyePositionSignal.smooth": Api(lambda o: models.EyePositionSignal().smooth, dict(
+        t_rel_ms=np.array([0.0, 10.0]), knots_ms=np.array([0.0, 5.0, 10.0]), profile=np.array([0.0, 0.5, 1.0]))),
+    "models.SaccadePlan": Api(lambda o: models.SaccadePlan, dict(
+        **SP, generator=models.BurstGenerator(), target=[1.0, 0.0, 1.2], intended_target=[1.0, 0.0, 1.2],
+        intended_end_angles=np.full((2, 3), 0.1), intended_amplitude=0.1, vergence=models.VergenceDynamics(),
+        eye_position=models.EyePositionSignal(), signal_start_angles=np.zeros((2, 3))), bad={
+        "onset_ms": counts(0), "start_angles": {"flat6": np.zeros(6)}, "end_angles": shapes(np.zeros((2, 3))),
+        "amplitude": bounds(0.0, np.pi), "generator": {"dict": {}, "str": "burst"}, "vergence": {"dict": {}, "float": 150.0},
+        "eye_position": {"dict": {}, "str": "signal"}, "intended_end_angles": {"flat6": np.zeros(6)},
+        "signal_start_angles": {"flat6": np.zeros(6)}, "intended_amplitude": bounds(0.0, np.pi),
+        "target": {"short": [1.0]}},
+        names={a: f"{a}|angles" for a in ("start_angles", "end_angles", "intended_end_angles", "signal_start_angles")}),
+    **{f"models.SaccadePlan.{m}": Api(lambda o, m=m: getattr(models.SaccadePlan(**SP), m), dict(t_ms=[1.0]))
+       for m in ("angles", "velocities", "profile", "intended_angles", "eye_position_signal")},
+    "models.SaccadePlan.sample": Api(lambda o: models.SaccadePlan(**SP).sample, dict(step_ms=1.0), bad={
+        "step_ms": {**bounds(0.001, 1000.0), "zero": 0.0, "tiny": 1e-12}}),
+    "models.SceneInfo": Api(lambda o: models.SceneInfo, dict(
+        name="custom", description="a scene", groups={"g": ("a",)}, movable=("a",), default_fixation=[1.0, 0.0, 1.2],
+        layout=lambda rng: {}, flashes=("a",)), bad={
+        "groups": {"list": [("a",)], "str_values": {"g": "abc"}, "int_key": {1: ("a",)}},
+        "movable": {"str": "target", "ints": (1, 2)}, "default_fixation": {"short": [1.0]}, "layout": {"str": "grid"}},
+        free={"default_fixation": "str: a fixation may be named (the name of a scene object)"}),
+    "models.fixation_angles": Api(lambda o: models.fixation_angles, dict(target_head=[1.0, 0.0, 0.0],
+                                                                         eye_centres_head=np.zeros((2, 3))), bad={
+        "target_head": {"short": [1.0]}, "eye_centres_head": {"shape": np.zeros((2, 2)), "empty": np.zeros((0, 3))}},
+        names={"target_head": "target"}),
+    "models.fick_matrix": Api(lambda o: models.fick_matrix, dict(h=np.zeros(2), v=np.zeros(2), t=np.zeros(2)), bad={"h": {"mismatch": np.zeros(3)}},
+                              names={"h": r"\bh\b", "v": r"\bv\b", "t": r"\bt\b"}),
+    "models.gaze_direction": Api(lambda o: models.gaze_direction, dict(h=np.zeros(2), v=np.zeros(2)), bad={"h": {"mismatch": np.zeros(3)}},
+                                 names={"h": r"\bh\b", "v": r"\bv\b"}),
+    "models.listing_torsion": Api(lambda o: models.listing_torsion, dict(h=np.zeros(2), v=np.zeros(2)), bad={"h": {"mismatch": np.zeros(3)}},
+                                  names={"h": r"\bh\b", "v": r"\bv\b"}),
+    "models.fick_angles": Api(lambda o: models.fick_angles, dict(R=R_OK), bad={"R": {"reflection": -np.eye(3), "2x2": np.eye(2)}},
+                              names={"R": r"\bR\b"}),
+    "models.rotation_vector": Api(lambda o: models.rotation_vector, dict(R=R_OK), bad={
+        "R": {"scaled": 2 * np.eye(3), "stack": np.stack([R_OK, R_OK])}}, names={"R": r"\bR\b"}),
+    # ---------------------------------------------------------------- envs
+    "envs.BinocularSaccadeEnv": Api(lambda o: envs.BinocularSaccadeEnv, dict(
+        scene="dots", image_size=32, fixation_ms=10, n_sectors=16, remap_models=("homography",), render_mode="rgb_array",
+        task_kwargs={"max_saccades": 3}), bad={
+        "scene": {"unknown": "moon", "list": ["dots"], "no_target": "bar"}, "task": {"unknown": "dance", "class": envs.FixateTask},
+        "action_mode": unknown("vector"), "image_size": {**counts(16, 1024), "7.5": 7.5},
+        "render_mode": unknown("rgb_array"), "fixation_ms": {**counts(0, 10_000), "1e9": 1e9},
+        "max_amplitude_deg": bounds(0.0, 60.0, lo_open=True), "remap_model": unknown("homography"),
+        "remap_models": {"str": "homography", "member": ("homography", "affine"), "none_member": (None,)},
+        "shift_rings": bounds(-5.0, 5.0), "cortex": unknown("eyes"), "fovea_deg": bounds(0.0, 30.0, lo_open=True, hi_open=True),
+        "n_sectors": {**counts(4, 4096), "100000": 100_000}, "sampling": unknown("pool"), "fovy_deg": bounds(5.0, 170.0),
+        "endpoint_noise": bounds(0.0, 1.0), "quality": unknown("fast"), "saccade_model": unknown("burst"),
+        "task_kwargs": {"list": [1], "str": "max_saccades=3", "unknown_key": {"colour": "red"},
+                        "max_saccades_frac": {"max_saccades": 2.7}, "max_saccades_zero": {"max_saccades": 0},
+                        "max_saccades_huge": {"max_saccades": 10**9}, "tolerance_nan": {"tolerance_deg": NAN},
+                        "cost_nan": {"saccade_cost": NAN}, "ecc_reversed": {"min_ecc_deg": 20.0, "max_ecc_deg": 5.0},
+                        "ecc_far": {"max_ecc_deg": 89.0}}},
+        names={"scene": "scene|task 'fixate' needs",
+               "task_kwargs": "task_kwargs|max_saccades|tolerance_deg|saccade_cost|ecc_deg|colour",
+               "remap_models": "remap_models|model"}),
+    "envs.BinocularSaccadeEnv.reset": Api(lambda o: o.env.reset, dict(seed=0, options={}), bad={
+        "seed": {"negative": -1, "frac": 1.5, "list": [0]}, "options": {"list": [1], "unknown": {"difficulty": 3}}}),
+    "envs.BinocularSaccadeEnv.step": Api(lambda o: o.env.step, dict(action=np.zeros(2, np.float32)), bad={"action": {
+        "-inf": [0.0, -INF], "complex_real": np.array([0.5 + 0j, 0]), "bool": [True, False], "str_list": ["0.1", "0.2"],
+        "ragged": [[0.1], [0.1, 0.2]], "shape3": [0.1, 0.1, 0.1], "shape1": [0.1], "scalar": 0.1, "2d": [[0.1, 0.1]],
+        "above": [1.5, 0.0], "below": [0.0, -2.0], "huge": [1e300, 0.0], "dict": {"h": 0.1}}}),
+    "envs.Vision": Api(lambda o: envs.Vision, dict(image_shape=(32, 32), pixels_per_unit=22.85, n_sectors=16), bad={
+        "image_shape": {"frac": (32.5, 32), "zero": (0, 32), "huge": (10**6, 10**6), "one": (32,)},
+        "pixels_per_unit": bounds(0.0, 1e6, lo_open=True), "fovea_deg": bounds(0.0, 30.0, lo_open=True, hi_open=True),
+        "n_sectors": {"frac": 36.5, "huge": 100_000, "zero": 0}, "sampling": unknown("pool"),
+        "shift_rings": bounds(-5, 5)}),
+    "envs.Vision.see": Api(lambda o: o.vision.see, dict(image=UINT_IMG), bad={"image": {
+        "float_255": np.full((32, 32, 3), 255.0), "negative": np.full((32, 32, 3), -1.0), "complex": UINT_IMG.astype(complex),
+        "uint16": UINT_IMG.astype(np.uint16), "bool": UINT_IMG.astype(bool), "shape": np.zeros((32, 32), np.uint8),
+        "longdouble": UINT_IMG.astype(np.longdouble)}}, names={"image": "images?"}),
+    "envs.Vision.see_eyes": Api(lambda o: o.vision.see_eyes, dict(images=(UINT_IMG, UINT_IMG)), bad={"images": {
+        "one_image": UINT_IMG, "empty": [], "mixed": [UINT_IMG, UINT_IMG.astype(float)]}}, names={"images": "image"}),
+    "envs.Vision.point_map": Api(lambda o: o.vision.point_map, dict(model="homography", rotation_eye=R_OK), bad={
+        "model": unknown("homography"), "rotation_eye": {"reflection": -np.eye(3)}}),
+    "envs.Vision.predict": Api(lambda o: o.vision.predict, dict(view=Lazy(lambda o: o.views[0]), model="homography",
+                                                                rotation_eye=R_OK, pooled=True),
+                               bad={"view": {"array": np.zeros((5, 12, 3)), "tuple": ("a",)}, "model": unknown("homography")},
+                               names={"view": "views?|EyeView", "rotation_eye": "rotations?_eye"}),
+    "envs.Vision.predict_models": Api(lambda o: o.vision.predict_models, dict(
+        view=Lazy(lambda o: o.views[0]), models=("homography",), rotation_eye=R_OK, pooled=True), bad={
+        "models": {"str": "homography", "empty": (), "unknown": ("affine",)}}, names={"view": "views?|EyeView",
+                                                                                       "models": "model",
+                                                                                       "rotation_eye": "rotations?_eye"}),
+    "envs.Vision.predict_eyes": Api(lambda o: o.vision.predict_eyes, dict(
+        views=Lazy(lambda o: o.views), models=("homography",), rotations_eye=[R_OK, R_OK], pooled=True), bad={
+        "rotations_eye": {"one": [np.eye(3)], "shape": np.zeros((2, 2, 2))}, "views": {"empty": ()}},
+        names={"models": "model", "views": "views?|EyeView"}),
+    "envs.Vision.predict_arrays": Api(lambda o: o.vision.predict_arrays, dict(
+        views=Lazy(lambda o: o.views), models=("homography",), rotations_eye=[R_OK, R_OK], pooled=True),
+        bad={"views": {"empty": ()}}, names={"models": "model", "views": "views?|EyeView"}),
+    "envs.Vision.errors": Api(lambda o: o.vision.errors, dict(
+        values=Lazy(lambda o: np.zeros((2, 1, o.n_points, 3))), valid=Lazy(lambda o: np.ones((2, 1, o.n_points), bool)),
+        views=Lazy(lambda o: o.views)), bad={"values": {"shape": np.zeros((2, 1, 5, 3))},
+                                             "valid": {"float": Lazy(lambda o: np.ones((2, 1, o.n_points))),
+                                                       "shape": np.ones((2, 1, 5), bool)}},
+        names={"views": "views?|EyeView"}),
+    "envs.normalized_error": Api(lambda o: envs.normalized_error, dict(
+        pred=Lazy(lambda o: o.predictions[0]["homography"]), actual=Lazy(lambda o: o.views[0])), bad={"pred": {
+            "other_grid": C.RetinaSamples(np.zeros(13), np.zeros((8, 16)), np.ones((8, 16), bool), np.ones(13, bool))}}),
+    "envs.model_errors": Api(lambda o: envs.model_errors, dict(predictions=Lazy(lambda o: o.predictions),
+                                                               actual=Lazy(lambda o: o.views)), bad={
+        "predictions": {"empty": [], "dict": {"homography": 1}, "empty_dict": [{}, {}]}, "actual": {"short": ("x",)}}),
+    **{f"envs.{cls.__name__}": Api(lambda o, cls=cls: cls, {}, bad={
+        "max_saccades": {**counts(1, 10_000), "2.7": 2.7}, "tolerance_deg": bounds(0.0, 45.0, lo_open=True),
+        "saccade_cost": bounds(0.0, 10.0), "scene": {"unknown": "moon"},
+        **({"min_ecc_deg": bounds(0.0, 30.0), "max_ecc_deg": {**bounds(5.0, 30.0), "89": 89.0}}
+           if cls is envs.FixateTask else {})}) for cls in (envs.Task, envs.FixateTask, envs.SearchTask, envs.FreeViewingTask)},
+    "envs.Task.check_scene": Api(lambda o: envs.Task().check_scene, dict(head=Lazy(lambda o: o.head))),
+    "envs.Task.target_position": Api(lambda o: envs.Task().target_position, dict(head=Lazy(lambda o: o.head))),
+    "envs.Task.initialize_episode": Api(lambda o: envs.SearchTask(scene="dots").initialize_episode, dict(
+        head=Lazy(lambda o: o.head), rng=np.random.default_rng(0)), bad={"rng": {"seed": 3, "legacy": np.random.RandomState(0)}}),
+    "envs.FixateTask.check_scene": Api(lambda o: envs.FixateTask().check_scene, dict(head=Lazy(lambda o: o.head))),
+    "envs.FixateTask.initialize_episode": Api(lambda o: envs.FixateTask().initialize_episode, dict(
+        head=Lazy(lambda o: o.head), rng=np.random.default_rng(0)), bad={"rng": {"seed": 3, "legacy": np.random.RandomState(0)}}),
+    "envs.FixateTask.score": Api(lambda o: envs.FixateTask().score, dict(head=Lazy(lambda o: o.head))),
+    "envs.SearchTask.score": Api(lambda o: envs.SearchTask(scene="dots").score, dict(head=Lazy(lambda o: o.head))),
+    "envs.FreeViewingTask.check_scene": Api(lambda o: envs.FreeViewingTask(scene="dots").check_scene,
+                                            dict(head=Lazy(lambda o: o.head))),
+    "envs.FreeViewingTask.score": Api(lambda o: envs.FreeViewingTask(scene="dots").score, dict(head=Lazy(lambda o: o.head))),
+    "envs.make_task": Api(lambda o: envs.make_task, dict(task="fixate"), bad={"task": {"unknown": "dance",
+                                                                                       "class": envs.FixateTask}}),
+    "envs.gaze_errors_deg": Api(lambda o: envs.gaze_errors_deg, dict(head=Lazy(lambda o: o.head), point=[1.0, 0.0, 1.2]),
+                                bad={"point": {"short": [1.0],
+                                               "nodal": Lazy(lambda o: o.head.eye_states()[0].camera_position)}}),
+    "envs.grid_overlay": Api(lambda o: envs.grid_overlay, dict(grid=Lazy(lambda o: o.grid), shape=(8, 8),
+                                                               pixels_per_unit=10.0),
+                             bad={"shape": {"frac": (7.5, 8), "zero": (0, 8), "huge": (10**6, 10**6), "one": (8,)},
+                                  "pixels_per_unit": bounds(0.0, 1e9, lo_open=True)}),
+    "envs.compose_frame": Api(lambda o: envs.compose_frame, dict(frame=Lazy(lambda o: o.frame), views=Lazy(lambda o: o.views),
+                                                                 vision=Lazy(lambda o: o.vision)),
+                              bad={"frame": {"array": np.zeros((2, 32, 32, 3))}}),
+}
+
+#: public callables the walk does not call, with the reason (a class: its methods too)
+EXEMPT = {
+    "conformal.checks": "the checks themselves: tests/test_checks.py tries every hostile value on each",
+    "conformal.kernels": "numba kernels the checked public functions call with validated arrays",
+    "envs.BatchedBinocularSaccade": "needs the gpu extra (Warp); tests/test_batched_env.py checks its arguments and actions",
+    "envs.PlanBatch": "the batched env's host side: BatchedPlanner.plan builds it from its own tables",
+    "models.EyeTrace": "a record Head.step_ms(record=True) returns (a dataclass of arrays the head computed)",
+    "models.EyeState": "a record Head.eye_states() returns",
+    "models.EyeImage": "a record EyeRenderer.render returns",
+    "models.StereoFrame": "a record EyeRenderer.render returns",
+    "envs.EyeView": "a record Vision.see returns (unlike conformal.RetinaSamples it checks nothing)",
+    "envs.BatchedPlanner": "the batched env's host side, fed the env's validated arrays (it checks nothing itself)",
+    "envs.SettledReset": "the batched env's host side (as BatchedPlanner)",
+    "envs.Task.score": "abstract: each task overrides it (their entries are walked)",
+    "envs.BinocularSaccadeEnv.get_wrapper_attr": "gymnasium.Env's, not this package's",
+    "envs.BinocularSaccadeEnv.has_wrapper_attr": "gymnasium.Env's, not this package's",
+    "envs.BinocularSaccadeEnv.set_wrapper_attr": "gymnasium.Env's, not this package's",
+}
+
+#: public callables that check none of their arguments yet (reported in issue 21): their walk is a
+#: strict xfail, so it fails as soon as one validates its arguments and the entry must move here
+UNVALIDATED = {
+    "models.SaccadeProfile": "a dataclass of tables (BurstGenerator.profile builds it) with no checks",
+    "models.SaccadeProfile.position": "NaN times index with INT64_MIN (IndexError); plant unchecked (IndexError)",
+    "models.SaccadeProfile.rate": "as SaccadeProfile.position",
+    "models.VergenceDynamics.fraction": "NaN and None times are accepted; strings reach numpy",
+    "models.VergenceDynamics.rate": "as VergenceDynamics.fraction; a string offset reaches np.clip (UFuncTypeError)",
+    "models.VergenceDynamics.settle_ms": "NaN, inf and bools accepted; strings and None reach arithmetic",
+    "models.EyePositionSignal.smooth": "NaN accepted; strings and None reach numpy (no message naming the argument)",
+}
+
+
+def _tmp(name: str) -> str:
+    import tempfile
+
+    d = os.path.join(tempfile.gettempdir(), f"adversarial-api-{os.getpid()}")
+    os.makedirs(d, exist_ok=True)
+    return os.path.join(d, name)
+
+
+#: arguments the walk found unvalidated: a ``(entry, parameter, probe)`` triple each, listed so that the
+#: walk stays green while they are reported (issue 21), and fails once one is fixed (the list shrinks)
+KNOWN_GAPS: set[tuple[str, str, str]] = set()
+
+
+# ---------------------------------------------------------------------- the walk
+PACKAGES = (C, models, envs)
+
+
+def _own(obj) -> bool:
+    return getattr(obj, "__module__", "").split(".")[0] in {p.__name__ for p in PACKAGES}
+
+
+def public_callables() -> dict[str, Callable]:
+    """Every public callable of the three packages by qualified name: functions, classes (their
+    constructors), and the public methods (``__call__``, ``__getitem__`` too) that a class
+    defines or inherits, keyed by the class that defines them; modules named in ``__all__`` too."""
+    out: dict[str, Callable] = {}
+    for pkg in PACKAGES:
+        for name in pkg.__all__:
+            obj = getattr(pkg, name)
+            key = f"{pkg.__name__}.{name}"
+            if inspect.ismodule(obj):
+                out[key] = obj
+            elif inspect.isclass(obj):
+                if issubclass(obj, BaseException):
+                    continue  # an exception class: raised, not called with user input
+                out[key] = obj
+                for attr in dir(obj):
+                    if attr.startswith("_") and attr not in ("__call__", "__getitem__"):
+                        continue
+                    owner = next((b for b in obj.__mro__ if attr in b.__dict__), None)
+                    raw = owner.__dict__[attr] if owner is not None else None
+                    if raw is None or isinstance(raw, property) or owner is object:
+                        continue
+                    fn = raw.__func__ if isinstance(raw, (classmethod, staticmethod)) else raw
+                    if not inspect.isfunction(fn):
+                        continue
+                    params = [p for p in inspect.signature(fn).parameters.values()
+                              if p.name not in ("self", "cls") and p.kind != p.VAR_KEYWORD]
+                    if not params:
+                        continue  # nothing to validate
+                    qual = f"{pkg.__name__}.{owner.__name__}.{attr}" if _own(owner) else f"{key}.{attr}"
+                    out.setdefault(qual, fn)
+            elif callable(obj):
+                out[key] = obj
+    return out
+
+
+def _probes(value, default) -> dict[str, Any]:
+    """Hostile values for a parameter whose valid value is ``value``, by the kind of that value."""
+    if isinstance(value, (bool, np.bool_)):
+        out: dict[str, Any] = {"str": "no", "int": 1}
+    elif isinstance(value, numbers.Real) or (isinstance(value, np.ndarray) and value.ndim == 0):
+        out = {"nan": NAN, "inf": INF, "str": "1", "bool": True}
+    elif isinstance(value, numbers.Complex):
+        out = {"nan": complex(NAN, 0.0), "str": "1"}
+    elif isinstance(value, (str, os.PathLike)):
+        out = {"int": 3}
+    else:
+        try:
+            a = np.asarray(value)
+        except (ValueError, TypeError):
+            a = np.array(None)
+        if a.dtype.kind in "biufc" and a.size:
+            nan = np.full(a.shape, complex(NAN, 0.0) if a.dtype.kind == "c" else NAN)
+            out = {"nan": nan, "str": "abc", "object": np.array([object()] * a.size).reshape(a.shape)}
+        else:  # any other object: a grid, a head, a callable, a dict, a sequence of objects
+            out = {"object": object(), "int": 3}
+    if default is not None:
+        out["none"] = None
+    return out
+
+
+def _internal(exc: BaseException) -> bool:
+    """An exception from numpy, scipy, numba or MuJoCo's internals (LinAlgError is a ValueError too)."""
+    return type(exc).__module__.split(".")[0] in ("numpy", "scipy", "numba", "mujoco", "finufft")
+
+
+def _call(fn, kwargs: dict, var_positional: str | None):
+    if var_positional is None:
+        return fn(**kwargs)
+    rest = {k: v for k, v in kwargs.items() if k != var_positional}
+    return fn(*kwargs.get(var_positional, ()), **rest)
+
+
+def _walk(qual: str, o: World) -> tuple[int, list[str], set[tuple[str, str, str]]]:
+    """Call ``qual`` with each hostile value of each parameter: (calls, failures, unvalidated)."""
+    spec = API[qual]
+    fn = spec.get(o)
+    sig = inspect.signature(fn)
+    params = {p.name: p for p in sig.parameters.values() if p.kind != p.VAR_KEYWORD}
+    var_pos = next((p.name for p in params.values() if p.kind == p.VAR_POSITIONAL), None)
+    valid = {k: _resolve(v, o) for k, v in spec.valid.items()}
+    assert set(valid) <= set(params) and set(spec.bad) <= set(params), f"{qual}: stale table ({sorted(params)})"
+    if spec.run_valid:
+        _call(fn, valid, var_pos)  # the table's valid call works: each refusal below is the probe's
+    calls, failures, gaps = 0, [], set()
+    for name, p in params.items():
+        free = spec.free.get(name, "")
+        if free and ":" not in free.split()[0]:
+            generic = {}
+        elif name in valid or p.default not in (inspect.Parameter.empty, None):
+            good = valid.get(name, p.default)
+            generic = _probes(good[-1] if p.kind == p.VAR_POSITIONAL else good,
+                              None if p.kind == p.VAR_POSITIONAL else p.default)
+        else:
+            failures.append(f"{qual}({name}=...): no valid value in API to probe from")
+            continue
+        domain = {k: _resolve(v, o) for k, v in spec.bad.get(name, {}).items()}
+        if free and ":" in free.split()[0]:
+            allowed = free.split(":")[0].split(",")
+            generic = {k: v for k, v in generic.items() if k not in allowed}
+        for label, bad in {**generic, **domain}.items():
+            if p.kind == p.VAR_POSITIONAL:
+                bad = (*valid[name][:-1], bad) if label in generic else bad
+            calls += 1
+            fail = _refusal(fn, {**valid, name: bad}, var_pos, spec, name)
+            if fail is None:
+                continue
+            if (qual, name, label) in KNOWN_GAPS:
+                gaps.add((qual, name, label))
+            else:
+                failures.append(f"{qual}({name}={label}): {fail}")
+    return calls, failures, gaps
+
+
+def _refusal(fn, kwargs, var_pos, spec: Api, name: str) -> str | None:
+    """None if the call raises a clear error naming ``name``; else what went wrong."""
+    try:
+        _call(fn, kwargs, var_pos)
+    except spec.types as exc:
+        if _internal(exc):
+            return f"an internal error: {type(exc).__module__}.{type(exc).__name__}: {exc}"
+        if not re.search(spec.names.get(name, rf"\b{re.escape(name)}\b"), str(exc)):
+            return f"message does not name it: {type(exc).__name__}: {exc}"
+        return None
+    except Exception as exc:  # noqa: BLE001  (any other exception is the finding)
+        return f"{type(exc).__module__}.{type(exc).__name__}: {exc}"
+    return "accepted"
+
+
+def test_every_public_callable_has_an_entry():
+    """The walk covers the whole public API: a new public name needs an entry (or a reason)."""
+    found = set(public_callables())
+    exempt = {q for q in found if any(q == e or q.startswith(e + ".") for e in EXEMPT)}  # a class: its methods too
+    missing = sorted(found - set(API) - exempt)
+    assert not missing, f"public callables without an API entry (add a valid call) or an EXEMPT reason: {missing}"
+    stale = sorted((set(API) | set(EXEMPT)) - found)
+    assert not stale, f"API/EXEMPT entries for names that are not public (any more): {stale}"
+
+
+@pytest.mark.parametrize("qual", [pytest.param(q, marks=pytest.mark.xfail(strict=True, reason=UNVALIDATED[q]))
+                                  if q in UNVALIDATED else q for q in API])
+def test_public_api_validates_every_argument(qual: str, o: World, hostile_calls):
+    calls, failures, gaps = _walk(qual, o)
+    known = {g for g in KNOWN_GAPS if g[0] == qual}
+    hostile_calls.add(calls, calls - len(failures) - len(gaps))
+    assert not failures, f"{len(failures)} of {calls} hostile calls not refused clearly:\n" + "\n".join(failures)
+    assert gaps == known, f"fixed, remove from KNOWN_GAPS: {sorted(known - gaps)}"
+
+
+# ---------------------------------------------------------------------- refusals beyond one bad argument
 @dataclass
 class Case:
     id: str
     call: Callable[[World], Any]
-    match: str  # a regex the message must contain (the argument's name)
-    types: tuple = (ValueError, TypeError, InputTypeError, models.OculomotorRangeError)
+    match: str  # a regex the message must contain
+    types: tuple = ALL_ERRORS
 
 
-CASES: list[Case] = []
-
-
-class Lazy:
-    """A bad value that depends on the shared objects: ``Lazy(lambda o: ...)``."""
-
-    def __init__(self, make: Callable[[World], Any]):
-        self.make = make
-
-
-def sweep(prefix: str, call: Callable[[World, Any], Any], values: dict[str, Any], match: str,
-          types: tuple | None = None) -> None:
-    """One case per bad value: ``call(o, value)`` must raise naming ``match``."""
-    for label, v in values.items():
-        case = Case(f"{prefix}-{label}", (lambda o, v=v: call(o, v.make(o) if isinstance(v, Lazy) else v)), match)
-        if types is not None:
-            case.types = types
-        CASES.append(case)
-
-
-def case(id: str, call: Callable[[World], Any], match: str, types: tuple | None = None) -> None:
-    c = Case(id, call, match)
-    if types is not None:
-        c.types = types
-    CASES.append(c)
-
-
-# ---------------------------------------------------------------------- conformal: geometry
-G_OK = np.eye(2, dtype=complex)
-R_OK = np.eye(3)
-Z_OK = np.array([0.1 + 0.2j, -0.3j])
-
-sweep("act-g", lambda o, v: C.act(v, Z_OK), {**arrays(G_OK, complex_ok=True), "det2": np.diag([2.0, 1.0]),
-      "singular": np.zeros((2, 2)), "3x3": np.eye(3), "4x4": np.eye(4)}, r"\bg\b")
-sweep("act-z", lambda o, v: C.act(G_OK, v), {k: v for k, v in arrays(Z_OK, complex_ok=True).items()
-                                             if k not in ("extra_dims", "scalar", "short", "empty")}, r"\bz\b")
-case("act-overflow", lambda o: C.act(np.diag([0.5, 2.0]), 1e308), "floating-point range")
-sweep("apply_homography-H", lambda o, v: C.apply_homography(v, Z_OK),
-      {**arrays(R_OK), "4x4": np.eye(4), "2x2": np.eye(2), "3x4": np.ones((3, 4)), "singular": np.zeros((3, 3)),
-       "rank1": np.ones((3, 3))}, r"\bH\b")
-sweep("apply_homography-z", lambda o, v: C.apply_homography(R_OK, v),
-      {"nan": [NAN], "inf": [INF], "str": "z", "none": None, "object": np.array([object()])}, r"\bz\b")
-case("apply_homography-pole", lambda o: C.apply_homography(np.array([[1, 0, 0], [0, 1, 0], [1, 0, 1.0]]), [-1.0]),
-     "infinity")
-sweep("check_sl2-tol", lambda o, v: C.check_sl2(G_OK, tol=v), reals(0.0, 0.01, lo_open=True), "tol")
-sweep("check_sl2-name", lambda o, v: C.check_sl2(G_OK, name=v), {"int": 3, "none": None, "list": ["g"]}, "name")
-sweep("check_rotation-R", lambda o, v: C.check_rotation(v), {**arrays(R_OK), "reflection": np.diag([1, 1, -1.0]),
-      "scaled": 2 * np.eye(3), "2x2": np.eye(2)}, r"\bR\b")
-sweep("compose-g", lambda o, v: C.compose(G_OK, v), {**arrays(G_OK, complex_ok=True), "det3": 3 * np.eye(2)}, "g2")
-case("compose-overflow", lambda o: C.compose(*[np.diag([1e100, 1e-100])] * 4), "overflow")
-sweep("cortical_map-samples", lambda o, v: C.cortical_map(v, o.grid), arrays(np.zeros((8, 16)), complex_ok=True),
-      "samples")
-sweep("cortical_map-grid", lambda o, v: C.cortical_map(np.zeros((8, 16)), v),
-      {"str": "grid", "none": None, "tuple": (8, 16), "dict": {"M": 8}}, "grid")
-case("cortical_map-N-not-divisible-by-4", lambda o: C.cortical_map(np.zeros((o.grid_odd.M, 18)), o.grid_odd),
-     "divisible by 4")
-sweep("hemifields-samples", lambda o, v: C.hemifields(v, o.grid), arrays(np.zeros((8, 16, 3)), complex_ok=True),
-      "samples")
-sweep("hemifields-grid", lambda o, v: C.hemifields(np.zeros((8, 16)), v), {"str": "grid", "none": None}, "grid")
-sweep("binocular_cortex-left", lambda o, v: C.binocular_cortex(v, o.samples, o.grid),
-      arrays(np.zeros((8, 16)), complex_ok=True), "left_eye")
-sweep("binocular_cortex-right", lambda o, v: C.binocular_cortex(o.samples, v, o.grid),
-      arrays(np.zeros((8, 16)), complex_ok=True), "right_eye")
-case("binocular_cortex-channels-differ",
-     lambda o: C.binocular_cortex(np.zeros((8, 16, 3)), np.zeros((8, 16, 1)), o.grid), "same shape")
-sweep("BinocularCortex-left", lambda o, v: C.BinocularCortex(v, np.zeros((2, 8, 8))),
-      {**arrays(np.zeros((2, 8, 8)), complex_ok=True), "one_eye": np.zeros((1, 8, 8))}, "hemisphere")
-case("BinocularCortex-shapes-differ", lambda o: C.BinocularCortex(np.zeros((2, 8, 8)), np.zeros((2, 8, 4))),
-     "shape")
-for fn in ("k_matrix", "euler_rotation"):
-    for i, arg in enumerate(("psi", "phi", "psi2")):
-        sweep(f"{fn}-{arg}", lambda o, v, fn=fn, i=i: getattr(C, fn)(*[v if j == i else 0.1 for j in range(3)]),
-              reals(), arg)
-for i, arg in enumerate(("b1", "b2", "b3")):
-    sweep(f"h_matrix-{arg}", lambda o, v, i=i: C.h_matrix(*[v if j == i else 0.1 for j in range(3)]), reals(), arg)
-case("h_matrix-b2=-1", lambda o: C.h_matrix(0.0, -1.0, 0.0), "b2 = -1")
-sweep("inverse-g", lambda o, v: C.inverse(v), arrays(G_OK, complex_ok=True), r"\bg\b")
-sweep("lift_to_sphere-z", lambda o, v: C.lift_to_sphere(v),
-      {"nan": [NAN], "inf": [1j * INF], "str": "z", "none": None, "object": np.array([object()])}, r"\bz\b")
-sweep("mobius_from_points-z", lambda o, v: C.mobius_from_points(v, [0, 1, 1j]),
-      {"nan": [NAN, 1, 2], "two": [0, 1], "repeated": [0, 0, 1], "str": "abc", "none": None}, r"\bz\b|three points")
-sweep("mobius_from_points-w", lambda o, v: C.mobius_from_points([0, 1, 1j], v),
-      {"inf": [INF, 1, 2], "four": [0, 1, 2, 3], "repeated": [1j, 1j, 1], "object": np.array([object()] * 3)},
-      r"\bw\b|three points")
-sweep("project-points", lambda o, v: C.project(v), {**arrays(np.array([[0.0, 1.0, 0.0]]), batch=True), "x2=0": [1.0, 0.0, 2.0],
-      "2d": [1.0, 2.0]}, "points|x2 = 0")
-case("project-overflow", lambda o: C.project([1e308, 1e-10, 1e308]), "floating-point range")
-sweep("rotation_from_su2-k", lambda o, v: C.rotation_from_su2(v),
-      {**arrays(G_OK, complex_ok=True), "not_unitary": np.array([[1, 1], [0, 1.0]])}, r"\bk\b")
-for fn in ("su2_from_rotation", "rotation_homography", "homography_map", "mobius_map", "mobius_for_rotation"):
-    sweep(f"{fn}-R", lambda o, v, fn=fn: getattr(C, fn)(v), {**arrays(R_OK), "reflection": np.diag([1, 1, -1.0])},
-          r"\bR\b")
-sweep("rotation_matrix-axis", lambda o, v: C.rotation_matrix(v, 0.1), {**arrays(np.array([0.0, 0.0, 1.0])),
-      "zero": np.zeros(3), "3x3": np.eye(3)}, "axis")
-sweep("rotation_matrix-angle", lambda o, v: C.rotation_matrix([0, 0, 1.0], v), reals(), "angle")
-sweep("schwartz_map-a", lambda o, v: C.schwartz_map(Z_OK, v), reals(0.0, lo_open=True), r"\ba\b")
-sweep("schwartz_map-z", lambda o, v: C.schwartz_map(v, 1.0), {"nan": [NAN], "inf": [INF], "str": "z", "none": None},
-      r"\bz\b")
-sweep("transform_image-f", lambda o, v: C.transform_image(v, G_OK), {"int": 3, "none": None, "str": "f"}, r"\bf\b")
-sweep("transform_image-g", lambda o, v: C.transform_image(abs, v), arrays(G_OK, complex_ok=True), r"\bg\b")
-case("SPHERE_CENTRE-read-only", lambda o: C.SPHERE_CENTRE.__setitem__(0, 5.0), "read-only")
-
-# ---------------------------------------------------------------------- conformal: grid
-GRID_KW = dict(r0=0.05, delta=0.3, M=8, N=16, fovea_spacing=0.04, n_fovea=13)
-for arg, values in (("r0", reals(0.0, 1e6, lo_open=True)), ("delta", reals(0.0, 100.0, lo_open=True)),
-                    ("fovea_spacing", reals(0.0, 1e6, lo_open=True)), ("M", ints(2, 4096)), ("N", ints(2, 8192)),
-                    ("n_fovea", ints(1, 2**20))):
-    sweep(f"RetinaGrid-{arg}", lambda o, v, arg=arg: C.RetinaGrid(**{**GRID_KW, arg: v}), values, arg)
-case("RetinaGrid-M=1e9", lambda o: C.RetinaGrid(**{**GRID_KW, "M": 1e9}), r"\bM\b")
-case("RetinaGrid-M*N-too-many", lambda o: C.RetinaGrid(**{**GRID_KW, "M": 4096, "N": 4096, "delta": 0.01}), "M \\* N")
-case("RetinaGrid-period-too-long", lambda o: C.RetinaGrid(**{**GRID_KW, "M": 4000, "delta": 50.0}), "period")
-FP = dict(width=64, height=64, dots_per_unit=4.0, foveal_pixels=64)
-for arg, values in (("width", ints(1, 65536)), ("height", ints(1, 65536)), ("foveal_pixels", ints(1, 2**20)),
-                    ("dots_per_unit", reals(0.0, 1e9, lo_open=True))):
-    sweep(f"RetinaGrid.from_picture-{arg}", lambda o, v, arg=arg: C.RetinaGrid.from_picture(**{**FP, arg: v}), values,
-          arg)
-sweep("RetinaGrid.from_picture-extent", lambda o, v: C.RetinaGrid.from_picture(**FP, extent=v),
-      choices(("diagonal", "inscribed")), "extent")
-sweep("RetinaGrid.from_picture-r0_decimals", lambda o, v: C.RetinaGrid.from_picture(**FP, r0_decimals=v),
-      {k: x for k, x in ints(0, 15).items() if k != "none"}, "r0_decimals")
-for arg, values in (("rb", reals(0.0, lo_open=True)), ("r0", reals(0.0, 1e6, lo_open=True)),
-                    ("n_sectors", {**ints(4, 8192), "100000": 100000, "36.5": 36.5})):
-    sweep(f"RetinaGrid.from_field_of_view-{arg}",
-          lambda o, v, arg=arg: C.RetinaGrid.from_field_of_view(**{**dict(rb=1.0, r0=0.05, n_sectors=16), arg: v}),
-          values, arg)
-case("RetinaGrid.from_field_of_view-tiny-r0-huge-rb", lambda o: C.RetinaGrid.from_field_of_view(1e300, 1e-300, 64),
-     "M|period|n_fovea")
-for arg, values in (("field_deg", reals(0.0, 90.0, lo_open=True, hi_open=True)),
-                    ("fovea_deg", reals(0.0, 90.0, lo_open=True, hi_open=True)), ("n_sectors", ints(4, 8192))):
-    sweep(f"RetinaGrid.from_angles-{arg}",
-          lambda o, v, arg=arg: C.RetinaGrid.from_angles(**{**dict(field_deg=40.0, fovea_deg=1.0), arg: v}), values, arg)
-sweep("RetinaGrid.locate-z", lambda o, v: o.grid.locate(v), {"nan_inf": [NAN, INF], "nan": NAN, "inf": 1j * INF,
-      "str": "z", "none": None, "object": np.array([object()])}, r"\bz\b")
-
-# ---------------------------------------------------------------------- conformal: DPFT, fovea, shift
-for fn in ("dpft", "dpft_direct"):
-    sweep(f"{fn}-samples", lambda o, v, fn=fn: getattr(C, fn)(v, o.grid),
-          {**arrays(np.zeros((8, 16))), "longdouble": np.zeros((8, 16), np.longdouble)}, "samples")
-    sweep(f"{fn}-grid", lambda o, v, fn=fn: getattr(C, fn)(np.zeros((8, 16)), v), {"str": "grid", "none": None},
-          "grid")
-for fn in ("idpft", "idpft_direct"):
-    sweep(f"{fn}-coeffs", lambda o, v, fn=fn: getattr(C, fn)(v, o.grid), arrays(np.zeros((8, 16), complex),
-          complex_ok=True), "coeffs")
-sweep("idpft-real", lambda o, v: C.idpft(o.coeffs, o.grid, real=v), FLAGS, "real")
-case("dpft_direct-too-large", lambda o: C.dpft_direct(np.zeros((60, 64)), C.RetinaGrid(**{**GRID_KW, "M": 60,
-     "N": 64})), "direct sum")
-case("idpft_direct-too-large", lambda o: C.idpft_direct(np.zeros((60, 64)), C.RetinaGrid(**{**GRID_KW, "M": 60,
-     "N": 64})), "direct sum")
-sweep("pft_frequencies-grid", lambda o, v: C.pft_frequencies(v), {"str": "grid", "none": None, "int": 3}, "grid")
-for fn in ("evaluate", "evaluate_direct"):
-    sweep(f"{fn}-points", lambda o, v, fn=fn: getattr(C, fn)(o.coeffs, o.grid, v),
-          {"nan": [NAN], "inf": [INF], "zero": [0j], "str": "z", "none": None, "object": np.array([object()])},
-          "points|z = 0")
-    sweep(f"{fn}-extension", lambda o, v, fn=fn: getattr(C, fn)(o.coeffs, o.grid, [0.3], extension=v),
-          choices(("mirror", "paper")), "extension")
-    sweep(f"{fn}-real", lambda o, v, fn=fn: getattr(C, fn)(o.coeffs, o.grid, [0.3], real=v), FLAGS, "real")
-    sweep(f"{fn}-coeffs", lambda o, v, fn=fn: getattr(C, fn)(v, o.grid, [0.3]),
-          arrays(np.zeros((8, 16), complex), complex_ok=True), "coeffs")
-OG = "OffGridEvaluator"
-sweep(f"{OG}-eps", lambda o, v: C.OffGridEvaluator(o.grid, [0.3], eps=v), {**reals(1e-15, 1e-2), "ten": 10.0}, "eps")
-sweep(f"{OG}-method", lambda o, v: C.OffGridEvaluator(o.grid, [0.3], method=v), choices(("auto", "nufft", "matrix")),
-      "method")
-sweep(f"{OG}-dtype", lambda o, v: C.OffGridEvaluator(o.grid, [0.3], dtype=v),
-      {"float16": np.float16, "complex": complex, "int": int, "none": None, "str": "fast", "longdouble": np.longdouble},
-      "dtype")
-sweep(f"{OG}-grid", lambda o, v: C.OffGridEvaluator(v, [0.3]), {"str": "grid", "none": None}, "grid")
-sweep(f"{OG}-points", lambda o, v: C.OffGridEvaluator(o.grid, v), {"nan": [NAN], "zero": [0.0], "str": "p"}, "points")
-sweep(f"{OG}.__call__-coeffs", lambda o, v: o.evaluator(v), arrays(np.zeros((8, 16), complex), complex_ok=True),
-      "coeffs")
-sweep(f"{OG}.__call__-real", lambda o, v: o.evaluator(o.coeffs, real=v), FLAGS, "real")
-sweep("transform-g", lambda o, v: C.transform(o.coeffs, o.grid, v), {**arrays(G_OK, complex_ok=True),
-      "det2": 2 * np.eye(2)}, r"\bg\b")
-sweep("warp-point_map", lambda o, v: C.warp(o.coeffs, o.grid, v), {
-    "not_callable": 3, "none": None, "wrong_shape": lambda z: z.ravel(), "scalar": lambda z: 0.3 + 0j,
-    "nan": lambda z: z * NAN, "strings": lambda z: np.full(z.shape, "x"), "behind_eye": C.homography_map(
-        C.rotation_matrix([0, 0, 1.0], np.radians(120)))}, "point_map")
-sweep("warp-coeffs", lambda o, v: C.warp(v, o.grid, lambda z: z), arrays(np.zeros((8, 16), complex), complex_ok=True),
-      "coeffs")
-sweep("fovea_indices-grid", lambda o, v: C.fovea_indices(v), {"str": "grid", "none": None, "list": [1, 2]}, "grid")
-sweep("fovea_image-fovea", lambda o, v: C.fovea_image(v, o.grid), arrays(np.zeros(13), complex_ok=True), "fovea")
-sweep("fovea_image-outside", lambda o, v: C.fovea_image(o.fovea, o.grid, outside=v),
-      {k: x for k, x in reals().items() if k != "nan"}, "outside")
-sweep("fovea_image-grid", lambda o, v: C.fovea_image(o.fovea, v), {"str": "grid", "none": None}, "grid")
-sweep("fovea_dft-fovea", lambda o, v: C.fovea_dft(v, o.grid), arrays(np.zeros(13), complex_ok=True), "fovea")
-sweep("fovea_idft-coeffs", lambda o, v: C.fovea_idft(v, o.grid), arrays(np.zeros((6, 6), complex), complex_ok=True),
-      "coeffs|foveal coefficients")
-sweep("fovea_idft-real", lambda o, v: C.fovea_idft(np.zeros((6, 6)), o.grid, real=v), FLAGS, "real")
-sweep("log_radius_shift-shift", lambda o, v: C.log_radius_shift(o.samples, o.grid, v), reals(), "shift")
-sweep("log_radius_shift-wrapped-shift", lambda o, v: C.log_radius_shift(o.samples, o.grid, v, wrap=True),
-      reals(-32, 32), "shift")
-sweep("log_radius_shift-wrap", lambda o, v: C.log_radius_shift(o.samples, o.grid, 0.5, wrap=v), FLAGS, "wrap")
-sweep("log_radius_shift-samples", lambda o, v: C.log_radius_shift(v, o.grid, 0.5), arrays(np.zeros((8, 16))),
-      "samples")
-
-# ---------------------------------------------------------------------- conformal: sampling
-sweep("pixel_points-shape", lambda o, v: C.pixel_points(v, 10.0), {
-    "zero": (0, 5), "negative": (-1, 5), "frac": (7.5, 8), "huge": (10**9, 10**9), "huge_float": (1e9, 1e9),
-    "str": "ab", "none": None, "one": (5,), "three": (4, 4, 4), "nan": (NAN, 4), "bool": (True, 4)}, "shape")
-sweep("pixel_points-pixels_per_unit", lambda o, v: C.pixel_points((4, 4), v), reals(0.0, 1e9, lo_open=True),
-      "pixels_per_unit")
-RET_KW = dict(image_shape=(40, 40), pixels_per_unit=20.0)
-for arg, values in (("image_shape", {"zero": (0, 40), "frac": (40.5, 40), "huge": (10**6, 10**6), "str": "40x40",
-                                     "none": None, "one": (40,), "four": (4, 4, 3, 1), "channels": (4, 4, 10**6),
-                                     "nan": (NAN, 40)}),
-                    ("pixels_per_unit", reals(0.0, 1e9, lo_open=True)), ("mode", choices(("pool", "bilinear"))),
-                    ("supersample", ints(1, 16)), ("min_coverage", reals(0.0, 1.0, lo_open=True)),
-                    ("fill", reals())):
-    sweep(f"Retina-{arg}", lambda o, v, arg=arg: C.Retina(o.grid, **{**RET_KW, arg: v}), values, arg)
-sweep("Retina-grid", lambda o, v: C.Retina(v, (40, 40), 20.0), {"str": "grid", "none": None}, "grid")
-case("Retina-too-many-subpixels", lambda o: C.Retina(o.grid, (8192, 8192), 20.0, supersample=16), "subpixels")
-IMG = np.zeros((40, 40))
-sweep("Retina.sample-image", lambda o, v: o.retina.sample(v), {
-    **arrays(IMG), "longdouble": IMG.astype(np.longdouble),
-    "complex64": IMG.astype(np.complex64), "datetime": IMG.astype("datetime64[s]"), "rgb": np.zeros((40, 40, 3)),
-    "transposed_shape": np.zeros((40, 41)), "float16_nan": np.full((40, 40), NAN, np.float16),
-    "bigendian_inf": np.full((40, 40), INF, ">f8")}, "image")
-sweep("Retina.sample_many-images", lambda o, v: o.retina.sample_many(v), {"one_picture": IMG, "int": 3, "none": None,
-      "str": "images", "bad_member": [IMG, np.zeros((3, 3))]}, "image")
-sweep("Retina.sample_many-scale", lambda o, v: o.retina.sample_many([IMG], scale=v), reals(), "scale")
-sweep("Retina.render-samples", lambda o, v: o.retina.render(v), {"none": None, "dict": {"fovea": 0},
-      "array": np.zeros((8, 16))}, "samples")
-sweep("Retina.render-background", lambda o, v: o.retina.render(o.retina_samples, background=v), reals(), "background")
-case("Retina.render-nan-samples", lambda o: o.retina.render(C.RetinaSamples(
-    np.full(13, NAN), np.zeros((8, 16)), np.ones((8, 16), bool), np.ones(13, bool))), "samples")
-case("Retina.render-other-grid", lambda o: o.retina.render(C.RetinaSamples(
-    np.zeros(13), np.zeros((8, 12)), np.ones((8, 12), bool), np.ones(13, bool))), "grid")
-RS = dict(fovea=np.zeros(13), periphery=np.zeros((8, 16)), mask=np.ones((8, 16), bool), fovea_mask=np.ones(13, bool))
-for arg, values in (("fovea", {"str": "f", "complex": np.zeros(13, complex), "3d": np.zeros((13, 1, 1))}),
-                    ("periphery", {"none": None, "1d": np.zeros(5), "channels": np.zeros((8, 16, 2))}),
-                    ("mask", {"float": np.ones((8, 16)), "shape": np.ones((8, 15), bool)}),
-                    ("fovea_mask", {"int": np.ones(13, int), "shape": np.ones(12, bool)})):
-    sweep(f"RetinaSamples-{arg}", lambda o, v, arg=arg: C.RetinaSamples(**{**RS, arg: v}), values,
-          arg if arg != "periphery" else "periphery|channels")
-
-# ---------------------------------------------------------------------- conformal: remapping
-sweep("ProjectiveMap-H", lambda o, v: C.ProjectiveMap(v), {**arrays(R_OK), "2x2": np.eye(2), "4x4": np.eye(4),
-      "singular": np.zeros((3, 3))}, r"\bH\b")
-sweep("MobiusMap-g", lambda o, v: C.MobiusMap(v), {**arrays(G_OK, complex_ok=True), "singular": np.ones((2, 2)),
-      "3x3": np.eye(3)}, r"\bg\b")
-sweep("ProjectiveMap.__call__-z", lambda o, v: C.ProjectiveMap(R_OK)(v), {"nan": [NAN], "inf": [INF], "str": "z",
-      "none": None}, r"\bz\b")
-sweep("MobiusMap.__call__-z", lambda o, v: C.MobiusMap(G_OK)(v), {"nan": [NAN], "inf": [INF], "str": "z"}, r"\bz\b")
-for arg, values in (("z_target", {"nan": NAN, "inf": complex(0, INF), "str": "0.1", "none": None, "list": [0.1, 0.2]}),
-                    ("shift", reals()), ("delta", reals(0.0, 100.0, lo_open=True))):
-    sweep(f"target_shift_map-{arg}",
-          lambda o, v, arg=arg: C.target_shift_map(**{**dict(z_target=0.1, shift=1.0, delta=0.1), arg: v}), values, arg)
-case("target_shift_map-scale-overflow", lambda o: C.target_shift_map(0.1, 1e6, 1.0), "shift \\* delta")
-sweep("predict-point_map", lambda o, v: C.predict(o.coeffs, o.fovea, o.grid, v), {
-    "not_callable": 3, "none": None, "wrong_shape": lambda z: z[:3], "strings": lambda z: np.full(z.shape, "x")},
-      "point map")
-sweep("predict-fovea", lambda o, v: C.predict(o.coeffs, v, o.grid, lambda z: z),
-      {**arrays(np.zeros(13)), "channels": np.zeros((13, 3))}, "fovea")
-sweep("predict-coeffs", lambda o, v: C.predict(v, o.fovea, o.grid, lambda z: z),
-      arrays(np.zeros((8, 16), complex), complex_ok=True), "coeffs")
-sweep("predict-on", lambda o, v: C.predict(o.coeffs, o.fovea, o.grid, lambda z: z, on=v), {"str": "grid", "int": 3},
-      r"\bon\b")
-sweep("predict_many-point_maps", lambda o, v: C.predict_many(o.coeffs, o.fovea, o.grid, v),
-      {"empty": [], "callable": lambda z: z, "str": "maps", "none": None, "member": [lambda z: z, 3]}, "point map")
-sweep("predict_many-dtype", lambda o, v: C.predict_many(o.coeffs, o.fovea, o.grid, [lambda z: z], dtype=v),
-      {"float16": np.float16, "none": None, "str": "fast"}, "dtype")
-sweep("RemapPlan-grid", lambda o, v: C.RemapPlan(v), {"str": "grid", "none": None, "int": 3}, "grid")
-sweep("RemapPlan-on", lambda o, v: C.RemapPlan(o.grid, on=v), {"str": "grid", "int": 3}, "grid")
-sweep("RemapPlan.__call__-coeffs", lambda o, v: o.plan(v, o.plan_args[1], o.plan_args[2]),
-      {**arrays(np.zeros((2, 8, 16, 1), complex), complex_ok=True), "3d": np.zeros((8, 16, 1), complex),
-       "one_eye": np.zeros((1, 8, 16, 1), complex)}, "coeffs|fovea")
-sweep("RemapPlan.__call__-fovea", lambda o, v: o.plan(o.plan_args[0], v, o.plan_args[2]),
-      {**arrays(np.zeros((2, 13, 1))), "complex": np.zeros((2, 13, 1), complex)}, "fovea")
-sweep("RemapPlan.__call__-maps", lambda o, v: o.plan(o.plan_args[0], o.plan_args[1], v), {
-    "str": "maps", "none": None, "flat": [C.homography_map(np.eye(3))] * 2, "one_eye": [[C.homography_map(np.eye(3))]],
-    "callables": [[abs], [abs]], "strings": [["homography"], ["homography"]]}, "maps|point maps|ProjectiveMap")
-sweep("RemapPlan.series_coefficients-coeffs", lambda o, v: o.plan.series_coefficients(v),
-      {**arrays(np.zeros((2, 8, 16, 1), complex), complex_ok=True, batch=True), "3d": np.zeros((8, 16, 1), complex)}, "coeffs")
-sweep("RemapPlan.samples-values", lambda o, v: o.plan.samples(v, np.ones((2, 1, o.plan.n_points), bool)), {
-    "str": "v", "none": None, "wrong_points": np.zeros((2, 1, 5, 1), np.float32), "3d": np.zeros((2, 1, 5))}, "values")
-sweep("RemapPlan.samples-valid", lambda o, v: o.plan.samples(np.zeros((2, 1, o.plan.n_points, 1), np.float32), v), {
-    "float": Lazy(lambda o: np.ones((2, 1, o.plan.n_points))), "shape": np.ones((2, 1, 3), bool), "none": None},
-      "valid")
-sweep("blas_threads-n", lambda o, v: C.blas_threads(v), {"zero": 0, "negative": -1, "frac": 1.5, "str": "2",
-      "none": None, "bool": True}, r"\bn\b")
-sweep("checks.integer-value", lambda o, v: C.checks.integer("count", v, 0, 10), ints(0, 10), "count")
-sweep("checks.real-value", lambda o, v: C.checks.real("level", v, 0.0, 1.0), reals(0.0, 1.0), "level")
-sweep("checks.flag-value", lambda o, v: C.checks.flag("switch", v), FLAGS, "switch")
-sweep("checks.choice-value", lambda o, v: C.checks.choice("colour", v, ("red", "green")), choices(("red", "green")),
-      "colour")
-sweep("checks.array-value", lambda o, v: C.checks.array("data", v, shape=(2, 3)), arrays(np.zeros((2, 3))), "data")
-
-
-# ---------------------------------------------------------------------- models
-sweep("build_spec-scene", lambda o, v: models.build_spec(v), {k: x for k, x in choices(models.SCENES).items()
-                                                              if k != "none"}, "scene")
-sweep("build_spec-quality", lambda o, v: models.build_spec("bar", quality=v), choices(models.QUALITIES), "quality")
-sweep("build_spec-ipd", lambda o, v: models.build_spec("bar", ipd=v), reals(0.01, 0.15), "ipd")
-sweep("build_spec-fovy_deg", lambda o, v: models.build_spec("bar", fovy_deg=v), reals(5.0, 170.0), "fovy_deg")
-sweep("build_spec-offscreen_size", lambda o, v: models.build_spec("bar", offscreen_size=v), {
-    "zero": (0, 480), "frac": (640.5, 480), "huge": (10**9, 10**9), "str": "640x480", "none": None, "three": (1, 2, 3),
-    "nan": (NAN, 480), "negative": (-640, 480)}, "offscreen_size")
-sweep("build_spec-head_xml", lambda o, v: models.build_spec("bar", head_xml=v), {"int": 3, "empty": "",
-      "list": ["head.xml"]}, "head_xml")
-case("build_spec-head_xml-missing", lambda o: models.build_spec("bar", head_xml="/nonexistent/head.xml"),
-     "cannot read", (models.ModelFileError,))
-sweep("build_model-kwargs", lambda o, v: models.build_model("bar", **v), {"ipd": {"ipd": NAN}, "fovy": {"fovy_deg": -1},
-      "size": {"offscreen_size": (1e9, 1)}}, "ipd|fovy_deg|offscreen_size")
-case("build_model-unknown-kwarg", lambda o: models.build_model("bar", colour="red"), "colour")
-sweep("export_xml-path", lambda o, v: models.export_xml("bar", v), {"int": 3, "none": None, "empty": "",
-      "folder": "/tmp"}, "path")
-case("export_xml-unwritable", lambda o: models.export_xml("bar", "/proc/nope/head.xml"), "cannot write",
-     (models.ModelFileError,))
-sweep("load_model-path", lambda o, v: models.load_model(v), {"int": 3, "none": None, "empty": ""}, "path")
-case("load_model-missing", lambda o: models.load_model("/nonexistent.xml"), "cannot load", (models.ModelFileError,))
-for arg, values in (("azimuth", reals(-np.pi / 2, np.pi / 2, lo_open=True, hi_open=True)),
-                    ("elevation", reals(-np.pi / 2, np.pi / 2, lo_open=True, hi_open=True)),
-                    ("distance", reals(0.0, 1000.0, lo_open=True))):
-    sweep(f"screen_point-{arg}",
-          lambda o, v, arg=arg: models.screen_point(**{**dict(azimuth=0.1, elevation=0.1, distance=1.0), arg: v}),
-          values, arg)
-case("CYCLOPEAN_EYE-read-only", lambda o: models.CYCLOPEAN_EYE.__setitem__(0, 5.0), "read-only")
-sweep("gl_install_hint-backend", lambda o, v: models.gl_install_hint(v), {"int": 3, "list": ["egl"]}, "backend")
-HEAD_BAD = {
-    "scene": {"unknown": "moon", "none": None, "int": 1},
-    "image_size": {**ints(1, 4096), "pair_frac": (32, 7.5), "pair_huge": (32, 10**6), "triple": (32, 32, 3)},
-    "fovy_deg": reals(5.0, 170.0), "ipd": reals(0.01, 0.15), "quality": choices(models.QUALITIES),
-    "seed": {"negative": -1, "frac": 1.5, "str": "0", "nan": NAN, "complex": 1j, "bool": True},
-    "endpoint_noise": reals(0.0, 1.0),
-    "main_sequence": {"dict": {"m0_deg": 7.0}, "int": 3, "str": "vanwetter", "with_burst": models.MainSequence()},
-    "saccade_model": {"unknown": "robinson", "none": None, "int": 1},
-    "generator": {"dict": {}, "main_sequence": models.MainSequence()},
-    "vergence": {"dict": {}, "float": 150.0}, "eye_position": {"dict": {}, "float": 50.0},
-    "timestep_ms": {**reals(0.01, 1.0), "not_a_divisor": 0.3, "tiny": 1e-9},
-    "saccade_timestep_ms": {**reals(0.01, 1.0), "not_a_divisor": 0.7},
-}
-for arg, values in HEAD_BAD.items():
-    sweep(f"Head-{arg}", lambda o, v, arg=arg: models.Head(**{"scene": "bar", "image_size": 16, arg: v}), values, arg)
-
-sweep("Head.step_ms-n", lambda o, v: o.head.step_ms(v), {**ints(0, 60_000), "2.5": 2.5, "1e9": 1e9}, r"\bn\b")
-sweep("Head.step_ms-record", lambda o, v: o.head.step_ms(1, record=v), FLAGS, "record")
-sweep("Head.reset-seed", lambda o, v: o.head.reset(seed=v), HEAD_BAD["seed"], "seed")
-sweep("Head.reset-settle_ms", lambda o, v: o.head.reset(settle_ms=v), ints(0, 60_000), "settle_ms")
-sweep("Head.reset-fixate", lambda o, v: o.head.reset(fixate=v), {"nan": [NAN, 0, 1], "short": [1.0, 2.0],
-      "int": 3, "unknown": "unicorn"}, "fixate|target|unicorn", (ValueError, TypeError, InputTypeError,
-                                                                  models.OculomotorRangeError, KeyError))
-sweep("Head.set_gaze-settle_ms", lambda o, v: o.head.set_gaze("fixation", settle_ms=v), ints(0, 60_000), "settle_ms")
-sweep("Head.set_gaze-target", lambda o, v: o.head.set_gaze(v), {"nan": [NAN, 0, 1], "inf": [INF, 0, 1],
-      "str_list": ["a", "b", "c"], "none": None, "2d": [1.0, 2.0], "complex": [1j, 0, 1]}, "target")
-sweep("Head.set_neck-pan", lambda o, v: o.head.set_neck(v, 0.0), {**reals(), "far": 10.0}, "pan|neck")
-sweep("Head.set_neck-tilt", lambda o, v: o.head.set_neck(0.0, v), {**reals(), "far": -10.0}, "tilt|neck")
-sweep("Head.plan_saccade-horizontal", lambda o, v: o.head.plan_saccade(v, 0.0), reals(), "horizontal")
-sweep("Head.plan_saccade-vertical", lambda o, v: o.head.plan_saccade(0.0, v), reals(), "vertical")
-sweep("Head.plan_saccade-latency_ms", lambda o, v: o.head.plan_saccade(0.1, 0.0, latency_ms=v), ints(0, 60_000),
-      "latency_ms")
-sweep("Head.plan_saccade_to-target", lambda o, v: o.head.plan_saccade_to(v), {
-    "nan": [NAN, 0, 1.2], "none": None, "int": 3, "matrix": np.eye(3), "unknown": "unicorn"}, "target|unicorn",
-      (ValueError, TypeError, InputTypeError, models.OculomotorRangeError, KeyError))
-sweep("Head.plan_saccade_to-latency_ms", lambda o, v: o.head.plan_saccade_to("target", latency_ms=v),
-      ints(0, 60_000), "latency_ms")
-sweep("Head.start_saccade-plan", lambda o, v: o.head.start_saccade(v), {"none": None, "dict": {"onset_ms": 0},
-      "str": "plan"}, "plan")
-sweep("Head.run_saccade-plan", lambda o, v: o.head.run_saccade(v), {"none": None, "int": 3}, "plan")
-sweep("Head.run_saccade-before_ms", lambda o, v: o.head.run_saccade(o.saccade, before_ms=v), ints(0, 60_000),
-      "before_ms")
-sweep("Head.run_saccade-after_ms", lambda o, v: o.head.run_saccade(o.saccade, after_ms=v), ints(0, 60_000), "after_ms")
-sweep("Head.saccade_to-after_ms", lambda o, v: o.head.saccade_to("target", after_ms=v), ints(0, 60_000), "after_ms")
-sweep("Head.flash-duration_ms", lambda o, v: o.head.flash("flash_00", duration_ms=v), ints(1, 60_000), "duration_ms")
-sweep("Head.flash-names", lambda o, v: o.head.flash(v), {"int": 3, "none": None, "empty": [], "member": [1]}, "name")
-sweep("Head.object_position-name", lambda o, v: o.head.object_position(v), {"int": 3, "none": None, "list": ["a"]},
-      "name")
-sweep("Head.object_positions-group", lambda o, v: o.head.object_positions(v), {"int": 3, "none": None}, "group")
-sweep("Head.set_object_position-pos", lambda o, v: o.head.set_object_position("target", v), {
-    "nan": [NAN, 0, 1], "short": [1, 2], "str": "here", "none": None}, "target")
-sweep("Head.set_object_position-name", lambda o, v: o.head.set_object_position(v, [1.0, 0, 1.2]), {"int": 3,
-      "none": None}, "name")
-sweep("Head.to_head-point", lambda o, v: o.head.to_head(v), {"nan": [NAN, 0, 0], "short": [1.0], "str": "p"}, "target")
-sweep("Head.to_world-point_head", lambda o, v: o.head.to_world(v), {"nan": [NAN, 0, 0], "short": [1.0], "str": "p",
-      "none": None}, "point_head")
-sweep("Head.fixation_angles-point", lambda o, v: o.head.fixation_angles(v), {"inf": [INF, 0, 0], "none": None}, "target")
-sweep("Head.project-points", lambda o, v: o.head.project(v), {**arrays(np.array([[1.0, 0.0, 1.2]]), batch=True),
-      "four_columns": np.zeros((2, 4))}, "points")
-sweep("Head.project_to_pixels-points", lambda o, v: o.head.project_to_pixels(v), {"nan": [NAN, 0, 0], "str": "p"},
-      "points")
-sweep("Head.render-depth", lambda o, v: o.head.render(depth=v), FLAGS, "depth")
-sweep("Head.render-exposure_ms", lambda o, v: o.head.render(exposure_ms=v), reals(0.0, 1000.0), "exposure_ms")
-sweep("Head.render-samples", lambda o, v: o.head.render(exposure_ms=2, samples=v),
-      {k: v for k, v in ints(1, 1000).items() if k != "none"}, "samples")
-case("Head.render-samples-without-exposure", lambda o: o.head.render(samples=3), "samples")
-case("Head.render-depth-with-exposure", lambda o: o.head.render(depth=True, exposure_ms=4), "depth")
-sweep("Head.eye_position_signal-t_ms", lambda o, v: o.head.eye_position_signal(v),
-      {k: v for k, v in reals(0.0).items() if k != "none"}, "t_ms")
-sweep("Head.export_xml-path", lambda o, v: o.head.export_xml(v), {"int": 3, "none": None, "empty": "",
-      "folder": "/tmp"}, "path")
-sweep("EyeState.project-points", lambda o, v: o.head.eye_states()[0].project(v), {"nan": [NAN, 0, 0], "str": "p",
-      "object": np.array([object()] * 3)}, "points")
-sweep("EyeRenderer-model", lambda o, v: models.EyeRenderer(v, 16), {"none": None, "str": "model", "data": 3}, "model")
-sweep("EyeRenderer-height", lambda o, v: models.EyeRenderer(o.head.model, v), ints(1, 4096), "height")
-sweep("EyeRenderer-width", lambda o, v: models.EyeRenderer(o.head.model, 16, v), {"frac": 7.5, "zero": 0, "str": "8"},
-      "width")
-sweep("EyeRenderer.render-data", lambda o, v: o.renderer.render(v), {"none": None, "model": 3, "str": "data"}, "data")
-sweep("EyeRenderer.render-depth", lambda o, v: o.renderer.render(o.head.data, depth=v), FLAGS, "depth")
-sweep("EyeRenderer.render-time_ms", lambda o, v: o.renderer.render(o.head.data, time_ms=v),
-      {"frac": 2.5, "nan": NAN, "str": "0"}, "time_ms")
-sweep("EyeImage.pixel_to_plane-rows", lambda o, v: o.frame.left.pixel_to_plane(v, [1.0, 2.0]), {"nan": [NAN],
-      "str": "r", "complex": [1j], "mismatch": [1.0, 2.0, 3.0]}, "rows")
-sweep("EyeImage.plane_to_pixel-z", lambda o, v: o.frame.left.plane_to_pixel(v), {"nan": [NAN], "inf": [INF],
-      "str": "z"}, r"\bz\b")
-sweep("StereoFrame.__getitem__-name", lambda o, v: o.frame[v], {"unknown": "middle", "int": 0, "none": None},
-      "eye", (KeyError,))
-MS_BAD = {"m0_deg": reals(0.0, 100.0, lo_open=True), "vpk_deg_per_ms": reals(0.0, 0.7, lo_open=True),
-          "end_velocity_deg_s": reals(0.0, 525.0, lo_open=True, hi_open=True),
-          "settle_deg": reals(0.0, 1.0, lo_open=True)}
-for arg, values in MS_BAD.items():
-    sweep(f"MainSequence-{arg}", lambda o, v, arg=arg: models.MainSequence(**{arg: v}), values, arg)
-for meth in ("position_deg", "velocity_deg_per_ms"):
-    sweep(f"MainSequence.{meth}-amp_deg", lambda o, v, meth=meth: getattr(models.MainSequence(), meth)(10.0, v),
-          reals(0.0, 180.0), "amp_deg")
-    sweep(f"MainSequence.{meth}-t_ms", lambda o, v, meth=meth: getattr(models.MainSequence(), meth)(v, 10.0),
-          {"nan": [NAN], "inf": INF, "str": "t", "complex": 1j}, "t_ms")
-for meth in ("peak_velocity_deg_s", "duration_ms", "settle_ms"):
-    sweep(f"MainSequence.{meth}-amp_deg", lambda o, v, meth=meth: getattr(models.MainSequence(), meth)(v),
-          reals(0.0, 180.0), "amp_deg")
-for cls, params in ((models.BurstGenerator, ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms", "adaptation_gain",
-                                             "adaptation_ms", "plant_t2_ms", "abducting_t2_ms", "adducting_t2_ms",
-                                             "settle_deg")),
-                    (models.VergenceDynamics, ("tau_ms", "saccade_speedup")),
-                    (models.EyePositionSignal, ("sigma_ms", "delay_ms"))):
-    for arg in params:
-        sweep(f"{cls.__name__}-{arg}", lambda o, v, cls=cls, arg=arg: cls(**{arg: v}),
-              {"nan": NAN, "inf": INF, "str": "1", "none": None, "huge": 1e9, "negative": -1e9}, arg)
-sweep("BurstGenerator.profile-amp_deg", lambda o, v: models.BurstGenerator().profile(v), reals(0.0, 90.0), "amp_deg")
-SP = dict(onset_ms=0, start_angles=np.zeros((2, 3)), end_angles=np.full((2, 3), 0.1), amplitude=0.1)
-for arg, values in (("onset_ms", ints(0)), ("start_angles", {**arrays(np.zeros((2, 3))), "flat6": np.zeros(6)}),
-                    ("end_angles", arrays(np.zeros((2, 3)))), ("amplitude", reals(0.0, np.pi)),
-                    ("generator", {"dict": {}, "str": "burst"}), ("vergence", {"dict": {}, "float": 150.0}),
-                    ("eye_position", {"dict": {}, "str": "signal"}),
-                    ("intended_end_angles", {**{k: v for k, v in arrays(np.zeros((2, 3))).items() if k != "none"},
-                                             "flat6": np.zeros(6)}),
-                    ("signal_start_angles", {"nan": np.full((2, 3), NAN), "flat6": np.zeros(6)}),
-                    ("intended_amplitude", {k: v for k, v in reals(0.0, np.pi).items() if k != "none"}),
-                    ("target", {"nan": [NAN, 0, 0], "short": [1.0]})):
-    sweep(f"SaccadePlan-{arg}", lambda o, v, arg=arg: models.SaccadePlan(**{**SP, arg: v}), values,
-          arg if "angles" not in arg else f"{arg}|angles")
-sweep("SaccadePlan.angles-t_ms", lambda o, v: models.SaccadePlan(**SP).angles(v), {"nan": NAN, "str": "t",
-      "complex": [1j]}, "t_ms")
-sweep("SaccadePlan.sample-step_ms", lambda o, v: models.SaccadePlan(**SP).sample(v),
-      {**reals(0.001, 1000.0), "zero": 0.0, "tiny": 1e-12}, "step_ms")
-for meth in ("velocities", "profile"):
-    sweep(f"SaccadePlan.{meth}-t_ms", lambda o, v, meth=meth: getattr(models.SaccadePlan(**SP), meth)(v),
-          {"nan": [NAN], "inf": INF, "str": "t", "none": None}, "t_ms")
-SI = dict(name="custom", description="a scene")
-for arg, values in (("name", {"none": None, "int": 3}), ("groups", {"list": [("a",)], "str_values": {"g": "abc"},
-                    "int_key": {1: ("a",)}}), ("movable", {"str": "target", "ints": (1, 2)}),
-                    ("default_fixation", {"nan": [NAN, 0, 1], "short": [1.0], "none": None}),
-                    ("layout", {"int": 3, "str": "grid"}), ("flashes", {"none": None})):
-    sweep(f"SceneInfo-{arg}", lambda o, v, arg=arg: models.SceneInfo(**{**SI, arg: v}), values,
-          arg if arg != "groups" else "groups")
-sweep("fixation_angles-target_head", lambda o, v: models.fixation_angles(v, np.zeros((2, 3))),
-      {"nan": [NAN, 0, 0], "short": [1.0], "str": "p", "none": None}, "target")
-sweep("fixation_angles-eye_centres_head", lambda o, v: models.fixation_angles([1.0, 0, 0], v),
-      {"nan": np.full((2, 3), NAN), "shape": np.zeros((2, 2)), "str": "c", "empty": np.zeros((0, 3))},
-      "eye_centres_head")
-for fn, n in (("fick_matrix", 3), ("gaze_direction", 2), ("listing_torsion", 2)):
-    sweep(f"{fn}-h", lambda o, v, fn=fn, n=n: getattr(models, fn)(v, *[np.zeros(2)] * (n - 1)),
-          {"nan": NAN, "inf": [INF], "str": "h", "complex": 1j, "none": None, "mismatch": np.zeros(3)}, r"\bh\b")
-sweep("fick_angles-R", lambda o, v: models.fick_angles(v), {**arrays(R_OK), "reflection": -np.eye(3),
-      "2x2": np.eye(2)}, r"\bR\b")
-sweep("rotation_vector-R", lambda o, v: models.rotation_vector(v), {**arrays(R_OK), "scaled": 2 * np.eye(3),
-      "stack": np.stack([R_OK, R_OK])}, r"\bR\b")
-
-# ---------------------------------------------------------------------- envs: constructor
-ENV_KW = dict(image_size=32, fixation_ms=10)
-ENV_BAD = {
-    "scene": {"unknown": "moon", "int": 3, "list": ["dots"], "no_target": "bar"},
-    "task": {"unknown": "dance", "int": 3, "none": None, "class": envs.FixateTask},
-    "action_mode": choices(("vector", "cell")),
-    "image_size": {**ints(16, 1024), "7.5": 7.5},
-    "render_mode": {k: x for k, x in choices(("rgb_array",)).items() if k != "none"},
-    "fixation_ms": {**ints(0, 10_000), "1e9": 1e9},
-    "max_amplitude_deg": reals(0.0, 60.0, lo_open=True),
-    "vergence": FLAGS, "grayscale": FLAGS, "include_coeffs": FLAGS,
-    "remap_model": choices(("homography", "mobius", "shift")),
-    "remap_models": {"str": "homography", "member": ("homography", "affine"), "int": 3, "none_member": (None,)},
-    "shift_rings": reals(-5.0, 5.0),
-    "cortex": choices(("eyes", "hemispheres")),
-    "fovea_deg": reals(0.0, 30.0, lo_open=True, hi_open=True),
-    "n_sectors": {**{k: x for k, x in ints(4, 4096).items() if k != "none"}, "36.5": 36.5, "100000": 100_000},
-    "sampling": choices(("pool", "bilinear", "nearest")),
-    "fovy_deg": reals(5.0, 170.0),
-    "endpoint_noise": reals(0.0, 1.0),
-    "quality": choices(("fast", "default")),
-    "task_kwargs": {"list": [1], "str": "max_saccades=3", "unknown_key": {"colour": "red"},
-                    "max_saccades_frac": {"max_saccades": 2.7}, "max_saccades_zero": {"max_saccades": 0},
-                    "max_saccades_huge": {"max_saccades": 10**9}, "tolerance_nan": {"tolerance_deg": NAN},
-                    "cost_nan": {"saccade_cost": NAN}, "ecc_reversed": {"min_ecc_deg": 20.0, "max_ecc_deg": 5.0},
-                    "ecc_far": {"max_ecc_deg": 89.0}},
-}
-ENV_MATCH = {"scene": "scene|task 'fixate' needs", "task": "task", "task_kwargs": "task_kwargs|max_saccades|tolerance_deg"
-             "|saccade_cost|ecc_deg|colour", "remap_models": "remap_models|model", "shift_rings": "shift_rings"}
-for arg, values in ENV_BAD.items():
-    sweep(f"BinocularSaccadeEnv-{arg}", lambda o, v, arg=arg: envs.BinocularSaccadeEnv(**{**ENV_KW, arg: v}), values,
-          ENV_MATCH.get(arg, arg))
-case("BinocularSaccadeEnv-hemispheres-odd-N", lambda o: envs.BinocularSaccadeEnv(**ENV_KW, cortex="hemispheres",
-     n_sectors=18), "divisible by 4")
-case("gymnasium.make-bad-kwarg", lambda o: __import__("gymnasium").make("BinocularSaccade-v0", image_size=7.5),
-     "image_size")
-
-# ---------------------------------------------------------------------- envs: reset, step, render
-case("step-before-reset", lambda o: o.fresh_env.step(np.zeros(2, np.float32)), "reset", (RuntimeError,))
-case("render-before-reset", lambda o: o.fresh_env.render(), "reset", (RuntimeError,))
-sweep("reset-seed", lambda o, v: o.env.reset(seed=v), {"negative": -1, "frac": 1.5, "str": "0", "nan": NAN,
-      "bool": True, "list": [0]}, "seed")
-sweep("reset-options", lambda o, v: o.env.reset(options=v), {"list": [1], "str": "fast", "unknown": {"difficulty": 3}},
-      "options")
-sweep("step-vector-action", lambda o, v: o.env.step(v), {
-    "nan": [NAN, 0.0], "inf": [INF, 0.0], "-inf": [0.0, -INF], "complex": [1j, 0], "complex_real": np.array([0.5 + 0j, 0]),
-    "bool": [True, False], "str": "left", "str_list": ["0.1", "0.2"], "none": None, "object": np.array([object()] * 2),
-    "ragged": [[0.1], [0.1, 0.2]], "shape3": [0.1, 0.1, 0.1], "shape1": [0.1], "scalar": 0.1, "2d": [[0.1, 0.1]],
-    "above": [1.5, 0.0], "below": [0.0, -2.0], "huge": [1e300, 0.0], "dict": {"h": 0.1}}, "action")
-sweep("step-vergence-action", lambda o, v: o.vergence_env.step(v), {"nan_vergence": [0.0, 0.0, NAN],
-      "two": [0.1, 0.1], "above": [0.0, 0.0, 3.0]}, "action")
-sweep("step-cell-action", lambda o, v: o.cell_env.step(v), {
-    "negative": -1, "n": Lazy(lambda o: o.cell_env.action_space.n), "huge": 10**12, "frac": 2.5, "integral_float": 3.0, "nan": NAN, "inf": INF, "str": "3",
-    "none": None, "bool": True, "complex": 3 + 0j, "list": [3], "array1": np.array([3]), "vector": [0.1, 0.2],
-    "uint_overflow": np.uint64(2**63)}, "action|cell index")
-
-# ---------------------------------------------------------------------- envs: Vision, tasks, display
-VIS_KW = dict(image_shape=(32, 32), pixels_per_unit=22.85)
-for arg, values in (("image_shape", {"frac": (32.5, 32), "zero": (0, 32), "huge": (10**6, 10**6), "str": "32x32",
-                                     "one": (32,), "none": None}),
-                    ("pixels_per_unit", reals(0.0, 1e6, lo_open=True)),
-                    ("fovea_deg", reals(0.0, 30.0, lo_open=True, hi_open=True)),
-                    ("n_sectors", {"frac": 36.5, "huge": 100_000, "zero": 0, "str": "36"}),
-                    ("grayscale", FLAGS), ("sampling", choices(("pool", "nearest"))), ("shift_rings", reals(-5, 5))):
-    sweep(f"Vision-{arg}", lambda o, v, arg=arg: envs.Vision(**{**VIS_KW, arg: v}), values, arg)
-case("Vision-fovea-covers-picture", lambda o: envs.Vision((32, 32), 100.0, fovea_deg=29.0), "fovea")
-UINT_IMG = np.zeros((32, 32, 3), np.uint8)
-sweep("Vision.see-image", lambda o, v: o.vision.see(v), {
-    "float_255": np.full((32, 32, 3), 255.0), "negative": np.full((32, 32, 3), -1.0), "nan": np.full((32, 32, 3), NAN),
-    "complex": UINT_IMG.astype(complex), "uint16": UINT_IMG.astype(np.uint16), "bool": UINT_IMG.astype(bool),
-    "shape": np.zeros((32, 32), np.uint8), "str": "image", "none": None, "longdouble": UINT_IMG.astype(np.longdouble)},
-      "image")
-sweep("Vision.see_eyes-images", lambda o, v: o.vision.see_eyes(v), {"one_image": UINT_IMG, "empty": [], "int": 3,
-      "mixed": [UINT_IMG, UINT_IMG.astype(float)]}, "image")
-sweep("Vision.point_map-model", lambda o, v: o.vision.point_map(v, np.eye(3)), choices(envs.REMAP_MODELS), "model")
-sweep("Vision.point_map-rotation_eye", lambda o, v: o.vision.point_map("homography", v), {**arrays(R_OK),
-      "reflection": -np.eye(3)}, "rotation_eye")
-case("Vision.point_map-shift-behind", lambda o: o.vision.point_map("shift", C.rotation_matrix([0, 0, 1.0], 2.0)),
-     "optical axis")
-sweep("Vision.predict-view", lambda o, v: o.vision.predict(v, "homography", np.eye(3)), {"none": None, "array":
-      np.zeros((5, 12, 3)), "tuple": ("a",)}, "views|EyeView")
-sweep("Vision.predict_models-models", lambda o, v: o.vision.predict_models(o.views[0], v, np.eye(3)), {
-    "str": "homography", "empty": (), "unknown": ("affine",), "none": None}, "model")
-sweep("Vision.predict_eyes-rotations_eye", lambda o, v: o.vision.predict_eyes(o.views, ("homography",), v), {
-    "one": [np.eye(3)], "nan": [np.full((3, 3), NAN)] * 2, "str": "R", "shape": np.zeros((2, 2, 2))}, "rotations_eye")
-sweep("Vision.predict_arrays-views", lambda o, v: o.vision.predict_arrays(v, ("homography",), [np.eye(3)]), {
-    "view": "v", "none": None, "empty": ()}, "views")
-def _n_points(o: World) -> int:
-    return o.vision.grid.n_fovea + o.vision.grid.M * o.vision.grid.N
-
-
-sweep("Vision.errors-values", lambda o, v: o.vision.errors(v, np.ones((2, 1, _n_points(o)), bool), o.views), {
-    "nan": Lazy(lambda o: np.full((2, 1, _n_points(o), 3), NAN, np.float32)), "shape": np.zeros((2, 1, 5, 3)),
-    "str": "v"}, "values")
-sweep("Vision.errors-valid", lambda o, v: o.vision.errors(np.zeros((2, 1, _n_points(o), 3)), v, o.views), {
-    "float": Lazy(lambda o: np.ones((2, 1, _n_points(o)))), "shape": np.ones((2, 1, 5), bool)}, "valid")
-sweep("normalized_error-pred", lambda o, v: envs.normalized_error(v, o.views[0]), {"none": None, "array": np.zeros(3),
-      "other_grid": C.RetinaSamples(np.zeros(13), np.zeros((8, 16)), np.ones((8, 16), bool), np.ones(13, bool))},
-      "pred")
-sweep("normalized_error-actual", lambda o, v: envs.normalized_error(o.predictions[0]["homography"], v),
-      {"none": None, "samples": "x"}, "actual")
-sweep("model_errors-predictions", lambda o, v: envs.model_errors(v, o.views), {"empty": [], "none": None,
-      "dict": {"homography": 1}, "empty_dict": [{}, {}]}, "predictions")
-sweep("model_errors-actual", lambda o, v: envs.model_errors(o.predictions, v), {"short": ("x",), "none": None}, "actual")
-for cls in (envs.Task, envs.FixateTask, envs.SearchTask, envs.FreeViewingTask):
-    for arg, values in (("max_saccades", {**ints(1, 10_000), "2.7": 2.7}), ("tolerance_deg", reals(0.0, 45.0,
-                        lo_open=True)), ("saccade_cost", reals(0.0, 10.0)), ("scene", {"unknown": "moon", "int": 1})):
-        sweep(f"{cls.__name__}-{arg}", lambda o, v, cls=cls, arg=arg: cls(**{arg: v}), values, arg)
-for arg, values in (("min_ecc_deg", reals(0.0, 30.0)), ("max_ecc_deg", {**reals(5.0, 30.0), "89": 89.0})):
-    sweep(f"FixateTask-{arg}", lambda o, v, arg=arg: envs.FixateTask(**{arg: v}), values, arg)
-for meth in ("check_scene", "target_position", "score"):
-    sweep(f"FixateTask.{meth}-head", lambda o, v, meth=meth: getattr(envs.FixateTask(), meth)(v),
-          {"none": None, "env": "env", "int": 3}, "head")
-sweep("FreeViewingTask.score-head", lambda o, v: envs.FreeViewingTask().score(v), {"none": None}, "head")
-sweep("FixateTask.initialize_episode-rng", lambda o, v: envs.FixateTask().initialize_episode(o.head, v),
-      {"none": None, "seed": 3, "legacy": np.random.RandomState(0)}, "rng")
-sweep("make_task-task", lambda o, v: envs.make_task(v), {"unknown": "dance", "int": 3, "none": None,
-      "class": envs.FixateTask}, "task")
-case("make_task-instance-with-kwargs", lambda o: envs.make_task(envs.FixateTask(), max_saccades=3), "keyword")
-case("make_task-unknown-kwarg", lambda o: envs.make_task("fixate", colour="red"), "colour")
-sweep("gaze_errors_deg-point", lambda o, v: envs.gaze_errors_deg(o.head, v), {"nan": [NAN, 0, 0], "short": [1.0],
-      "str": "p", "nodal": Lazy(lambda o: o.head.eye_states()[0].camera_position)}, "point")
-sweep("gaze_errors_deg-head", lambda o, v: envs.gaze_errors_deg(v, [1.0, 0, 1.2]), {"none": None, "env": "env"}, "head")
-sweep("grid_overlay-shape", lambda o, v: envs.grid_overlay(o.grid, v, 10.0), {"frac": (7.5, 8), "zero": (0, 8),
-      "huge": (10**6, 10**6), "str": "8x8", "one": (8,)}, "shape")
-sweep("grid_overlay-pixels_per_unit", lambda o, v: envs.grid_overlay(o.grid, (8, 8), v), reals(0.0, 1e9, lo_open=True),
-      "pixels_per_unit")
-sweep("grid_overlay-grid", lambda o, v: envs.grid_overlay(v, (8, 8), 10.0), {"str": "grid", "none": None}, "grid")
-sweep("compose_frame-frame", lambda o, v: envs.compose_frame(v, o.views, o.vision), {"none": None, "array":
-      np.zeros((2, 32, 32, 3))}, "frame")
-sweep("compose_frame-views", lambda o, v: envs.compose_frame(o.frame, v, o.vision), {"none": None, "one": "one"},
-      "views")
-sweep("compose_frame-vision", lambda o, v: envs.compose_frame(o.frame, o.views, v), {"none": None, "grid": "grid"},
-      "vision")
+CASES = [
+    Case("act-overflow", lambda o: C.act(np.diag([0.5, 2.0]), 1e308), "floating-point range"),
+    Case("apply_homography-pole", lambda o: C.apply_homography(np.array([[1, 0, 0], [0, 1, 0], [1, 0, 1.0]]), [-1.0]),
+         "infinity"),
+    Case("compose-overflow", lambda o: C.compose(*[np.diag([1e100, 1e-100])] * 4), "overflow"),
+    Case("project-overflow", lambda o: C.project([1e308, 1e-10, 1e308]), "floating-point range"),
+    Case("cortical_map-N-not-divisible-by-4", lambda o: C.cortical_map(np.zeros((o.grid_odd.M, 18)), o.grid_odd),
+         "divisible by 4"),
+    Case("binocular_cortex-channels-differ",
+         lambda o: C.binocular_cortex(np.zeros((8, 16, 3)), np.zeros((8, 16, 1)), o.grid), "same shape"),
+    Case("BinocularCortex-shapes-differ", lambda o: C.BinocularCortex(np.zeros((2, 8, 8)), np.zeros((2, 8, 4))), "shape"),
+    Case("SPHERE_CENTRE-read-only", lambda o: C.SPHERE_CENTRE.__setitem__(0, 5.0), "read-only"),
+    Case("CYCLOPEAN_EYE-read-only", lambda o: models.CYCLOPEAN_EYE.__setitem__(0, 5.0), "read-only"),
+    Case("RetinaGrid-M*N-too-many", lambda o: C.RetinaGrid(**{**GRID_KW, "M": 4096, "N": 4096, "delta": 0.01}), "M \\* N"),
+    Case("RetinaGrid-period-too-long", lambda o: C.RetinaGrid(**{**GRID_KW, "M": 4000, "delta": 50.0}), "period"),
+    Case("from_field_of_view-tiny-r0-huge-rb", lambda o: C.RetinaGrid.from_field_of_view(1e300, 1e-300, 64),
+         "M|period|n_fovea"),
+    Case("dpft_direct-too-large", lambda o: C.dpft_direct(np.zeros((60, 64)), C.RetinaGrid(**{**GRID_KW, "M": 60,
+                                                                                              "N": 64})), "direct sum"),
+    Case("idpft_direct-too-large", lambda o: C.idpft_direct(np.zeros((60, 64)), C.RetinaGrid(**{**GRID_KW, "M": 60,
+                                                                                                "N": 64})), "direct sum"),
+    Case("log_radius_shift-wrapped-shift-out-of-range",
+         lambda o: C.log_radius_shift(o.samples, o.grid, 1e300, wrap=True), "shift"),
+    Case("Retina-too-many-subpixels", lambda o: C.Retina(o.grid, (8192, 8192), 20.0, supersample=16), "subpixels"),
+    Case("Retina.render-nan-samples", lambda o: o.retina.render(C.RetinaSamples(
+        np.full(13, NAN), np.zeros((8, 16)), np.ones((8, 16), bool), np.ones(13, bool))), "samples"),
+    Case("Retina.render-other-grid", lambda o: o.retina.render(C.RetinaSamples(
+        np.zeros(13), np.zeros((8, 12)), np.ones((8, 12), bool), np.ones(13, bool))), "grid"),
+    Case("Retina.sample_many-nan-scale", lambda o: o.retina.sample_many([IMG], scale=NAN), "scale"),
+    Case("target_shift_map-scale-overflow", lambda o: C.target_shift_map(0.1, 1e6, 1.0), "shift \\* delta"),
+    Case("build_spec-head_xml-missing", lambda o: models.build_spec("bar", head_xml="/nonexistent/head.xml"),
+         "cannot read", (models.ModelFileError,)),
+    Case("build_model-bad-kwarg", lambda o: models.build_model("bar", ipd=NAN), "ipd"),
+    Case("build_model-huge-offscreen", lambda o: models.build_model("bar", offscreen_size=(1e9, 1)), "offscreen_size"),
+    Case("build_model-unknown-kwarg", lambda o: models.build_model("bar", colour="red"), "colour"),
+    Case("export_xml-unwritable", lambda o: models.export_xml("bar", "/proc/nope/head.xml"), "cannot write",
+         (models.ModelFileError,)),
+    Case("load_model-missing", lambda o: models.load_model("/nonexistent.xml"), "cannot load", (models.ModelFileError,)),
+    Case("Head.render-samples-without-exposure", lambda o: o.head.render(samples=3), "samples"),
+    Case("Head.render-depth-with-exposure", lambda o: o.head.render(depth=True, exposure_ms=4), "depth"),
+    Case("BinocularSaccadeEnv-hemispheres-odd-N",
+         lambda o: envs.BinocularSaccadeEnv(image_size=32, fixation_ms=10, cortex="hemispheres", n_sectors=18),
+         "divisible by 4"),
+    Case("gymnasium.make-bad-kwarg", lambda o: __import__("gymnasium").make("BinocularSaccade-v0", image_size=7.5),
+         "image_size"),
+    Case("step-before-reset", lambda o: o.fresh_env.step(np.zeros(2, np.float32)), "reset", (RuntimeError,)),
+    Case("render-before-reset", lambda o: o.fresh_env.render(), "reset", (RuntimeError,)),
+    Case("step-vergence-action-nan", lambda o: o.vergence_env.step([0.0, 0.0, NAN]), "action"),
+    Case("step-vergence-action-two", lambda o: o.vergence_env.step([0.1, 0.1]), "action"),
+    Case("step-vergence-action-above", lambda o: o.vergence_env.step([0.0, 0.0, 3.0]), "action"),
+    *[Case(f"step-cell-action-{k}", lambda o, v=v: o.cell_env.step(_resolve(v, o)), "action|cell index")
+      for k, v in {"negative": -1, "n": Lazy(lambda o: o.cell_env.action_space.n), "huge": 10**12, "frac": 2.5,
+                   "nan": NAN, "str": "3", "bool": True, "complex": 3 + 0j, "array1": np.array([3]),
+                   "vector": [0.1, 0.2], "uint_overflow": np.uint64(2**63)}.items()],
+    Case("Vision-fovea-covers-picture", lambda o: envs.Vision((32, 32), 100.0, fovea_deg=29.0), "fovea"),
+    Case("Vision.point_map-shift-behind", lambda o: o.vision.point_map("shift", C.rotation_matrix([0, 0, 1.0], 2.0)),
+         "optical axis"),
+    Case("make_task-instance-with-kwargs", lambda o: envs.make_task(envs.FixateTask(), max_saccades=3), "keyword"),
+    Case("make_task-unknown-kwarg", lambda o: envs.make_task("fixate", colour="red"), "colour"),
+]
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
@@ -854,7 +1031,7 @@ def test_bad_input_raises_a_clear_error(case: Case, o: World):
     with pytest.raises(Exception) as info:
         case.call(o)
     err = info.value
-    assert type(err) in case.types, f"{type(err).__module__}.{type(err).__name__}: {err}"
+    assert isinstance(err, case.types) and not _internal(err), f"{type(err).__module__}.{type(err).__name__}: {err}"
     assert re.search(case.match, str(err)), f"message does not name {case.match!r}: {err}"
 
 
@@ -905,18 +1082,6 @@ def test_valid_edge_input_still_works(call, o: World):
 
 # ---------------------------------------------------------------------- properties
 finite = st.floats(allow_nan=False, allow_infinity=False)
-
-
-@settings(max_examples=200, deadline=None)
-@given(st.one_of(st.floats(), st.integers(-10**20, 10**20)))
-def test_integers_are_never_truncated(x):
-    try:
-        n = C.checks.integer("n", x)
-    except ValueError as exc:
-        assert "n must be an integer" in str(exc)
-        assert not (isinstance(x, int) or (np.isfinite(x) and float(x).is_integer()))
-    else:
-        assert type(n) is int and n == x
 
 
 @settings(max_examples=100, deadline=None)
@@ -1008,6 +1173,7 @@ _FORK_SCRIPT = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_fork_after_render_raises_naming_spawn():
     """An AsyncVectorEnv forked after its parent rendered used to deadlock forever and orphan its
     workers (issue 11, item 4); now every worker's first render raises ``ForkedGLContextError``,
@@ -1015,11 +1181,11 @@ def test_fork_after_render_raises_naming_spawn():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = {**os.environ, "PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
     run = subprocess.run([sys.executable, "-c", _FORK_SCRIPT], cwd=root, env=env, capture_output=True, text=True,
-                         timeout=120)
+                         timeout=HANG_S)
     out = run.stdout
     assert "raised ForkedGLContextError" in out, out + run.stderr[-3000:]
     line = next(l for l in out.splitlines() if l.startswith("raised"))
-    assert float(line.split()[2]) < 20  # fails fast
+    assert float(line.split()[2]) < 120  # fails fast (a deadlock never returns; 120 s leaves a loaded machine room)
     assert "spawn" in line and "vector_kwargs={'context': 'spawn'}" in line
     pids = [int(p) for p in next(l for l in out.splitlines() if l.startswith("workers")).split()[1:]]
     assert len(pids) == 2
@@ -1050,15 +1216,15 @@ _FORKED_RENDERER_SCRIPT = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_renderer_inherited_through_fork_raises_instead_of_hanging():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = {**os.environ, "PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
     run = subprocess.run([sys.executable, "-c", _FORKED_RENDERER_SCRIPT], cwd=root, env=env, capture_output=True,
-                         text=True, timeout=60)
+                         text=True, timeout=HANG_S)
     assert "child exit 0" in run.stdout and "parent ok" in run.stdout, run.stdout + run.stderr[-3000:]
 
 
-@pytest.mark.adversarial
 @pytest.mark.parametrize("r0", [2.2250738585e-313, 5e-324, 1e-310])
 def test_subnormal_foveal_radius_is_refused(r0):
     """Found by hypothesis (test_grids_are_bounded_or_refused): a subnormal r0 made the implied
