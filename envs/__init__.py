@@ -1,7 +1,9 @@
 """Gymnasium environments: saccade actions in, remapped conformal-camera cortical observations out.
 
 Importing ``envs`` registers ``BinocularSaccade-v0`` (and ``BinocularSaccadeSearch-v0``, the
-``search`` task), so ``gymnasium.make("BinocularSaccade-v0", ...)`` works; their vector entry point
+``search`` task), so ``gymnasium.make("BinocularSaccade-v0", ...)`` works; each with
+``max_episode_steps`` equal to its task's default saccade budget (5 and 10 steps, where the env truncates
+its episodes itself: Gymnasium's ``TimeLimit`` truncates at the same step); their vector entry point
 is ``BatchedBinocularSaccade`` (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``),
 which needs the ``gpu`` extra (imported on first use: without it the single env is unchanged).
 """
@@ -26,4 +28,5 @@ ENV_IDS = ("BinocularSaccade-v0", "BinocularSaccadeSearch-v0")
 if "BinocularSaccade-v0" not in gym.registry:
     for _id, _task in zip(ENV_IDS, ("fixate", "search")):
         gym.register(id=_id, entry_point="envs.saccade_env:BinocularSaccadeEnv",
-                     vector_entry_point="envs.batched_env:BatchedBinocularSaccade", kwargs={"task": _task})
+                     vector_entry_point="envs.batched_env:BatchedBinocularSaccade", kwargs={"task": _task},
+                     max_episode_steps=TASKS[_task].max_saccades)  # the task's default budget: 5, 10

@@ -41,8 +41,8 @@ from gymnasium.vector.utils import batch_space
 from conformal import checks
 
 from .batched_planner import BatchedPlanner, SettledReset
-from .saccade_env import BinocularSaccadeEnv
-from .tasks import FixateTask, FreeViewingTask, SearchTask
+from .saccade_env import _NO_COPY, BinocularSaccadeEnv
+from .tasks import FixateTask, FreeViewingTask, SearchTask, Task
 
 __all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]
 
@@ -91,6 +91,10 @@ class BatchedBinocularSaccade(VectorEnv):
             single env does) or s in [1, 8]: render the retina natively, s x s rays per receptive field
             (``envs.retina_rays``): no pixels, so no picture boundary; the samples differ from the
             pooled pinhole picture's by the pixels' own quantisation (``tests/test_retina_rays.py``).
+        max_episode_steps: None (default) or -1: episodes are truncated by the task's saccade budget
+            ``max_saccades`` alone, as the single env's are; K >= 1: after min(K, ``max_saccades``) steps, as a
+            ``TimeLimit(K)`` around the single env truncates them. ``gymnasium.make_vec`` passes the
+            registered limit (the task's default budget, 5 or 10) or its own ``max_episode_steps=K``.
         settle_ms: physics milliseconds simulated after the last world's saccade ends (default 20). The
             rest of the fixation is only a clock: the eyes hold still (the servo has settled to within
             1e-6 deg of the endpoint after 20 ms, as after the full 250: ``tests/test_batched_env.py``),
@@ -108,7 +112,7 @@ class BatchedBinocularSaccade(VectorEnv):
 
     def __init__(self, num_envs: int, device: str | None = None, *, output: str = "torch", chunk_ms: int = 25,
                  settle_ms: int = 20, autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
-                 retina_rays: int | None = None, **kwargs: Any) -> None:
+                 retina_rays: int | None = None, max_episode_steps: int | None = None, **kwargs: Any) -> None:
         from .batched_physics import WarpHeads, require_gpu_extra
         from .batched_vision import TorchVision
 
@@ -129,6 +133,11 @@ class BatchedBinocularSaccade(VectorEnv):
             retina_rays = checks.integer("retina_rays", retina_rays, 1, MAX_SUBSAMPLES,
                                          hint="sub-rays per receptive-field side, or None for pinhole images")
         self.retina_rays = retina_rays
+        if max_episode_steps is None or max_episode_steps == -1:  # gymnasium.make's -1: no TimeLimit
+            max_episode_steps = Task.MAX_SACCADES  # the largest budget: the task's own then decides
+        else:
+            max_episode_steps = checks.integer("max_episode_steps", max_episode_steps, 1, None,
+                                               hint="or -1 or None: no limit beyond the task's max_saccades")
         device = _resolve_device(device, wp, torch)
         if kwargs.get("render_mode") is not None:
             raise ValueError("the batched env does not render for display (render_mode must be None); "
@@ -142,6 +151,7 @@ class BatchedBinocularSaccade(VectorEnv):
             raise ValueError(f"the batched env scores the built-in tasks fixate, search and free on the device; "
                              f"got a {type(env.task).__name__}")
         self.task = env.task
+        self._max_steps = min(env.task.max_saccades, max_episode_steps)  # the budget, capped as TimeLimit(K) would
         self.single_observation_space = env.observation_space
         self.single_action_space = env.action_space
         self.observation_space = batch_space(env.observation_space, self.num_envs)
@@ -259,10 +269,10 @@ class BatchedBinocularSaccade(VectorEnv):
             self._remapped = torch.where(keep, remapped, now)
         with part("task"):
             target_err, landing = self._gaze_errors(plans, act, active)
-            reward, success = self._score(target_err)
+            reward, success, parts = self._score(target_err)
         self._saccades[active] += 1
         terminated = active & success
-        truncated = active & ~terminated & (self._saccades >= self.task.max_saccades)
+        truncated = active & ~terminated & (self._saccades >= self._max_steps)
         reward = np.where(active, reward, 0.0)
         if self.autoreset_mode is AutoresetMode.NEXT_STEP:
             self._autoreset = terminated | truncated
@@ -291,6 +301,8 @@ class BatchedBinocularSaccade(VectorEnv):
         if self._target_gid is not None and not isinstance(self.task, FreeViewingTask):
             info["target_error_deg"], info["_target_error_deg"] = np.where(active, target_err.mean(axis=1), 0.0), active.copy()
         info["success"], info["_success"] = success & active, active.copy()
+        for k, v in parts.items():  # the reward's components (task.reward_keys), as the single env's info
+            info[k], info["_" + k] = np.where(active, v, 0.0), active.copy()
         with part("host sync"):
             obs = self._observation()
         done = terminated | truncated
@@ -301,6 +313,10 @@ class BatchedBinocularSaccade(VectorEnv):
     def close_extras(self, **kwargs) -> None:
         """Release the host head (``VectorEnv.close`` calls this once and sets ``closed``)."""
         self.head.close()
+
+    def __reduce_ex__(self, protocol):
+        # pickle and copy refuse it before a half-built copy of its GL renderer or device state is made
+        raise TypeError(_NO_COPY.format(type(self).__name__).replace("gymnasium.make(", "gymnasium.make_vec("))
 
     # ------------------------------------------------------------------ helpers
     def _check_open(self) -> None:
@@ -474,13 +490,16 @@ class BatchedBinocularSaccade(VectorEnv):
         target = self.physics.geom_xpos[:, self._target_gid].double()
         return errors(target).cpu().numpy(), landing
 
-    def _score(self, err: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Rewards and successes of the built-in tasks for gaze errors (N, 2) (tasks.*.score, batched)."""
-        t = self.task
+    def _score(self, err: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Rewards, successes and the rewards' ``reward_*`` components of the built-in tasks for gaze
+        errors (N, 2) (tasks.*.score, batched)."""
+        t, n = self.task, self.num_envs
         if isinstance(t, FreeViewingTask):
-            return np.zeros(self.num_envs), np.zeros(self.num_envs, bool)
+            return np.zeros(n), np.zeros(n, bool), {}
         success = np.all(err <= t.tolerance_deg, axis=1)
         if isinstance(t, FixateTask):
-            e = err.mean(axis=1)
-            return np.exp(-0.5 * (e / t.tolerance_deg) ** 2) - t.saccade_cost, success
-        return np.where(success, 1.0, 0.0) - t.saccade_cost, success
+            target = np.exp(-0.5 * (err.mean(axis=1) / t.tolerance_deg) ** 2)
+        else:
+            target = np.where(success, 1.0, 0.0)
+        parts = {"reward_target": target, "reward_saccade": np.full(n, -t.saccade_cost)}
+        return target + parts["reward_saccade"], success, parts

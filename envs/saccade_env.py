@@ -18,6 +18,12 @@ from .vision import POOLED_REMAP_DEFAULT, REMAP_MODELS, EyeView, Vision
 
 __all__ = ["BinocularSaccadeEnv"]
 
+_NO_COPY = ("a {} cannot be pickled or copied (pickle, copy.deepcopy, copy.copy): it holds a compiled MuJoCo "
+            "model and an OpenGL context. Make a new env with the same arguments instead (gymnasium.make(env.spec.id, "
+            "**env.spec.kwargs) for one made by gymnasium.make, else the class with the same keyword arguments); for the "
+            "same state, reset the new env with the same seed and replay the same actions (the env is deterministic "
+            "under a seed)")
+
 
 class BinocularSaccadeEnv(gym.Env):
     """A binocular head whose eyes are conformal cameras, making one saccade per step.
@@ -56,10 +62,24 @@ class BinocularSaccadeEnv(gym.Env):
       reports as ground truth. With ``endpoint_noise`` the two differ by the motor error.
     - ``coeffs`` (``include_coeffs=True``): the DPFT coefficients ``(2, M, N, C, 2)`` (real, imag).
 
-    **Reward and episode end**: from the task. ``fixate``: exp(-(e/tol)^2/2) - 0.05 per
-    saccade with e the gaze error to the target; ends when the target is foveated (both eyes
-    within ``tolerance_deg``), truncated after ``max_saccades``. ``search``: 1 for foveating
-    the target, -0.05 per saccade. ``free``: free viewing of any scene, reward 0.
+    **Reward**: from the task, the sum of the components that ``info`` reports as ``reward_*``
+    (``task.reward_keys``, as Gymnasium's MuJoCo envs report ``reward_ctrl``...). ``fixate``:
+    ``reward_target`` = exp(-(e/tol)^2/2), e the mean gaze error to the target, plus
+    ``reward_saccade`` = -``saccade_cost`` (-0.05) per saccade. ``search``: ``reward_target`` = 1 for
+    foveating the target (else 0) plus ``reward_saccade`` = -0.05. ``free``: free viewing of any
+    scene, reward 0 and no ``reward_*`` keys.
+
+    **Episode end**: terminated when the task succeeds (``fixate``, ``search``: the target foveated,
+    both eyes within ``tolerance_deg``; ``free`` never); truncated after the task's saccade budget
+    ``max_saccades`` (steps: one saccade each): 5 for ``fixate``, 10 for ``search``, 20 for ``free``
+    (``task_kwargs={"max_saccades": n}`` changes it). The registered ids carry the same limit as
+    ``max_episode_steps`` (``BinocularSaccade-v0``: 5, ``BinocularSaccadeSearch-v0``: 10), so
+    ``gymnasium.make(id).spec.max_episode_steps`` is set and Gymnasium's ``TimeLimit`` truncates at the
+    step the env itself does: one truncation (both flags are the same ``truncated``), not two.
+    ``gymnasium.make(id, max_episode_steps=K)`` truncates after min(K, ``max_saccades``) steps: for
+    longer episodes raise the budget too (``task_kwargs={"max_saccades": K}``); with another task or
+    budget pass the matching ``max_episode_steps``, or ``max_episode_steps=-1`` to leave truncation
+    to the env's budget alone.
 
     **info**: ``sim_time_ms``; ``remap_error`` {model: normalized RMS error of its prediction
     against the actual post-saccadic samples, mean of both eyes} for every model in
@@ -68,7 +88,13 @@ class BinocularSaccadeEnv(gym.Env):
     ``endpoint_error_deg`` (2,) (each eye's executed vs intended endpoint direction, from the motor
     noise), ``efference_copy`` (2, 3, 3) (the intended rotation of each eye, head frame),
     ``executed_rotation`` (2, 3, 3) (the rotation made), ``eye_angles`` (2, 3) (the true Fick angles),
-    ``target_error_deg`` (tasks with a target), ``success``, ``clipped``.
+    ``target_error_deg`` (tasks with a target), ``success``, ``clipped``, and the reward's
+    components ``reward_*`` (above).
+
+    **Copies**: the env holds a compiled MuJoCo model and an OpenGL context, so ``pickle`` and
+    ``copy`` (deep or shallow) refuse it with a ``TypeError`` saying what to do instead: make a new
+    env with the same arguments (``gymnasium.make(env.spec.id, **env.spec.kwargs)``) and, for the
+    same state, reset it with the same seed and replay the actions (the env is deterministic under a seed).
 
     **Arguments**: ``scene`` (default: the task's), ``task`` (``"fixate"``, ``"search"``, ``"free"`` or a
     ``Task``), ``action_mode``, ``image_size`` (pixels per side of each eye's image, an integer in
@@ -88,7 +114,11 @@ class BinocularSaccadeEnv(gym.Env):
     ``task_kwargs``. Flags (``vergence``, ``grayscale``, ``include_coeffs``, ``pooled_remap``) must be bools; every
     argument is checked at construction (``ValueError``/``TypeError`` naming it).
 
-    **Version history**: v0 — initial version.
+    **Version history**: v0 — initial version; later, without changing the default episodes,
+    rewards or observations: registered with ``max_episode_steps`` (the task's default budget; a
+    ``gymnasium.make`` that changes the task or its budget now passes the matching limit too, see
+    above), ``info`` reports the reward's ``reward_*`` components, and pickling or copying raises a
+    clear ``TypeError``.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -264,6 +294,11 @@ class BinocularSaccadeEnv(gym.Env):
 
     def close(self) -> None:
         self.head.close()
+
+    def __reduce_ex__(self, protocol):
+        # pickle, copy.deepcopy and copy.copy all come here first: refuse before anything (a half-built
+        # copy of the GL renderer, whose __del__ would print a traceback) is made
+        raise TypeError(_NO_COPY.format(type(self).__name__))
 
     # ------------------------------------------------------------------ helpers
     def _see(self) -> None:

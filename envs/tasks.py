@@ -1,15 +1,17 @@
 """Tasks: what an episode asks of the head (dm_control style: task separate from the body).
 
 A task chooses its scene, places its objects at the start of an episode (random under the
-env's seed), and scores each saccade. The gaze error of an eye is the angle between its
-optical axis and the direction from its nodal point to the target; a target is *foveated*
-when both eyes' errors are below ``tolerance_deg``.
+env's seed), and scores each saccade: the reward is the sum of the task's ``reward_*`` components
+(``Task.reward_keys``), which ``score`` reports in its info as Gymnasium's MuJoCo envs do. The
+gaze error of an eye is the angle between its optical axis and the direction from its nodal point
+to the target; a target is *foveated* when both eyes' errors are below ``tolerance_deg``.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -51,7 +53,13 @@ def _gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
 @dataclass
 class Task:
     """Base task. ``scene`` is the ``models`` scene it runs in; ``max_saccades`` the budget (an
-    integer in [1, 10000]); ``tolerance_deg`` in (0, 45]; ``saccade_cost`` in [0, 10]."""
+    integer in [1, 10000]: the env truncates the episode after that many saccades); ``tolerance_deg``
+    in (0, 45]; ``saccade_cost`` in [0, 10].
+
+    ``score`` returns the reward and, in its info, each additive component of it under the names in
+    ``reward_keys`` (``reward_*``, as Gymnasium's MuJoCo envs report ``reward_ctrl``...): the
+    components sum to the reward.
+    """
 
     scene: str = "dots"
     max_saccades: int = 5
@@ -59,6 +67,8 @@ class Task:
     saccade_cost: float = 0.05
 
     name = "task"
+    #: The ``reward_*`` info keys of ``score``: the additive components of its reward.
+    reward_keys: ClassVar[tuple[str, ...]] = ()
 
     #: The largest saccade budget of an episode.
     MAX_SACCADES = 10_000
@@ -89,8 +99,14 @@ class Task:
         return head.object_position("target")
 
     def score(self, head: "models.Head") -> tuple[float, bool, dict]:
-        """(reward, terminated, info) after a saccade has landed."""
+        """(reward, terminated, info) after a saccade has landed; info holds the ``reward_keys``
+        components, which sum to the reward."""
         raise NotImplementedError
+
+    @staticmethod
+    def _total(parts: dict[str, float]) -> float:
+        """The reward: the sum of its components (in their order, so the sum is the same float)."""
+        return float(sum(parts.values()))
 
 
 @dataclass
@@ -98,14 +114,16 @@ class FixateTask(Task):
     """``fixate``: a salient target appears in the periphery of the ``dots`` screen, at an
     eccentricity uniform in [min_ecc_deg, max_ecc_deg] and a direction uniform on the circle.
 
-    Reward per saccade: exp(-(e / tolerance)^2 / 2) - saccade_cost, e the mean gaze error (deg);
-    the episode ends when the target is foveated or after ``max_saccades`` saccades.
+    Reward per saccade: exp(-(e / tolerance)^2 / 2) - saccade_cost, e the mean gaze error (deg):
+    ``reward_target`` (the first term, in (0, 1]) plus ``reward_saccade`` (-saccade_cost); the
+    episode ends when the target is foveated or after ``max_saccades`` saccades.
     """
 
     scene: str = "dots"
     min_ecc_deg: float = 5.0
     max_ecc_deg: float = 20.0
     name = "fixate"
+    reward_keys = ("reward_target", "reward_saccade")
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -130,34 +148,35 @@ class FixateTask(Task):
         err = _gaze_errors_deg(head, self.target_position(head))  # (target_position checks head)
         e = float(err.mean())
         success = bool(np.all(err <= self.tolerance_deg))
-        reward = math.exp(-0.5 * (e / self.tolerance_deg) ** 2) - self.saccade_cost
-        return reward, success, {"target_error_deg": e, "success": success}
+        parts = {"reward_target": math.exp(-0.5 * (e / self.tolerance_deg) ** 2), "reward_saccade": -self.saccade_cost}
+        return self._total(parts), success, {"target_error_deg": e, "success": success, **parts}
 
 
 @dataclass
 class SearchTask(Task):
     """``search``: find the red sphere among green spheres and red cubes (``search`` scene,
-    layout re-drawn from the seed each episode). Reward 1 for foveating the target, minus
-    ``saccade_cost`` per saccade; ends on success or after ``max_saccades``."""
+    layout re-drawn from the seed each episode). Reward 1 for foveating the target
+    (``reward_target``), minus ``saccade_cost`` per saccade (``reward_saccade``); ends on success or
+    after ``max_saccades``."""
 
     scene: str = "search"
     max_saccades: int = 10
     tolerance_deg: float = 2.5
     name = "search"
+    reward_keys = ("reward_target", "reward_saccade")
 
     def score(self, head) -> tuple[float, bool, dict]:
         err = _gaze_errors_deg(head, self.target_position(head))  # (target_position checks head)
         success = bool(np.all(err <= self.tolerance_deg))
-        return (1.0 if success else 0.0) - self.saccade_cost, success, {
-            "target_error_deg": float(err.mean()),
-            "success": success,
-        }
+        parts = {"reward_target": 1.0 if success else 0.0, "reward_saccade": -self.saccade_cost}
+        return self._total(parts), success, {"target_error_deg": float(err.mean()), "success": success, **parts}
 
 
 @dataclass
 class FreeViewingTask(Task):
-    """``free``: free viewing of any scene (e.g. ``bar`` or ``natural``): no target, reward 0,
-    never terminates; truncated after ``max_saccades``. For experiments and visualisation."""
+    """``free``: free viewing of any scene (e.g. ``bar`` or ``natural``): no target, reward 0 (no
+    components: no ``reward_*`` keys; ``saccade_cost`` is not charged), never terminates; truncated
+    after ``max_saccades``. For experiments and visualisation."""
 
     scene: str = "natural"
     max_saccades: int = 20

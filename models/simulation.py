@@ -286,6 +286,13 @@ class Head:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def __reduce_ex__(self, protocol):
+        # pickle and copy (deep or shallow) come here first: refuse before a half-built copy of the GL
+        # renderer (whose __del__ would print a traceback) or a second head sharing this MjData is made
+        raise TypeError("a models.Head cannot be pickled or copied (pickle, copy.deepcopy, copy.copy): it holds a "
+                        "compiled MuJoCo model (its MjSpec) and an OpenGL context. Make a new Head with the same "
+                        "arguments instead; for the same state, reset it with the same seed and repeat the calls")
+
     # ------------------------------------------------------------------ geometry
     def _head_pose(self) -> tuple[np.ndarray, np.ndarray]:
         return self.data.xpos[self._head_body].copy(), self.data.xmat[self._head_body].reshape(3, 3).copy()

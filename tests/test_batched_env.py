@@ -69,8 +69,51 @@ def test_make_vec_builds_the_batched_env():
         assert isinstance(env, BatchedBinocularSaccade)
         obs, _ = env.reset(seed=0)
         assert isinstance(obs["cortical"], np.ndarray) and obs["cortical"].shape[0] == 1
+        assert env._max_steps == gym.spec("BinocularSaccade-v0").max_episode_steps == 5  # make_vec passes it
     finally:
         env.close()
+
+
+def test_max_episode_steps_caps_the_budget_as_a_time_limit():
+    """make_vec(..., max_episode_steps=K) reaches the vector entry point: worlds are truncated after
+    min(K, max_saccades) steps, as TimeLimit(K) around the single env truncates them (here free viewing,
+    budget 20, K = 1); -1 or None leave the budget alone; a bad K is refused."""
+    env = gym.make_vec("BinocularSaccade-v0", num_envs=1, vectorization_mode="vector_entry_point", device="cpu",
+                       image_size=32, fovea_deg=5.0, output="numpy", task="free", scene="bar", max_episode_steps=1)
+    try:
+        env.reset(seed=0)
+        _, _, te, tr, _ = env.step(ACTIONS[0][:1])
+        assert tr.all() and not te.any()
+    finally:
+        env.close()
+    for bad in (0, -2, 2.5, "5"):
+        with pytest.raises(ValueError, match="max_episode_steps"):  # (checks' TypeError is a ValueError too)
+            BatchedBinocularSaccade(1, device="cpu", image_size=32, max_episode_steps=bad)
+
+
+def test_max_episode_steps_default_is_the_budget(benv):
+    assert benv._max_steps == benv.task.max_saccades == 2  # built directly: no TimeLimit, the budget decides
+
+
+def test_pickle_and_copy_refuse_clearly(benv):
+    """pickle and copy raise a TypeError saying what to do, before any half-built copy exists: nothing
+    reaches sys.unraisablehook (where a Renderer.__del__ traceback would go)."""
+    import copy
+    import gc
+    import pickle
+    import sys
+
+    unraisable = []
+    old, sys.unraisablehook = sys.unraisablehook, unraisable.append
+    try:
+        benv.reset(seed=0)
+        for f in (pickle.dumps, copy.deepcopy, copy.copy):
+            with pytest.raises(TypeError, match="BatchedBinocularSaccade cannot be pickled or copied.*make_vec"):
+                f(benv)
+        gc.collect()
+    finally:
+        sys.unraisablehook = old
+    assert not unraisable, [u.exc_value for u in unraisable]
 
 
 def test_agrees_with_the_single_env(benv):
@@ -112,6 +155,12 @@ def test_agrees_with_the_single_env(benv):
             assert ci["clipped"] == bi["clipped"][w] and ci["success"] == bi["success"][w]
             for m, e in ci["remap_error"].items():
                 assert abs(e - bi["remap_error"][m][w]) < 0.2, (t, m, e, bi["remap_error"][m][w])
+            # the reward's components: the same reward_* keys, values and sum
+            parts = [k for k in ci if k.startswith("reward_")]
+            assert parts == [k for k in bi if k.startswith("reward_")] == ["reward_target", "reward_saccade"]
+            for key in parts:
+                assert bi["_" + key][w] and math.isclose(ci[key], bi[key][w], abs_tol=1e-4), (t, key)
+            assert math.isclose(sum(bi[k][w] for k in parts), br[w], abs_tol=1e-12)
 
 
 def test_remapping_errors_agree_on_a_contrasted_scene():
@@ -229,6 +278,8 @@ def test_search_and_cell_actions():
             assert np.abs(so2["cortical"] - o["cortical"][w]).mean() < 0.005
             assert math.isclose(sr, r[w], abs_tol=1e-6) and ste == te[w]
             assert math.isclose(si["target_error_deg"], info["target_error_deg"][w], abs_tol=1e-3)
+            for key in ("reward_target", "reward_saccade"):  # the search task's reward components
+                assert si[key] == info[key][w] and info["_" + key][w], key
         with pytest.raises(TypeError, match="integer"):
             env.step(np.array([0.5, 1.0]))
         with pytest.raises(ValueError, match="world 1"):
@@ -260,6 +311,8 @@ def test_same_step_autoreset():
         assert np.abs(first["cortical"] - obs["cortical"][w]).max() < 0.01
         np.testing.assert_array_equal(obs["cortical"][w], obs["remapped"][w])  # a first observation
         assert info["final_info"]["success"][w] == (te[w])
+        fi = info["final_info"]  # the ended step's reward components, in final_info as the rest of its info
+        assert fi["_reward_target"][w] and math.isclose(fi["reward_target"][w] + fi["reward_saccade"][w], r[w])
 
 
 def test_retina_rays_observations():
@@ -378,6 +431,7 @@ def test_same_step_infos_are_masked_and_a_closed_env_refuses():
         assert not info.get("_" + k, np.zeros(N, bool)).any()  # no running world had a step info
     assert fi["saccade_amplitude_deg"].min() > 0
     assert "target_error_deg" not in fi  # the free task reports none, as BinocularSaccadeEnv
+    assert not [k for k in (*fi, *info) if k.startswith("reward_")]  # nor reward components (reward 0)
     for m in env.remap_models:
         np.testing.assert_array_equal(info["remap_error"][m], 0.0)
     np.testing.assert_array_equal(fi["_remap_error"], done)

@@ -1,8 +1,14 @@
 """BinocularSaccade-v0: API conformance, determinism, errors, and honest remapping errors."""
 
+import copy
 import gc
 import math
+import pickle
+import subprocess
+import sys
+import textwrap
 import tracemalloc
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -223,6 +229,159 @@ def test_search_rewards_foveating_the_target_and_charges_each_saccade():
     _, r, term, trunc, info = e.step(a.astype(np.float32))
     assert info["success"] and term and r == pytest.approx(1.0 - e.task.saccade_cost)
     e.close()
+
+
+def _aim(e) -> np.ndarray:
+    """The vector action that saccades straight to the target."""
+    d = e.head.object_position("target") - e.head.cyclopean_position
+    return (np.array([math.atan2(-d[1], d[0]), math.atan2(d[2], math.hypot(d[0], d[1]))]) / math.radians(30)).astype(np.float32)
+
+
+@pytest.mark.parametrize("env_id, task", [("BinocularSaccade-v0", "fixate"), ("BinocularSaccadeSearch-v0", "search")])
+def test_registered_step_limit_is_the_task_budget_and_truncates_once(env_id, task):
+    """Each id is registered with max_episode_steps = its task's default saccade budget, so TimeLimit and
+    the env truncate at the same step: truncated once, at that step, with the env's own flag agreeing."""
+    budget = envs.TASKS[task].max_saccades
+    assert gym.spec(env_id).max_episode_steps == budget == {"fixate": 5, "search": 10}[task]
+    e = gym.make(env_id, image_size=32, fixation_ms=0)
+    assert e.spec.max_episode_steps == budget and isinstance(e, gym.wrappers.TimeLimit)
+    assert e.unwrapped.task.max_saccades == budget
+    for episode in range(2):  # the second episode: TimeLimit's count restarts with reset
+        e.reset(seed=5)
+        flags = []
+        for _ in range(budget):
+            _, _, term, trunc, info = e.step(np.zeros(2, np.float32))  # null saccades: never foveated
+            assert not term and not info["success"]
+            flags.append(trunc)
+        assert flags == [False] * (budget - 1) + [True]
+        assert e.unwrapped._saccades >= e.unwrapped.task.max_saccades  # the env's own budget ran out too
+    e.close()
+
+
+def test_make_with_max_episode_steps():
+    """gym.make(id, max_episode_steps=K): TimeLimit truncates after K steps when K is within the budget;
+    longer episodes raise the budget with it; -1 leaves truncation to the env's budget alone."""
+
+    def length(**kwargs):
+        e = gym.make("BinocularSaccade-v0", image_size=32, fixation_ms=0, **kwargs)
+        e.reset(seed=5)
+        n, done = 0, False
+        while not done:
+            _, _, term, trunc, _ = e.step(np.zeros(2, np.float32))
+            assert not term
+            n, done = n + 1, trunc
+        spec_k = e.spec.max_episode_steps
+        e.close()
+        return n, spec_k
+
+    assert length(max_episode_steps=3) == (3, 3)
+    assert length(max_episode_steps=8, task_kwargs={"max_saccades": 8}) == (8, 8)
+    assert length(max_episode_steps=-1) == (5, None)  # no TimeLimit: the env's budget of 5
+    assert length(max_episode_steps=-1, task_kwargs={"max_saccades": 7}) == (7, None)
+
+
+@pytest.mark.parametrize("task", ["fixate", "search", "free"])
+def test_reward_components_sum_to_the_reward(task):
+    """info reports the reward's additive components as reward_* keys (task.reward_keys), as Gymnasium's
+    MuJoCo envs do; they sum to the reward, on misses and on success alike; free viewing has none."""
+    e = envs.BinocularSaccadeEnv(task=task, image_size=32, fixation_ms=0)
+    expected = {"fixate": ("reward_target", "reward_saccade"), "search": ("reward_target", "reward_saccade"),
+                "free": ()}[task]
+    assert e.task.reward_keys == expected
+    _, info = e.reset(seed=3)
+    assert not [k for k in info if k.startswith("reward_")]  # a reset has no reward
+    rng = np.random.default_rng(0)
+    for i in range(3):
+        if i == 2:  # the last saccade, from the start of a new episode, lands on the target
+            e.reset(seed=3)
+        a = _aim(e) if i == 2 and task != "free" else rng.uniform(-0.3, 0.3, 2).astype(np.float32)
+        _, r, term, _, info = e.step(a)
+        parts = {k: v for k, v in info.items() if k.startswith("reward_")}
+        assert tuple(parts) == expected and all(isinstance(v, float) for v in parts.values())
+        assert sum(parts.values()) == pytest.approx(r, abs=1e-12)
+        if task != "free":
+            assert parts["reward_saccade"] == -e.task.saccade_cost
+            assert term == info["success"] == (i == 2)
+        if i == 2 and task != "free":
+            assert parts["reward_target"] == (1.0 if task == "search" else pytest.approx(1.0, abs=0.2))
+    e.close()
+
+
+_COPY_SCRIPT = textwrap.dedent("""
+    import copy, gc, pickle
+    import gymnasium as gym
+    import models
+    import envs
+
+    made = gym.make("BinocularSaccade-v0", image_size=16, fixation_ms=0)
+    direct = envs.BinocularSaccadeEnv(image_size=16, fixation_ms=0)
+    head = models.Head("dots", image_size=16)
+    for name, obj, rendered in (("made", made, False), ("direct", direct, False), ("head", head, False),
+                                ("made", made, True), ("direct", direct, True), ("head", head, True)):
+        if rendered:  # a GL context now exists: the case that printed Renderer.__del__'s traceback
+            head.render() if name == "head" else obj.reset(seed=0)
+        for how, f in (("pickle", pickle.dumps), ("deepcopy", copy.deepcopy), ("copy", copy.copy)):
+            if name == "made" and how == "copy":
+                continue  # a shallow copy of the wrappers shares the env: gymnasium's, harmless
+            try:
+                f(obj)
+            except TypeError as err:
+                print(name, rendered, how, "TypeError", err, flush=True)
+            else:
+                print(name, rendered, how, "copied", flush=True)
+            gc.collect()
+    made.close(); direct.close(); head.close()
+    gc.collect()
+    print("done", flush=True)
+""")
+
+
+def test_pickle_and_copy_refuse_clearly_without_a_stray_traceback():
+    """pickle.dumps / copy.deepcopy / copy.copy of the env (direct or from gym.make) and of models.Head raise
+    a TypeError saying what to do instead, before or after the GL context exists, and nothing is printed
+    on stderr (no PicklingError, no Renderer.__del__ traceback from a half-built copy)."""
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", _COPY_SCRIPT], cwd=root, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.strip() == "", out.stderr
+    lines = out.stdout.strip().splitlines()
+    assert lines[-1] == "done" and len(lines) == 1 + 2 * (3 + 3 + 2)
+    for line in lines[:-1]:
+        name, _, how, outcome, message = line.split(" ", 4)
+        assert outcome == "TypeError", line
+        assert "cannot be pickled or copied" in message, line
+        if name == "head":
+            assert "models.Head" in message and "new Head with the same arguments" in message
+        else:
+            assert "BinocularSaccadeEnv" in message and "gymnasium.make(env.spec.id, **env.spec.kwargs)" in message
+            assert "same seed" in message
+
+
+def test_the_copy_recipe_rebuilds_the_same_env():
+    """What the TypeError recommends: gym.make(env.spec.id, **env.spec.kwargs), reset with the same seed,
+    the same actions: the same observations and rewards."""
+    e = gym.make("BinocularSaccadeSearch-v0", image_size=32, fixation_ms=0, action_mode="cell")
+    with pytest.raises(TypeError, match="gymnasium.make"):
+        copy.deepcopy(e.unwrapped)
+    with pytest.raises(TypeError, match="cannot be pickled"):
+        pickle.dumps(e)
+    twin = gym.make(e.spec.id, **e.spec.kwargs)
+    assert twin.spec.max_episode_steps == e.spec.max_episode_steps == 10
+    runs = []
+    for env in (e, twin):
+        obs, _ = env.reset(seed=9)
+        run = [obs]
+        for a in (3, 40, 55):
+            o, r, *_ = env.step(a)
+            run += [o, r]
+        runs.append(run)
+        env.close()
+    for a, b in zip(*runs):
+        if isinstance(a, dict):
+            for k in a:
+                assert np.array_equal(a[k], b[k]), k
+        else:
+            assert a == b
 
 
 def test_vergence_action_changes_the_fixation_distance():
