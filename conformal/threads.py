@@ -3,7 +3,7 @@
 numpy's OpenBLAS starts one thread per core. The per-frame products here are small (the remapping's
 angular sum is ~6 M multiply-adds), so a second BLAS thread gains little on an idle machine and,
 when anything else runs on the other core, the two threads fight for it: on 2 cores with a second
-job the environment fell from ~150 to 22-45 steps/s (``../shared/APIS.md``, "Threads"). Hot paths
+job the environment fell from ~150 to 22-45 steps/s (measured on this project's 2-core machines). Hot paths
 therefore run their BLAS calls inside :func:`blas_threads` (``threadpoolctl``), which limits the
 BLAS pools to one thread for the duration of the call and restores the caller's setting after it,
 so a user's own numpy/torch work elsewhere in the process keeps its threads.

@@ -42,7 +42,12 @@ def check_path_length(path: os.PathLike | str) -> None:
     allows (``NAME_MAX``, ``PATH_MAX``): say so before any work, not after it."""
     p = Path(path)
     anc = p.absolute()
-    while not anc.exists() and anc != anc.parent:
+    while anc != anc.parent:
+        try:
+            if anc.exists():
+                break
+        except OSError:  # e.g. ENAMETOOLONG: its parent decides
+            pass
         anc = anc.parent
     try:
         name_max = os.pathconf(anc if anc.is_dir() else anc.parent, "PC_NAME_MAX")

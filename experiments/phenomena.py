@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import sys
 from pathlib import Path
 
@@ -220,20 +221,57 @@ def plot(tables: dict, out: Path) -> list[Path]:
     return paths
 
 
-def run(args: argparse.Namespace) -> int:
-    out: Path = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    tables = measure(out, workers=args.workers, progress=not args.no_progress)
+def _write(out: Path, tables: dict) -> tuple[str, list]:
+    from .folders import atomic_write_text
+
     rows = score(tables)
-    with open(out / "phenomena.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=["phenomenon", "model", "published", "simulated", "reproduced"])
-        w.writeheader()
-        w.writerows(rows)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=["phenomenon", "model", "published", "simulated", "reproduced"],
+                       lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write_text(out / "phenomena.csv", buf.getvalue())
     lines = [f"{'phenomenon':34s} {'model':12s} {'reproduced':11s} simulated"]
     lines += [f"{r['phenomenon']:34s} {r['model']:12s} {r['reproduced']:11s} {r['simulated']}" for r in rows]
     text = "\n".join(lines) + "\n"
-    (out / "phenomena.txt").write_text(text)
-    figures = plot(tables, out)
+    atomic_write_text(out / "phenomena.txt", text)
+    return text, plot(tables, out)
+
+
+def run(args: argparse.Namespace) -> int:
+    """The command: one process per folder (a lock), interruptible and resumable, one-line errors."""
+    import signal
+
+    from .folders import Interrupted, interruptible
+    from .psychophysics.runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
+
+    prog = "python -m experiments phenomena"
+    parser = getattr(args, "_parser", None)
+    try:
+        out = prepare_output_folder(args.out)
+    except (OutputFolderError, TypeError) as e:
+        if parser is None:
+            raise
+        parser.error(f"argument --out: {e}")
+    try:
+        with interruptible(), folder_lock(out):
+            tables = measure(out, workers=args.workers, progress=not args.no_progress)
+            text, figures = _write(out, tables)
+    except KeyboardInterrupt as e:
+        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
+        print(f"{prog}: interrupted ({signal.Signals(signum).name}); the finished trials are kept in {out}/tables: "
+              "run the same command again to resume", file=sys.stderr)
+        return 128 + int(signum)
+    except FolderBusyError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 1
+    except ValueError as e:  # e.g. a tables/ folder holding another configuration
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"{prog}: error: {e.strerror or e}{f': {e.filename}' if getattr(e, 'filename', None) else ''}",
+              file=sys.stderr)
+        return 1
     print(text, end="")
     print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
     return 0
@@ -249,7 +287,7 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--workers", type=int, choices=range(1, 17), default=1, metavar="N",
                    help="worker processes per design (1-16; 1 = in-process)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, _parser=p)
 
 
 if __name__ == "__main__":  # pragma: no cover

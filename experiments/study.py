@@ -100,6 +100,12 @@ def _out(text: str) -> str:
         raise argparse.ArgumentTypeError("the folder name is empty")
     if "\x00" in text:
         raise argparse.ArgumentTypeError(f"the folder name contains a NUL character: {text!r}")
+    from .folders import check_path_length
+
+    try:
+        check_path_length(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
     return text
 
 

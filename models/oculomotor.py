@@ -10,7 +10,7 @@ given as Fick angles ``(h, v, t)`` -- the gimbal of ``models/head.xml``::
 
 ``h > 0`` turns the gaze to the right, ``v > 0`` up, ``t > 0`` turns the top of the eye to the
 subject's right.  ``R`` maps eye coordinates at primary position to head coordinates; the eye
-frame of DESIGN.md is ``x2 = R[:, 0]`` (optical axis), ``x3 = -R[:, 1]`` (right),
+frame of the README's conventions is ``x2 = R[:, 0]`` (optical axis), ``x3 = -R[:, 1]`` (right),
 ``x1 = R[:, 2]`` (up).
 
 Literature:
@@ -65,7 +65,7 @@ _X = np.array([1.0, 0.0, 0.0])
 _Y = np.array([0.0, 1.0, 0.0])
 _Z = np.array([0.0, 0.0, 1.0])
 
-#: Columns are the head-frame directions of the DESIGN.md eye axes (x1, x2, x3) at primary position.
+#: Columns are the head-frame directions of the eye axes (README, conventions) (x1, x2, x3) at primary position.
 PRIMARY_EYE_BASIS = np.column_stack([_Z, _X, -_Y])
 
 
@@ -331,7 +331,7 @@ class SaccadePlan:
     ``efference_copy[e]`` is the intended rotation of eye ``e`` in the head frame,
     ``R_intended_end @ R_start.T`` -- the command, unchanged by the motor noise;
     ``efference_copy_eye[e]`` is the same rotation in the pre-saccadic eye frame with axes ordered
-    (x1 up, x2 optical axis, x3 right) of DESIGN.md. ``executed_rotation`` is the rotation the eyes
+    (x1 up, x2 optical axis, x3 right) of the README's conventions. ``executed_rotation`` is the rotation the eyes
     actually make. :meth:`eye_position_signal` is the brain's estimate of eye orientation
     (``models.eye_position_signal``), starting from ``signal_start_angles`` (default: the start).
     """

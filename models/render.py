@@ -2,7 +2,7 @@
 
 Pixel convention (verified in tests/test_models_render.py by rendering dots at known 3-D
 points): an image is an ``(H, W, 3) uint8`` array, row 0 at the top. Pixel ``(row, col)`` has its
-centre at the image-plane point (DESIGN.md, ``z = (x3 + i x1)/x2``)::
+centre at the image-plane point (the README's conventions, ``z = (x3 + i x1)/x2``)::
 
     z = ((col - (W - 1)/2) - 1j * (row - (H - 1)/2)) / pixels_per_unit
     pixels_per_unit = f_px = 0.5 * H / tan(fovy / 2)

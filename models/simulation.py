@@ -65,7 +65,7 @@ MIN_TIMESTEP_MS = 0.01
 MAX_STEP_MS = 60_000
 
 _JOINTS = tuple(f"{side}_eye_{a}" for side in ("left", "right") for a in "hvt")
-# camera frame (x right, y up, z back) -> DESIGN.md eye axes (x1 up, x2 optical axis, x3 right)
+# camera frame (x right, y up, z back) -> the README's eye axes (x1 up, x2 optical axis, x3 right)
 _CAM_TO_EYE = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 

@@ -562,7 +562,7 @@ def simulate_data(model: str, values: dict, design, conditions=("references", "d
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(SIMULATED_COLUMNS)
         for r in rows:
-            w.writerow([f"{r[0]:g}", int(r[1]), *(f"{v:.10g}" for v in r[2:6]), r[6], int(r[7]), f"{r[8]:g}",
+            w.writerow([f"{r[0]:g}", int(r[1]), *(f"{round(v, 9) + 0.0:.10g}" for v in r[2:6]), r[6], int(r[7]), f"{r[8]:g}",
                         f"{r[9]:g}"])
         fp = config_fingerprint(design, m.trial_config(base, values))
         fp["config"].pop("condition", None)

@@ -85,7 +85,8 @@ def _local(trials, config, workers: int, progress) -> list:
     from ..psychophysics.runner import _stop_pool
 
     out = [None] * len(trials)
-    chunks = [list(range(i, min(i + 8, len(trials)))) for i in range(0, len(trials), 8)]
+    size = max(1, min(8, -(-len(trials) // (2 * workers))))  # every worker gets work
+    chunks = [list(range(i, min(i + size, len(trials)))) for i in range(0, len(trials), size)]
     pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_init,
                                initargs=(config, os.getpid()))
     try:

@@ -51,7 +51,7 @@ __all__ = ["TrialConfig", "TrialRunner", "Observation", "head_angles_deg", "ROW_
            "READOUT_PARAMETERS"]
 
 #: Eye-frame axes (x1 up, x2 optical axis, x3 right) in the head frame (x forward, y left, z up)
-#: at zero Fick angles (DESIGN.md's eye frame; ``models.oculomotor``'s primary position).
+#: at zero Fick angles (the README's eye frame; ``models.oculomotor``'s primary position).
 _PRIMARY_EYE_BASIS = np.column_stack([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 SCREEN_DISTANCE = 1.0  # the dots scene's screen, metres ahead of the cyclopean eye
