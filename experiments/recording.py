@@ -751,7 +751,7 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                    scene: str | None = None, image_size: int = 128, fixation_ms: int = 250,
                    latency_ms: int = 40, flash_lead_ms: int = 20, shift_rings: float = 2.0,
                    remap_model: str = "homography", spawn: bool = False, connect: str | None = None,
-                   recording_id: str | None = None) -> dict[str, Any]:
+                   recording_id: str | None = None, progress: bool = False) -> dict[str, Any]:
     """Record ``steps`` saccades of ``envs.BinocularSaccadeEnv`` (one env step each, driven through
     ``env.head`` and ``env.vision`` to see inside the saccade).
 
@@ -808,7 +808,12 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
             log_images(views, frame)
             rec.log_eye_angles(head.eye_angles, np.zeros((2, 3)), head.eye_position_signal())
             previous = None
-            for step in range(int(steps)):
+            steps_iter = range(int(steps))
+            if progress:
+                from tqdm import tqdm
+
+                steps_iter = tqdm(steps_iter, unit="saccade", desc="recording")
+            for step in steps_iter:
                 # alternate object saccades with random ones of 3-20 deg (the main sequence's range)
                 name = _choose_target(head, rng, previous) if step % 2 == 0 else None
                 plan = None
@@ -937,7 +942,8 @@ def _run_visualize(args: argparse.Namespace) -> int:
         try:
             summary = record_env_run(args.out, steps=args.steps, seed=args.seed, task=args.task, scene=args.scene,
                                      image_size=args.image_size, fixation_ms=args.fixation_ms, spawn=args.spawn,
-                                     connect=viewer.grpc_url if viewer is not None else None)
+                                     connect=viewer.grpc_url if viewer is not None else None,
+                                     progress=not args.no_progress)
         except (ValueError, FileNotFoundError, KeyError) as e:
             p.error(str(e))
         for i, s in enumerate(summary["saccades"]):
@@ -997,4 +1003,5 @@ def add_subcommand(subparsers) -> None:
                    help=f"eye image size in pixels, {b['image_size'][0]}..{b['image_size'][1]} (default 128)")
     p.add_argument("--fixation-ms", type=_whole(*b["fixation_ms"]), default=250,
                    help=f"fixation after each saccade, ms, {b['fixation_ms'][0]}..{b['fixation_ms'][1]} (default 250)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (it goes to stderr)")
     p.set_defaults(func=_run_visualize, parser=p)

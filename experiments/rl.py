@@ -61,6 +61,7 @@ def add_subcommand(subparsers) -> None:
     e.add_argument("--seed", type=_seed, default=0, help="evaluation seed (default 0)")
     e.add_argument("--image-size", type=_image_size,
                    help="image size for random/heuristic (default 96); a saved policy uses its own")
+    e.add_argument("--no-progress", action="store_true", help="no progress bar (it goes to stderr; the JSON to stdout)")
     e.set_defaults(func=evaluate_command)
 
 
@@ -122,7 +123,8 @@ def evaluate_command(args: argparse.Namespace) -> int:
             g = env.vision.grid
             policy = RandomPolicy(g.M * g.N) if args.policy == "random" else BrightestCellPolicy()
         try:
-            res = evaluate(env, policy, episode_seeds(args.seed, args.episodes, EVAL_STREAM), rng_seed=args.seed)
+            res = evaluate(env, policy, episode_seeds(args.seed, args.episodes, EVAL_STREAM), rng_seed=args.seed,
+                           progress=not args.no_progress)
         except ValueError as err:
             print(f"evaluate: error: {err}", file=sys.stderr)
             return 2

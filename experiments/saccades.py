@@ -41,12 +41,16 @@ def _kinematics(t: np.ndarray, speed: np.ndarray) -> tuple[float, float, float]:
     return float(speed.max()), float(t1 - t0), float((t[np.argmax(speed)] - t0) / (t1 - t0))
 
 
-def measure(model: str, amplitudes=AMPLITUDES_DEG) -> dict:
+def measure(model: str, amplitudes=AMPLITUDES_DEG, progress: bool = False) -> dict:
     """Run rightward horizontal saccades centred on straight ahead; returns traces and kinematics."""
     import models
 
     out = {}
     with models.Head("dots", image_size=16, seed=0, saccade_model=model) as head:
+        if progress:
+            from tqdm import tqdm
+
+            amplitudes = tqdm(amplitudes, unit="saccade", desc=f"{model} saccades")
         for a in amplitudes:
             head.reset(fixate=models.screen_point(math.radians(-a / 2), 0.0, 1.0))
             plan = head.plan_saccade_to(models.screen_point(math.radians(a / 2), 0.0, 1.0), latency_ms=150)
@@ -132,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     models_ = ("burst", "legacy") if args.model == "both" else (args.model,)
-    results = {m: measure(m) for m in models_}
+    results = {m: measure(m, progress=not getattr(args, "no_progress", True)) for m in models_}
     rows = main_sequence_rows(results)
     with open(out / "main_sequence.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -157,6 +161,7 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--out", type=out_dir, default="results/saccades", help="output folder (created)")
     p.add_argument("--model", choices=("burst", "legacy", "both"), default="both",
                    help="trajectory model(s) to measure (the figure needs burst)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars (they go to stderr)")
     p.set_defaults(func=run)
 
 

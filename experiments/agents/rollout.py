@@ -71,11 +71,17 @@ class Evaluation:
                 "mean_saccades": self.mean_saccades, "episodes": self.episodes}
 
 
-def evaluate(env, policy: Policy, seeds: np.ndarray, rng_seed: int = 0) -> Evaluation:
-    """Run ``policy`` for one episode per reset seed; deterministic for fixed seeds."""
+def evaluate(env, policy: Policy, seeds: np.ndarray, rng_seed: int = 0, progress: bool = False) -> Evaluation:
+    """Run ``policy`` for one episode per reset seed; deterministic for fixed seeds. ``progress``:
+    a progress bar on stderr."""
     if len(seeds) == 0:
         raise ValueError("need at least one episode")
     rng = np.random.default_rng([int(rng_seed), 12345])
-    res = np.array([run_episode(env, policy, s, rng) for s in seeds], dtype=np.float64)
+    it = seeds
+    if progress:
+        from tqdm import tqdm
+
+        it = tqdm(seeds, unit="episode", desc="evaluating")
+    res = np.array([run_episode(env, policy, s, rng) for s in it], dtype=np.float64)
     return Evaluation(success_rate=float(res[:, 2].mean()), mean_reward=float(res[:, 0].mean()),
                       mean_saccades=float(res[:, 1].mean()), episodes=len(seeds))
