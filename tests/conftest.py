@@ -17,6 +17,64 @@ import pytest
 
 import models  # noqa: F401  (first: it picks MuJoCo's off-screen GL backend before anything loads mujoco)
 
+#: tests over ~2 s on 2 loaded cores (measured with --durations=0; the time of the slowest
+#: parametrization), marked ``slow`` here so that files other work is editing need no change; a
+#: file or test may also carry ``@pytest.mark.slow`` itself. "file::name" covers every parametrization.
+SLOW = {
+    "test_adversarial_fit.py::test_a_folder_holding_another_fit_is_refused",  # 3 s
+    "test_batched_planner.py::test_profiles_equal_the_generators",  # 3 s
+    "test_batched_planner.py::test_profiles_of_other_generators",  # 6 s
+    "test_envs.py::test_check_env_passes",  # 3 s
+    "test_envs.py::test_memory_does_not_grow_over_ten_thousand_steps",  # 171 s
+    "test_envs.py::test_pickle_and_copy_refuse_clearly_without_a_stray_traceback",  # 5 s
+    "test_envs.py::test_vector_envs_run",  # 8 s
+    "test_fovea_cortex_remap.py::test_fovea_lattice_matches_pixels_in_paper_example",  # 2 s
+    "test_grid_sampling.py::test_constant_image_samples_to_constant",  # 2 s
+    "test_modelfit.py::test_fit_resumes_from_its_cache_and_log",  # 16 s
+    "test_modelfit.py::test_parameters_and_model_are_recovered",  # 446 s
+    "test_modelfit.py::test_ray_backend_gives_the_local_observations",  # 32 s
+    "test_models_render.py::test_egl_is_the_default_backend_and_its_hint_names_the_packages",  # 3 s
+    "test_models_render.py::test_ten_thousand_renders_do_not_grow_memory",  # 9 s
+    "test_models_saccades.py::test_profile_table_matches_a_direct_simulation",  # 4 s
+    "test_perception_mechanisms.py::test_compression_grows_with_saccade_amplitude",  # 4 s
+    "test_perception_mechanisms.py::test_displacement_paradigm_blank_restores_detection",  # 9 s
+    "test_perception_mechanisms.py::test_phenomena_command_writes_the_report",  # 55 s
+    "test_perception_mechanisms.py::test_rows_name_model_condition_and_paradigm",  # 19 s
+    "test_psychophysics.py::test_cli_small_study_writes_outputs",  # 3 s
+    "test_psychophysics.py::test_gain_zero_is_veridical_up_to_sampling_error",  # 12 s
+    "test_psychophysics.py::test_killed_parallel_run_resumes",  # 19 s
+    "test_psychophysics.py::test_quick_study_through_the_command_line",  # 10 s
+    "test_recording.py::test_cli_writes_recording",  # 2 s
+    "test_recording.py::test_every_entity_present",  # 5 s
+    "test_recording.py::test_serve_on_loopback_only_and_stops_by_itself",  # 9 s
+    "test_remap_pooled.py::test_field_moments_match_the_pooled_retinas_operator",  # 3 s
+    "test_remap_pooled.py::test_pooled_prediction_is_never_much_worse",  # 5 s
+    "test_results_integrity.py::test_a_second_run_on_the_same_folder_is_refused",  # 3 s
+    "test_results_integrity.py::test_interrupted_command_stops_its_workers_and_says_how_to_resume",  # 8 s
+    "test_results_integrity.py::test_kill_9_of_the_command_leaves_no_workers",  # 9 s
+    "test_results_integrity.py::test_workers_use_one_thread_ignore_ctrl_c_and_know_their_parent",  # 3 s
+    "test_rl.py::test_cli_bad_options_fail_clearly",  # 4 s
+    "test_rl.py::test_sb3_recipe_prints_progress_and_evaluate_loads_it",  # 42 s
+    "test_rl.py::test_sb3_recipe_runs",  # 2 s
+    "test_rl.py::test_short_training_beats_random_by_a_clear_margin",  # 15 s
+    "test_rl.py::test_train_and_evaluate_commands_end_to_end",  # 3 s
+    # the users of module fixtures that simulate for 5-20 s (a trained policy, study tables, a recorded run)
+    "test_rl.py::test_saved_policy_reloads_and_evaluates_identically",
+    "test_psychophysics.py::test_errors_point_towards_the_target_near_onset",
+    "test_psychophysics.py::test_compression_peaks_near_onset_and_vanishes_far_from_it",
+    "test_psychophysics.py::test_eye_position_signal_shifts_flashes_along_then_against_the_saccade",
+    "test_perception_mechanisms.py::test_dark_flashes_before_the_saccade_shift_in_its_direction",
+    "test_perception_mechanisms.py::test_compression_near_onset_needs_references",
+    "test_perception_mechanisms.py::test_nothing_beyond_the_sampling_error_far_from_the_saccade",
+    "test_perception_mechanisms.py::test_every_mechanism_off_is_the_sampling_error_alone",
+    "test_recording.py::test_image_shapes",
+    "test_recording.py::test_time_range_and_resolution",
+    "test_recording.py::test_every_timed_entity_lies_in_the_run_and_3d_shapes",
+    "test_recording.py::test_saccades_visible_in_velocity",
+    "test_recording.py::test_remap_difference_is_abs_of_predicted_minus_actual",
+    "test_recording.py::test_dots_scene_in_the_env_recording",
+}
+
 _ADVERSARIAL = {"passed": 0, "failed": 0, "skipped": 0}
 _CALLS = {"tried": 0, "refused": 0}
 
@@ -32,6 +90,12 @@ class HostileCalls:
 @pytest.fixture
 def hostile_calls() -> HostileCalls:
     return HostileCalls()
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        if f"{item.path.name}::{item.originalname}" in SLOW:
+            item.add_marker(pytest.mark.slow)
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:

@@ -462,3 +462,6 @@ def test_recipe_reports_truncation_as_termination():
         np.testing.assert_allclose([e[1] for e in w.episodes], r.view(-1).numpy(), atol=1e-6)
     finally:
         env.close()
+
+
+pytestmark = pytest.mark.warp  # needs the gpu extra (Warp, MuJoCo Warp, torch): see the README's "Tests"

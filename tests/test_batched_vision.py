@@ -441,3 +441,6 @@ def test_tf32_is_off_inside_predict_and_restored():
             assert matmul.fp32_precision == "tf32"
     finally:
         matmul.fp32_precision = before
+
+
+pytestmark = pytest.mark.warp  # needs the gpu extra (Warp, MuJoCo Warp, torch): see the README's "Tests"

@@ -99,3 +99,6 @@ def test_bad_arguments():
         field_ray_directions(grid, 0)
     with pytest.raises(TypeError, match="RetinaGrid"):
         field_ray_directions("grid", 2)
+
+
+pytestmark = pytest.mark.warp  # needs the gpu extra (Warp, MuJoCo Warp, torch): see the README's "Tests"
