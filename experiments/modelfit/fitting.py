@@ -1,8 +1,8 @@
 """Maximum-likelihood fits, model comparison and simulated data sets.
 
 ``fit`` estimates a model's free parameters (``likelihood.FIT_MODELS``) by maximum likelihood
-(scipy's Nelder-Mead on parameters mapped to their bounds by a logistic, from the best point of a
-fixed 3-level grid), with standard errors from a quadratic fitted to the negative log-likelihood
+(scipy's Nelder-Mead on parameters mapped to their bounds by a logistic, from the best of the
+defaults and 8 fixed Sobol' points), with standard errors from a quadratic fitted to the negative log-likelihood
 around the optimum (95 % Wald intervals, clipped to the bounds; ``hessian_ok`` false and ``null``
 intervals where it is not positive definite).
 
@@ -26,7 +26,6 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
-import itertools
 import json
 import math
 import sys
@@ -45,7 +44,7 @@ __all__ = ["fit", "compare", "simulate_data", "prepare", "fit_key", "IMAGE_SIZE"
 #: Eye image size (px) that ``simulate`` uses by default (recorded in its sidecar, so fits match).
 IMAGE_SIZE = 128
 #: Version of the fit procedure and its files: part of every fit key.
-FIT_FORMAT = 2
+FIT_FORMAT = 3
 
 
 class FitError(RuntimeError):
@@ -227,10 +226,25 @@ def _rows_text(data: LocalizationData, rows: np.ndarray) -> str:
             f"{data.condition[i]})")
 
 
+#: Starting points of a fit besides the defaults (a fixed scrambled Sobol' design: deterministic).
+N_STARTS = 8
+
+
+def _starts(free: list) -> list[dict]:
+    """The defaults and ``N_STARTS`` points of a scrambled Sobol' sequence (seed 0) over the middle
+    80 % of each free parameter's range: the same points on every run."""
+    from scipy.stats import qmc
+
+    u = qmc.Sobol(d=len(free), scramble=True, seed=0).random(N_STARTS)
+    pts = [{p.name: p.default for p in free}]
+    pts += [{p.name: p.lo + (0.1 + 0.8 * float(v)) * (p.hi - p.lo) for p, v in zip(free, row)} for row in u]
+    return pts
+
+
 def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: Path | None, max_evals: int,
                   key: str = "", progress: bool = False) -> dict:
     """Maximize the likelihood over the model's parameters with the report noise profiled out
-    (its closed-form maximum for the others): Nelder-Mead from the best point of a fixed grid.
+    (its closed-form maximum for the others): Nelder-Mead from the best of fixed starting points (``_starts``).
     Deterministic: the same data, model and options give the same evaluations in the same order."""
     from scipy.optimize import minimize
 
@@ -244,7 +258,7 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=3 ** len(free) + max_evals + 1 + 2 * len(free) ** 2 + 2 * len(free) + 1, unit="eval",
+        bar = tqdm(total=1 + N_STARTS + max_evals + 1 + 2 * len(free) ** 2 + 2 * len(free) + 1, unit="eval",
                    desc=f"fitting {model.name}")
     replayed = 0
 
@@ -269,8 +283,7 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
         return ll if math.isfinite(ll) else -1e12  # a penalty the optimizer can compare, never an output
 
     try:
-        grid = [[p.lo + f * (p.hi - p.lo) for f in (0.2, 0.6)] + [p.default] for p in free]
-        starts = [dict(zip(free_names, combo)) for combo in itertools.product(*grid)]
+        starts = _starts(free)
         lls = [profiled(v)[0] for v in starts]
         if not any(math.isfinite(v) for v in lls):
             lost = _lost_rows(data, [ev.predict(v) for v in starts])
