@@ -119,7 +119,7 @@ def add_subcommand(subparsers) -> None:
                    help="output folder (created; a run there is resumed; one run at a time)")
     p.add_argument("--quick", action="store_true",
                    help="reduced design: one 20 deg saccade, 8 flash positions, 7 flash times "
-                        "(about 5 s on 2 idle cores)")
+                        "(about 11 s on 2 idle cores)")
     d = p.add_argument_group("design")
     d.add_argument("--amplitudes", type=_floats, default=None, metavar="DEG,...",
                    help=f"saccade amplitudes in deg, each in {b['amplitudes_deg']}, from -A/2 to +A/2 azimuth "

@@ -395,7 +395,7 @@ def test_bundled_data_resolves_by_name(tmp_path, monkeypatch):
 
 
 # ---------------------------------------------------------------------------------------------- 7. fit = run
-def _round_trip(tmp_path: Path, model: str, run_args: list[str], truth: dict, tol: dict) -> dict:
+def _round_trip(tmp_path: Path, model: str, run_args: list[str], truth: dict, tol: dict, max_evals: int = 150) -> dict:
     """``run`` writes noise-free data; the fit's forward model at the generating parameters predicts
     them exactly (it is the run's: image size, field of view, design, eye-position settings from
     run.json), and ``fit`` with the generating model brings back its identifiable parameters with
@@ -409,7 +409,7 @@ def _round_trip(tmp_path: Path, model: str, run_args: list[str], truth: dict, to
                  *run_args, "--out", str(out)])
     assert code == 0 and not (out / ".lock").exists()  # a finished run leaves no lock file
     data = read_data(out / "trials.csv")
-    r = fit(data, model, tmp_path / "fit", max_evals=150, workers=1)
+    r = fit(data, model, tmp_path / "fit", max_evals=max_evals, workers=1)
     assert r["forward_model"]["source"].endswith("run.json") and r["forward_model"]["config"]["image_size"] == 64
     m = FIT_MODELS[model]
     at_truth = {p.name: truth.get(p.name, p.default) for p in m.parameters}
@@ -433,7 +433,7 @@ def test_fit_reproduces_run_mechanistic(tmp_path):
     """feedback_gain 3: the prediction at the truth is exact; this design (64 px, five flash times)
     reads the same centroids for feedback_gain 3 to 4.5, so only the signal's timing is checked."""
     _round_trip(tmp_path, "mechanistic", ["--feedback-gain", "3.0"], {"feedback_gain": 3.0},
-                {"eps_sigma_ms": 5.0, "eps_delay_ms": 5.0})
+                {"eps_sigma_ms": 5.0, "eps_delay_ms": 5.0}, max_evals=60)
 
 
 @pytest.mark.slow

@@ -20,6 +20,8 @@ from experiments.psychophysics import Design, Trial, TrialConfig, TrialRunner
 
 OFFSETS = ((-8.0, 3.0), (8.0, -3.0), (-4.0, -6.0), (4.0, 6.0), (-12.0, 3.0), (2.0, -4.0))
 DESIGN = Design(amplitudes_deg=(20.0,), flash_offsets_deg=OFFSETS, flash_times_ms=(-150, -100, -50, -25, 0, 25, 50, 100))
+#: Half the flash positions, twice the reports: the same number of rows for half the trials to observe.
+RECOVERY = Design(amplitudes_deg=(20.0,), flash_offsets_deg=OFFSETS[::2], flash_times_ms=DESIGN.flash_times_ms)
 TRUTH = {"feedback_gain": 3.5, "eps_sigma_ms": 40.0, "eps_delay_ms": 65.0, "noise_x_deg": 0.7, "noise_y_deg": 0.6}
 
 
@@ -76,7 +78,7 @@ def test_data_reads_csv_and_parquet_alike(tmp_path):
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):
     path = tmp_path_factory.mktemp("sim") / "sim.csv"
-    simulate_data("mechanistic", TRUTH, DESIGN, reports=4, seed=1, out_csv=path)
+    simulate_data("mechanistic", TRUTH, RECOVERY, reports=8, seed=1, out_csv=path)
     return read_data(path)
 
 
@@ -84,7 +86,7 @@ def test_parameters_and_model_are_recovered(simulated, tmp_path):
     """Data from the mechanistic model at known parameters: the fit recovers every parameter within
     its 95 % interval, and a comparison with the paper model and the nested no-remap variant prefers
     the generating model by AIC and rejects the restriction by the likelihood-ratio test."""
-    rows = compare(simulated, ["mechanistic", "mechanistic/no_command_remap", "paper"], tmp_path, max_evals=200,
+    rows = compare(simulated, ["mechanistic", "mechanistic/no_command_remap", "paper"], tmp_path, max_evals=120,
                    workers=2)
     assert rows[0]["model"] == "mechanistic", rows
     fitted = json.loads((tmp_path / "mechanistic" / "fit.json").read_text())

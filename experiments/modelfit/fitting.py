@@ -4,7 +4,8 @@
 (scipy's Nelder-Mead on parameters mapped to their bounds by a logistic, from the best of the
 defaults and 8 fixed Sobol' points), with standard errors from a quadratic fitted to the negative log-likelihood
 around the optimum (95 % Wald intervals, clipped to the bounds; ``hessian_ok`` false and ``null``
-intervals where it is not positive definite).
+intervals where it is not positive definite; a parameter on a bound of its range has no Wald
+interval, ``null``, and is listed in ``at_bounds``).
 
 A fit is a function of its data and options (``fit_key``: the model, a hash of the data, the
 forward model's configuration, ``max_evals``). Every evaluation is appended to ``fit_log.csv``
@@ -298,8 +299,17 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
         x = np.array([best[n] for n in free_names])
         span = np.array([p.hi - p.lo for p in free])
         room = np.minimum(x - [p.lo for p in free], [p.hi for p in free] - x)
-        steps = np.maximum(np.minimum(0.01 * span, room / 2.5), 1e-4 * span)
-        H = _quadratic_hessian(lambda v: -profiled(dict(zip(free_names, v)))[0], x, steps)
+        steps = np.minimum(0.01 * span, room / 2.5)
+        inner = np.flatnonzero(steps >= 1e-4 * span)  # room for x +- 2 steps inside the bounds
+        H = np.full((len(free), len(free)), np.nan)
+        if inner.size:  # parameters on a bound have no Wald interval; the others are profiled at x
+
+            def at(v: np.ndarray) -> float:
+                y = x.copy()
+                y[inner] = v
+                return -profiled(dict(zip(free_names, y)))[0]
+
+            H[np.ix_(inner, inner)] = _quadratic_hessian(at, x[inner], steps[inner])
     finally:
         log.close()
         if bar is not None:
@@ -312,15 +322,17 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
     lost = np.flatnonzero(~np.isfinite(pred).all(axis=1))
     if lost.size:  # pragma: no cover - a finite log-likelihood has finite predictions
         raise FitError(f"{model.name}: at the optimum the model loses the flash of {_rows_text(data, lost)}")
-    ok = bool(np.all(np.isfinite(H)))
-    cov = np.full_like(H, np.nan)
+    Hi = H[np.ix_(inner, inner)]
+    ok = bool(inner.size and np.all(np.isfinite(Hi)))
+    var = np.full(len(free), np.nan)
     if ok:
         try:
-            cov = np.linalg.inv(H)
-            ok = bool(np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(0.5 * (H + H.T)) > 0))
+            cov = np.linalg.inv(Hi)
+            ok = bool(np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(0.5 * (Hi + Hi.T)) > 0))
+            var[inner] = np.diag(cov)
         except np.linalg.LinAlgError:
             ok = False
-    se = dict(zip(free_names, np.sqrt(np.diag(cov)) if ok else np.full(len(free), np.nan)))
+    se = dict(zip(free_names, np.sqrt(var) if ok else np.full(len(free), np.nan)))
     n_eff = len(data) + float(np.sum(np.where(np.isfinite(data.sd_deg[:, 0]), data.n - 1, 0)))
     for nm in _NOISE:  # the MLE of a Gaussian s.d.: SE = s / sqrt(2 N)
         se[nm] = best[nm] / math.sqrt(2 * n_eff)
