@@ -54,7 +54,7 @@ HANG_S = 3600
 PIP_INSTALL = re.compile(r"^\s*(?:python3? -m )?pip3? install\b(?P<args>[^#\n]*)(?:#.*)?$", re.M)
 EDITABLE_EXTRAS = re.compile(r"""^(?:-q\s+)?-e\s+["']?\.\[(?P<extras>[A-Za-z0-9_,-]+)\]["']?$""")
 ALLOWED_SKIPS = ("needs a display", "serves until Ctrl-C", "needs the rl extra", "installs packages", "minutes", "the test command",
-                 "the setup command")
+                 "the setup command", "run and checked by tests/")
 
 
 @dataclass(frozen=True)
@@ -106,6 +106,11 @@ def test_readme_skips_are_justified():
     for b in BLOCKS:
         if b.skip is not None:
             assert any(b.skip.startswith(a) for a in ALLOWED_SKIPS), (b.line, b.skip)
+            if b.skip.startswith("run and checked by tests/"):  # the named test exists and runs the same command
+                path, _, name = b.skip.removeprefix("run and checked by ").split()[0].partition("::")
+                test_file = README.parent / path
+                assert test_file.is_file() and f"def {name}(" in test_file.read_text(), (b.line, b.skip)
+                assert b.code.split()[3] in test_file.read_text(), (b.line, b.skip)  # the subcommand
     # most blocks run: a skip is the exception
     assert sum(b.skip is None for b in BLOCKS) >= 0.6 * len(BLOCKS)
 
