@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["int_in", "out_dir", "out_file", "whole_number", "amplitude_list"]
+__all__ = ["int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded"]
 
 
 def whole_number(text: str) -> int:
@@ -125,3 +125,25 @@ def amplitude_list(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"amplitude {dup[0]:g} is listed twice in {text!r}; list each once "
                                          "(use --repetitions for more trials)")
     return vals
+
+
+def bounded(name: str, what: str = "") -> Callable[[str], float | int]:
+    """An argparse type for the parameter ``name`` of ``psychophysics.bounds.LIMITS``: a usage error
+    (exit 2, one line naming the option) for anything but a finite number within the bounds (a
+    whole number where the limit says so); ``what`` is appended to the message."""
+    from .psychophysics.bounds import LIMITS
+
+    lim = LIMITS[name]
+
+    def parse(text: str):
+        kind = "a whole number" if lim.integer else "a number"
+        try:
+            v = whole_number(text) if lim.integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {kind} in {lim.text()}; got {text!r}") from None
+        if not lim.contains(v):
+            raise argparse.ArgumentTypeError(f"must be {kind} in {lim.text()}{what}; got {text!r}")
+        return v
+
+    parse.__name__ = name
+    return parse

@@ -29,8 +29,8 @@ import time
 from pathlib import Path
 from typing import Any, Iterator
 
-__all__ = ["Interrupted", "interruptible", "LockBusyError", "path_lock", "atomic_write_text", "atomic_write_bytes", "write_json", "json_safe",
-           "die_with_parent", "check_path_length"]
+__all__ = ["Interrupted", "interruptible", "LockBusyError", "path_lock", "atomic_write_text", "atomic_write_bytes",
+           "write_json", "write_csv", "json_safe", "die_with_parent", "check_path_length", "os_error_text"]
 
 
 class LockBusyError(RuntimeError):
@@ -87,6 +87,24 @@ def atomic_write_bytes(path: os.PathLike | str, data: bytes) -> None:
 def atomic_write_text(path: os.PathLike | str, text: str) -> None:
     """``atomic_write_bytes`` of UTF-8 text."""
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def write_csv(path: os.PathLike | str, fieldnames: list[str], rows: list[dict]) -> None:
+    """A CSV table (a header, then ``rows`` as dicts), written atomically."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=fieldnames, lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write_text(path, buf.getvalue())
+
+
+def os_error_text(e: OSError) -> str:
+    """One line for a command's error message: what failed, and on which file."""
+    name = getattr(e, "filename", None)
+    return f"{e.strerror or e}{f': {name}' if name else ''}"
 
 
 def json_safe(obj: Any) -> Any:

@@ -35,8 +35,6 @@ the tests compare within a design so that it largely cancels). About a minute on
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import sys
 from pathlib import Path
 
@@ -222,15 +220,10 @@ def plot(tables: dict, out: Path) -> list[Path]:
 
 
 def _write(out: Path, tables: dict) -> tuple[str, list]:
-    from .folders import atomic_write_text
+    from .folders import atomic_write_text, write_csv
 
     rows = score(tables)
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=["phenomenon", "model", "published", "simulated", "reproduced"],
-                       lineterminator="\n")
-    w.writeheader()
-    w.writerows(rows)
-    atomic_write_text(out / "phenomena.csv", buf.getvalue())
+    write_csv(out / "phenomena.csv", ["phenomenon", "model", "published", "simulated", "reproduced"], rows)
     lines = [f"{'phenomenon':34s} {'model':12s} {'reproduced':11s} simulated"]
     lines += [f"{r['phenomenon']:34s} {r['model']:12s} {r['reproduced']:11s} {r['simulated']}" for r in rows]
     text = "\n".join(lines) + "\n"
@@ -242,7 +235,7 @@ def run(args: argparse.Namespace) -> int:
     """The command: one process per folder (a lock), interruptible and resumable, one-line errors."""
     import signal
 
-    from .folders import Interrupted, interruptible
+    from .folders import Interrupted, interruptible, os_error_text
     from .psychophysics.runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
 
     prog = "python -m experiments phenomena"
@@ -269,8 +262,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{prog}: error: {e}", file=sys.stderr)
         return 2
     except OSError as e:
-        print(f"{prog}: error: {e.strerror or e}{f': {e.filename}' if getattr(e, 'filename', None) else ''}",
-              file=sys.stderr)
+        print(f"{prog}: error: {os_error_text(e)}", file=sys.stderr)
         return 1
     print(text, end="")
     print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")

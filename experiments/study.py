@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import amplitude_list, whole_number
+from .cli import amplitude_list, bounded
 from .folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
 from .folders import interruptible as _interruptible
 from .psychophysics.bounds import LIMITS, MAX_TRIALS
@@ -43,25 +43,7 @@ class NonFiniteResultError(RuntimeError):
 
 
 # ---------------------------------------------------------------------------------------------- option types
-def _num_type(name: str, what: str = ""):
-    """An argparse type for the parameter ``name`` of ``bounds.LIMITS``: a usage error (exit 2, one
-    line naming the option) for anything but a finite number within the bounds."""
-    lim = LIMITS[name]
-
-    def parse(text: str):
-        kind = "a whole number" if lim.integer else "a number"
-        try:
-            v = whole_number(text) if lim.integer else float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {kind} in {lim.text()}; got {text!r}") from None
-        if not lim.contains(v):
-            raise argparse.ArgumentTypeError(f"must be {kind} in {lim.text()}{what}; got {text!r}")
-        return v
-
-    parse.__name__ = name
-    return parse
-
-
+_num_type = bounded  # an option bounded by psychophysics.bounds.LIMITS (experiments.cli)
 _floats = amplitude_list  # comma-separated saccade amplitudes (deg), checked (experiments.cli)
 
 

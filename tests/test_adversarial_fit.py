@@ -26,6 +26,10 @@ from experiments.__main__ import main
 from experiments.modelfit import read_data, simulate_data
 from experiments.modelfit.fitting import FitError, FitFolderError, compare, fit
 from experiments.psychophysics import Design, TrialConfig
+from procs import alive as _alive  # tests/procs.py
+from procs import children as _children
+from procs import cmdline as _cmdline
+from procs import gone as _gone
 
 pytestmark = pytest.mark.adversarial
 
@@ -215,42 +219,6 @@ def test_an_interrupted_fit_says_how_to_resume(data_file, tmp_path, sig):
     assert len(lines) == 1 and "Traceback" not in err, err
     assert f"interrupted ({sig.name})" in lines[0] and "run the same command again" in lines[0]
     assert not (out / ".lock").exists()
-
-
-def _children(pid: int) -> list[int]:
-    kids = []
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit():
-            try:
-                stat = (d / "stat").read_text()
-            except OSError:
-                continue
-            if int(stat.rpartition(")")[2].split()[1]) == pid:
-                kids.append(int(d.name))
-    return kids
-
-
-def _cmdline(pid: int) -> str:
-    try:
-        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
-    except OSError:
-        return ""
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
-
-
-def _gone(pids: list[int]) -> list[int]:
-    for _ in range(600):  # workers get SIGKILL from the kernel at once; allow a loaded machine 30 s
-        if not any(_alive(p) for p in pids):
-            break
-        time.sleep(0.05)
-    return [p for p in pids if _alive(p)]
 
 
 # ---------------------------------------------------------------------------------------------- 4. cannot fit

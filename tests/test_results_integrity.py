@@ -214,26 +214,8 @@ def test_workers_use_one_thread_ignore_ctrl_c_and_know_their_parent():
 
 
 # ---------------------------------------------------------------------------------------------- signals
-def _children(pid: int) -> list[int]:
-    """Direct children of ``pid`` (a /proc scan)."""
-    kids = []
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit():
-            try:
-                stat = (d / "stat").read_text()
-            except OSError:
-                continue
-            if int(stat.rpartition(")")[2].split()[1]) == pid:
-                kids.append(int(d.name))
-    return kids
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
+from procs import alive as _alive  # noqa: E402  (tests/procs.py)
+from procs import children as _children  # noqa: E402
 
 
 RUN = [sys.executable, "-m", "experiments", "run", "--image-size", "64", "--no-recording", "--no-progress",
@@ -257,11 +239,7 @@ def _start_run(out: Path, capture: bool = True) -> tuple[subprocess.Popen, list[
     return proc, kids
 
 
-def _gone(pids: list[int], timeout: float = 5.0) -> list[int]:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline and any(_alive(p) for p in pids):
-        time.sleep(0.05)
-    return [p for p in pids if _alive(p)]
+from procs import gone as _gone  # noqa: E402
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")

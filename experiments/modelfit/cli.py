@@ -28,7 +28,7 @@ import signal
 import sys
 from pathlib import Path
 
-from ..cli import amplitude_list, int_in, out_dir, out_file
+from ..cli import amplitude_list, bounded, int_in, out_dir, out_file
 
 __all__ = ["add_subcommands", "bundled_data"]
 
@@ -84,33 +84,13 @@ def _params(text: str) -> dict:
     return out
 
 
-def _bounded(name: str):
-    from ..psychophysics.bounds import LIMITS
-
-    lim = LIMITS[name]
-
-    def parse(text: str):
-        from ..cli import whole_number
-
-        try:
-            v = whole_number(text) if lim.integer else float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number in {lim.text()}; got {text!r}") from None
-        if not lim.contains(v):
-            raise argparse.ArgumentTypeError(f"must be in {lim.text()}; got {text!r}")
-        return v
-
-    parse.__name__ = name
-    return parse
-
-
 def _observing_options(p: argparse.ArgumentParser, defaults_from: str) -> None:
     g = p.add_argument_group(f"forward model (default: {defaults_from})")
-    g.add_argument("--image-size", type=_bounded("image_size"), default=None, help="eye image side (px)")
-    g.add_argument("--fovy-deg", type=_bounded("fovy_deg"), default=None, help="each eye's vertical field of view")
-    g.add_argument("--fovea-deg", type=_bounded("fovea_deg"), default=None, help="foveal radius of the retina")
+    g.add_argument("--image-size", type=bounded("image_size"), default=None, help="eye image side (px)")
+    g.add_argument("--fovy-deg", type=bounded("fovy_deg"), default=None, help="each eye's vertical field of view")
+    g.add_argument("--fovea-deg", type=bounded("fovea_deg"), default=None, help="foveal radius of the retina")
     g.add_argument("--saccade-model", choices=("burst", "legacy"), default=None, help="saccade trajectories")
-    g.add_argument("--endpoint-noise", type=_bounded("endpoint_noise"), default=None,
+    g.add_argument("--endpoint-noise", type=bounded("endpoint_noise"), default=None,
                    help="saccade endpoint noise (fraction of the amplitude; trials' seeds from the data)")
 
 
@@ -167,7 +147,7 @@ def _prepare(args):
 
 def _guarded(args, work) -> int:
     """Run ``work()`` with SIGINT/SIGTERM as interruptions; one-line errors, never a traceback."""
-    from ..folders import Interrupted, interruptible
+    from ..folders import Interrupted, interruptible, os_error_text
     from ..psychophysics.runner import FolderBusyError, OutputFolderError
     from .fitting import FitError, FitFolderError
 
@@ -186,8 +166,7 @@ def _guarded(args, work) -> int:
         print(f"{prog}: error: {e}", file=sys.stderr)
         return 1
     except OSError as e:
-        print(f"{prog}: error: {e.strerror or e}{f': {e.filename}' if getattr(e, 'filename', None) else ''}",
-              file=sys.stderr)
+        print(f"{prog}: error: {os_error_text(e)}", file=sys.stderr)
         return 1
 
 

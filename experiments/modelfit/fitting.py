@@ -474,7 +474,7 @@ def compare(data: LocalizationData, models: list[str], out, *, backend: str = "l
     ``out/<model>/`` and ``comparison.png``."""
     from scipy.stats import chi2
 
-    from ..folders import atomic_write_text
+    from ..folders import write_csv
     from ..psychophysics.runner import folder_lock
 
     ms = [_model(m) for m in models]
@@ -495,23 +495,14 @@ def compare(data: LocalizationData, models: list[str], out, *, backend: str = "l
         for r in rows:
             r["delta_aic"] = r["aic"] - rows[0]["aic"]
             r["delta_bic"] = r["bic"] - min(x["bic"] for x in rows)
-        buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
-        w.writeheader()
-        w.writerows(rows)
-        atomic_write_text(out / "comparison.csv", buf.getvalue())
+        write_csv(out / "comparison.csv", list(rows[0]), rows)
         tests = []
         for restricted, (full, df, on_bound) in NESTED.items():
             if restricted in fits and full in fits:
                 lr = max(0.0, 2 * (fits[full]["log_likelihood"] - fits[restricted]["log_likelihood"]))
                 p = float(chi2.sf(lr, df)) * (0.5 if on_bound else 1.0)
                 tests.append({"restricted": restricted, "full": full, "lr_statistic": lr, "df": df, "p_value": p})
-        buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=["restricted", "full", "lr_statistic", "df", "p_value"],
-                           lineterminator="\n")
-        w.writeheader()
-        w.writerows(tests)
-        atomic_write_text(out / "lrt.csv", buf.getvalue())
+        write_csv(out / "lrt.csv", ["restricted", "full", "lr_statistic", "df", "p_value"], tests)
         _plot_comparison(rows, out / "comparison.png")
     return rows
 

@@ -30,7 +30,6 @@ true image point moved towards z_T by e^{-g}, through the same geometry) is repo
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
