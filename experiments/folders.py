@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any, Iterator
 
 __all__ = ["Interrupted", "interruptible", "LockBusyError", "path_lock", "atomic_write_text", "atomic_write_bytes",
-           "write_json", "write_csv", "json_safe", "die_with_parent", "check_path_length", "os_error_text"]
+           "write_json", "write_csv", "json_safe", "die_with_parent", "die_with", "check_path_length", "os_error_text"]
 
 
 class LockBusyError(RuntimeError):
@@ -168,6 +168,31 @@ def path_lock(lock_path: os.PathLike | str, what: str = "the folder") -> Iterato
         with contextlib.suppress(OSError):
             fcntl.flock(fd, fcntl.LOCK_UN)
         os.close(fd)
+
+
+def die_with(pid: int, period_s: float = 0.5) -> None:
+    """Exit this process (``os._exit``) once process ``pid`` on this machine is gone, checked every
+    ``period_s`` by a daemon thread: for workers whose parent is not the process they serve (Ray's
+    actors are children of its raylet, not of the driver)."""
+
+    def alive() -> bool:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:  # pragma: no cover - exists, owned by another user
+            return True
+        try:  # a zombie (killed, not yet reaped) is gone too
+            return Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0] != "Z"
+        except OSError:
+            return True  # no /proc: kill(pid, 0) said it exists
+
+    def watch() -> None:
+        while alive():
+            time.sleep(period_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="driver-watchdog", daemon=True).start()
 
 
 def die_with_parent(parent_pid: int) -> None:

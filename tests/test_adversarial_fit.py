@@ -221,6 +221,33 @@ def test_an_interrupted_fit_says_how_to_resume(data_file, tmp_path, sig):
     assert not (out / ".lock").exists()
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_kill_9_of_a_ray_fit_leaves_no_observers(data_file, tmp_path):
+    """The Ray backend's observing actors (each holding MuJoCo and a renderer) exit with a killed driver."""
+    pytest.importorskip("ray")
+    cmd = [sys.executable, "-m", "experiments", "fit", "--data", str(data_file), "--model", MODEL, "--out",
+           str(tmp_path / "ray"), "--backend", "ray", "--workers", "2", "--no-progress"]
+    proc = subprocess.Popen(cmd, env=ENV, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    observers: list[int] = []
+    try:
+        while proc.poll() is None and len(observers) < 2:
+            observers = [int(d.name) for d in Path("/proc").iterdir()
+                         if d.name.isdigit() and _cmdline(int(d.name)).startswith("ray::Observer")]
+            time.sleep(0.05)
+        assert proc.poll() is None and len(observers) >= 2
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+        assert _gone(observers) == []
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        for p in observers:
+            if _alive(p):
+                os.kill(p, signal.SIGKILL)
+
+
 # ---------------------------------------------------------------------------------------------- 4. cannot fit
 @pytest.mark.slow
 @pytest.mark.parametrize("rows", ["all", "some"])

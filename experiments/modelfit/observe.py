@@ -10,7 +10,9 @@ with a message on stderr. A fit always reads its observations back from the cach
 uninterrupted fit and a resumed one start from the same bytes.
 
 Worker processes exit with their parent, even after ``kill -9`` (``folders.die_with_parent``), and
-use one BLAS/OpenMP thread each.
+use one BLAS/OpenMP thread each. Ray actors of a local instance watch the driver's pid and exit
+within half a second of it (``folders.die_with``); Ray's own processes die with the driver by Ray's
+kernel fate-sharing (its agents within about a minute).
 
 Backends: ``local`` (in-process for ``workers=1``, else spawned processes) and ``ray`` (actors on
 a local Ray instance, or on a cluster with ``ray_address``). Both give identical observations: a
@@ -117,14 +119,18 @@ def _ray(trials, config, workers: int, address: str | None, progress) -> list:
     try:
         @ray.remote(num_cpus=1)
         class Observer:
-            def __init__(self, cfg):
+            def __init__(self, cfg, driver_pid):
+                if driver_pid is not None:  # a local instance: exit with the driver, even after its kill -9
+                    from ..folders import die_with
+
+                    die_with(driver_pid)
                 _init(cfg)
 
             def observe(self, batch):
                 return _observe_batch(batch)
 
         n_actors = max(1, min(workers, len(trials)))
-        actors = [Observer.remote(config) for _ in range(n_actors)]
+        actors = [Observer.remote(config, None if address else os.getpid()) for _ in range(n_actors)]
         batches = _batches(list(range(len(trials))), n_actors)
         small = [idx[j:j + 8] for idx in batches for j in range(0, len(idx), 8)]
         refs = {actors[k % n_actors].observe.remote([trials[i] for i in idx]): idx for k, idx in enumerate(small)}
