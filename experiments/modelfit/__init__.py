@@ -4,9 +4,11 @@
 """
 
 from .data import OPTIONAL, REQUIRED, DataConventionWarning, DataFormatError, LocalizationData, read_data
-from .fitting import IMAGE_SIZE, compare, fit, simulate_data
+from .fitting import IMAGE_SIZE, FitError, FitFolderError, compare, fit, fit_key, simulate_data
+from .forward import ForwardModel, ForwardModelError, forward_model
 from .likelihood import FIT_MODELS, NESTED, FitModel, Parameter
 from .observe import BACKENDS, observe_trials
 
 __all__ = ["REQUIRED", "OPTIONAL", "DataFormatError", "DataConventionWarning", "LocalizationData", "read_data", "fit",
-           "compare", "simulate_data", "IMAGE_SIZE", "FIT_MODELS", "NESTED", "FitModel", "Parameter", "BACKENDS", "observe_trials"]
+           "compare", "simulate_data", "IMAGE_SIZE", "FitError", "FitFolderError", "fit_key", "ForwardModel",
+           "ForwardModelError", "forward_model", "FIT_MODELS", "NESTED", "FitModel", "Parameter", "BACKENDS", "observe_trials"]
