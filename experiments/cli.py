@@ -12,7 +12,8 @@ import os
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded"]
+__all__ = ["int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded", "check_path_text",
+           "guarded"]
 
 
 def whole_number(text: str) -> int:
@@ -55,7 +56,8 @@ def _writable_parent(p: Path, text: str) -> None:
         raise argparse.ArgumentTypeError(f"cannot write under {str(anc)!r} (permission denied); choose another path")
 
 
-def _path_ok(text: str) -> None:
+def check_path_text(text: str) -> None:
+    """``ArgumentTypeError`` for a path with a NUL character or names longer than the file system allows."""
     from .folders import check_path_length
 
     if "\x00" in text:
@@ -71,7 +73,7 @@ def out_dir(text: str) -> Path:
     names the file system allows."""
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a folder path; got an empty string")
-    _path_ok(text)
+    check_path_text(text)
     p = Path(text)
     if p.exists() and not p.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} exists and is not a folder; choose a folder path")
@@ -90,7 +92,7 @@ def out_file(*suffixes: str) -> Callable[[str], Path]:
     def parse(text: str) -> Path:
         if not text.strip():
             raise argparse.ArgumentTypeError("expected a file path; got an empty string")
-        _path_ok(text)
+        check_path_text(text)
         p = Path(text)
         if p.suffix.lower() not in suffixes:
             raise argparse.ArgumentTypeError(f"expected a file name ending in {' or '.join(suffixes)}; got {text!r}")
@@ -147,3 +149,32 @@ def bounded(name: str, what: str = "") -> Callable[[str], float | int]:
 
     parse.__name__ = name
     return parse
+
+
+def guarded(prog: str, work: Callable[[], int], *, resume_hint: str, errors: dict | None = None,
+            usage: tuple = (), parser: argparse.ArgumentParser | None = None) -> int:
+    """Run a command's ``work()`` as every command that writes results does: SIGINT/SIGTERM end it
+    with one line (``resume_hint``) and exit 128 + signal; exceptions of ``usage`` are usage errors
+    of ``--out`` (exit 2); those of ``errors`` (type -> exit status) and ``OSError`` (exit 1) print
+    one line ``PROG: error: ...``. Anything else propagates (a bug, with its traceback)."""
+    import signal
+    import sys
+
+    from .folders import Interrupted, interruptible, os_error_text
+
+    try:
+        with interruptible():
+            return work()
+    except KeyboardInterrupt as e:
+        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
+        print(f"{prog}: interrupted ({signal.Signals(signum).name}); {resume_hint}", file=sys.stderr)
+        return 128 + int(signum)
+    except usage as e:
+        assert parser is not None, "usage errors need the parser"
+        parser.error(f"argument --out: {e}")
+    except tuple(errors or {}) as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return next(code for kind, code in errors.items() if isinstance(e, kind))
+    except OSError as e:
+        print(f"{prog}: error: {os_error_text(e)}", file=sys.stderr)
+        return 1

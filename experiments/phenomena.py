@@ -233,12 +233,9 @@ def _write(out: Path, tables: dict) -> tuple[str, list]:
 
 def run(args: argparse.Namespace) -> int:
     """The command: one process per folder (a lock), interruptible and resumable, one-line errors."""
-    import signal
-
-    from .folders import Interrupted, interruptible, os_error_text
+    from .cli import guarded
     from .psychophysics.runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
 
-    prog = "python -m experiments phenomena"
     parser = getattr(args, "_parser", None)
     try:
         out = prepare_output_folder(args.out)
@@ -246,27 +243,19 @@ def run(args: argparse.Namespace) -> int:
         if parser is None:
             raise
         parser.error(f"argument --out: {e}")
-    try:
-        with interruptible(), folder_lock(out):
+
+    def work() -> int:
+        with folder_lock(out):
             tables = measure(out, workers=args.workers, progress=not args.no_progress)
             text, figures = _write(out, tables)
-    except KeyboardInterrupt as e:
-        signum = e.signum if isinstance(e, Interrupted) else signal.SIGINT
-        print(f"{prog}: interrupted ({signal.Signals(signum).name}); the finished trials are kept in {out}/tables: "
-              "run the same command again to resume", file=sys.stderr)
-        return 128 + int(signum)
-    except FolderBusyError as e:
-        print(f"{prog}: error: {e}", file=sys.stderr)
-        return 1
-    except ValueError as e:  # e.g. a tables/ folder holding another configuration
-        print(f"{prog}: error: {e}", file=sys.stderr)
-        return 2
-    except OSError as e:
-        print(f"{prog}: error: {os_error_text(e)}", file=sys.stderr)
-        return 1
-    print(text, end="")
-    print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
-    return 0
+        print(text, end="")
+        print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
+        return 0
+
+    return guarded("python -m experiments phenomena", work,
+                   resume_hint=f"the finished trials are kept in {out}/tables: run the same command again to resume",
+                   # ValueError: e.g. a tables/ folder holding another configuration
+                   errors={FolderBusyError: 1, ValueError: 2})
 
 
 def add_subcommand(subparsers) -> None:

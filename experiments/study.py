@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import amplitude_list, bounded
+from .cli import amplitude_list, bounded, check_path_text
 from .folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
 from .folders import interruptible as _interruptible
 from .psychophysics.bounds import LIMITS, MAX_TRIALS
@@ -80,14 +80,7 @@ def _formats(text: str) -> tuple[str, ...]:
 def _out(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError("the folder name is empty")
-    if "\x00" in text:
-        raise argparse.ArgumentTypeError(f"the folder name contains a NUL character: {text!r}")
-    from .folders import check_path_length
-
-    try:
-        check_path_length(text)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
+    check_path_text(text)  # NUL characters, names too long for the file system
     return text
 
 

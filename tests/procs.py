@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
+import subprocess
+import sys
 import time
 from pathlib import Path
+from typing import Iterator
 
 
 def children(pid: int) -> list[int]:
@@ -44,3 +50,29 @@ def gone(pids: list[int], timeout: float = 30.0) -> list[int]:
     while time.monotonic() < deadline and any(alive(p) for p in pids):
         time.sleep(0.05)
     return [p for p in pids if alive(p)]
+
+
+@contextlib.contextmanager
+def holding(lock_call: str, path: Path, env: dict) -> Iterator[subprocess.Popen]:
+    """Another process holding a lock on ``path`` while the block runs: ``lock_call`` is the
+    context manager to hold, as code (e.g. ``"experiments.folders.path_lock"``)."""
+    module, _, name = lock_call.rpartition(".")
+    holder = subprocess.Popen(
+        [sys.executable, "-c", f"import sys\nfrom {module} import {name}\n"
+         f"with {name}(sys.argv[1]):\n    print('held', flush=True)\n    sys.stdin.read()", str(path)],
+        env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        yield holder
+    finally:
+        holder.stdin.close()
+        holder.wait()
+
+
+def reap(proc: subprocess.Popen, pids: list[int]) -> None:
+    """Clean-up after a test that killed a command: the command and any of ``pids`` still alive."""
+    if proc.poll() is None:
+        proc.kill()
+    for p in pids:
+        if alive(p):
+            os.kill(p, signal.SIGKILL)

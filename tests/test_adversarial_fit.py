@@ -26,10 +26,10 @@ from experiments.__main__ import main
 from experiments.modelfit import read_data, simulate_data
 from experiments.modelfit.fitting import FitError, FitFolderError, compare, fit
 from experiments.psychophysics import Design, TrialConfig
-from procs import alive as _alive  # tests/procs.py
-from procs import children as _children
+from procs import children as _children  # tests/procs.py
 from procs import cmdline as _cmdline
 from procs import gone as _gone
+from procs import holding, reap
 
 pytestmark = pytest.mark.adversarial
 
@@ -193,11 +193,7 @@ def test_kill_9_then_resume_gives_the_uninterrupted_fit(data_file, reference_fit
         assert (out / "fit.json").read_bytes() == ref
         assert not (out / ".lock").exists()
     finally:
-        if proc.poll() is None:
-            proc.kill()
-        for p in kids:
-            if _alive(p):
-                os.kill(p, signal.SIGKILL)
+        reap(proc, kids)
 
 
 @pytest.mark.slow
@@ -241,11 +237,7 @@ def test_kill_9_of_a_ray_fit_leaves_no_observers(data_file, tmp_path):
         proc.wait()
         assert _gone(observers) == []
     finally:
-        if proc.poll() is None:
-            proc.kill()
-        for p in observers:
-            if _alive(p):
-                os.kill(p, signal.SIGKILL)
+        reap(proc, observers)
 
 
 # ---------------------------------------------------------------------------------------------- 4. cannot fit
@@ -290,12 +282,7 @@ def test_a_second_process_gets_one_line(data_file, tmp_path, capsys, command):
     out.parent.mkdir(parents=True, exist_ok=True)
     if command != "simulate":
         out.mkdir()
-    holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys\nfrom experiments.folders import path_lock\n"
-         "with path_lock(sys.argv[1]):\n    print('held', flush=True)\n    sys.stdin.read()", str(lock)],
-        env=ENV, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    try:
-        assert holder.stdout.readline().strip() == "held"
+    with holding("experiments.folders.path_lock", lock, ENV) as holder:
         argv = {"fit": ["fit", "--data", str(data_file), "--model", MODEL, "--out", str(out)],
                 "compare": ["compare", "--data", str(data_file), "--models", MODEL, "--out", str(out)],
                 "simulate": ["simulate", "--amplitudes", "20", "--image-size", "32", "--out", str(out)],
@@ -305,9 +292,6 @@ def test_a_second_process_gets_one_line(data_file, tmp_path, capsys, command):
         assert code == 1, err
         lines = [ln for ln in err.splitlines() if ln.strip()]
         assert len(lines) == 1 and "is in use by another run" in lines[0] and f"pid {holder.pid}" in lines[0], err
-    finally:
-        holder.stdin.close()
-        holder.wait()
     with path_lock(lock):  # released with its holder, and removed
         pass
     assert not lock.exists()

@@ -169,21 +169,13 @@ def test_a_second_run_on_the_same_folder_is_refused(tmp_path, capsys):
     from experiments.__main__ import main
 
     out = tmp_path / "busy"
-    holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys\nfrom experiments.psychophysics.runner import folder_lock\n"
-         "with folder_lock(sys.argv[1]):\n    print('held', flush=True)\n    sys.stdin.read()", str(out)],
-        env=ENV, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    try:
-        assert holder.stdout.readline().strip() == "held"
+    with holding("experiments.psychophysics.runner.folder_lock", out, ENV) as holder:
         with pytest.raises(FolderBusyError, match=f"{out} is in use by another run \\(pid {holder.pid}\\)"):
             run_trials(TINY, CFG, out, workers=1, progress=False)
         code = main(["run", "--quick", "--out", str(out), "--no-progress"])
         err = capsys.readouterr().err
         assert code == 1 and f"error: {out} is in use by another run" in err and "Traceback" not in err
         assert not (out / "trials.csv").exists() and not (out / "run.json").exists()
-    finally:
-        holder.stdin.close()
-        holder.wait(10)
     with folder_lock(out) as o:  # released with its holder; re-entrant within one process
         with folder_lock(o):
             pass
@@ -240,6 +232,7 @@ def _start_run(out: Path, capture: bool = True) -> tuple[subprocess.Popen, list[
 
 
 from procs import gone as _gone  # noqa: E402
+from procs import holding  # noqa: E402
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")

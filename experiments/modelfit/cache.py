@@ -93,9 +93,8 @@ def _pack(observations: list) -> dict[str, np.ndarray]:
     out = {k: np.asarray(v) for k, v in a.items()}
     out["trial"] = out["trial"].astype(float)
     out["onset_ms"] = out["onset_ms"].astype(np.int64)
-    for k in ("z_t",):
-        for f in range(n_flash):
-            out[f"flash{f}_{k}"] = out[f"flash{f}_{k}"].astype(complex)
+    for f in range(n_flash):
+        out[f"flash{f}_z_t"] = out[f"flash{f}_z_t"].astype(complex)
     for k, v in out.items():
         if v.dtype == object:
             raise TypeError(f"observation field {k} is not numeric; it cannot be cached without pickle")

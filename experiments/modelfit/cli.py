@@ -24,11 +24,9 @@ use by another process, or an I/O error; 2 a usage error (bad option, data file 
 from __future__ import annotations
 
 import argparse
-import signal
-import sys
 from pathlib import Path
 
-from ..cli import amplitude_list, bounded, int_in, out_dir, out_file
+from ..cli import amplitude_list, bounded, guarded, int_in, out_dir, out_file
 
 __all__ = ["add_subcommands", "bundled_data"]
 
@@ -117,7 +115,8 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def _prepare(args):
-    """Checks that need more than one option, the data and the folder: usage errors, before work."""
+    """Checks that need more than one option, the data, its forward model and the folder: usage
+    errors, before work. Returns the data and its forward model."""
     from ..psychophysics.runner import OutputFolderError, prepare_output_folder
     from .data import DataFormatError, read_data
     from .forward import ForwardModelError, forward_model
@@ -135,39 +134,26 @@ def _prepare(args):
     except DataFormatError as e:
         parser.error(f"argument --data: {e}")
     try:
-        forward_model(data, _observing(args))
+        forward = forward_model(data, _observing(args))
     except ForwardModelError as e:
         parser.error(f"argument --data: {e}")
     try:
         prepare_output_folder(args.out)
     except (OutputFolderError, TypeError) as e:
         parser.error(f"argument --out: {e}")
-    return data
+    return data, forward
 
 
 def _guarded(args, work) -> int:
     """Run ``work()`` with SIGINT/SIGTERM as interruptions; one-line errors, never a traceback."""
-    from ..folders import Interrupted, interruptible, os_error_text
+    from ..folders import LockBusyError
     from ..psychophysics.runner import FolderBusyError, OutputFolderError
     from .fitting import FitError, FitFolderError
 
-    prog = f"python -m experiments {args.command}"
-    try:
-        with interruptible():
-            return work()
-    except KeyboardInterrupt as e:
-        signum = getattr(e, "signum", signal.SIGINT) if isinstance(e, Interrupted) else signal.SIGINT
-        print(f"{prog}: interrupted ({signal.Signals(signum).name}); what was computed is kept in {args.out}: run "
-              "the same command again to resume", file=sys.stderr)
-        return 128 + int(signum)
-    except (FitFolderError, OutputFolderError) as e:
-        args._parser.error(f"argument --out: {e}")
-    except (FolderBusyError, FitError) as e:
-        print(f"{prog}: error: {e}", file=sys.stderr)
-        return 1
-    except OSError as e:
-        print(f"{prog}: error: {os_error_text(e)}", file=sys.stderr)
-        return 1
+    return guarded(f"python -m experiments {args.command}", work,
+                   resume_hint=f"what was computed is kept in {args.out}: run the same command again to resume",
+                   usage=(FitFolderError, OutputFolderError), parser=args._parser,
+                   errors={FolderBusyError: 1, LockBusyError: 1, FitError: 1})
 
 
 def _ci_text(ci) -> str:
@@ -178,11 +164,11 @@ def _ci_text(ci) -> str:
 def _fit(args) -> int:
     from .fitting import fit
 
-    data = _prepare(args)
+    data, forward = _prepare(args)
 
     def work() -> int:
         r = fit(data, args.model, args.out, backend=args.backend, workers=args.workers, ray_address=args.ray_address,
-                max_evals=args.max_evals, observing=_observing(args), progress=not args.no_progress)
+                max_evals=args.max_evals, forward=forward, progress=not args.no_progress)
         if r["already_done"]:
             print(f"already finished: {Path(args.out) / 'fit.json'} holds this fit (fit_key {r['fit_key']}); "
                   "nothing was recomputed")
@@ -200,11 +186,11 @@ def _fit(args) -> int:
 def _compare(args) -> int:
     from .fitting import compare
 
-    data = _prepare(args)
+    data, forward = _prepare(args)
 
     def work() -> int:
         rows = compare(data, args.models, args.out, backend=args.backend, workers=args.workers,
-                       ray_address=args.ray_address, max_evals=args.max_evals, observing=_observing(args),
+                       ray_address=args.ray_address, max_evals=args.max_evals, forward=forward,
                        progress=not args.no_progress)
         print(f"{'model':32s} {'log L':>10s} {'AIC':>10s} {'BIC':>10s}  k  dAIC")
         for r in rows:
@@ -220,7 +206,7 @@ def _compare(args) -> int:
 
 
 def _simulate(args) -> int:
-    from ..folders import LockBusyError, path_lock
+    from ..folders import path_lock
     from ..psychophysics import Design, TrialConfig
     from .fitting import simulate_data
     from .likelihood import FIT_MODELS
@@ -241,8 +227,7 @@ def _simulate(args) -> int:
     try:
         design = Design(amplitudes_deg=tuple(args.amplitudes), flash_offsets_deg=offsets,
                         flash_times_ms=(-150, -100, -50, -25, 0, 25, 50, 100), seed=args.seed)
-        config = TrialConfig(image_size=args.image_size, **{k: v for k, v in _observing(args).items()
-                                                            if v is not None and k != "image_size"})
+        config = TrialConfig(**{k: v for k, v in _observing(args).items() if v is not None})
     except (TypeError, ValueError) as e:
         parser.error(str(e))
     out: Path = args.out
@@ -252,15 +237,9 @@ def _simulate(args) -> int:
         parser.error(f"argument --out: cannot create {out.parent}: {e.strerror or e}")
 
     def work() -> int:
-        try:
-            lock = path_lock(out.parent / f".{out.name}.lock", str(out))
-            with lock:
-                data = simulate_data(args.model, values, design, reports=args.reports, seed=args.seed, out_csv=out,
-                                     workers=args.workers, config=config, progress=not args.no_progress)
-        except LockBusyError as e:
-            from ..psychophysics.runner import FolderBusyError
-
-            raise FolderBusyError(str(e)) from None
+        with path_lock(out.parent / f".{out.name}.lock", str(out)):
+            data = simulate_data(args.model, values, design, reports=args.reports, seed=args.seed, out_csv=out,
+                                 workers=args.workers, config=config, progress=not args.no_progress)
         print(f"wrote {len(data)} rows to {out} (parameters and configuration in {out.with_suffix('.json')})")
         return 0
 

@@ -437,15 +437,16 @@ def _plot_fit(data: LocalizationData, pred: np.ndarray, result: dict, path: Path
 
 def fit(data: LocalizationData, model: str, out, *, backend: str = "local", workers: int = 1,
         ray_address: str | None = None, max_evals: int = 300, observing: dict | None = None,
-        progress: bool = False) -> dict:
+        forward: ForwardModel | None = None, progress: bool = False) -> dict:
     """Fit ``model`` to ``data``; writes ``out/fit.json``, ``fitted_trials.csv``, ``fit.png`` and
     ``fit_log.csv``; returns the fit.json content (with ``already_done`` true when it was finished).
 
-    ``observing``: ``forward.OBSERVING_OPTIONS`` overriding the data's sidecar (``forward_model``)."""
+    ``observing``: ``forward.OBSERVING_OPTIONS`` overriding the data's sidecar (``forward_model``);
+    ``forward``: the forward model itself, when the caller has made it (then ``observing`` is unused)."""
     from ..psychophysics.runner import folder_lock
 
     m = _model(model)
-    fwd = forward_model(data, observing)
+    fwd = forward or forward_model(data, observing)
     with folder_lock(out) as out:
         return _fit_in(m, data, fwd, out, out, max_evals, progress, dict(backend=backend, workers=workers,
                                                                          ray_address=ray_address, progress=progress))
@@ -468,10 +469,10 @@ def _fit_in(m, data, fwd, out: Path, root: Path, max_evals: int, progress: bool,
 
 def compare(data: LocalizationData, models: list[str], out, *, backend: str = "local", workers: int = 1,
             ray_address: str | None = None, max_evals: int = 300, observing: dict | None = None,
-            progress: bool = False) -> list[dict]:
+            forward: ForwardModel | None = None, progress: bool = False) -> list[dict]:
     """Fit each of ``models`` (observations shared; each fit a no-op when finished); writes
     ``out/comparison.csv`` (ranked by AIC), ``out/lrt.csv`` (nested pairs), each fit in
-    ``out/<model>/`` and ``comparison.png``."""
+    ``out/<model>/`` and ``comparison.png``. ``observing``, ``forward``: as for :func:`fit`."""
     from scipy.stats import chi2
 
     from ..folders import write_csv
@@ -481,7 +482,7 @@ def compare(data: LocalizationData, models: list[str], out, *, backend: str = "l
     dup = sorted({m.name for m in ms if [x.name for x in ms].count(m.name) > 1})
     if dup:
         raise ValueError(f"models listed twice: {', '.join(dup)}")
-    fwd = forward_model(data, observing)
+    fwd = forward or forward_model(data, observing)
     options = dict(backend=backend, workers=workers, ray_address=ray_address, progress=progress)
     fits, prepared = {}, []
     with folder_lock(out) as out:
