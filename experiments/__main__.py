@@ -2,10 +2,11 @@
 
 run        perisaccadic flash-localization study (table, figures, summary, Rerun recording)
 saccades   saccade kinematics and the eye-position signal against published data (figure, table)
-phenomena  which published perisaccadic phenomena each perception model reproduces (table, figures)
+phenomena  which published perisaccadic phenomena each theory predicts (table with CIs, figures)
 fit        fit a perception model to localization data (maximum likelihood; local or Ray)
 compare    fit several models to the same data and rank them (AIC, BIC, likelihood-ratio tests)
 simulate   simulate a localization data set from a model
+recovery   model recovery: simulate from each theory, fit every theory (confusion matrix of delta AIC)
 visualize  record a run of the environment in Rerun (``--out FILE.rrd``, ``--spawn`` or ``--serve``)
 train      train a saccade agent on a task
 evaluate   evaluate a saved, random or heuristic policy
@@ -22,7 +23,7 @@ import sys
 
 # command modules, in the order shown by --help
 COMMAND_MODULES = ("experiments.study", "experiments.saccades", "experiments.phenomena", "experiments.modelfit.cli",
-                   "experiments.recording", "experiments.rl")
+                   "experiments.modelfit.recovery", "experiments.recording", "experiments.rl")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -110,10 +110,13 @@ def add_subcommand(subparsers) -> None:
                         "default 1, 10 for --paradigm displacement)")
     d.add_argument("--seed", type=_num_type("seed"), default=0, help=f"base seed (trial i uses seed + i), {b['seed']}")
     pm = p.add_argument_group("perception model and condition")
-    pm.add_argument("--model", choices=("mechanistic", "paper"), default="mechanistic",
-                    help="mechanistic: remapping driven by the oculomotor command, read out through the "
-                         "eye-position signal and post-saccadic references; paper: the log-radius shift with the "
-                         "set time course below (experiments/psychophysics/mechanisms.py)")
+    pm.add_argument("--model", choices=("mechanistic", "paper", "population", "observer"), default="mechanistic",
+                    help="observer: optimal (Bayesian) combination of retina, an uncertain eye-position signal and "
+                         "post-saccadic references (experiments/psychophysics/observer.py); population: a gain field "
+                         "on the cortical map driven by the saccadic burst, read out by a population code "
+                         "(population.py); mechanistic: remapping driven by the oculomotor command, read out through "
+                         "the eye-position signal and post-saccadic references; paper: the log-radius shift with the "
+                         "set time course below (mechanisms.py)")
     pm.add_argument("--condition", choices=("references", "dark"), default="references",
                     help="references: the target stays lit and a ruler appears after the saccade; dark: black "
                          "screen, the target goes off at saccade onset")
@@ -122,6 +125,16 @@ def add_subcommand(subparsers) -> None:
                          "along the saccade, each localized (perceived separation vs localization); displacement: "
                          "the target steps by -4..4 deg during the saccade, with --flash-times as blank durations "
                          "(default 0,250 ms); psychometric functions and thresholds")
+    pm.add_argument("--reference-contrast", type=_num_type("reference_contrast"), default=1.0,
+                    help=f"contrast (opacity) of the post-saccadic references: the target after onset, the ruler, "
+                         f"the markers, {b['reference_contrast']}")
+    pm.add_argument("--reference-ms", type=_num_type("reference_ms"), default=1000,
+                    help=f"how long the post-saccadic references stay on after saccade offset, {b['reference_ms']}")
+    pm.add_argument("--target-off-ms", type=_num_type("target_off_ms"), default=1000,
+                    help=f"the target goes off this long after saccade onset (negative: before it, a memory-guided "
+                         f"saccade), {b['target_off_ms']}")
+    pm.add_argument("--markers", type=_markers_arg, default=(), metavar="DX,DY;...",
+                    help="up to 4 extra post-saccadic references, deg from the target, e.g. '-10,0;0,-6'")
     pm.add_argument("--feedback-gain", type=_num_type("feedback_gain"), default=4.5,
                     help=f"mechanistic: remapping gain per deg/ms of eye-position-signal speed, {b['feedback_gain']}")
     pm.add_argument("--reference-weight", type=_num_type("reference_weight"), default=1.0,
@@ -184,6 +197,19 @@ DISPLACEMENT_STEPS_DEG = (-4.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0, 4.0)
 DISPLACEMENT_BLANKS_MS = (0, 250)
 
 
+def _markers_arg(text: str) -> tuple[tuple[float, float], ...]:
+    """``--markers DX,DY;DX,DY``: marker offsets from the target (deg)."""
+    out = []
+    for part in (p.strip() for p in text.split(";") if p.strip()):
+        try:
+            dx, dy = (float(v) for v in part.split(","))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected DX,DY pairs separated by ';' (deg from the target); "
+                                             f"got {part!r}") from None
+        out.append((dx, dy))
+    return tuple(out)
+
+
 def _mechanisms(text: str) -> tuple[str, ...]:
     from .psychophysics.mechanisms import MECHANISMS
 
@@ -234,7 +260,10 @@ def _build(args: argparse.Namespace):
                              visual_latency_ms=args.visual_latency_ms, model=args.model, condition=args.condition,
                              paradigm=args.paradigm, feedback_gain=args.feedback_gain,
                              reference_weight=args.reference_weight, disabled=args.disable,
-                             stability_tolerance=args.stability_tolerance, report_noise_deg=args.report_noise_deg)
+                             stability_tolerance=args.stability_tolerance, report_noise_deg=args.report_noise_deg,
+                             reference_contrast=getattr(args, "reference_contrast", 1.0),
+                             reference_ms=getattr(args, "reference_ms", 1000),
+                             target_off_ms=getattr(args, "target_off_ms", 1000), markers=getattr(args, "markers", ()))
     except (ValueError, TypeError) as e:
         parser.error(str(e))
     return design, config, args.formats

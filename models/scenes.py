@@ -48,6 +48,8 @@ FLASH_ELEVATIONS_DEG = (7.5, 2.5, -2.5, -7.5)
 #: The dots scene's ruler: elevation re the target row and half width (deg).
 RULER_ELEVATION_DEG, RULER_HALF_WIDTH_DEG = -10.0, 20.0
 DOT_RADIUS = 0.008
+#: Hidden marker dots of the ``dots`` scene (``marker_00`` ...): extra visual references.
+N_MARKERS = 4
 SEARCH_DISTANCE = 1.0
 SEARCH_N_GREEN_SPHERES = 8
 SEARCH_N_RED_CUBES = 8
@@ -152,10 +154,16 @@ def _dots(spec) -> SceneInfo:
     el = np.deg2rad(RULER_ELEVATION_DEG)
     _mocap(spec, "ruler", screen_point(np.deg2rad(DOTS_TARGET_DEG), el, DOTS_DISTANCE), type=_G.mjGEOM_BOX,
            size=[0.002, DOTS_DISTANCE * np.tan(np.deg2rad(RULER_HALF_WIDTH_DEG)), 0.008], rgba=[0.9, 0.9, 0.9, 0])
-    return SceneInfo("dots", "Fig. 11 flash paradigm: fixation, saccade target, 24 flash dots, a ruler (hidden)",
+    # extra post-saccadic markers (hidden until shown): visual references away from the target
+    markers = tuple(f"marker_{i:02d}" for i in range(N_MARKERS))
+    for i, name in enumerate(markers):
+        _mocap(spec, name, screen_point(np.deg2rad(DOTS_TARGET_DEG), np.deg2rad(-4.0 * (i + 1)), DOTS_DISTANCE),
+               rgba=[0.2, 0.6, 1.0, 0], **dot)
+    return SceneInfo("dots", "Fig. 11 flash paradigm: fixation, saccade target, 24 flash dots, a ruler and "
+                     f"{N_MARKERS} markers (hidden)",
                      groups={"fixation": ("fixation",), "target": ("target",), "flashes": flashes,
-                             "references": ("ruler",)},
-                     movable=("fixation", "target", "ruler") + flashes, flashes=flashes)
+                             "references": ("ruler",), "markers": markers},
+                     movable=("fixation", "target", "ruler") + markers + flashes, flashes=flashes)
 
 
 def pink_noise(shape: tuple[int, int], rng: np.random.Generator, exponent: float = 1.0) -> np.ndarray:

@@ -423,6 +423,16 @@ class Head:
             self._alpha0[gid] = float(self.model.geom_rgba[gid, 3])
         self.model.geom_rgba[gid, 3] = 1.0 if visible else 0.0
 
+    def set_opacity(self, name: str, opacity: float) -> None:
+        """Show scene object (geom) ``name`` at ``opacity`` in [0, 1] from now on: its alpha, blended
+        over what lies behind it, so that its contrast against the background scales with
+        ``opacity`` (e.g. references of graded visibility). ``reset`` restores the scene's own."""
+        gid = self._geom_id(name)
+        opacity = checks.real("opacity", opacity, 0.0, 1.0, hint="0 = invisible, 1 = full contrast")
+        if gid not in self._alpha0:
+            self._alpha0[gid] = float(self.model.geom_rgba[gid, 3])
+        self.model.geom_rgba[gid, 3] = opacity
+
     def hide_flashes(self) -> None:
         for gid in self._flash_off:
             self.model.geom_rgba[gid, 3] = 0.0

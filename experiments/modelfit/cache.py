@@ -34,7 +34,7 @@ import numpy as np
 
 __all__ = ["FORMAT", "save", "load"]
 
-FORMAT = 1
+FORMAT = 2
 _PLAN_FIELDS = ("start_angles", "end_angles", "intended_end_angles", "signal_start_angles")
 _PLAN_OPTIONAL = ("target", "intended_target")
 _CHECK_POINTS = 16  # times at which a rebuilt plan must reproduce the stored trajectory
@@ -59,7 +59,8 @@ def _pack(observations: list) -> dict[str, np.ndarray]:
     n_flash = len(o0.flashes)
     a: dict[str, list] = {k: [] for k in (
         "trial", "onset_ms", "scalars", "eye_position", *_PLAN_FIELDS, *_PLAN_OPTIONAL, "has_target",
-        "plan_check", "copy_axes", "copy_origins", "target_deg", "eye_h", "seen_z")}
+        "plan_check", "copy_axes", "copy_origins", "target_deg", "eye_h", "seen_z", "ref_z", "ref_activity",
+        "ref_on_ms")}
     per_flash = {f"flash{f}_{k}": [] for f in range(n_flash)
                  for k in ("head", "true_deg", "z_t", "periphery", "fovea", "mask", "fovea_mask")}
     a.update(per_flash)
@@ -84,6 +85,9 @@ def _pack(observations: list) -> dict[str, np.ndarray]:
         a["target_deg"].append(o.target_deg)
         a["eye_h"].append(o.eye_h)
         a["seen_z"].append(np.array(o.seen_z, complex))
+        a["ref_z"].append(np.array(o.ref_z if o.ref_z is not None else [np.nan] * 2, complex))
+        a["ref_activity"].append(np.asarray(o.ref_activity if o.ref_activity is not None else [0.0, 0.0], float))
+        a["ref_on_ms"].append(float(o.ref_on_ms))
         for f, fl in enumerate(o.flashes):
             a[f"flash{f}_head"].append(fl["head"])
             a[f"flash{f}_true_deg"].append(fl["true_deg"])
@@ -183,5 +187,7 @@ def _unpack(a: dict, n_flash: int, trials: list, runner) -> list:
         out.append(Observation(trial=dataclasses.replace(t), plan=plan, t_abs=int(t_abs), t_mid=t_mid,
                                exposure=exposure, copy_pose=(a["copy_axes"][i], a["copy_origins"][i]),
                                flashes=flashes, target_deg=a["target_deg"][i], eye_h=a["eye_h"][i],
-                               seen_z=[complex(z) for z in a["seen_z"][i]], t_post=int(t_post)))
+                               seen_z=[complex(z) for z in a["seen_z"][i]], t_post=int(t_post),
+                               ref_z=[complex(z) for z in a["ref_z"][i]], ref_activity=np.array(a["ref_activity"][i]),
+                               ref_on_ms=float(a["ref_on_ms"][i])))
     return out

@@ -60,6 +60,8 @@ class ForwardModel:
 def config_from_fingerprint(cfg: dict):
     """The ``TrialConfig`` of a ``run.json``-style ``config`` dict (the time course flattened)."""
     from ..psychophysics import RemapTimeCourse, TrialConfig
+    from ..psychophysics.observer import ObserverParams
+    from ..psychophysics.population import PopulationParams
 
     fields = {f.name for f in dataclasses.fields(TrialConfig)}
     tc_names = ("peak_time_ms", "rise_ms", "decay_ms", "peak_gain")
@@ -67,6 +69,14 @@ def config_from_fingerprint(cfg: dict):
     if unknown:
         raise ForwardModelError(f"unknown configuration field(s) {', '.join(unknown)}")
     kw = {k: (tuple(v) if k == "disabled" else v) for k, v in cfg.items() if k in fields}
+    if "markers" in kw and isinstance(kw["markers"], list):
+        kw["markers"] = tuple(tuple(m) if isinstance(m, list) else m for m in kw["markers"])
+    for name, kind in (("observer", ObserverParams), ("population", PopulationParams)):
+        if isinstance(kw.get(name), dict):
+            try:
+                kw[name] = kind(**kw[name])
+            except (TypeError, ValueError) as e:
+                raise ForwardModelError(f"the configuration's {name} constants cannot be used: {e}") from None
     tc = {k: cfg[k] for k in tc_names if k in cfg}
     if tc:
         kw["timecourse"] = RemapTimeCourse(**{**dataclasses.asdict(RemapTimeCourse()), **tc})

@@ -16,6 +16,10 @@ Models (``FIT_MODELS``) and their free parameters (bounds; the rest of ``TrialCo
 * ``mechanistic/no_references``: the anchored route off (not nested: a different fixed weight).
 * ``paper``: the set time course's ``peak_gain`` (0-3), ``peak_time_ms`` (-200-200), ``rise_ms``
   and ``decay_ms`` (2-200), noise.
+* ``observer``: ``prior_sd_deg`` (0.5-50, the references' prior) and ``temporal_sd_ms`` (5-150, the
+  flash's timing uncertainty) of ``ObserverParams``, noise.
+* ``population``: ``gain_per_deg`` (0-2000, the feedback gain) and ``tau_ms`` (2-100, the feedback
+  signal's time constant) of ``PopulationParams``, noise.
 """
 
 from __future__ import annotations
@@ -40,6 +44,8 @@ class Parameter:
 NOISE = (Parameter("noise_x_deg", 1.0, 0.02, 20.0), Parameter("noise_y_deg", 1.0, 0.02, 20.0))
 MECH = (Parameter("feedback_gain", 4.5, 0.0, 20.0), Parameter("eps_sigma_ms", 50.0, 5.0, 200.0),
         Parameter("eps_delay_ms", 50.0, -100.0, 200.0))
+OBSERVER = (Parameter("prior_sd_deg", 4.0, 0.5, 50.0), Parameter("temporal_sd_ms", 40.0, 5.0, 150.0))
+POPULATION = (Parameter("gain_per_deg", 150.0, 0.0, 2000.0), Parameter("tau_ms", 20.0, 2.0, 100.0))
 PAPER = (Parameter("peak_gain", 0.693, 0.0, 3.0), Parameter("peak_time_ms", -10.0, -200.0, 200.0),
          Parameter("rise_ms", 25.0, 2.0, 200.0), Parameter("decay_ms", 30.0, 2.0, 200.0))
 
@@ -61,6 +67,10 @@ class FitModel:
         if tc:
             kw["timecourse"] = RemapTimeCourse(**{**dataclasses.asdict(RemapTimeCourse()), **tc})
         kw.update({k: v for k, v in values.items() if k in ("feedback_gain", "eps_sigma_ms", "eps_delay_ms")})
+        for group, params in (("observer", OBSERVER), ("population", POPULATION)):
+            mine = {p.name: values[p.name] for p in params if p.name in values}
+            if mine:
+                kw[group] = dataclasses.replace(getattr(base, group), **mine)
         return dataclasses.replace(base, **kw)
 
 
@@ -71,6 +81,8 @@ FIT_MODELS = {
     "mechanistic/no_references": FitModel("mechanistic/no_references",
                                           {"model": "mechanistic", "disabled": ("references",)}, MECH + NOISE),
     "paper": FitModel("paper", {"model": "paper"}, PAPER + NOISE),
+    "observer": FitModel("observer", {"model": "observer"}, OBSERVER + NOISE),
+    "population": FitModel("population", {"model": "population"}, POPULATION + NOISE),
 }
 #: restricted model -> (the model it is nested in, extra parameters, the parameter on a bound?)
 NESTED = {"mechanistic/no_command_remap": ("mechanistic", 1, True)}

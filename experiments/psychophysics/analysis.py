@@ -53,29 +53,56 @@ def separation_compression(table: dict[str, np.ndarray]) -> dict[float, tuple[np
     return out
 
 
-def displacement_psychometrics(table: dict[str, np.ndarray]) -> dict[int, dict]:
-    """Per blank duration (ms) of a ``displacement`` table: the proportion of "forward" reports per
-    step and a cumulative-Gaussian fit by maximum likelihood (2 % lapses): ``pse_deg`` (the step
-    seen as none) and ``threshold_deg`` (its s.d.: the step from 50 % to 84 % "forward")."""
+def _probit_fit(x: np.ndarray, y: np.ndarray, start: tuple[float, float] | None = None) -> tuple[float, float]:
+    """Maximum-likelihood cumulative Gaussian with 2 % lapses: (PSE, s.d.); from ``start`` alone
+    when given (a bootstrap resample starts from the full data's fit)."""
     from scipy.optimize import minimize
     from scipy.stats import norm
 
+    def nll(theta):
+        p = 0.01 + 0.98 * norm.cdf((x - theta[0]) / np.exp(theta[1]))
+        return -np.sum(y * np.log(p) + (1 - y) * np.log(1 - p))
+
+    span = max(float(np.ptp(x)), 1e-3)
+    starts = [(m, s) for m in (float(np.median(x)), 0.0) for s in (0.25 * span, span)] if start is None else [start]
+    best = min((minimize(nll, [m, np.log(s)], method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-4})
+                for m, s in starts), key=lambda r: r.fun)
+    return float(best.x[0]), float(min(np.exp(best.x[1]), 1e3))
+
+
+def displacement_psychometrics(table: dict[str, np.ndarray], n_boot: int = 0, seed: int = 0,
+                               start: dict | None = None) -> dict[int, dict]:
+    """Per blank duration (ms) of a ``displacement`` table: the proportion of "forward" reports per
+    step and a cumulative-Gaussian fit by maximum likelihood (2 % lapses): ``pse_deg`` (the step
+    seen as none) and ``threshold_deg`` (its s.d.: the step from 50 % to 84 % "forward"), and
+    ``monotonic``: False when P("forward") falls between neighbouring steps by more than two
+    binomial standard errors (a threshold is then not meaningful). With ``n_boot`` > 0, 95 %
+    bootstrap CIs (``pse_ci``, ``threshold_ci``: reports resampled within each step). ``start``:
+    {blank: (pse, s.d.)} to start each fit from (one start instead of four)."""
     out = {}
     steps, blank, fwd = table["flash_dx_deg"], table["flash_time_ms"], table["reported_forward"]
+    rng = np.random.default_rng(seed)
     for b in np.unique(blank):
         sel = blank == b
         x, y = steps[sel], fwd[sel]
-
-        def nll(theta):
-            p = 0.01 + 0.98 * norm.cdf((x - theta[0]) / np.exp(theta[1]))
-            return -np.sum(y * np.log(p) + (1 - y) * np.log(1 - p))
-
-        span = max(float(np.ptp(x)), 1e-3)
-        best = min((minimize(nll, [m, np.log(s)], method="Nelder-Mead") for m in (x.min(), 0.0, x.max())
-                    for s in (0.1 * span, 0.5 * span, 2 * span)), key=lambda r: r.fun)
+        pse, sd = _probit_fit(x, y, None if start is None else start.get(int(b)))
         levels = np.unique(x)
-        out[int(b)] = {"steps_deg": levels, "p_forward": np.array([y[x == v].mean() for v in levels]),
-                       "pse_deg": float(best.x[0]), "threshold_deg": float(min(np.exp(best.x[1]), 1e3))}
+        p = np.array([y[x == v].mean() for v in levels])
+        n = np.array([(x == v).sum() for v in levels])
+        se = np.sqrt(np.maximum(p * (1 - p), 0.25 / n) / n)
+        drops = (p[:-1] - p[1:]) > 2 * np.hypot(se[:-1], se[1:])
+        r = {"steps_deg": levels, "p_forward": p, "pse_deg": pse, "threshold_deg": sd,
+             "monotonic": bool(not drops.any())}
+        if n_boot:
+            groups = [np.flatnonzero(x == v) for v in levels]
+            boots = []
+            for _ in range(n_boot):
+                idx = np.concatenate([rng.choice(g, size=g.size, replace=True) for g in groups])
+                boots.append(_probit_fit(x[idx], y[idx], (pse, sd)))
+            boots = np.array(boots)
+            r["pse_ci"] = tuple(np.percentile(boots[:, 0], [2.5, 97.5]))
+            r["threshold_ci"] = tuple(np.percentile(boots[:, 1], [2.5, 97.5]))
+        out[int(b)] = r
     return out
 
 

@@ -71,6 +71,9 @@ LIMITS: dict[str, Limit] = {
     "report_noise_deg": Limit(0.0, 10.0, unit="deg"),
     "eps_sigma_ms": Limit(1.0, 500.0, unit="ms"),
     "eps_delay_ms": Limit(-500.0, 500.0, unit="ms"),
+    "reference_contrast": Limit(0.0, 1.0),
+    "reference_ms": Limit(0, 1000, integer=True, unit="ms"),
+    "target_off_ms": Limit(-1000, 1000, integer=True, unit="ms"),
     # execution
     "workers": Limit(1, 64, integer=True),
 }

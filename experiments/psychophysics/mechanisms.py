@@ -55,7 +55,7 @@ import numpy as np
 __all__ = ["MODELS", "CONDITIONS", "PARADIGMS", "MECHANISMS", "command_gain"]
 
 #: Perception models of ``TrialConfig.model``.
-MODELS = ("mechanistic", "paper")
+MODELS = ("mechanistic", "paper", "population", "observer")
 #: Viewing conditions of ``TrialConfig.condition``.
 CONDITIONS = ("references", "dark")
 #: Paradigms of ``TrialConfig.paradigm``.

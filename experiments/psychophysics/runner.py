@@ -212,6 +212,9 @@ def config_fingerprint(design: Design, config: TrialConfig) -> dict:
     tc = config.timecourse
     cfg = {f.name: getattr(config, f.name) for f in dataclasses.fields(config) if f.name != "timecourse"}
     cfg["disabled"] = list(cfg["disabled"])
+    cfg["markers"] = [list(m) for m in cfg["markers"]]
+    cfg["observer"] = dataclasses.asdict(config.observer)
+    cfg["population"] = dataclasses.asdict(config.population)
     cfg.update(peak_time_ms=tc.peak_time_ms, rise_ms=tc.rise_ms, decay_ms=tc.decay_ms, peak_gain=tc.peak_gain)
     return {"design": design.to_dict(), "config": cfg}
 

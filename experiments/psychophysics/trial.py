@@ -44,6 +44,9 @@ from .bounds import check_int, check_real
 from .decode import DEFAULT_THRESHOLD, activity_centroid
 from .design import Trial
 from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS, command_gain
+from .observer import ObserverParams, eye_estimate, posterior_mean, prior_precision, sensory_sd_deg
+from .population import (PopulationParams, cortical_offset, feedback_signal, from_cortical_offset,
+                         population_estimate)
 from .targetmap import TargetCentredMap
 from .timecourse import RemapTimeCourse
 
@@ -75,7 +78,8 @@ ROW_COLUMNS = (
     "closed_form_y_deg", "perceived_left_x_deg", "perceived_left_y_deg", "perceived_right_x_deg",
     "perceived_right_y_deg", "eye_h_left_deg", "eye_h_right_deg", "saccade_duration_ms", "flash_sim_ms",
     "reference_weight", "second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg", "second_perceived_y_deg",
-    "perceived_step_deg", "reported_forward",
+    "perceived_step_deg", "reported_forward", "reference_contrast", "reference_ms", "target_off_ms",
+    "reference_activity", "n_markers",
 )
 #: Columns that are NaN by design where they do not apply: the second flash of ``separation``, the
 #: step of ``displacement``.
@@ -84,6 +88,8 @@ OPTIONAL_COLUMNS = {"separation": ("second_true_x_deg", "second_true_y_deg", "se
                     "displacement": ("perceived_step_deg", "reported_forward")}
 #: Text columns of a trial's row (after ``ROW_COLUMNS``): the perception model, viewing condition, paradigm.
 TEXT_COLUMNS = ("model", "condition", "paradigm")
+#: Most markers a trial may show (the ``dots`` scene's ``marker_00`` ...).
+MAX_MARKERS = models.scenes.N_MARKERS
 
 
 @dataclass(frozen=True)
@@ -112,6 +118,16 @@ class TrialConfig:
         ``"displacement"`` (no flash: the target steps by the trial's ``flash_dx_deg`` during the
         saccade, blanked for the trial's ``flash_time_ms`` >= 0; the model reports the step's
         direction; ``stability_tolerance`` and ``report_noise_deg`` are its parameters).
+    reference_contrast : opacity (0-1) of the post-saccadic references (the target after saccade
+        onset, the ruler, the markers): their contrast against the screen.
+    reference_ms : how long (ms) the post-saccadic references stay on after saccade offset (0: never
+        shown; the target goes off then too).
+    target_off_ms : the target goes off this long after saccade onset and stays off (negative:
+        before onset, a memory-guided saccade; the default 1000 keeps it on).
+    markers : up to ``MAX_MARKERS`` extra references, (dx, dy) deg from the target, shown with the
+        ruler after saccade offset.
+    observer, population : the ``observer`` and ``population`` models' constants
+        (``observer.ObserverParams``, ``population.PopulationParams``).
 
     Bounds (``bounds.LIMITS``): image 32-1024 px, fovy 20-120 deg, fovea 0.25-10 deg (and under a
     quarter of fovy), threshold [0, 1), oversample 1-8, flash radius 0.1-5 deg, endpoint noise 0-0.5.
@@ -139,15 +155,25 @@ class TrialConfig:
     report_noise_deg: float = 0.5
     eps_sigma_ms: float = 50.0
     eps_delay_ms: float = 50.0
+    reference_contrast: float = 1.0
+    reference_ms: int = 1000
+    target_off_ms: int = 1000
+    markers: tuple = ()
+    observer: ObserverParams = ObserverParams()
+    population: PopulationParams = PopulationParams()
 
     def __post_init__(self) -> None:
         # bounds: ``bounds.LIMITS`` (TypeError for wrong types, ValueError for NaN/inf/out of range)
-        for name in ("image_size", "oversample"):
+        for name in ("image_size", "oversample", "reference_ms", "target_off_ms"):
             object.__setattr__(self, name, check_int(name, getattr(self, name)))
         for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise", "visual_latency_ms",
                      "feedback_gain", "reference_weight", "stability_tolerance", "report_noise_deg", "eps_sigma_ms",
-                     "eps_delay_ms"):
+                     "eps_delay_ms", "reference_contrast"):
             object.__setattr__(self, name, check_real(name, getattr(self, name)))
+        object.__setattr__(self, "markers", _markers(self.markers))
+        for name, kind in (("observer", ObserverParams), ("population", PopulationParams)):
+            if not isinstance(getattr(self, name), kind):
+                raise TypeError(f"{name} must be a {kind.__name__}; got {getattr(self, name)!r:.60}")
         if not isinstance(self.disabled, (tuple, list)) or not all(isinstance(d, str) for d in self.disabled):
             raise TypeError(f"disabled must be a tuple of mechanism names from {', '.join(MECHANISMS)}; "
                             f"got {self.disabled!r:.60}")
@@ -170,10 +196,26 @@ class TrialConfig:
                              f"({self.fovy_deg}): the retina needs a periphery")
 
 
+def _markers(value) -> tuple:
+    """``markers`` as a tuple of (dx, dy) float pairs, or TypeError/ValueError saying what is wrong."""
+    from .design import _OFFSET_LIMIT
+
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__iter__"):
+        raise TypeError(f"markers must be a sequence of (dx, dy) pairs (deg from the target); got {value!r:.60}")
+    out = []
+    for p in value:
+        if isinstance(p, (str, bytes)) or not hasattr(p, "__len__") or len(p) != 2:
+            raise ValueError(f"markers must hold (dx, dy) pairs (deg from the target); got {p!r:.60}")
+        out.append(tuple(check_real("markers", v, _OFFSET_LIMIT) for v in p))
+    if len(out) > MAX_MARKERS:
+        raise ValueError(f"at most {MAX_MARKERS} markers; got {len(out)}")
+    return tuple(out)
+
+
 #: ``TrialConfig`` fields that only the read-out uses: ``TrialRunner.readout`` may be given a config
 #: that differs from the runner's in these (and only these), e.g. by a model fit.
 READOUT_PARAMETERS = ("timecourse", "threshold", "eye_position", "visual_latency_ms", "model", "feedback_gain",
-                      "reference_weight", "eps_sigma_ms", "eps_delay_ms")
+                      "reference_weight", "eps_sigma_ms", "eps_delay_ms", "observer", "population")
 
 
 @dataclass
@@ -191,6 +233,9 @@ class Observation:
     eye_h: np.ndarray
     seen_z: list
     t_post: int
+    ref_z: list = None  #: each eye's retinal centroid (image plane) of the post-saccadic references' activity
+    ref_activity: np.ndarray = None  #: (2,) each eye's summed activity of them (image-plane area x intensity)
+    ref_on_ms: float = 0.0  #: how long they were on after saccade offset
     frame: object = None
     reference: object = None
 
@@ -250,12 +295,50 @@ class TrialRunner:
         return np.degrees([math.atan2(-p[1], p[0]), math.atan2(p[2], p[0])])
 
     # ------------------------------------------------------------------ one trial
-    def _show(self, t_ms: float, plan: models.SaccadePlan) -> None:
-        """The condition's visible objects at ``t_ms``: in the dark the target goes off at saccade
-        onset; with references the ruler appears at saccade offset."""
-        dark = self.config.condition == "dark"
-        self.head.set_visible("target", not (dark and t_ms >= plan.onset_ms))
-        self.head.set_visible("ruler", (not dark) and t_ms >= plan.offset_ms)
+    def _show(self, t_ms: float, plan: models.SaccadePlan, references: bool | None = None) -> None:
+        """The stimulus schedule's visible objects at ``t_ms``: in the dark the screen is black and the
+        target goes off at saccade onset; with references the target is lit until ``target_off_ms``
+        after onset (at ``reference_contrast`` from onset), and the ruler and markers appear at
+        saccade offset, for ``reference_ms``. ``references`` overrides whether the post-saccadic
+        references are on (for rendering them with and without)."""
+        cfg, head = self.config, self.head
+        dark = cfg.condition == "dark"
+        rel = t_ms - plan.onset_ms
+        post_window = plan.offset_ms <= t_ms < plan.offset_ms + cfg.reference_ms
+        target_on = (not (dark and rel >= 0)) and rel < cfg.target_off_ms and (t_ms < plan.offset_ms or post_window)
+        post_on = (not dark) and post_window
+        if references is not None:
+            post_on = references and not dark and cfg.reference_ms > 0
+            target_on = references and not dark and cfg.target_off_ms > plan.offset_ms - plan.onset_ms and \
+                cfg.reference_ms > 0
+        # MuJoCo blends a transparent geom's back and front faces: opacity a shows 1 - (1 - a)^2 of its
+        # contrast, so contrast c needs a = 1 - sqrt(1 - c) (tests/test_perception_theories.py measures it)
+        alpha = 1.0 - math.sqrt(1.0 - cfg.reference_contrast)
+        head.set_opacity("target", (alpha if rel >= 0 else 1.0) if target_on else 0.0)
+        head.set_opacity("ruler", alpha if post_on else 0.0)
+        for i in range(MAX_MARKERS):
+            head.set_opacity(f"marker_{i:02d}", alpha if post_on and i < len(cfg.markers) else 0.0)
+
+    def _references_seen(self, plan: models.SaccadePlan) -> tuple[list[complex], np.ndarray]:
+        """Each eye's retinal centroid and summed activity of the post-saccadic references as they
+        are shown after saccade offset (rendered with them minus without them), at the current time."""
+        head = self.head
+        t = float(head.time_ms)
+        self._show(t, plan, references=True)
+        lit = head.render()
+        self._show(t, plan, references=False)
+        unlit = head.render()
+        self._show(t, plan)
+        zs, act = [], []
+        areas = self.retina_grid.cell_areas()[:, None]
+        for a, b in ((lit.left, unlit.left), (lit.right, unlit.right)):
+            diff = np.clip(a.image.astype(float) - b.image.astype(float), 0, None) / 255.0
+            view = self.vision.see(diff)
+            zs.append(self._centroid(view, self.retina_grid))
+            per = np.where(view.mask, view.periphery.sum(axis=-1), 0.0)
+            fov = np.where(view.fovea_mask, view.fovea.sum(axis=-1), 0.0)
+            act.append(float((per * areas).sum() + fov.sum() * self.retina_grid.fovea_spacing ** 2))
+        return zs, np.array(act)
 
     def _centroid(self, view, grid, centred=None, shift_rings: float = 0.0, threshold: float | None = None) -> complex:
         """Activity centroid of a view (retina grid) or of a target-centred map shifted by ``shift_rings``."""
@@ -276,6 +359,11 @@ class TrialRunner:
         zs = self._target_image_points()
         self._show(t_post, plan)
         return zs, int(t_post)
+
+    def _place_markers(self, trial: Trial) -> None:
+        for i, (dx, dy) in enumerate(self.config.markers):
+            self.head.set_object_position(f"marker_{i:02d}", _screen_world(trial.target_deg[0] + dx,
+                                                                            trial.target_deg[1] + dy))
 
     def _target_image_points(self) -> list[complex]:
         """Each eye's retinal image point of the target as the scene is now: the centroid of the
@@ -316,6 +404,7 @@ class TrialRunner:
         head.set_object_position("ruler", _screen_world(trial.target_deg[0], trial.target_deg[1] + RULER_ELEVATION_DEG))
         head.set_object_position(_FLASH, fl_w)
         head.set_object_position(_FLASH2, fl2_w)
+        self._place_markers(trial)
         plan = head.plan_saccade_to(tgt_w, latency_ms=latency)
         head.start_saccade(plan)
         t_abs = plan.onset_ms + int(trial.flash_time_ms)
@@ -358,9 +447,11 @@ class TrialRunner:
                 eyes.append((view, self.map.sample(view.coeffs, view.fovea, z_t), z_t))
             flashes.append({"eyes": eyes, "head": head.to_head(w), "true_deg": head_angles_deg(head, w)[0]})
         seen_z, t_post = self._seen_target_retina(plan)
+        ref_z, ref_act = self._references_seen(plan)
         return Observation(trial=trial, plan=plan, t_abs=t_abs, t_mid=t_mid, exposure=exposure, copy_pose=copy_pose,
                            flashes=flashes, target_deg=head_angles_deg(head, tgt_w)[0], eye_h=eye_h,
-                           seen_z=seen_z, t_post=t_post, frame=frames[0], reference=ref)
+                           seen_z=seen_z, t_post=t_post, frame=frames[0], reference=ref, ref_z=ref_z,
+                           ref_activity=ref_act, ref_on_ms=float(min(cfg.reference_ms, 1000)))
 
     def readout(self, obs: Observation, config: TrialConfig | None = None) -> dict:
         """The perceived position(s) of an observed trial under ``config`` (default: the runner's;
@@ -386,6 +477,10 @@ class TrialRunner:
         read_pose = self._pose(read_angles)  # eye-position estimate: retinal -> head
         true_pose = self._pose(plan.angles(t_mid))
         weight, seen = 0.0, None
+        if cfg.model == "observer":
+            reads, gain = self._read_observer(obs, plan, true_pose, cfg)
+        elif cfg.model == "population":
+            reads, gain = self._read_population(obs, plan, cfg)
         if mech and on["references"]:
             axes, origins = self._pose(plan.eye_position_signal(float(obs.t_post)))
             seen = np.full((2, 2), np.nan)
@@ -393,7 +488,8 @@ class TrialRunner:
                 if np.isfinite(z.real):
                     seen[e] = self._ray_to_screen_deg(origins[e], axes[e], z)
             weight = cfg.reference_weight * float(np.all(np.isfinite(seen)))
-        reads = [self._read(f, gain, weight, seen, obs.copy_pose, read_pose, true_pose, cfg) for f in obs.flashes]
+        if cfg.model in ("mechanistic", "paper"):
+            reads = [self._read(f, gain, weight, seen, obs.copy_pose, read_pose, true_pose, cfg) for f in obs.flashes]
         perceived, closed, maps = reads[0]
         self.last = dict(frame=obs.frame, reference=obs.reference, maps=maps, plan=plan)
 
@@ -422,8 +518,79 @@ class TrialRunner:
             "second_true_x_deg": true2[0], "second_true_y_deg": true2[1],
             "second_perceived_x_deg": p2[0], "second_perceived_y_deg": p2[1],
             "perceived_step_deg": float("nan"), "reported_forward": float("nan"),
-            "model": cfg.model, "condition": cfg.condition, "paradigm": cfg.paradigm,
+            **self._stimulus_columns(cfg, obs.ref_activity),
         }
+
+    def _stimulus_columns(self, cfg: TrialConfig, activity) -> dict:
+        """The row's stimulus description: reference visibility and timing, markers, the labels."""
+        act = float(np.nanmean(activity)) if activity is not None and np.isfinite(activity).any() else 0.0
+        return {"reference_contrast": cfg.reference_contrast, "reference_ms": cfg.reference_ms,
+                "target_off_ms": cfg.target_off_ms, "reference_activity": act, "model": cfg.model,
+                "condition": cfg.condition, "paradigm": cfg.paradigm, "n_markers": len(cfg.markers)}
+
+    # ------------------------------------------------------------------ the theories' read-outs
+    def _read_observer(self, obs: Observation, plan, true_pose, cfg: TrialConfig):
+        """``observer`` (module ``observer``): eqs. (1)-(3) for every flash of the trial jointly."""
+        p = cfg.observer
+        e_mean, e_cov = eye_estimate(plan, obs.t_mid, p.temporal_sd_ms)
+        axes, origins = self._pose(e_mean)
+        lam, rho = 0.0, np.zeros(2)
+        if obs.ref_z is not None:
+            r_mean, _ = eye_estimate(plan, float(obs.t_post), p.temporal_sd_ms)
+            r_axes, r_origins = self._pose(r_mean)
+            seen = [self._ray_to_screen_deg(r_origins[e], r_axes[e], z) for e, z in enumerate(obs.ref_z)
+                    if np.isfinite(z.real)]
+            if seen:
+                rho = np.mean(seen, axis=0)
+                act = float(np.mean([a for a, z in zip(obs.ref_activity, obs.ref_z) if np.isfinite(z.real)]))
+                lam = prior_precision(act, obs.ref_on_ms, p)
+        (ta, to) = true_pose
+        meas, cf, var = [], [], []  # (flash, eye, axis)
+        for f in obs.flashes:
+            m_e, c_e, v_e = [], [], []
+            for e, (view, centred, z_t) in enumerate(f["eyes"]):
+                z = z_t + self._centroid(view, self.grid, centred, 0.0, cfg.threshold)[0]
+                xf = ta[e].T @ (f["head"] - to[e])
+                z_true = complex(xf[2], xf[0]) / xf[1]
+                m_e.append(self._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
+                c_e.append(self._ray_to_screen_deg(origins[e], axes[e], z_true))
+                ecc = math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan
+                v_e.append(float(sensory_sd_deg(ecc, p)) ** 2)
+            meas.append(m_e), cf.append(c_e), var.append(v_e)
+        meas, cf, var = np.array(meas), np.array(cf), np.array(var)
+        post, post_cf = np.full_like(meas, np.nan), np.full_like(cf, np.nan)
+        for e in range(2):
+            ok = np.isfinite(meas[:, e, 0])
+            for ax in range(2):
+                if ok.any():
+                    post[ok, e, ax] = posterior_mean(meas[ok, e, ax], var[ok, e], e_cov[ax, ax], rho[ax], lam)
+                post_cf[:, e, ax] = posterior_mean(cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg ** 2),
+                                                   e_cov[ax, ax], rho[ax], lam)
+        v0 = float(np.nanmean(var[0]))
+        weight_x = lam / (lam + 1.0 / (v0 + e_cov[0, 0])) if lam > 0 else 0.0
+        reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], []) for k in range(len(obs.flashes))]
+        return reads, float(weight_x)
+
+    def _read_population(self, obs: Observation, plan, cfg: TrialConfig):
+        """``population`` (module ``population``): the gain field's population vector per flash and eye."""
+        pp = cfg.population
+        t_resp = obs.t_mid + pp.latency_ms + np.linspace(0.0, pp.response_ms, 11)
+        strength = pp.gain_per_deg * float(np.mean(feedback_signal(plan, t_resp, pp.tau_ms)))
+        axes, origins = self._pose(plan.eye_position_signal(obs.t_mid + pp.latency_ms))
+        reads = []
+        for f in obs.flashes:
+            per_eye = []
+            for e, (view, centred, z_t) in enumerate(f["eyes"]):
+                z = z_t + self._centroid(view, self.grid, centred, 0.0, cfg.threshold)[0]
+                goal = _image_to_deg(np.array([z_t]))[0][0]
+                dw = complex(cortical_offset(_image_to_deg(np.array([z]))[0][0], goal, pp.map_a_deg))
+                est = from_cortical_offset(population_estimate(dw, strength, pp.rf_sd, pp.field_sd), goal,
+                                           pp.map_a_deg) if np.isfinite(dw.real) else complex(np.nan, np.nan)
+                z_hat = _deg_to_image(est)
+                per_eye.append(self._ray_to_screen_deg(origins[e], axes[e], z_hat) if np.isfinite(z_hat.real)
+                               else np.full(2, np.nan))
+            reads.append((per_eye, per_eye, []))
+        return reads, strength
 
     def _target_seen(self, t_ms: int, plan: models.SaccadePlan, latency: float,
                      true_eye: bool = False) -> tuple[np.ndarray, float]:
@@ -447,8 +614,11 @@ class TrialRunner:
         (through the eye-position signal) with the target seen before it; with ``references`` on, a
         target seen at landing within the range of normal landing errors (``stability_tolerance`` x
         amplitude, as a Gaussian weight) is taken as stable -- the anchored route: no step -- the
-        stability assumption of Deubel et al. 1996. Reports "forward" when the perceived step plus
-        Gaussian report noise (``report_noise_deg``, seeded per trial) is positive."""
+        stability assumption of Deubel et al. 1996, whenever the target is seen (blank or not).
+        Reports "forward" when the perceived step plus Gaussian report noise (``report_noise_deg``,
+        seeded per trial) is positive. The ``observer`` model compares the target's positions
+        through its own eye-position estimate (``observer.eye_estimate``) and its noise is its own:
+        the sensory and eye-position variances of both looks."""
         head, cfg = self.head, self.config
         mech = cfg.model == "mechanistic"
         on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
@@ -466,7 +636,10 @@ class TrialRunner:
         plan = head.plan_saccade_to(tgt_w, latency_ms=FIXATION_MS)
         head.start_saccade(plan)
         use_eps = cfg.eye_position == "signal" and on["eye_position_signal"]
-        pre, _ = self._target_seen(plan.onset_ms - 150, plan, latency, not use_eps)  # before the saccade: settled
+        t_pre = plan.onset_ms - 150
+        pre, pre_off = self._target_seen(t_pre, plan, latency, not use_eps)  # before the saccade: settled
+        if cfg.model == "observer":
+            pre_obs = self._observer_look(plan, t_pre, cfg)
         head.step_ms(plan.onset_ms + 10 - head.time_ms)
         head.set_object_position("target", step_w)
         if blank:
@@ -476,11 +649,15 @@ class TrialRunner:
         head.set_visible("target", True)
         post, mismatch = self._target_seen(t_seen, plan, latency, not use_eps)
         weight = 0.0
-        if mech and on["references"] and blank == 0 and np.isfinite(mismatch):
+        sd = cfg.report_noise_deg
+        if cfg.model == "observer":
+            (pre, v_pre), (post, v_post) = pre_obs, self._observer_look(plan, t_seen, cfg)
+            sd = math.sqrt(v_pre + v_post)  # the model's own noise on the step: both looks
+        if mech and on["references"] and np.isfinite(mismatch):
             tol = cfg.stability_tolerance * trial.amplitude_deg
             weight = cfg.reference_weight * math.exp(-0.5 * (mismatch / tol) ** 2) if tol > 0 else 0.0
         step = (1.0 - weight) * float(post[0] - pre[0])
-        noise = np.random.default_rng(trial.seed).normal(0.0, cfg.report_noise_deg) if cfg.report_noise_deg else 0.0
+        noise = np.random.default_rng(trial.seed).normal(0.0, sd) if sd else 0.0
         true = head_angles_deg(head, step_w)[0]
         target = head_angles_deg(head, tgt_w)[0]
         err = post - true
@@ -502,8 +679,21 @@ class TrialRunner:
             "second_true_x_deg": float("nan"), "second_true_y_deg": float("nan"),
             "second_perceived_x_deg": float("nan"), "second_perceived_y_deg": float("nan"),
             "perceived_step_deg": step, "reported_forward": float(step + noise > 0),
-            "model": cfg.model, "condition": cfg.condition, "paradigm": cfg.paradigm,
+            **self._stimulus_columns(cfg, None),
         }
+
+    def _observer_look(self, plan, t_ms: float, cfg: TrialConfig) -> tuple[np.ndarray, float]:
+        """The ``observer``'s head-centred estimate (deg) of the target as it is seen now (the head
+        stepped to ``t_ms``) and its variance along the saccade (sensory + eye position, deg^2)."""
+        p = cfg.observer
+        e_mean, e_cov = eye_estimate(plan, t_ms, p.temporal_sd_ms)
+        axes, origins = self._pose(e_mean)
+        zs = self._target_image_points()
+        pos = [self._ray_to_screen_deg(origins[e], axes[e], z) for e, z in enumerate(zs) if np.isfinite(z.real)]
+        if not pos:
+            return np.full(2, np.nan), float("nan")
+        ecc = np.nanmean([math.degrees(math.atan(abs(z))) for z in zs if np.isfinite(z.real)])
+        return np.mean(pos, axis=0), float(sensory_sd_deg(ecc, p)) ** 2 + float(e_cov[0, 0])
 
     def _read(self, flash: dict, gain, weight, seen, copy_pose, read_pose, true_pose, cfg: TrialConfig):
         """Per eye, the perceived position (head-centred deg) of an observed flash and its closed
@@ -534,6 +724,26 @@ class TrialRunner:
                 closed.append(weight * anch_cf + (1 - weight) * extra_cf)
             maps.append((view, centred, shifted, z_t, z_rel))
         return perceived, closed, maps
+
+
+def _image_to_deg(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Image-plane points (complex, tan of eccentricity) as retinal positions in degrees (complex:
+    eccentricity along the same direction), and the map's area factor (deg^2 per image-plane unit^2)."""
+    z = np.asarray(z, complex)
+    r = np.abs(z)
+    ecc = np.degrees(np.arctan(r))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(r > 0, ecc / np.where(r > 0, r, 1.0), math.degrees(1.0))
+    radial = math.degrees(1.0) / (1.0 + r**2)
+    return z * scale, radial * scale
+
+
+def _deg_to_image(zeta: complex) -> complex:
+    """A retinal position in degrees (complex) back on the image plane."""
+    r = abs(zeta)
+    if not np.isfinite(r):
+        return complex(np.nan, np.nan)
+    return zeta * (math.tan(math.radians(r)) / r) if r > 0 else 0j
 
 
 def _mean_of_eyes(perceived: list) -> np.ndarray:

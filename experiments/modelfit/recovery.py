@@ -1,0 +1,148 @@
+"""``python -m experiments recovery``: can the theories be told apart from data of a realistic size?
+
+Model recovery (Wagenmakers et al. 2004; Wilson & Collins 2019, eLife 8:e49547, "Ten simple rules
+for the computational modeling of behavioral data", rule 6): for every generating model G (the
+theories ``observer``, ``population`` and the seed's ``paper``), a localization data set is
+simulated at G's defaults -- a few hundred reports: the design's trials in the references and
+dark conditions, ``--reports`` noisy reports each (Gaussian report noise ``--noise-deg``) -- from
+saccades with motor noise (``endpoint_noise`` 0.05, each trial its own draw). Every candidate
+model F is then fitted to it by maximum likelihood (``compare``: its free parameters and the
+report noise), through a forward model *without* that motor noise: no fitted model, not even G,
+reads out the observations the data came from, so each is misspecified in its noise as a model
+of real data would be. ``recovery.csv`` has one row per (generating, fitted) pair: the
+log-likelihood, the AIC, ``delta_aic`` (AIC minus the best AIC for that data set: 0 for the
+winner) and whether the winner is the generating model; ``recovery.png`` is the confusion
+matrix. Each data set's fits live in ``DIR/<G>/`` (``compare``'s folder: resumable, each fit a
+no-op when finished).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["add_subcommand", "recover", "GENERATING"]
+
+#: The models that generate data and are fitted.
+GENERATING = ("observer", "population", "paper")
+MOTOR_NOISE = 0.05  # saccade endpoint s.d., fraction of amplitude (van Beers 2007: ~5-10 %)
+
+
+def _design(size: str):
+    from ..psychophysics import Design, MORRONE_OFFSETS_DEG
+
+    if size == "small":  # for tests: 4 flashes x 3 times
+        return Design(amplitudes_deg=(20.0,), flash_offsets_deg=MORRONE_OFFSETS_DEG[:4], flash_times_ms=(-150, -25, 50),
+                      name="recovery-small")
+    return Design(amplitudes_deg=(20.0,), flash_offsets_deg=MORRONE_OFFSETS_DEG,
+                  flash_times_ms=(-150, -75, -50, -25, 0, 25, 50, 100), name="recovery")
+
+
+def recover(out: Path, models=GENERATING, *, size: str = "default", reports: int = 2, noise_deg: float = 1.5,
+            image_size: int = 128, max_evals: int = 120, workers: int = 1, seed: int = 0,
+            progress: bool = False) -> list[dict]:
+    """Simulate from each model, fit every model to each data set; write and return the rows."""
+    from ..folders import write_csv
+    from ..psychophysics import TrialConfig
+    from .data import read_data
+    from .fitting import compare, simulate_data
+    from .likelihood import FIT_MODELS
+
+    design = _design(size)
+    config = TrialConfig(image_size=image_size, endpoint_noise=MOTOR_NOISE)
+    rows = []
+    for g, gen in enumerate(models):
+        folder = out / gen
+        folder.mkdir(parents=True, exist_ok=True)
+        csv_path = folder / "data.csv"
+        values = {p.name: p.default for p in FIT_MODELS[gen].parameters}
+        values.update(noise_x_deg=noise_deg, noise_y_deg=noise_deg)
+        if not csv_path.is_file() or not csv_path.with_suffix(".json").is_file():
+            simulate_data(gen, values, design, reports=reports, seed=seed + g, out_csv=csv_path, workers=workers,
+                          config=config, progress=progress,
+                          meta={"recovery": "generated at the model's defaults with motor noise"})
+        data = read_data(csv_path)
+        fits = compare(data, list(models), folder / "fits", workers=workers, max_evals=max_evals,
+                       observing={"endpoint_noise": 0.0}, progress=progress)
+        best = min(fits, key=lambda r: r["aic"])["model"]
+        for r in fits:
+            rows.append({"generating": gen, "fitted": r["model"], "log_likelihood": round(r["log_likelihood"], 3),
+                         "n_parameters": r["n_parameters"], "n": r["n"], "aic": round(r["aic"], 3),
+                         "delta_aic": round(r["delta_aic"], 3), "winner": r["model"] == best,
+                         "recovered": best == gen})
+    write_csv(out / "recovery.csv", ["generating", "fitted", "log_likelihood", "n_parameters", "n", "aic",
+                                     "delta_aic", "winner", "recovered"], rows)
+    _plot(rows, list(models), out / "recovery.png")
+    return rows
+
+
+def _plot(rows: list[dict], models: list[str], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    m = np.full((len(models), len(models)), np.nan)
+    for r in rows:
+        m[models.index(r["generating"]), models.index(r["fitted"])] = r["delta_aic"]
+    fig, ax = plt.subplots(figsize=(1.6 + 1.3 * len(models), 1.2 + 1.1 * len(models)))
+    im = ax.imshow(np.log10(1 + m), cmap="viridis_r")
+    for i in range(len(models)):
+        for j in range(len(models)):
+            ax.text(j, i, f"{m[i, j]:.0f}", ha="center", va="center", color="w" if m[i, j] > 10 else "k")
+    ax.set_xticks(range(len(models)), models)
+    ax.set_yticks(range(len(models)), models)
+    ax.set(xlabel="fitted model", ylabel="generating model", title="model recovery: AIC - best AIC (0 = chosen)")
+    fig.colorbar(im, ax=ax, label="log10(1 + delta AIC)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..cli import guarded
+    from ..folders import path_lock
+    from ..psychophysics.runner import FolderBusyError, prepare_output_folder
+
+    out = prepare_output_folder(args.out)
+
+    def work() -> int:
+        with path_lock(out / ".recovery.lock"):
+            rows = recover(out, size=args.size, reports=args.reports, noise_deg=args.noise_deg,
+                           image_size=args.image_size, max_evals=args.max_evals, workers=args.workers,
+                           progress=not args.no_progress)
+        for gen in GENERATING:
+            mine = [r for r in rows if r["generating"] == gen]
+            order = ", ".join(f"{r['fitted']} {r['delta_aic']:+.1f}" for r in sorted(mine, key=lambda r: r["aic"]))
+            print(f"data from {gen:10s}: {order}  ({'recovered' if mine[0]['recovered'] else 'NOT recovered'})")
+        print(f"wrote {out / 'recovery.csv'} and {out / 'recovery.png'}")
+        return 0
+
+    from ..folders import LockBusyError
+
+    return guarded("python -m experiments recovery", work,
+                   resume_hint=f"finished data sets and fits are kept in {out}: run the same command again to resume",
+                   errors={FolderBusyError: 1, LockBusyError: 1, ValueError: 2})
+
+
+def add_subcommand(subparsers) -> None:
+    from ..cli import int_in, out_dir
+
+    p = subparsers.add_parser("recovery", help="model recovery: simulate from each theory, fit every theory, "
+                                               "confusion matrix of delta AIC", description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", type=out_dir, default="results/recovery", help="output folder (created; resumed)")
+    p.add_argument("--size", choices=("default", "small"), default="default",
+                   help="default: 8 flashes x 8 times x 2 conditions x --reports reports (256 rows at 2); small: "
+                        "4 x 3 x 2 (a quick check)")
+    p.add_argument("--reports", type=int_in(1, 20), default=2, metavar="N", help="noisy reports per trial (1-20)")
+    p.add_argument("--noise-deg", type=float, default=1.5, metavar="DEG",
+                   help="report noise s.d. of the simulated observers (deg; default 1.5)")
+    p.add_argument("--image-size", type=int_in(32, 512), default=128, metavar="PX", help="eye image side (32-512)")
+    p.add_argument("--max-evals", type=int_in(10, 10_000), default=120, metavar="N",
+                   help="likelihood evaluations per fit (10-10000)")
+    p.add_argument("--workers", type=int_in(1, 16), default=1, metavar="N", help="observing processes (1-16)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.set_defaults(func=run, _parser=p)

@@ -1,0 +1,132 @@
+"""The ``population`` perception model: a gain-field population on the cortical map.
+
+The theory (Hamker, Zirnsak, Calow & Lappe 2008, PLoS Comput Biol 4:e31; the map's geometry as
+in Richard, Churan, Guitton & Pack 2009, J Neurosci 29:10160): visual space is represented by a
+retinotopic population whose units tile the cortical map uniformly; an oculomotor feedback
+signal, rising with the saccade command, multiplies the gain of the units around the saccade
+goal; the flash's position is read out by a population code. Compression is not imposed: the
+gain field makes the units near the goal respond more, and the population's estimate of every
+flash is pulled towards the goal by an amount set by the gain field's gradient where the
+flash's activity lies.
+
+1. **The map.** A unit at retinal position zeta (deg, complex) sits at the cortical position
+   ``w = log(|zeta| + a) + i arg(zeta)`` -- the complex-log model of V1 (Schwartz 1980) in polar
+   form, with the foveal constant ``a = map_a_deg`` (Horton & Hoyt 1991: human V1 magnification
+   17.3 / (E + 0.75) mm/deg); units tile the map uniformly. Richard et al. (2009) found
+   perisaccadic mislocalization to be simple in these coordinates.
+2. **The population's response** to a flash is a Gaussian bump on the map around the flash's
+   cortical position ``w_f`` (the retina's activity centroid of the flash, mapped), s.d. ``rf_sd``:
+   the large receptive fields of the read-out layer (Hamker et al. 2008's second layer).
+3. **The oculomotor feedback signal** is the saccadic burst (the efference copy's speed, deg/ms)
+   passed through two first-order stages (time constants ``tau_ms``; Hamker et al. 2008 found a
+   burst-like feedback time course fits best): ``tau s1' = b - s1``, ``tau s' = s1 - s``. It
+   starts with the burst, outlasts it, and its integral is the saccade's amplitude.
+4. **The gain field**: ``g(w) = 1 + S exp(-|w - w_T|^2 / (2 field_sd^2))``, ``S = gain_per_deg *
+   s_bar``, centred on the goal's cortical position ``w_T`` (the efference copy's prediction of the
+   target's retinal position at the flash), where ``s_bar`` is the feedback signal averaged over
+   the flash's visual response (``latency_ms`` after it, lasting ``response_ms``).
+5. **The read-out**: the population vector ``w_hat = integral(w g R) / integral(g R)`` over the map
+   (closed form for Gaussians: ``population_estimate``), mapped back to the retina and turned
+   into a head-centred direction through the eye-position signal (``models.EyePositionSignal``,
+   one for every condition) at the response's arrival.
+
+It has no term for visual references: the theory predicts the same compression in the dark
+and with references, and with memory-guided saccades (the goal is in the motor plan).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+__all__ = ["PopulationParams", "POPULATION_SOURCES", "feedback_signal", "cortical_offset", "from_cortical_offset",
+           "population_estimate"]
+
+
+@dataclass(frozen=True)
+class PopulationParams:
+    """Free constants of the ``population`` model (sources: ``POPULATION_SOURCES``)."""
+
+    gain_per_deg: float = 150.0
+    field_sd: float = 0.5
+    rf_sd: float = 0.6
+    tau_ms: float = 20.0
+    latency_ms: float = 70.0
+    response_ms: float = 50.0
+    map_a_deg: float = 0.75
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise TypeError(f"PopulationParams.{f.name} must be a finite number; got {v!r:.60}")
+            if v < 0 or (v == 0 and f.name in ("field_sd", "rf_sd", "tau_ms", "response_ms", "map_a_deg")):
+                raise ValueError(f"PopulationParams.{f.name} must be > 0; got {v!r}")
+            object.__setattr__(self, f.name, float(v))
+
+
+POPULATION_SOURCES = {
+    "gain_per_deg": ("calibrated", "peak compression ~50 % for 20 deg saccades with references "
+                                   "(Morrone, Ross & Burr 1997): phenomenon compression_peak"),
+    "field_sd": ("assumed", "gain field circumscribed around the goal on the cortical map, ~half the goal's "
+                            "eccentricity (Hamker et al. 2008, anisotropic magnification model)"),
+    "rf_sd": ("assumed", "the read-out layer's large receptive fields (Hamker et al. 2008's L2, LIP/TE-like: "
+                         "RF diameter ~ eccentricity), s.d. 0.6 on the log map"),
+    "tau_ms": ("assumed", "burst-like feedback (Hamker et al. 2008, Fig. 5) smoothed by the FEF/SC loop; 20 ms"),
+    "latency_ms": ("assumed", "visual latency of a flash in extrastriate cortex ~70 ms (Schmolesky et al. 1998)"),
+    "response_ms": ("assumed", "transient visual response to an 8 ms flash lasts ~50 ms (Schmolesky et al. 1998)"),
+    "map_a_deg": ("assumed", "V1 foveal constant 0.75 deg (Horton & Hoyt 1991, Arch Ophthalmol 109:816)"),
+}
+
+
+def feedback_signal(plan, t_ms: np.ndarray, tau_ms: float, dt_ms: float = 0.5) -> np.ndarray:
+    """The feedback signal (deg/ms) at times ``t_ms``: the burst (cyclopean efference-copy speed)
+    through two first-order stages of time constant ``tau_ms`` (exact discretisation), from
+    before the saccade."""
+    t_ms = np.atleast_1d(np.asarray(t_ms, float))
+    t0 = float(plan.onset_ms) - 5.0
+    t1 = max(float(t_ms.max()), t0) + dt_ms
+    grid = np.arange(t0, t1 + dt_ms, dt_ms)
+    ang = np.degrees(plan.intended_angles(grid)[:, :, :2].mean(axis=1))
+    burst = np.hypot(*np.gradient(ang, dt_ms, axis=0).T)
+    k = math.exp(-dt_ms / tau_ms)
+    from scipy.signal import lfilter
+
+    s1 = lfilter([1 - k], [1, -k], burst)
+    s = lfilter([1 - k], [1, -k], s1)
+    return np.interp(t_ms, grid, s, left=0.0)
+
+
+def cortical_offset(zeta_deg, goal_deg: complex, a: float) -> np.ndarray:
+    """Cortical position (complex: log-eccentricity, polar angle) of retinal positions ``zeta_deg``
+    (deg, complex) relative to the goal's, on the map ``w = log(|zeta| + a) + i arg(zeta)`` (the
+    complex-log model with foveal constant ``a``, in polar form so that both hemifields lie on one
+    sheet; polar angle wrapped to (-pi, pi])."""
+    z = np.asarray(zeta_deg, complex)
+    dr = np.log(np.abs(z) + a) - math.log(abs(goal_deg) + a)
+    dth = np.angle(z * np.conj(goal_deg)) if abs(goal_deg) > 0 else np.angle(z)
+    return dr + 1j * dth
+
+
+def from_cortical_offset(dw: complex, goal_deg: complex, a: float) -> complex:
+    """The retinal position (deg, complex) at cortical offset ``dw`` from the goal."""
+    r = math.exp(dw.real + math.log(abs(goal_deg) + a)) - a
+    th = dw.imag + (np.angle(goal_deg) if abs(goal_deg) > 0 else 0.0)
+    return complex(max(r, 0.0) * np.exp(1j * th))
+
+
+def population_estimate(dw_flash: complex, strength: float, rf_sd: float, field_sd: float) -> complex:
+    """The population vector (cortical offset from the goal) of a continuum of units with Gaussian
+    receptive fields (s.d. ``rf_sd`` on the map) responding to a flash at ``dw_flash``, with gains
+    ``1 + strength exp(-|w|^2 / (2 field_sd^2))`` (the goal at 0): the integrals of Gaussian
+    products in closed form,
+
+        w_hat = (rf^2 w_f + S c^2 E w_c) / (rf^2 + S c^2 E),
+        c^2 = rf^2 f^2 / (rf^2 + f^2),  w_c = w_f f^2 / (rf^2 + f^2),  E = exp(-|w_f|^2 / (2 (rf^2 + f^2)))."""
+    rf2, f2 = rf_sd**2, field_sd**2
+    c2 = rf2 * f2 / (rf2 + f2)
+    e = strength * c2 * math.exp(-abs(dw_flash) ** 2 / (2 * (rf2 + f2)))
+    w_c = dw_flash * f2 / (rf2 + f2)
+    return (rf2 * dw_flash + e * w_c) / (rf2 + e)

@@ -1,0 +1,254 @@
+"""The rival perception theories (``observer``, ``population``): their equations against
+independent ground truth (Monte Carlo, direct sums, closed forms), that they never branch on the
+condition, and what they predict through the rendered pipeline."""
+
+from __future__ import annotations
+
+import ast
+import csv
+import dataclasses
+import inspect
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from experiments.psychophysics import Design, TrialConfig, TrialRunner
+from experiments.psychophysics import observer as obs_mod
+from experiments.psychophysics import population as pop_mod
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def runner64():
+    return TrialRunner(TrialConfig(image_size=64))
+
+
+@pytest.fixture(scope="module")
+def plan(runner64):
+    trial = Design(amplitudes_deg=(20.0,), flash_offsets_deg=((4.0, 3.0),), flash_times_ms=(0,), name="p").trials()[0]
+    return runner64.observe(trial).plan
+
+
+# ------------------------------------------------------------------ observer: eqs. (1)-(3)
+@pytest.mark.parametrize("dt", [-150, -20, 0, 30, 80])
+def test_eye_estimate_matches_monte_carlo(plan, dt):
+    """Eq. (1) by Gauss-Hermite quadrature against direct sampling of the flash's uncertain time."""
+    t = plan.onset_ms + dt
+    mean, cov = obs_mod.eye_estimate(plan, t, 40.0)
+    ts = np.random.default_rng(1).normal(t, 40.0, 400_000)
+    a = plan.intended_angles(ts)
+    cyc = np.degrees(a[:, :, :2].mean(axis=1))
+    assert np.allclose(mean, a.mean(axis=0), atol=8e-4)  # rad (0.05 deg); MC s.e. ~ 0.17 rad / 630 = 3e-4
+    assert cov[0, 0] == pytest.approx(np.var(cyc[:, 0]), rel=0.03, abs=0.05)
+    if abs(dt) > 140:  # long before the saccade the eye is still: no uncertainty about its position
+        assert cov[0, 0] < 0.01  # deg^2: the saccade is ~4 s.d. of the timing uncertainty away
+
+
+def test_posterior_single_flash_closed_form():
+    """One flash: the posterior mean a + s_a^2 / (s_a^2 + s_e^2 + s_r^2) (m - a); flat prior: m."""
+    m, vr, ve, rho, sa2 = 7.0, 0.5, 30.0, 2.0, 16.0
+    got = obs_mod.posterior_mean(np.array([m]), np.array([vr]), ve, rho, 1 / sa2)[0]
+    assert got == pytest.approx(rho + sa2 / (sa2 + ve + vr) * (m - rho), rel=1e-12)
+    assert obs_mod.posterior_mean(np.array([m]), np.array([vr]), ve, rho, 0.0)[0] == pytest.approx(m)
+
+
+def test_posterior_two_flashes_spare_separation():
+    """Two flashes sharing the eye-position error: their separation shrinks by s_a^2 / (s_a^2 + s_r^2)
+    (the prior on the difference is N(0, 2 s_a^2), its measurement has variance 2 s_r^2), their
+    positions by far more -- Reeve, Clark & O'Regan 2008 follows from the shared error."""
+    vr, ve, sa2, rho = 0.5, 60.0, 16.0, 0.0
+    m = np.array([4.0, 8.0])
+    h = obs_mod.posterior_mean(m, np.array([vr, vr]), ve, rho, 1 / sa2)
+    assert (h[1] - h[0]) / (m[1] - m[0]) == pytest.approx(sa2 / (sa2 + vr), rel=1e-9)
+    single = obs_mod.posterior_mean(m[:1], np.array([vr]), ve, rho, 1 / sa2)[0] / m[0]
+    assert single < 0.3 < (h[1] - h[0]) / (m[1] - m[0])
+
+
+def test_prior_precision_graded():
+    p = obs_mod.ObserverParams()
+    vals = [obs_mod.prior_precision(a, 100.0, p) for a in (0.0, 0.002, 0.004, 0.008)]
+    assert vals[0] == 0 and np.all(np.diff(vals) > 0)
+    assert obs_mod.prior_precision(0.008, 50.0, p) == pytest.approx(vals[-1] / 2)  # Bloch: half the time
+    assert obs_mod.prior_precision(0.008, 400.0, p) == pytest.approx(vals[-1])  # complete summation
+
+
+# ------------------------------------------------------------------ population
+def test_population_estimate_matches_direct_sum():
+    """The closed-form population vector against a direct sum over a fine grid of units."""
+    w = np.linspace(-7, 7, 1401)
+    W = w[:, None] + 1j * w[None, :]
+    for wf, S in ((0.8 + 0.3j, 5.0), (-0.5 - 0.6j, 30.0), (1.5 + 0j, 0.0)):
+        R = np.exp(-np.abs(W - wf) ** 2 / (2 * 0.6**2))
+        g = 1 + S * np.exp(-np.abs(W) ** 2 / (2 * 0.5**2))
+        direct = np.sum(W * R * g) / np.sum(R * g)
+        assert pop_mod.population_estimate(wf, S, 0.6, 0.5) == pytest.approx(direct, abs=1e-6)
+
+
+def test_cortical_offset_round_trip():
+    goal = 20 + 0j
+    for z in (24 + 3j, 12 - 6j, -5 + 2j, 0.5j):
+        dw = complex(pop_mod.cortical_offset(np.array([z]), goal, 0.75)[0])
+        assert pop_mod.from_cortical_offset(dw, goal, 0.75) == pytest.approx(z, abs=1e-9)
+
+
+def test_feedback_signal_dynamics(plan):
+    """Driven by the burst: nothing before it, peak after the burst's, integral = the amplitude."""
+    t = np.arange(plan.onset_ms - 100, plan.onset_ms + 600, 0.5)
+    s = pop_mod.feedback_signal(plan, t, 20.0)
+    assert np.all(s[t < plan.onset_ms - 1] < 1e-9)
+    amp = abs(np.degrees(plan.intended_end_angles[:, 0] - plan.start_angles[:, 0]).mean())
+    assert np.trapezoid(s, t) == pytest.approx(amp, rel=0.03)
+    assert t[np.argmax(s)] > plan.onset_ms + plan.duration_ms / 2
+
+
+# ------------------------------------------------------------------ no outcome switches
+@pytest.mark.parametrize("fn", ["_read_observer", "_read_population", "_observer_look", "_run_displacement"])
+def test_theories_do_not_branch_on_the_condition(fn):
+    """A theory's read-out never reads the condition, paradigm or blank: references, blanks and
+    markers act through what the eyes see (issue 22, item 2). The displacement paradigm's staging
+    reads the blank to schedule the stimulus, but no model decision depends on it."""
+    import textwrap
+
+    tree = ast.parse(textwrap.dedent(inspect.getsource(getattr(TrialRunner, fn))))
+    names = {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)} | \
+        {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+    if fn != "_run_displacement":  # the paradigm's staging lays out the stimulus of the condition
+        assert not names & {"condition", "paradigm"}, fn
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.If, ast.IfExp)):
+            test = ast.unparse(node.test)
+            assert "condition" not in test and "paradigm" not in test, f"{fn} branches on {test}"
+            if "blank" in test:  # only the stimulus schedule: hide the target during the blank
+                body = [ast.unparse(b) for b in getattr(node, "body", [])]
+                assert isinstance(node, ast.If) and all(b.startswith(("head.set_visible(", "raise ValueError"))
+                                                        for b in body), \
+                    f"{fn} branches on the blank: {test}"
+    for mod in (obs_mod, pop_mod):
+        code = Path(mod.__file__).read_text()
+        body = code[code.index('"""', 3) + 3:]  # past the docstring
+        assert "condition" not in body and "paradigm" not in body and "blank" not in body
+
+
+# ------------------------------------------------------------------ paradigm options
+def test_paradigm_options_validate():
+    with pytest.raises(ValueError, match="at most 4 markers"):
+        TrialConfig(markers=((1.0, 2.0),) * 5)
+    with pytest.raises(TypeError, match="markers"):
+        TrialConfig(markers="left")
+    with pytest.raises(ValueError, match="pairs"):
+        TrialConfig(markers=((1.0,),))
+    with pytest.raises(ValueError):
+        TrialConfig(reference_contrast=1.5)
+    with pytest.raises(ValueError):
+        TrialConfig(target_off_ms=2000)
+    with pytest.raises(ValueError, match="whole"):
+        TrialConfig(reference_ms=12.5)
+    with pytest.raises(TypeError, match="ObserverParams"):
+        TrialConfig(observer={"prior_sd_deg": 3})
+    with pytest.raises(ValueError):
+        obs_mod.ObserverParams(prior_sd_deg=0)
+    with pytest.raises(TypeError):
+        pop_mod.PopulationParams(tau_ms=float("nan"))
+
+
+def test_reference_activity_graded_and_recorded():
+    """The references' retinal activity grows with their contrast, is 0 in the dark, and the row
+    records the stimulus; the default's activity is the observer's ``reference_unit`` (256 px)."""
+    trial = Design(amplitudes_deg=(20.0,), flash_offsets_deg=((4.0, 3.0),), flash_times_ms=(0,), name="r").trials()[0]
+    acts = []
+    for c in (0.25, 0.5, 1.0):
+        r = TrialRunner(TrialConfig(image_size=256, reference_contrast=c, markers=((-10.0, 0.0),), model="observer"))
+        o = r.observe(trial)
+        acts.append(float(np.mean(o.ref_activity)))
+        row = r.readout(o)
+        assert row["reference_contrast"] == c and row["n_markers"] == 1
+    assert acts[0] < acts[1] < acts[2]
+    assert acts[0] / acts[2] == pytest.approx(0.25, abs=0.05)  # the retina's activity ~ contrast
+    assert acts[1] / acts[2] == pytest.approx(0.5, abs=0.05)
+    plain = TrialRunner(TrialConfig(image_size=256)).observe(trial)
+    assert float(np.mean(plain.ref_activity)) == pytest.approx(obs_mod.ObserverParams().reference_unit, rel=0.1)
+    dark = TrialRunner(TrialConfig(image_size=256, condition="dark")).observe(trial)
+    assert np.all(dark.ref_activity == 0)
+
+
+# ------------------------------------------------------------------ predictions through the pipeline
+OFFSETS = ((-8.0, 3.0), (8.0, -3.0), (-4.0, -6.0), (4.0, 6.0), (-12.0, 3.0), (2.0, -4.0), (6.0, 0.0), (-6.0, 0.0))
+
+
+@pytest.fixture(scope="module")
+def small_study():
+    """Observations of a small design at 128 px, with references and in the dark."""
+    d = Design(amplitudes_deg=(20.0,), flash_offsets_deg=OFFSETS, flash_times_ms=(-150, -50, 0), name="s")
+    out = {}
+    for cond in ("references", "dark"):
+        r = TrialRunner(TrialConfig(image_size=128, condition=cond))
+        out[cond] = (r, [r.observe(t) for t in d.trials()])
+    return out
+
+
+def _ci(rows, time, axis=None):
+    sel = [r for r in rows if r["flash_time_ms"] == time]
+    keys = [("perceived_x_deg", "true_x_deg"), ("perceived_y_deg", "true_y_deg")]
+    keys = keys if axis is None else [keys[axis]]
+    num = sum(np.var([r[p] for r in sel]) for p, _ in keys)
+    den = sum(np.var([r[q] for r in sel]) for _, q in keys)
+    return 1 - math.sqrt(num / den)
+
+
+def _read(small_study, cond, model):
+    r, obs = small_study[cond]
+    cfg = dataclasses.replace(r.config, model=model)
+    return [r.readout(o, cfg) for o in obs]
+
+
+def test_observer_predictions(small_study):
+    ref, dark = _read(small_study, "references", "observer"), _read(small_study, "dark", "observer")
+    # Lappe, Awater & Krekelberg 2000 (Nature 403:892, Fig. 2): compression with references, none in the dark
+    assert _ci(ref, 0) - _ci(dark, 0) > 0.2
+    assert abs(_ci(dark, 0) - _ci(dark, -150)) < 0.05
+    # Honda 1991 / Dassonville et al. 1992: in the dark, flashes 50 ms before onset shift in the saccade's direction
+    shift = np.mean([r["error_x_deg"] for r in dark if r["flash_time_ms"] == -50]) - \
+        np.mean([r["error_x_deg"] for r in dark if r["flash_time_ms"] == -150])
+    assert shift > 0.3
+    # Kaiser & Lappe 2004 (Neuron 41:293): stronger along the saccade than across -- the observer's
+    # eye-position uncertainty lies along the saccade only
+    assert _ci(ref, 0, 0) - _ci(ref, 0, 1) > 0.2
+
+
+def test_population_predictions(small_study):
+    ref, dark = _read(small_study, "references", "population"), _read(small_study, "dark", "population")
+    # Compression near onset (Morrone et al. 1997), from the gain field alone ...
+    assert _ci(ref, -50) - _ci(ref, -150) > 0.2
+    # ... hence as strong in the dark: the theory has no reference term, contrary to Lappe et al. 2000
+    # (a failure of the theory that the scoreboard reports; this asserts that it is still there)
+    assert abs(_ci(ref, -50) - _ci(dark, -50)) < 0.05
+
+
+# ------------------------------------------------------------------ the committed scoreboard
+def test_committed_scoreboard_is_consistent():
+    """``experiments/data/phenomena.csv`` (the README's table, from ``python -m experiments
+    phenomena``): every model has every row, calibrated rows are exactly the model's calibration set,
+    each CI brackets its estimate, and ``reproduced`` follows the published range."""
+    from experiments.phenomena import CALIBRATION, ROWS, THEORIES
+
+    rows = list(csv.DictReader((ROOT / "experiments" / "data" / "phenomena.csv").open()))
+    assert {(r["phenomenon"], r["model"]) for r in rows} == {(p, m) for p in ROWS for m in THEORIES}
+    for r in rows:
+        assert r["role"] == ("calibrated" if r["phenomenon"] in CALIBRATION[r["model"]] else "predicted")
+        v, lo, hi = float(r["simulated"]), float(r["ci_low"]), float(r["ci_high"])
+        if math.isfinite(v):
+            assert lo - 1e-3 <= v <= hi + 1e-3 or not (math.isfinite(lo) and math.isfinite(hi)), r
+        rng = ROWS[r["phenomenon"]][1]
+        if r["role"] == "calibrated":
+            assert r["reproduced"] == "calibrated"
+        elif rng is None:
+            assert r["reproduced"] == "not tested"
+        else:
+            assert r["reproduced"] == ("yes" if math.isfinite(v) and rng[0] <= v <= rng[1] else "no")
+    # the calibrated numbers hit what they were set from (Morrone, Ross & Burr 1997: ~50 %)
+    for r in rows:
+        if r["phenomenon"] == "compression_peak" and r["role"] == "calibrated":
+            assert 0.35 <= float(r["simulated"]) <= 0.65, r
