@@ -14,11 +14,12 @@ definition, published range and source, and ``CALIBRATION`` for each model's cal
 
 Designs (20 deg saccades unless said; 24 flash positions around the target, as Fig. 11):
 references and dark (11 flash times, -150..150 ms); amplitude (12 and 24 deg, -25 and 0 ms);
-reference contrast 0.25 and 0.5; two simultaneous flashes 4 deg apart (separation); the target
-extinguished at onset with a marker 10 deg before it (focus); the target extinguished 100 ms
-before onset (memory-guided); a target step during the saccade with and without a 250 ms blank
-(displacement, 9 steps x 8 repetitions). About 6 minutes on 2 idle cores with ``--workers 2``
-(8 on one); a re-run reads the cached observations (seconds).
+reference contrast 0.25 and 0.5; two simultaneous flashes 4 deg apart (separation); without the
+ruler: the target extinguished at onset with a marker 10 deg before it (focus), the target lit
+(target only) and the target extinguished 100 ms before onset (memory-guided); a target step
+during the saccade with and without a 250 ms blank (displacement, 9 steps x 8 repetitions).
+About 6 minutes on 2 idle cores with ``--workers 2``; a re-run reads the cached observations and
+takes about 2 minutes (the read-outs and bootstrap).
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ import numpy as np
 
 from .cli import bounded, int_in, out_dir
 
-__all__ = ["add_subcommand", "ROWS", "CALIBRATION", "THEORIES", "measure", "score", "bootstrap"]
+__all__ = ["add_subcommand", "ROWS", "CALIBRATION", "THEORIES", "COLUMNS", "measure", "score", "bootstrap",
+           "statistics", "markdown_table"]
 
 IMAGE_SIZE = 256
 TIMES = (-150, -100, -75, -50, -25, 0, 25, 50, 75, 100, 150)
@@ -79,7 +81,8 @@ ROWS = {
                                "(Zimmermann, Morrone & Burr 2014, J Vis 14(12):13): focus position from the goal "
                                "(0) to the marker (1)", (0.5, 1.5), "fraction"),
     "memory_guided_reduction": ("memory-guided saccades (no visible target) give weaker, more veridical "
-                                "localization (Zimmermann et al. 2014): index visual minus memory near onset",
+                                "localization (Zimmermann et al. 2014): index with the target lit minus with it "
+                                "off from 100 ms before onset, no ruler, near onset",
                                 (0.05, 1.0), "index"),
 }
 #: model -> the published numbers (ROWS keys) its defaults were set from: one per free constant.
@@ -108,8 +111,9 @@ def _designs() -> dict:
         "contrast_0.5": (near, dict(condition="references", reference_contrast=0.5)),
         "separation": (Design(amplitudes_deg=(20.0,), flash_offsets_deg=pos, flash_times_ms=(-150,) + NEAR,
                               name="separation"), dict(condition="references", paradigm="separation")),
-        "focus": (near, dict(condition="references", target_off_ms=0, markers=(MARKER,))),
-        "memory": (near, dict(condition="references", target_off_ms=-100)),
+        "focus": (near, dict(condition="references", target_off_ms=0, markers=(MARKER,), ruler=False)),
+        "target_only": (near, dict(condition="references", ruler=False)),
+        "memory": (near, dict(condition="references", target_off_ms=-100, ruler=False)),
     }
 
 
@@ -256,7 +260,7 @@ def statistics(tab: dict, psychometric_start: dict | None = None) -> dict[str, f
         "separation_over_localization": _separation_ratio(tab["separation"]),
         "displacement_blank_ratio": _threshold_ratio(tab["displacement"], psychometric_start),
         "focus_toward_reference": _focus(tab["focus"]),
-        "memory_guided_reduction": _near(ref) - _near(tab["memory"]),
+        "memory_guided_reduction": _near(tab["target_only"]) - _near(tab["memory"]),
     }
 
 
@@ -308,7 +312,7 @@ def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
         ci = bootstrap(tab, n_boot)
         for name, (published, rng, unit) in ROWS.items():
             role = "calibrated" if name in CALIBRATION.get(model, ()) else "predicted"
-            v = point[name]
+            v = round(point[name], 3)  # decided on the value the table reports
             if role == "calibrated":
                 ok = "calibrated"
             elif rng is None:
@@ -317,13 +321,36 @@ def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
                 ok = "yes" if np.isfinite(v) and rng[0] <= v <= rng[1] else "no"
             rows.append({"phenomenon": name, "model": model, "published": published,
                          "published_range": "" if rng is None else f"{rng[0]:g} to {rng[1]:g} {unit}",
-                         "simulated": round(v, 3), "ci_low": round(ci[name][0], 3), "ci_high": round(ci[name][1], 3),
+                         "simulated": v, "ci_low": round(ci[name][0], 3), "ci_high": round(ci[name][1], 3),
                          "role": role, "reproduced": ok})
     return rows
 
 
 COLUMNS = ["phenomenon", "model", "published", "simulated", "ci_low", "ci_high", "role", "reproduced",
            "published_range"]
+
+
+def markdown_table(rows: list[dict]) -> str:
+    """The scoreboard as a Markdown table (the README's): one line per phenomenon, one column per
+    model; each cell the simulated value, its 95 % CI and the verdict (cal. = calibrated on it,
+    yes / **no** = a predicted row reproduced or not, n/t = no published number to test)."""
+    models = list(dict.fromkeys(r["model"] for r in rows))
+    cell = {(r["phenomenon"], r["model"]): r for r in rows}
+    verdict = {"calibrated": "cal.", "yes": "yes", "no": "**no**", "not tested": "n/t"}
+
+    def fmt(v, unit: str) -> str:
+        v = float(v)
+        return f"{v:.0f}" if unit == "ms" or abs(v) >= 100 else f"{v:.2f}"
+
+    lines = ["| phenomenon | published | " + " | ".join(models) + " |", "|---|---|" + "---|" * len(models)]
+    for name in dict.fromkeys(r["phenomenon"] for r in rows):
+        first = cell[(name, models[0])]
+        pub = first["published_range"] or "none found"
+        unit = ROWS[name][2] if name in ROWS else ""
+        cells = [f"{fmt(c['simulated'], unit)} [{fmt(c['ci_low'], unit)}, {fmt(c['ci_high'], unit)}] "
+                 f"{verdict[c['reproduced']]}" for c in (cell[(name, m)] for m in models)]
+        lines.append(f"| `{name}` | {pub} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def plot(tables: dict, out: Path) -> list[Path]:
@@ -394,6 +421,7 @@ def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:
         counts.append(f"{m}: {sum(r['reproduced'] == 'yes' for r in pred)}/{len(pred)} predicted rows reproduced")
     text = "\n".join(lines + [""] + counts) + "\n"
     atomic_write_text(out / "phenomena.txt", text)
+    atomic_write_text(out / "phenomena.md", markdown_table(rows))
     return text, plot(tables, out)
 
 

@@ -135,6 +135,8 @@ def add_subcommand(subparsers) -> None:
                          f"saccade), {b['target_off_ms']}")
     pm.add_argument("--markers", type=_markers_arg, default=(), metavar="DX,DY;...",
                     help="up to 4 extra post-saccadic references, deg from the target, e.g. '-10,0;0,-6'")
+    pm.add_argument("--no-ruler", action="store_true",
+                    help="references condition without the ruler (the target and markers are the references)")
     pm.add_argument("--feedback-gain", type=_num_type("feedback_gain"), default=4.5,
                     help=f"mechanistic: remapping gain per deg/ms of eye-position-signal speed, {b['feedback_gain']}")
     pm.add_argument("--reference-weight", type=_num_type("reference_weight"), default=1.0,
@@ -263,7 +265,8 @@ def _build(args: argparse.Namespace):
                              stability_tolerance=args.stability_tolerance, report_noise_deg=args.report_noise_deg,
                              reference_contrast=getattr(args, "reference_contrast", 1.0),
                              reference_ms=getattr(args, "reference_ms", 1000),
-                             target_off_ms=getattr(args, "target_off_ms", 1000), markers=getattr(args, "markers", ()))
+                             target_off_ms=getattr(args, "target_off_ms", 1000), markers=getattr(args, "markers", ()),
+                             ruler=not getattr(args, "no_ruler", False))
     except (ValueError, TypeError) as e:
         parser.error(str(e))
     return design, config, args.formats
@@ -374,7 +377,8 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
             w = csv.DictWriter(fh, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
-        figures = save_all(table, out, config.timecourse, formats)
+        # only the paper model has a set time course to draw; the others show their own results alone
+        figures = save_all(table, out, config.timecourse if config.model == "paper" else None, formats)
         rrd = record_study(out / "study.rrd", table, config) if recording else None
     return {"table": csv_path, "summary": text, "figures": figures, "recording": rrd}
 
@@ -384,16 +388,23 @@ def _displacement_outputs(table, config, out: Path, csv_path: Path, formats) -> 
     recording (it follows flashes)."""
     from .psychophysics import displacement_psychometrics, save_displacement
 
-    fits = displacement_psychometrics(table)
-    rows = [{"blank_ms": b, "pse_deg": round(r["pse_deg"], 3), "threshold_deg": round(r["threshold_deg"], 3),
-             "n_trials": int(np.sum(table["flash_time_ms"] == b))} for b, r in fits.items()]
+    fits = displacement_psychometrics(table, n_boot=200)
+    rows = [{"blank_ms": b, "pse_deg": round(r["pse_deg"], 3), "pse_ci_low": round(r["pse_ci"][0], 3),
+             "pse_ci_high": round(r["pse_ci"][1], 3), "threshold_deg": round(r["threshold_deg"], 3),
+             "threshold_ci_low": round(r["threshold_ci"][0], 3), "threshold_ci_high": round(r["threshold_ci"][1], 3),
+             "monotonic": r["monotonic"], "n_trials": int(np.sum(table["flash_time_ms"] == b))}
+            for b, r in fits.items()]
     lines = ["Saccadic suppression of displacement (target steps during the saccade; + = forward)",
              f"trials: {len(table['trial_id'])}; model: {config.model}, condition: {config.condition}",
-             "blank (ms)   PSE (deg)   threshold (deg)   P(forward) per step " +
+             "blank (ms)   PSE (deg) [95% CI]        threshold (deg) [95% CI]   P(forward) per step " +
              " ".join(f"{s:+g}" for s in next(iter(fits.values()))["steps_deg"])]
     for b, r in fits.items():
-        lines.append(f"{b:10d}   {r['pse_deg']:+9.2f}   {r['threshold_deg']:15.2f}   " +
-                     " ".join(f"{p:.2f}" for p in r["p_forward"]))
+        flag = "" if r["monotonic"] else "   NOT MONOTONIC: the threshold is not meaningful"
+        lines.append(f"{b:10d}   {r['pse_deg']:+6.2f} [{r['pse_ci'][0]:+6.2f}, {r['pse_ci'][1]:+6.2f}]   "
+                     f"{r['threshold_deg']:6.2f} [{r['threshold_ci'][0]:6.2f}, {r['threshold_ci'][1]:6.2f}]      " +
+                     " ".join(f"{p:.2f}" for p in r["p_forward"]) + flag)
+    lines.append("CIs: 200 bootstrap resamples of the reports within each step; threshold = s.d. of the "
+                 "cumulative Gaussian")
     text = "\n".join(lines) + "\n"
     (out / "summary.txt").write_text(text)
     with (out / "summary.csv").open("w", newline="") as fh:

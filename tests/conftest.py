@@ -38,7 +38,8 @@ SLOW = {
     "test_models_saccades.py::test_profile_table_matches_a_direct_simulation",  # 4 s
     "test_perception_mechanisms.py::test_compression_grows_with_saccade_amplitude",  # 4 s
     "test_perception_mechanisms.py::test_displacement_paradigm_blank_restores_detection",  # 9 s
-    "test_perception_mechanisms.py::test_phenomena_command_writes_the_report",  # 55 s
+    "test_perception_mechanisms.py::test_phenomena_command_writes_the_report",  # ~90 s
+    "test_recovery.py::test_recovery_confusion_matrix",  # ~50 s
     "test_perception_mechanisms.py::test_rows_name_model_condition_and_paradigm",  # 19 s
     "test_psychophysics.py::test_cli_small_study_writes_outputs",  # 3 s
     "test_psychophysics.py::test_gain_zero_is_veridical_up_to_sampling_error",  # 12 s

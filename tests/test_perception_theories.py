@@ -239,8 +239,10 @@ def test_committed_scoreboard_is_consistent():
     for r in rows:
         assert r["role"] == ("calibrated" if r["phenomenon"] in CALIBRATION[r["model"]] else "predicted")
         v, lo, hi = float(r["simulated"]), float(r["ci_low"]), float(r["ci_high"])
-        if math.isfinite(v):
-            assert lo - 1e-3 <= v <= hi + 1e-3 or not (math.isfinite(lo) and math.isfinite(hi)), r
+        # a percentile CI of a non-smooth statistic (an argmax, a half-maximum crossing) of the
+        # baseline's flat, noisy curve need not contain its estimate; the models' curves are smooth
+        if math.isfinite(v) and r["model"] != "baseline":
+            assert lo - 1e-3 <= v <= hi + 1e-3, r
         rng = ROWS[r["phenomenon"]][1]
         if r["role"] == "calibrated":
             assert r["reproduced"] == "calibrated"
@@ -252,3 +254,65 @@ def test_committed_scoreboard_is_consistent():
     for r in rows:
         if r["phenomenon"] == "compression_peak" and r["role"] == "calibrated":
             assert 0.35 <= float(r["simulated"]) <= 0.65, r
+
+
+def test_readme_scoreboard_is_the_committed_one():
+    """The README's phenomena table is ``markdown_table`` of the committed ``phenomena.csv``."""
+    from experiments.phenomena import markdown_table
+
+    rows = list(csv.DictReader((ROOT / "experiments" / "data" / "phenomena.csv").open()))
+    assert markdown_table(rows) in (ROOT / "README.md").read_text()
+
+
+def test_observer_predictions_in_the_scoreboard_against_published_values():
+    """The committed 256 px scoreboard's predicted rows for the observer, against the published
+    values, with tolerances from their CIs: each reproduced row's whole CI lies in the published
+    range, and each failure lies outside it by more than its CI (a change of either shows here)."""
+    rows = {(r["phenomenon"], r["model"]): r for r in
+            csv.DictReader((ROOT / "experiments" / "data" / "phenomena.csv").open())}
+
+    def ci(name, model="observer"):
+        r = rows[(name, model)]
+        return float(r["ci_low"]), float(r["ci_high"])
+
+    # Lappe, Awater & Krekelberg 2000 (Nature 403:892, Fig. 2): compression needs references (>= 0.2)
+    assert ci("compression_needs_references")[0] > 0.2
+    # Kaiser & Lappe 2004 (Neuron 41:293, Fig. 3): stronger along the saccade than across
+    assert ci("compression_along_minus_across")[0] > 0.05
+    # Reeve, Clark & O'Regan 2008 (J Vis 8(13):5): separation compresses much less than localization
+    assert ci("separation_over_localization")[1] < 0.5
+    # Deubel, Schneider & Bridgeman 1996 (Vision Res 36:985, Fig. 2): a 250 ms blank lowers the threshold
+    assert ci("displacement_blank_ratio")[0] > 2
+    # Honda 1989, 1991: shift in the saccade's direction before onset, against it near its end, in the dark
+    assert ci("shift_dark_presaccadic_deg")[0] > 0.5 and ci("shift_dark_reversal_deg")[1] < -0.5
+    # Morrone, Ross & Burr 1997 (J Neurosci 17:7941, Fig. 3): maximal just before onset, within +-50 ms --
+    # the observer's compression comes late (mid-saccade) and lasts too long: a failure of the theory
+    assert ci("compression_peak_time_ms")[0] >= 0 and ci("compression_fwhm_ms")[0] > 110
+    # Kaiser & Lappe 2004: compression across the saccade too -- the observer has none to speak of
+    assert ci("compression_across")[0] < 0.05
+    # population: compression regardless of references, contrary to Lappe et al. 2000
+    assert ci("compression_needs_references", "population")[1] < 0.2
+    # population: separation compressed like localization, contrary to Reeve et al. 2008
+    assert ci("separation_over_localization", "population")[0] > 0.5
+
+
+def test_psychometric_fit_flags_non_monotonic_data_and_has_cis():
+    """The audit's example (P("forward") 0, .33, .33, .17, .17, .83, 1 at -2..+4 deg, 6 reports
+    each) is flagged; a clean cumulative Gaussian is not, and its CIs bracket the generating values."""
+    from scipy.stats import norm
+
+    from experiments.psychophysics import displacement_psychometrics
+
+    steps = np.repeat(np.arange(-2.0, 5.0), 6)
+    p = [0, 2, 2, 1, 1, 5, 6]
+    fwd = np.concatenate([[1.0] * k + [0.0] * (6 - k) for k in p])
+    bad = displacement_psychometrics({"flash_dx_deg": steps, "flash_time_ms": np.zeros(steps.size),
+                                      "reported_forward": fwd})[0]
+    assert not bad["monotonic"] and 0 < bad["monotone_p"] <= 1
+    rng = np.random.default_rng(3)
+    steps = np.repeat(np.linspace(-3, 3, 9), 40)
+    fwd = (rng.random(steps.size) < 0.01 + 0.98 * norm.cdf((steps - 0.5) / 1.2)).astype(float)
+    good = displacement_psychometrics({"flash_dx_deg": steps, "flash_time_ms": np.zeros(steps.size),
+                                       "reported_forward": fwd}, n_boot=200)[0]
+    assert good["monotone_p"] > 0.05
+    assert good["pse_ci"][0] < 0.5 < good["pse_ci"][1] and good["threshold_ci"][0] < 1.2 < good["threshold_ci"][1]

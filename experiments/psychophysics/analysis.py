@@ -70,6 +70,24 @@ def _probit_fit(x: np.ndarray, y: np.ndarray, start: tuple[float, float] | None 
     return float(best.x[0]), float(min(np.exp(best.x[1]), 1e3))
 
 
+def _monotone_p(p: np.ndarray, n: np.ndarray) -> float:
+    """P value of proportions ``p`` (counts ``n``) against the best non-decreasing ones."""
+    from scipy.optimize import isotonic_regression
+    from scipy.stats import chi2
+
+    iso = isotonic_regression(p, weights=n).x
+    pooled = len(p) - len(np.unique(np.round(iso, 12)))
+    if pooled == 0:
+        return 1.0
+    k = p * n
+
+    def ll(q):
+        q = np.clip(q, 1e-12, 1 - 1e-12)
+        return float(np.sum(k * np.log(q) + (n - k) * np.log(1 - q)))
+
+    return float(chi2.sf(max(0.0, 2 * (ll(p) - ll(iso))), pooled))
+
+
 def displacement_psychometrics(table: dict[str, np.ndarray], n_boot: int = 0, seed: int = 0,
                                start: dict | None = None) -> dict[int, dict]:
     """Per blank duration (ms) of a ``displacement`` table: the proportion of "forward" reports per
@@ -89,10 +107,8 @@ def displacement_psychometrics(table: dict[str, np.ndarray], n_boot: int = 0, se
         levels = np.unique(x)
         p = np.array([y[x == v].mean() for v in levels])
         n = np.array([(x == v).sum() for v in levels])
-        se = np.sqrt(np.maximum(p * (1 - p), 0.25 / n) / n)
-        drops = (p[:-1] - p[1:]) > 2 * np.hypot(se[:-1], se[1:])
         r = {"steps_deg": levels, "p_forward": p, "pse_deg": pse, "threshold_deg": sd,
-             "monotonic": bool(not drops.any())}
+             "monotonic": bool(np.all(np.diff(p) >= 0)), "monotone_p": _monotone_p(p, n)}
         if n_boot:
             groups = [np.flatnonzero(x == v) for v in levels]
             boots = []
@@ -169,6 +185,13 @@ def format_summary(rows: list[dict], timecourse: RemapTimeCourse | None = None, 
             off = ", ".join(config.disabled) or "none"
             lines.append(f"remapping driven by the eye-position signal's speed x {config.feedback_gain:g} ms/deg; "
                          f"reference weight {config.reference_weight:g}; mechanisms off: {off}")
+            timecourse = None
+        elif config.model in ("observer", "population"):
+            import dataclasses
+
+            params = getattr(config, config.model)
+            lines.append(f"{config.model} constants: " + ", ".join(f"{k} {v:g}" for k, v in
+                                                                 dataclasses.asdict(params).items()))
             timecourse = None
         else:
             timecourse = config.timecourse

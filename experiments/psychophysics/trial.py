@@ -79,7 +79,7 @@ ROW_COLUMNS = (
     "perceived_right_y_deg", "eye_h_left_deg", "eye_h_right_deg", "saccade_duration_ms", "flash_sim_ms",
     "reference_weight", "second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg", "second_perceived_y_deg",
     "perceived_step_deg", "reported_forward", "reference_contrast", "reference_ms", "target_off_ms",
-    "reference_activity", "n_markers",
+    "reference_activity", "n_markers", "ruler",
 )
 #: Columns that are NaN by design where they do not apply: the second flash of ``separation``, the
 #: step of ``displacement``.
@@ -126,6 +126,7 @@ class TrialConfig:
         before onset, a memory-guided saccade; the default 1000 keeps it on).
     markers : up to ``MAX_MARKERS`` extra references, (dx, dy) deg from the target, shown with the
         ruler after saccade offset.
+    ruler : whether the ruler appears after saccade offset (``references`` condition only).
     observer, population : the ``observer`` and ``population`` models' constants
         (``observer.ObserverParams``, ``population.PopulationParams``).
 
@@ -159,6 +160,7 @@ class TrialConfig:
     reference_ms: int = 1000
     target_off_ms: int = 1000
     markers: tuple = ()
+    ruler: bool = True
     observer: ObserverParams = ObserverParams()
     population: PopulationParams = PopulationParams()
 
@@ -171,6 +173,9 @@ class TrialConfig:
                      "eps_delay_ms", "reference_contrast"):
             object.__setattr__(self, name, check_real(name, getattr(self, name)))
         object.__setattr__(self, "markers", _markers(self.markers))
+        if not isinstance(self.ruler, (bool, np.bool_)):
+            raise TypeError(f"ruler must be True or False; got {self.ruler!r:.60}")
+        object.__setattr__(self, "ruler", bool(self.ruler))
         for name, kind in (("observer", ObserverParams), ("population", PopulationParams)):
             if not isinstance(getattr(self, name), kind):
                 raise TypeError(f"{name} must be a {kind.__name__}; got {getattr(self, name)!r:.60}")
@@ -315,7 +320,7 @@ class TrialRunner:
         # contrast, so contrast c needs a = 1 - sqrt(1 - c) (tests/test_perception_theories.py measures it)
         alpha = 1.0 - math.sqrt(1.0 - cfg.reference_contrast)
         head.set_opacity("target", (alpha if rel >= 0 else 1.0) if target_on else 0.0)
-        head.set_opacity("ruler", alpha if post_on else 0.0)
+        head.set_opacity("ruler", alpha if post_on and cfg.ruler else 0.0)
         for i in range(MAX_MARKERS):
             head.set_opacity(f"marker_{i:02d}", alpha if post_on and i < len(cfg.markers) else 0.0)
 
@@ -526,7 +531,8 @@ class TrialRunner:
         act = float(np.nanmean(activity)) if activity is not None and np.isfinite(activity).any() else 0.0
         return {"reference_contrast": cfg.reference_contrast, "reference_ms": cfg.reference_ms,
                 "target_off_ms": cfg.target_off_ms, "reference_activity": act, "model": cfg.model,
-                "condition": cfg.condition, "paradigm": cfg.paradigm, "n_markers": len(cfg.markers)}
+                "condition": cfg.condition, "paradigm": cfg.paradigm, "n_markers": len(cfg.markers),
+                "ruler": float(cfg.ruler)}
 
     # ------------------------------------------------------------------ the theories' read-outs
     def _read_observer(self, obs: Observation, plan, true_pose, cfg: TrialConfig):
@@ -568,8 +574,18 @@ class TrialRunner:
                                                    e_cov[ax, ax], rho[ax], lam)
         v0 = float(np.nanmean(var[0]))
         weight_x = lam / (lam + 1.0 / (v0 + e_cov[0, 0])) if lam > 0 else 0.0
-        reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], []) for k in range(len(obs.flashes))]
+        reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], self._plain_maps(f))
+                 for k, f in enumerate(obs.flashes)]
         return reads, float(weight_x)
+
+    def _plain_maps(self, flash: dict) -> list:
+        """Each eye's maps of a flash for recordings: the retina's view, the target-centred map
+        (unshifted: the theories do not shift it), the flash's unremapped position in it."""
+        out = []
+        for view, centred, z_t in flash["eyes"]:
+            z_rel, per = self._centroid(view, self.grid, centred, 0.0, self.config.threshold)
+            out.append((view, centred, per, z_t, z_rel))
+        return out
 
     def _read_population(self, obs: Observation, plan, cfg: TrialConfig):
         """``population`` (module ``population``): the gain field's population vector per flash and eye."""
@@ -589,7 +605,7 @@ class TrialRunner:
                 z_hat = _deg_to_image(est)
                 per_eye.append(self._ray_to_screen_deg(origins[e], axes[e], z_hat) if np.isfinite(z_hat.real)
                                else np.full(2, np.nan))
-            reads.append((per_eye, per_eye, []))
+            reads.append((per_eye, per_eye, self._plain_maps(f)))
         return reads, strength
 
     def _target_seen(self, t_ms: int, plan: models.SaccadePlan, latency: float,
