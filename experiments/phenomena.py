@@ -95,11 +95,12 @@ CALIBRATION = {
 }
 
 
-def _designs() -> dict:
-    """name -> (Design, TrialConfig overrides): everything the rows need."""
-    from .psychophysics import FIG11_OFFSETS_DEG, Design
+def _designs(quick: bool = False) -> dict:
+    """name -> (Design, TrialConfig overrides): everything the rows need (``quick``: 8 flash
+    positions instead of 24)."""
+    from .psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design
 
-    pos = FIG11_OFFSETS_DEG
+    pos = MORRONE_OFFSETS_DEG if quick else FIG11_OFFSETS_DEG
     loc = Design(amplitudes_deg=(20.0,), flash_offsets_deg=pos, flash_times_ms=TIMES, name="localization")
     near = Design(amplitudes_deg=(20.0,), flash_offsets_deg=pos, flash_times_ms=NEAR, name="near")
     return {
@@ -117,11 +118,11 @@ def _designs() -> dict:
     }
 
 
-def _displacement():
+def _displacement(quick: bool = False):
     from .psychophysics import Design
 
     return Design(amplitudes_deg=(20.0,), flash_offsets_deg=tuple((float(s), 0.0) for s in range(-4, 5)),
-                  flash_times_ms=(0, 250), repetitions=8, name="displacement")
+                  flash_times_ms=(0, 250), repetitions=3 if quick else 8, name="displacement")
 
 
 def _model_config(base, model: str):
@@ -139,7 +140,8 @@ def _columns(rows: list[dict]) -> dict[str, np.ndarray]:
     return {k: np.array([r[k] for r in rows]) for k in rows[0]}
 
 
-def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False, image_size: int = IMAGE_SIZE) -> dict:
+def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False, image_size: int = IMAGE_SIZE,
+            quick: bool = False) -> dict:
     """Observe every design once (cached), read it out with every model; returns {model: {design: table}}."""
     from .folders import write_csv
     from .modelfit.observe import observe_trials
@@ -147,7 +149,7 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
 
     tables: dict = {m: {} for m in models}
     (out / "tables").mkdir(parents=True, exist_ok=True)
-    for name, (design, kw) in _designs().items():
+    for name, (design, kw) in _designs(quick).items():
         base = TrialConfig(image_size=image_size, **kw)
         runner = TrialRunner(base)
         obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
@@ -159,7 +161,7 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
             tables[m][name] = _columns(rows)
     for m in models:
         cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement"), m)
-        path = run_trials(_displacement(), cfg, out / "displacement" / m, workers=workers, progress=progress)
+        path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress)
         tables[m]["displacement"] = read_table(path)
     return tables
 
@@ -441,7 +443,7 @@ def run(args: argparse.Namespace) -> int:
     def work() -> int:
         with folder_lock(out):
             tables = measure(out, workers=args.workers, progress=not args.no_progress,
-                             image_size=getattr(args, "image_size", IMAGE_SIZE))
+                             image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False))
             text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT))
         print(text, end="")
         print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
@@ -466,10 +468,13 @@ def add_subcommand(subparsers) -> None:
                    help=f"eye image side (default {IMAGE_SIZE}; smaller is faster and adds the retina's sampling error)")
     p.add_argument("--bootstrap", type=int_in(100, 100_000), default=BOOT, metavar="N",
                    help=f"bootstrap resamples per confidence interval (100-100000, default {BOOT})")
+    p.add_argument("--quick", action="store_true",
+                   help="8 flash positions instead of 24 and 3 displacement repetitions instead of 8: a fast look "
+                        "with wider CIs (a folder holds one of the two)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run, _parser=p)
 
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(run(argparse.Namespace(out="results/phenomena", workers=2, no_progress=False, image_size=IMAGE_SIZE,
-                                    bootstrap=BOOT)))
+                                    bootstrap=BOOT, quick=False)))

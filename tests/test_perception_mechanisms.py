@@ -129,8 +129,8 @@ def test_config_refuses_unknown_names():
 
 
 def test_phenomena_command_writes_the_report(tmp_path):
-    """``python -m experiments phenomena`` (at 64 px, 100 resamples: the command's machinery, not
-    its numbers): one row per (phenomenon, model) with the published value, the simulated one and
+    """``python -m experiments phenomena`` (``--quick`` at 64 px, 100 resamples: the command's
+    machinery, not its numbers): one row per (phenomenon, model) with the published value, the simulated one and
     its bootstrap CI, and the row's role; a second run reads the cached observations and gives
     the same report."""
     import csv
@@ -139,7 +139,7 @@ def test_phenomena_command_writes_the_report(tmp_path):
     from experiments.phenomena import CALIBRATION, COLUMNS, ROWS, THEORIES
 
     args = ["phenomena", "--out", str(tmp_path), "--no-progress", "--image-size", "64", "--bootstrap", "100",
-            "--workers", "1"]
+            "--workers", "1", "--quick"]
     assert main(args) == 0
     with open(tmp_path / "phenomena.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))

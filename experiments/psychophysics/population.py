@@ -81,21 +81,35 @@ POPULATION_SOURCES = {
 }
 
 
+_BURSTS: dict[int, tuple] = {}  # id(plan) -> (plan, times, burst): a plan's burst, reused across read-outs
+
+
+def _burst(plan, t_end: float, dt_ms: float) -> tuple[np.ndarray, np.ndarray]:
+    """The cyclopean efference-copy speed (deg/ms) on a ``dt_ms`` grid from just before onset to
+    ``t_end`` (cached per plan: a fit reads the same plans out many times)."""
+    hit = _BURSTS.get(id(plan))
+    if hit is not None and hit[0] is plan and hit[1][-1] >= t_end and hit[1][1] - hit[1][0] == dt_ms:
+        return hit[1], hit[2]
+    t0 = float(plan.onset_ms) - 5.0
+    grid = np.arange(t0, max(t_end, float(plan.end_ms) + 200.0, t0) + 2 * dt_ms, dt_ms)
+    ang = np.degrees(plan.intended_angles(grid)[:, :, :2].mean(axis=1))
+    burst = np.hypot(*np.gradient(ang, dt_ms, axis=0).T)
+    if len(_BURSTS) > 4096:
+        _BURSTS.clear()
+    _BURSTS[id(plan)] = (plan, grid, burst)
+    return grid, burst
+
+
 def feedback_signal(plan, t_ms: np.ndarray, tau_ms: float, dt_ms: float = 0.5) -> np.ndarray:
     """The feedback signal (deg/ms) at times ``t_ms``: the burst (cyclopean efference-copy speed)
     through two first-order stages of time constant ``tau_ms`` (exact discretisation), from
     before the saccade."""
-    t_ms = np.atleast_1d(np.asarray(t_ms, float))
-    t0 = float(plan.onset_ms) - 5.0
-    t1 = max(float(t_ms.max()), t0) + dt_ms
-    grid = np.arange(t0, t1 + dt_ms, dt_ms)
-    ang = np.degrees(plan.intended_angles(grid)[:, :, :2].mean(axis=1))
-    burst = np.hypot(*np.gradient(ang, dt_ms, axis=0).T)
-    k = math.exp(-dt_ms / tau_ms)
     from scipy.signal import lfilter
 
-    s1 = lfilter([1 - k], [1, -k], burst)
-    s = lfilter([1 - k], [1, -k], s1)
+    t_ms = np.atleast_1d(np.asarray(t_ms, float))
+    grid, burst = _burst(plan, float(t_ms.max()) + dt_ms, dt_ms)
+    k = math.exp(-dt_ms / tau_ms)
+    s = lfilter([1 - k], [1, -k], lfilter([1 - k], [1, -k], burst))
     return np.interp(t_ms, grid, s, left=0.0)
 
 
