@@ -316,3 +316,37 @@ def test_psychometric_fit_flags_non_monotonic_data_and_has_cis():
                                        "reported_forward": fwd}, n_boot=200)[0]
     assert good["monotone_p"] > 0.05
     assert good["pse_ci"][0] < 0.5 < good["pse_ci"][1] and good["threshold_ci"][0] < 1.2 < good["threshold_ci"][1]
+
+
+@pytest.mark.parametrize("model", ["population", "mechanistic", "paper"])
+def test_other_models_predicted_rows_against_published_values(model):
+    """The committed scoreboard's predicted rows of the other models against the published values,
+    with CI-based tolerances: where a row is reproduced its CI overlaps the published range, where it
+    is not its CI misses the range (so the verdict is not an accident of the point estimate)."""
+    from experiments.phenomena import ROWS
+
+    rows = [r for r in csv.DictReader((ROOT / "experiments" / "data" / "phenomena.csv").open())
+            if r["model"] == model and r["role"] == "predicted" and ROWS[r["phenomenon"]][1] is not None]
+    assert rows
+    # sources of the ranges (ROWS): Morrone, Ross & Burr 1997 (J Neurosci 17:7941, Fig. 3) for the time course;
+    # Lavergne et al. 2010 (amplitude); Honda 1989, 1991 (dark shift); Lappe, Awater & Krekelberg 2000 (Nature
+    # 403:892, Fig. 2: references); Kaiser & Lappe 2004 (Neuron 41:293: 2-D); Reeve, Clark & O'Regan 2008
+    # (J Vis 8(13):5: separation); Deubel, Schneider & Bridgeman 1996 (Vision Res 36:985: blank);
+    # Zimmermann, Morrone & Burr 2014 (J Vis 14(12):13: focus, memory-guided)
+    agree = disagree = 0
+    for r in rows:
+        lo, hi = ROWS[r["phenomenon"]][1]
+        c_lo, c_hi = float(r["ci_low"]), float(r["ci_high"])
+        if r["reproduced"] == "yes":
+            assert c_hi >= lo and c_lo <= hi, r
+            agree += 1
+        else:
+            disagree += 1
+            # a failure whose CI still reaches the range is reported as such: it must be rare
+            disagree -= int(c_hi >= lo and c_lo <= hi)
+    assert agree + disagree >= len(rows) - 2, (model, rows)
+    # the documented failures of the theory (README: "What each theory gets wrong")
+    verdict = {r["phenomenon"]: r["reproduced"] for r in rows}
+    assert verdict["separation_over_localization"] == "no"  # an isotropic pull moves both flashes alike
+    if model == "population":
+        assert verdict["compression_needs_references"] == "no" and verdict["memory_guided_reduction"] == "no"
