@@ -152,13 +152,15 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
     for name, (design, kw) in _designs(quick).items():
         base = TrialConfig(image_size=image_size, **kw)
         runner = TrialRunner(base)
-        obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
-                             runner=runner)
-        for m in models:
-            rows = [runner.readout(o, _model_config(base, m)) for o in obs]
-            rows = [{**r, "model": m} for r in rows]
-            write_csv(out / "tables" / f"{m}_{name}.csv", list(ROW_COLUMNS + TEXT_COLUMNS), rows)
-            tables[m][name] = _columns(rows)
+        try:
+            obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
+                                 runner=runner)
+            for m in models:
+                rows = [{**runner.readout(o, _model_config(base, m)), "model": m} for o in obs]
+                write_csv(out / "tables" / f"{m}_{name}.csv", list(ROW_COLUMNS + TEXT_COLUMNS), rows)
+                tables[m][name] = _columns(rows)
+        finally:
+            runner.close()
     for m in models:
         cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement"), m)
         path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress)
@@ -273,12 +275,7 @@ def bootstrap(tab: dict, n: int = BOOT, seed: int = 0) -> dict[str, tuple[float,
 
     rng = np.random.default_rng(seed)
     start = {b: (r["pse_deg"], r["threshold_deg"]) for b, r in displacement_psychometrics(tab["displacement"]).items()}
-    pos_key = {}
-    for name, t in tab.items():
-        if name == "displacement":
-            continue
-        keys = np.round(t["flash_dx_deg"], 6) * 1000 + np.round(t["flash_dy_deg"], 6)
-        pos_key[name] = keys
+    pos_key = {name: t["flash_dx_deg"] + 1j * t["flash_dy_deg"] for name, t in tab.items() if name != "displacement"}
     positions = np.unique(np.concatenate(list(pos_key.values())))
     rows_of = {name: {p: np.flatnonzero(k == p) for p in positions} for name, k in pos_key.items()}
     disp = tab["displacement"]

@@ -16,7 +16,7 @@ import math
 import numbers
 from dataclasses import dataclass
 
-__all__ = ["Limit", "LIMITS", "MAX_TRIALS", "check_real", "check_int"]
+__all__ = ["Limit", "LIMITS", "MAX_TRIALS", "check_real", "check_int", "check_constants"]
 
 
 @dataclass(frozen=True)
@@ -121,3 +121,19 @@ def check_int(name: str, value, limit: Limit | None = None) -> int:
     if not lim.contains(v):
         raise ValueError(f"{name} must be a whole number in {lim.text()}; got {value!r}")
     return v
+
+
+def check_constants(obj, may_be_zero: tuple[str, ...] = ()) -> None:
+    """Every field of the frozen dataclass ``obj`` (a model's constants) as a float: ``TypeError``
+    unless a finite real number, ``ValueError`` unless > 0 (>= 0 for the fields ``may_be_zero``)."""
+    from dataclasses import fields
+
+    kind = type(obj).__name__
+    for f in fields(obj):
+        v = getattr(obj, f.name)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise TypeError(f"{kind}.{f.name} must be a finite number; got {v!r:.60}")
+        zero_ok = f.name in may_be_zero
+        if v < 0 or (v == 0 and not zero_ok):
+            raise ValueError(f"{kind}.{f.name} must be {'>=' if zero_ok else '>'} 0; got {v!r}")
+        object.__setattr__(obj, f.name, float(v))

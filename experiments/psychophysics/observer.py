@@ -50,9 +50,11 @@ paradigm or blank: references, blanks and markers act only through what the eyes
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
+
+from .bounds import check_constants
 
 __all__ = ["ObserverParams", "OBSERVER_SOURCES", "eye_estimate", "posterior_mean", "prior_precision",
            "sensory_sd_deg"]
@@ -70,13 +72,7 @@ class ObserverParams:
     reference_unit: float = 8.4e-3
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise TypeError(f"ObserverParams.{f.name} must be a finite number; got {v!r:.60}")
-            if not v > 0 and f.name != "floor_deg" or v < 0:
-                raise ValueError(f"ObserverParams.{f.name} must be > 0; got {v!r}")
-            object.__setattr__(self, f.name, float(v))
+        check_constants(self, may_be_zero=("floor_deg",))
 
 
 #: name -> (role, source): ``calibrated`` constants were set from the named published number (which

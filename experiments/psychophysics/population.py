@@ -37,9 +37,11 @@ and with references, and with memory-guided saccades (the goal is in the motor p
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
+
+from .bounds import check_constants
 
 __all__ = ["PopulationParams", "POPULATION_SOURCES", "feedback_signal", "cortical_offset", "from_cortical_offset",
            "population_estimate"]
@@ -58,13 +60,7 @@ class PopulationParams:
     map_a_deg: float = 0.75
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise TypeError(f"PopulationParams.{f.name} must be a finite number; got {v!r:.60}")
-            if v < 0 or (v == 0 and f.name in ("field_sd", "rf_sd", "tau_ms", "response_ms", "map_a_deg")):
-                raise ValueError(f"PopulationParams.{f.name} must be > 0; got {v!r}")
-            object.__setattr__(self, f.name, float(v))
+        check_constants(self, may_be_zero=("gain_per_deg", "latency_ms"))
 
 
 POPULATION_SOURCES = {

@@ -470,30 +470,31 @@ class TrialRunner:
             plan = copy.copy(plan)  # the same validated plan, read through another signal timing
             plan.eye_position = eps  # (dataclasses.replace would re-validate the plan: ~4 ms a trial)
         t_mid = obs.t_mid
-        t_read = t_mid + (cfg.visual_latency_ms if on["latency"] else 0.0)  # when its response arrives
-        if mech:
-            gain = command_gain(plan, t_read, cfg.feedback_gain) if on["command_remap"] else 0.0
-        else:
-            gain = float(cfg.timecourse.gain(trial.flash_time_ms))
-        if cfg.eye_position == "signal" and on["eye_position_signal"]:
-            read_angles = plan.eye_position_signal(t_read)
-        else:
-            read_angles = plan.angles(t_mid)
-        read_pose = self._pose(read_angles)  # eye-position estimate: retinal -> head
         true_pose = self._pose(plan.angles(t_mid))
-        weight, seen = 0.0, None
+        weight = 0.0
         if cfg.model == "observer":
             reads, gain = self._read_observer(obs, plan, true_pose, cfg)
         elif cfg.model == "population":
             reads, gain = self._read_population(obs, plan, cfg)
-        if mech and on["references"]:
-            axes, origins = self._pose(plan.eye_position_signal(float(obs.t_post)))
-            seen = np.full((2, 2), np.nan)
-            for e, z in enumerate(obs.seen_z):
-                if np.isfinite(z.real):
-                    seen[e] = self._ray_to_screen_deg(origins[e], axes[e], z)
-            weight = cfg.reference_weight * float(np.all(np.isfinite(seen)))
-        if cfg.model in ("mechanistic", "paper"):
+        else:  # mechanistic, paper: the log-radius shift of the target-centred map
+            t_read = t_mid + (cfg.visual_latency_ms if on["latency"] else 0.0)  # when its response arrives
+            if mech:
+                gain = command_gain(plan, t_read, cfg.feedback_gain) if on["command_remap"] else 0.0
+            else:
+                gain = float(cfg.timecourse.gain(trial.flash_time_ms))
+            if cfg.eye_position == "signal" and on["eye_position_signal"]:
+                read_angles = plan.eye_position_signal(t_read)
+            else:
+                read_angles = plan.angles(t_mid)
+            read_pose = self._pose(read_angles)  # eye-position estimate: retinal -> head
+            seen = None
+            if mech and on["references"]:
+                axes, origins = self._pose(plan.eye_position_signal(float(obs.t_post)))
+                seen = np.full((2, 2), np.nan)
+                for e, z in enumerate(obs.seen_z):
+                    if np.isfinite(z.real):
+                        seen[e] = self._ray_to_screen_deg(origins[e], axes[e], z)
+                weight = cfg.reference_weight * float(np.all(np.isfinite(seen)))
             reads = [self._read(f, gain, weight, seen, obs.copy_pose, read_pose, true_pose, cfg) for f in obs.flashes]
         perceived, closed, maps = reads[0]
         self.last = dict(frame=obs.frame, reference=obs.reference, maps=maps, plan=plan)
@@ -552,10 +553,11 @@ class TrialRunner:
                 lam = prior_precision(act, obs.ref_on_ms, p)
         (ta, to) = true_pose
         meas, cf, var = [], [], []  # (flash, eye, axis)
-        for f in obs.flashes:
+        maps = [self._plain_maps(f, cfg.threshold) for f in obs.flashes]
+        for f, f_maps in zip(obs.flashes, maps):
             m_e, c_e, v_e = [], [], []
-            for e, (view, centred, z_t) in enumerate(f["eyes"]):
-                z = z_t + self._centroid(view, self.grid, centred, 0.0, cfg.threshold)[0]
+            for e, (_, _, _, z_t, z_rel) in enumerate(f_maps):
+                z = z_t + z_rel
                 xf = ta[e].T @ (f["head"] - to[e])
                 z_true = complex(xf[2], xf[0]) / xf[1]
                 m_e.append(self._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
@@ -574,16 +576,16 @@ class TrialRunner:
                                                    e_cov[ax, ax], rho[ax], lam)
         v0 = float(np.nanmean(var[0]))
         weight_x = lam / (lam + 1.0 / (v0 + e_cov[0, 0])) if lam > 0 else 0.0
-        reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], self._plain_maps(f))
-                 for k, f in enumerate(obs.flashes)]
+        reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], maps[k]) for k in range(len(maps))]
         return reads, float(weight_x)
 
-    def _plain_maps(self, flash: dict) -> list:
-        """Each eye's maps of a flash for recordings: the retina's view, the target-centred map
-        (unshifted: the theories do not shift it), the flash's unremapped position in it."""
+    def _plain_maps(self, flash: dict, threshold: float) -> list:
+        """Each eye's maps of a flash, as ``_read`` gives them for recordings: the retina's view, the
+        target-centred map (unshifted: the theories do not shift it), the predicted target point and
+        the flash's unremapped position relative to it (the activity centroid above ``threshold``)."""
         out = []
         for view, centred, z_t in flash["eyes"]:
-            z_rel, per = self._centroid(view, self.grid, centred, 0.0, self.config.threshold)
+            z_rel, per = self._centroid(view, self.grid, centred, 0.0, threshold)
             out.append((view, centred, per, z_t, z_rel))
         return out
 
@@ -595,9 +597,9 @@ class TrialRunner:
         axes, origins = self._pose(plan.eye_position_signal(obs.t_mid + pp.latency_ms))
         reads = []
         for f in obs.flashes:
-            per_eye = []
-            for e, (view, centred, z_t) in enumerate(f["eyes"]):
-                z = z_t + self._centroid(view, self.grid, centred, 0.0, cfg.threshold)[0]
+            per_eye, maps = [], self._plain_maps(f, cfg.threshold)
+            for e, (_, _, _, z_t, z_rel) in enumerate(maps):
+                z = z_t + z_rel
                 goal = _image_to_deg(np.array([z_t]))[0][0]
                 dw = complex(cortical_offset(_image_to_deg(np.array([z]))[0][0], goal, pp.map_a_deg))
                 est = from_cortical_offset(population_estimate(dw, strength, pp.rf_sd, pp.field_sd), goal,
@@ -605,14 +607,14 @@ class TrialRunner:
                 z_hat = _deg_to_image(est)
                 per_eye.append(self._ray_to_screen_deg(origins[e], axes[e], z_hat) if np.isfinite(z_hat.real)
                                else np.full(2, np.nan))
-            reads.append((per_eye, per_eye, self._plain_maps(f)))
+            reads.append((per_eye, per_eye, maps))
         return reads, strength
 
     def _target_seen(self, t_ms: int, plan: models.SaccadePlan, latency: float,
-                     true_eye: bool = False) -> tuple[np.ndarray, float]:
+                     true_eye: bool = False) -> tuple[np.ndarray, float, list[complex]]:
         """Step to ``t_ms``; the target's head-centred position (deg, mean of the eyes) as seen then
-        through the eye-position signal of ``t_ms + latency`` (or the true eye), and its retinal
-        offset from the fovea (deg)."""
+        through the eye-position signal of ``t_ms + latency`` (or the true eye), its retinal offset
+        from the fovea (deg), and each eye's retinal image point of it."""
         self.head.step_ms(t_ms - self.head.time_ms)
         zs = self._target_image_points()
         axes, origins = self._pose(plan.angles(float(t_ms)) if true_eye else plan.eye_position_signal(t_ms + latency))
@@ -620,7 +622,7 @@ class TrialRunner:
         for e, z in enumerate(zs):
             pos.append(self._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
             off.append(math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan)
-        return _mean_of_eyes(pos), float(np.nanmean(off)) if np.isfinite(off).any() else float("nan")
+        return _mean_of_eyes(pos), float(np.nanmean(off)) if np.isfinite(off).any() else float("nan"), zs
 
     def _run_displacement(self, trial: Trial) -> dict:
         """Saccadic suppression of displacement (Bridgeman, Hendry & Stark 1975; Deubel, Schneider &
@@ -653,9 +655,7 @@ class TrialRunner:
         head.start_saccade(plan)
         use_eps = cfg.eye_position == "signal" and on["eye_position_signal"]
         t_pre = plan.onset_ms - 150
-        pre, pre_off = self._target_seen(t_pre, plan, latency, not use_eps)  # before the saccade: settled
-        if cfg.model == "observer":
-            pre_obs = self._observer_look(plan, t_pre, cfg)
+        pre, _, pre_z = self._target_seen(t_pre, plan, latency, not use_eps)  # before the saccade: settled
         head.step_ms(plan.onset_ms + 10 - head.time_ms)
         head.set_object_position("target", step_w)
         if blank:
@@ -663,11 +663,12 @@ class TrialRunner:
         t_seen = int(math.ceil(plan.offset_ms)) + blank
         head.step_ms(t_seen - head.time_ms)
         head.set_visible("target", True)
-        post, mismatch = self._target_seen(t_seen, plan, latency, not use_eps)
+        post, mismatch, post_z = self._target_seen(t_seen, plan, latency, not use_eps)
         weight = 0.0
         sd = cfg.report_noise_deg
         if cfg.model == "observer":
-            (pre, v_pre), (post, v_post) = pre_obs, self._observer_look(plan, t_seen, cfg)
+            (pre, v_pre), (post, v_post) = (self._observer_look(plan, t, zs, cfg) for t, zs in ((t_pre, pre_z),
+                                                                                                (t_seen, post_z)))
             sd = math.sqrt(v_pre + v_post)  # the model's own noise on the step: both looks
         if mech and on["references"] and np.isfinite(mismatch):
             tol = cfg.stability_tolerance * trial.amplitude_deg
@@ -698,13 +699,13 @@ class TrialRunner:
             **self._stimulus_columns(cfg, None),
         }
 
-    def _observer_look(self, plan, t_ms: float, cfg: TrialConfig) -> tuple[np.ndarray, float]:
-        """The ``observer``'s head-centred estimate (deg) of the target as it is seen now (the head
-        stepped to ``t_ms``) and its variance along the saccade (sensory + eye position, deg^2)."""
+    def _observer_look(self, plan, t_ms: float, zs: list[complex], cfg: TrialConfig) -> tuple[np.ndarray, float]:
+        """The ``observer``'s head-centred estimate (deg) of the target seen at ``t_ms`` at the
+        retinal points ``zs`` (each eye's) and its variance along the saccade (sensory + eye
+        position, deg^2)."""
         p = cfg.observer
         e_mean, e_cov = eye_estimate(plan, t_ms, p.temporal_sd_ms)
         axes, origins = self._pose(e_mean)
-        zs = self._target_image_points()
         pos = [self._ray_to_screen_deg(origins[e], axes[e], z) for e, z in enumerate(zs) if np.isfinite(z.real)]
         if not pos:
             return np.full(2, np.nan), float("nan")
