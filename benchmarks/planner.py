@@ -1,10 +1,10 @@
-"""The batched env's host side per world and step: ``envs.batched_planner`` beside the per-world objects.
+"""The batched env's host side per world and step: ``models.planner`` beside the per-world objects.
 
 Per env step the host of ``envs.BatchedBinocularSaccade`` resets the worlds whose episode ended
 (scene layout and task, from each world's seed), plans every other world's saccade, writes the
 command tables the device's servo follows, and advances the worlds' clocks and eye-position
 signals. The baseline does the same with one ``models.Head`` and ``models.SaccadePlan`` per world
-(``Head.reset`` + the task, ``envs.saccade_env.plan_clipped``, ``SaccadePlan.angles`` for the table,
+(``Head.reset`` + the task, ``models.plan_clipped``, ``SaccadePlan.angles`` for the table,
 ``SaccadePlan.eye_position_signal``), as the batched env did before the planner was vectorised. No GPU
 extra needed: this is numpy and numba on the host.
 
@@ -20,8 +20,7 @@ import numba
 import numpy as np
 
 import models
-from envs.batched_planner import BatchedPlanner, SettledReset
-from envs.saccade_env import plan_clipped
+from models import BatchedPlanner, SettledReset, plan_clipped
 from envs.tasks import TASKS
 
 FIXATION_MS = 250

@@ -11,14 +11,13 @@ which needs the ``gpu`` extra (imported on first use: without it the single env 
 import gymnasium as gym
 
 from .batched_env import BatchedBinocularSaccade
-from .batched_planner import BatchedPlanner, PlanBatch, SettledReset
 from .display import compose_frame, grid_overlay
 from .saccade_env import BinocularSaccadeEnv
 from .tasks import TASKS, FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors_deg, make_task
 from .vision import REMAP_MODELS, EyeView, Vision, model_errors, normalized_error
 
 __all__ = [
-    "BinocularSaccadeEnv", "BatchedBinocularSaccade", "BatchedPlanner", "PlanBatch", "SettledReset", "Vision", "EyeView", "REMAP_MODELS", "normalized_error", "model_errors",
+    "BinocularSaccadeEnv", "BatchedBinocularSaccade", "Vision", "EyeView", "REMAP_MODELS", "normalized_error", "model_errors",
     "Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "make_task", "gaze_errors_deg",
     "compose_frame", "grid_overlay", "ENV_IDS",
 ]

@@ -12,7 +12,7 @@ info keys. What runs where, per step:
   tables, efference copies and eye-position signals (``envs.batched_planner``: the arithmetic of
   ``models.Head.plan_saccade`` and ``models.SaccadePlan`` batched, agreeing with them to 1e-9), i.e.
   the brain's side; episode resets world by world on one host ``models.Head`` (the settled state of
-  ``Head.reset`` with each world's own seed, ``envs.batched_planner.SettledReset``), with no CPU physics
+  ``Head.reset`` with each world's own seed, ``models.SettledReset``), with no CPU physics
   and no CPU rendering;
 * device: the remapping predictions of every model from the previous frame and the efference
   copies (``envs.batched_vision.TorchVision``), the physics (MuJoCo Warp, the servo following each
@@ -40,7 +40,7 @@ from gymnasium.vector.utils import batch_space
 
 from conformal import checks
 
-from .batched_planner import BatchedPlanner, SettledReset
+from models import BatchedPlanner, SettledReset
 from .saccade_env import _NO_COPY, BinocularSaccadeEnv
 from .tasks import FixateTask, FreeViewingTask, SearchTask, Task
 

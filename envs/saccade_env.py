@@ -362,29 +362,4 @@ class BinocularSaccadeEnv(gym.Env):
         return float(a[0]) * self.max_amplitude, float(a[1]) * self.max_amplitude, factor
 
     def _plan(self, h: float, v: float, factor: float):
-        return plan_clipped(self.head, h, v, factor)
-
-
-def plan_clipped(head: "models.Head", h: float, v: float, factor: float):
-    """Plan the saccade by (h, v) (rad) with the fixation distance scaled by ``factor``; one that would
-    leave the oculomotor range is shortened to its edge (bisection). Returns (plan, clipped)."""
-
-    def attempt(scale: float):
-        plan = head.plan_saccade(h * scale, v * scale)
-        if factor != 1.0:
-            c = head.cyclopean_position
-            plan = head.plan_saccade_to(c + factor * (plan.intended_target - c))
-        return plan
-
-    try:
-        return attempt(1.0), False
-    except models.OculomotorRangeError:
-        pass
-    lo, hi, best = 0.0, 1.0, None
-    for _ in range(10):  # bisection on the saccade's length
-        mid = (lo + hi) / 2
-        try:
-            best, lo = attempt(mid), mid
-        except models.OculomotorRangeError:
-            hi = mid
-    return (best if best is not None else head.plan_saccade(0.0, 0.0)), True
+        return models.plan_clipped(self.head, h, v, factor)

@@ -15,6 +15,10 @@ from .saccade_generator import PLANTS, BurstGenerator, SaccadeProfile
 from .scenes import CYCLOPEAN_EYE, SCENES, SceneInfo, screen_point
 from .simulation import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, EyeState, EyeTrace, Head
 from .vergence import VergenceDynamics
+from .gaze import cyclopean_amplitude, displaced, fixation_batch
+from .oculomotor_state import OculomotorState
+from .saccade_plans import Profiles, SaccadePlans, profiles
+from .planner import BatchedPlanner, SettledReset, plan_clipped
 
 __all__ = [
     "SCENES", "QUALITIES", "EYES", "DEFAULT_FOVY_DEG", "DEFAULT_IPD", "HEAD_XML", "CYCLOPEAN_EYE",
@@ -24,6 +28,7 @@ __all__ = [
     "EyeRenderer", "EyeImage", "StereoFrame",
     "SACCADE_MODELS", "BurstGenerator", "SaccadeProfile", "PLANTS", "VergenceDynamics", "EyePositionSignal",
     "VISUAL_LATENCY_MS", "MainSequence", "SaccadePlan", "fixation_angles", "listing_torsion", "fick_matrix", "fick_angles",
-    "gaze_direction", "rotation_vector",
+    "gaze_direction", "rotation_vector", "OculomotorState", "SaccadePlans", "Profiles", "profiles",
+    "BatchedPlanner", "SettledReset", "plan_clipped", "fixation_batch", "displaced", "cyclopean_amplitude",
     "GLBackendError", "ForkedGLContextError", "ModelFileError", "OculomotorRangeError", "gl_install_hint",
 ]

@@ -138,8 +138,10 @@ def listing_torsion(h, v) -> np.ndarray:
 
 
 def _listing_torsion(h: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``listing_torsion`` for arrays already checked (the formula's one home)."""
-    return 2.0 * np.arctan(np.tan(h / 2) * np.tan(v / 2))
+    """``listing_torsion`` for arrays already checked (the formula's one home: ``models._plan_kernels``)."""
+    from ._plan_kernels import listing_torsion as formula
+
+    return np.asarray(formula(h, v), float)
 
 
 def rotation_vector(R: np.ndarray) -> np.ndarray:
@@ -177,21 +179,21 @@ def fixation_angles(target_head: np.ndarray, eye_centres_head: np.ndarray) -> np
     c = checks.array("eye_centres_head", eye_centres_head, kinds="biuf", ndim=2).astype(float)
     if c.shape[1] != 3 or len(c) == 0:
         raise ValueError(f"eye_centres_head must be (n_eyes, 3) points in metres; got shape {c.shape}")
-    d = p[None, :] - c
-    dist = np.linalg.norm(d, axis=1)
+    from .gaze import fixation_batch
+
+    ang, ok, dist = fixation_batch(p[None], c)
+    if ok[0]:
+        return ang[0]
     if np.any(dist < MIN_TARGET_DISTANCE):
         raise OculomotorRangeError(
             f"target {p.tolist()} is closer than {MIN_TARGET_DISTANCE} m to an eye; choose a farther point"
         )
-    h = np.arctan2(-d[:, 1], d[:, 0])
-    v = np.arctan2(d[:, 2], np.hypot(d[:, 0], d[:, 1]))
-    if np.any(np.abs(h) > H_RANGE + 1e-9) or np.any(np.abs(v) > V_RANGE + 1e-9):
-        raise OculomotorRangeError(
-            "target outside the oculomotor range (+-45 deg horizontal, +-35 deg vertical): "
-            f"needs h = {np.rad2deg(h).round(1).tolist()} deg, v = {np.rad2deg(v).round(1).tolist()} deg "
-            "(left, right eye); move the target or turn the neck"
-        )
-    return np.column_stack([h, v, listing_torsion(h, v)])
+    h, v = ang[0, :, 0], ang[0, :, 1]
+    raise OculomotorRangeError(
+        "target outside the oculomotor range (+-45 deg horizontal, +-35 deg vertical): "
+        f"needs h = {np.rad2deg(h).round(1).tolist()} deg, v = {np.rad2deg(v).round(1).tolist()} deg "
+        "(left, right eye); move the target or turn the neck"
+    )
 
 
 @dataclass(frozen=True)
@@ -232,25 +234,17 @@ class MainSequence:
 
     def position_deg(self, t_ms, amp_deg: float) -> np.ndarray:
         """E(t) in degrees for ``t_ms`` after onset (0 before onset)."""
-        t = np.maximum(self._times(t_ms), 0.0)
-        amp_deg = self._amp(amp_deg)
-        if amp_deg <= 0:
-            return np.zeros_like(t)
-        m0, v, A = self.m0_deg, self.vpk_deg_per_ms, self._A(amp_deg)
-        x = (v * t - amp_deg) / m0
-        # m0 * [ln A + v t/m0 - ln(1 + A e^x)], written stably
-        return m0 * (np.log(A) + v * t / m0 - np.logaddexp(0.0, np.log(A) + x))
+        from ._plan_kernels import legacy_position
+
+        t = self._times(t_ms)
+        return np.asarray(legacy_position(t, self._amp(amp_deg), self.m0_deg, self.vpk_deg_per_ms), float)
 
     def velocity_deg_per_ms(self, t_ms, amp_deg: float) -> np.ndarray:
         """dE/dt in deg/ms (0 up to and including onset; jumps to the peak just after it)."""
+        from ._plan_kernels import legacy_rate
+
         t = self._times(t_ms)
-        amp_deg = self._amp(amp_deg)
-        if amp_deg <= 0:
-            return np.zeros_like(t)
-        A = self._A(amp_deg)
-        x = (self.vpk_deg_per_ms * np.maximum(t, 0.0) - amp_deg) / self.m0_deg
-        vel = self.vpk_deg_per_ms / (1.0 + A * np.exp(x))
-        return np.where(t > 0, vel, 0.0)
+        return np.asarray(legacy_rate(t, self._amp(amp_deg), self.m0_deg, self.vpk_deg_per_ms), float)
 
     def peak_velocity_deg_s(self, amp_deg: float) -> float:
         """Peak speed (deg/s) = vpk (1 - e^{-T/m0})."""
@@ -277,38 +271,6 @@ class MainSequence:
         A = self._A(amp_deg)
         x = -np.log(A * np.expm1(self.settle_deg / self.m0_deg))
         return float((amp_deg + self.m0_deg * x) / self.vpk_deg_per_ms)
-
-
-class _LegacyProfile:
-    """The :class:`MainSequence` trajectory in the profile interface of the saccade generator
-    (one profile for every plant; movement onset at the plan's onset)."""
-
-    def __init__(self, ms: MainSequence, amp_deg: float):
-        self.ms, self.amplitude_deg = ms, amp_deg
-        self.duration_ms = ms.duration_ms(amp_deg)
-        self.settle_ms = ms.settle_ms(amp_deg)
-        self.peak_velocity_deg_s = ms.peak_velocity_deg_s(amp_deg)
-        self.onset_ms, self.offset_ms = 0.0, self.duration_ms
-        self.burst = None
-
-    def position(self, t_rel, plant: int = 0) -> np.ndarray:
-        t_rel = np.asarray(t_rel, float)
-        if self.amplitude_deg <= 0:
-            return (t_rel >= 0).astype(float)
-        s = self.ms.position_deg(t_rel, self.amplitude_deg) / self.amplitude_deg
-        return np.where(t_rel >= self.settle_ms, 1.0, s)
-
-    def rate(self, t_rel, plant: int = 0) -> np.ndarray:
-        t_rel = np.asarray(t_rel, float)
-        if self.amplitude_deg <= 0:
-            return np.zeros_like(t_rel)
-        ds = self.ms.velocity_deg_per_ms(t_rel, self.amplitude_deg) / self.amplitude_deg
-        return np.where(t_rel >= self.settle_ms, 0.0, ds)
-
-
-def _listing(hv: np.ndarray) -> np.ndarray:
-    """Append Listing torsion to (..., 2) Fick (h, v) -> (..., 3)."""
-    return np.concatenate([hv, _listing_torsion(hv[..., :1], hv[..., 1:])], axis=-1)
 
 
 @dataclass
@@ -390,42 +352,30 @@ class SaccadePlan:
         for name in ("target", "intended_target"):
             if getattr(self, name) is not None:
                 setattr(self, name, _check_point(getattr(self, name), name))
+        from .saccade_plans import SaccadePlans
+
         self._amp_deg = float(np.rad2deg(self.amplitude))
         self._int_deg = float(np.rad2deg(self.intended_amplitude))
-        if self.legacy:
-            self._prof = _LegacyProfile(self.generator, self._int_deg)
-        else:
-            if self._int_deg > 90.0:
-                raise OculomotorRangeError(f"saccade amplitude {self._int_deg:.1f} deg exceeds the generator's 90 deg")
-            self._prof = self.generator.profile(self._int_deg)
-        R0 = fick_matrix(self.start_angles[:, 0], self.start_angles[:, 1], self.start_angles[:, 2])
-        R1 = fick_matrix(self.end_angles[:, 0], self.end_angles[:, 1], self.end_angles[:, 2])
-        Ri = fick_matrix(self.intended_end_angles[:, 0], self.intended_end_angles[:, 1], self.intended_end_angles[:, 2])
-        self.executed_rotation = R1 @ np.swapaxes(R0, -1, -2)
-        self.efference_copy = Ri @ np.swapaxes(R0, -1, -2)
-        B = PRIMARY_EYE_BASIS
-        self.efference_copy_eye = B.T @ np.swapaxes(R0, -1, -2) @ Ri @ B
-        # per-eye decomposition of each displacement into version (saccade) and vergence parts
-        self._parts = {key: self._decompose(end) for key, end in (("executed", self.end_angles),
-                                                                  ("intended", self.intended_end_angles))}
-        verg = max(abs(p[2]).max() for p in self._parts.values())
-        settle = self._prof.settle_ms
-        if self.vergence is not None:
-            settle = max(settle, self.vergence.settle_ms(float(np.rad2deg(verg)), self._prof.offset_ms,
-                                                         self.generator.settle_deg))
-        self._settle = float(settle)
-        self._eps = None
+        if not self.legacy and self._int_deg > 90.0:
+            raise OculomotorRangeError(f"saccade amplitude {self._int_deg:.1f} deg exceeds the generator's 90 deg")
+        nan3 = np.full(3, np.nan)
+        self._batch = b = SaccadePlans(
+            self.onset_ms, self.start_angles, self.end_angles, self.intended_end_angles, self.amplitude,
+            self.intended_amplitude, self.signal_start_angles, nan3 if self.target is None else self.target,
+            nan3 if self.intended_target is None else self.intended_target, generator=self.generator,
+            vergence=self.vergence, eye_position=self.eye_position)
+        self.executed_rotation = b.executed_rotation[0]
+        self.efference_copy = b.efference_copy[0]
+        self.efference_copy_eye = b.efference_copy_eye[0]
 
-    def _decompose(self, end: np.ndarray) -> tuple:
-        d = end[:, :2] - self.start_angles[:, :2]
-        version = d[:, 0].mean()
-        vergence = d[:, 0] - version
-        # plant rows: 0 nominal, 1 abducting, 2 adducting; the right eye abducts moving right (h > 0)
-        if self.legacy or version == 0:
-            plants = (0, 0)
-        else:
-            plants = (2, 1) if version > 0 else (1, 2)
-        return version, d[:, 1], vergence, plants
+    @classmethod
+    def from_batch(cls, plans, k: int) -> "SaccadePlan":
+        """Plan ``k`` of a ``models.SaccadePlans`` batch as a single plan."""
+        return cls(onset_ms=int(plans.onset_ms[k]), start_angles=plans.start[k], end_angles=plans.end[k],
+                   amplitude=float(plans.amplitude[k]), generator=plans.generator, target=plans.target[k],
+                   intended_target=plans.intended_target[k], intended_end_angles=plans.intended_end[k],
+                   intended_amplitude=float(plans.intended_amplitude[k]), vergence=plans.vergence,
+                   eye_position=plans.eye_position, signal_start_angles=plans.signal_start[k])
 
     # -- summary numbers -------------------------------------------------------------------
     @property
@@ -441,118 +391,78 @@ class SaccadePlan:
     def duration_ms(self) -> float:
         """Saccade duration: between the 30 deg/s crossings of the eye speed (burst generator), or
         onset until the speed falls below 20 deg/s (legacy main sequence)."""
-        return self._prof.duration_ms
+        return float(self._batch.duration_ms[0])
 
     @property
     def settle_ms(self) -> float:
         """Time after onset at which the trajectory (vergence included) has reached its endpoint."""
-        return self._settle
+        return float(self._batch.settle_ms[0])
 
     @property
     def offset_ms(self) -> float:
         """Absolute time of saccade offset (the last 30 deg/s crossing; legacy: onset + duration)."""
-        return self.onset_ms + self._prof.offset_ms
+        return float(self._batch.offset_ms[0])
 
     @property
     def movement_onset_ms(self) -> float:
         """Absolute time the eye speed first exceeds 30 deg/s (legacy: ``onset_ms``)."""
-        return self.onset_ms + self._prof.onset_ms
+        return float(self._batch.movement_onset_ms[0])
 
     @property
     def end_ms(self) -> int:
         """Absolute whole millisecond from which the eyes hold the endpoint."""
-        return int(self.onset_ms + np.ceil(self._settle))
+        return int(self._batch.end_ms[0])
 
     @property
     def peak_velocity(self) -> float:
         """Cyclopean peak speed, rad/s (of the executed displacement)."""
-        scale = self._amp_deg / self._int_deg if self._int_deg > 0 else 0.0
-        return float(np.deg2rad(self._prof.peak_velocity_deg_s * scale))
+        return float(self._batch.peak_velocity[0])
 
     @property
     def burst(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The burst of the saccade generator: (absolute times ms, rate deg/ms); None for legacy."""
-        b = getattr(self._prof, "burst", None)
-        if b is None:
+        if self.legacy:
             return None
-        return self.onset_ms + np.arange(len(b)) * self._prof.dt_ms, b.copy()
+        prof = self.generator.profile(self._int_deg)
+        return self.onset_ms + np.arange(len(prof.burst)) * prof.dt_ms, prof.burst.copy()
 
     @property
     def endpoint_error_deg(self) -> np.ndarray:
         """Per eye (2,), the angle between the executed and the intended gaze direction at the end."""
-        g1 = gaze_direction(self.end_angles[:, 0], self.end_angles[:, 1])
-        g0 = gaze_direction(self.intended_end_angles[:, 0], self.intended_end_angles[:, 1])
-        return np.degrees(np.arccos(np.clip((g0 * g1).sum(axis=1), -1.0, 1.0)))
+        return self._batch.endpoint_error_deg[0].copy()
 
     # -- trajectory ------------------------------------------------------------------------
+    def _at(self, t_ms, method, *args) -> np.ndarray:
+        t = MainSequence._times(t_ms)
+        return method(t.reshape(1, -1), *args).reshape(t.shape + (2, 3))
+
     def profile(self, t_ms) -> tuple[np.ndarray, np.ndarray]:
         """Normalised position ``s`` and its rate ``ds/dt`` (1/ms) of the nominal plant at finite
         absolute times ``t_ms``."""
-        tr = MainSequence._times(t_ms) - self.onset_ms
-        done = tr >= self._settle
-        return (np.where(done, 1.0, self._prof.position(tr, 0)), np.where(done, 0.0, self._prof.rate(tr, 0)))
-
-    def _hv(self, tr: np.ndarray, which: str) -> tuple[np.ndarray, np.ndarray]:
-        """(h, v) and their rates (..., 2, 2) at times ``tr`` after onset for the executed or intended command."""
-        version, dv, verg, plants = self._parts[which]
-        P = self._prof
-        s_nom, ds_nom = P.position(tr, 0), P.rate(tr, 0)
-        if self.vergence is None:
-            r, dr = s_nom, ds_nom
-        else:
-            r, dr = self.vergence.fraction(tr, P.offset_ms), self.vergence.rate(tr, P.offset_ms)
-        h, dh, v, dvv = [], [], [], []
-        for e in range(2):
-            s, ds = (s_nom, ds_nom) if plants[e] == 0 else (P.position(tr, plants[e]), P.rate(tr, plants[e]))
-            h.append(self.start_angles[e, 0] + version * s + verg[e] * r)
-            dh.append(version * ds + verg[e] * dr)
-            v.append(self.start_angles[e, 1] + dv[e] * s_nom)
-            dvv.append(dv[e] * ds_nom)
-        hv = np.stack([np.stack(h, -1), np.stack(v, -1)], -1)
-        dhv = np.stack([np.stack(dh, -1), np.stack(dvv, -1)], -1)
-        done = (tr >= self._settle)[..., None, None]
-        end = (self.end_angles if which == "executed" else self.intended_end_angles)[:, :2]
-        return np.where(done, end, hv), np.where(done, 0.0, dhv)
+        t = MainSequence._times(t_ms)
+        tr = (t - self.onset_ms).reshape(1, -1)
+        done = tr >= self.settle_ms
+        p = self._batch.profiles
+        s = np.where(done, 1.0, p.position(tr, 0)).reshape(t.shape)
+        return s, np.where(done, 0.0, p.rate(tr, 0)).reshape(t.shape)
 
     def angles(self, t_ms) -> np.ndarray:
         """Executed Fick angles at absolute times ``t_ms`` (shape ``(..., 2, 3)``): what the eyes do."""
-        hv, _ = self._hv(MainSequence._times(t_ms) - self.onset_ms, "executed")
-        return _listing(hv)
+        return self._at(t_ms, self._batch.angles)
 
     def intended_angles(self, t_ms) -> np.ndarray:
         """The command's Fick angles at absolute times ``t_ms`` (noise-free; the efference copy's time course)."""
-        hv, _ = self._hv(MainSequence._times(t_ms) - self.onset_ms, "intended")
-        return _listing(hv)
+        return self._at(t_ms, self._batch.angles, "intended")
 
     def velocities(self, t_ms) -> np.ndarray:
         """Executed angular rates (rad/ms) of the Fick angles at absolute times ``t_ms``."""
-        hv, dhv = self._hv(MainSequence._times(t_ms) - self.onset_ms, "executed")
-        h, v = hv[..., 0], hv[..., 1]
-        th, tv = np.tan(h / 2), np.tan(v / 2)
-        # d/dt 2 atan(th tv) = 2/(1+(th tv)^2) * (0.5 sec^2(h/2) tv h' + 0.5 th sec^2(v/2) v')
-        dt = (1.0 / (1.0 + (th * tv) ** 2)) * (
-            (1 + th**2) * tv * dhv[..., 0] + th * (1 + tv**2) * dhv[..., 1]
-        )
-        return np.concatenate([dhv, dt[..., None]], axis=-1)
+        return self._at(t_ms, self._batch.velocities)
 
     def eye_position_signal(self, t_ms) -> np.ndarray:
         """The extraretinal eye-position signal (Fick angles, ``(..., 2, 3)`` rad) at absolute
         times ``t_ms``: the intended trajectory smoothed and delayed (``models.eye_position_signal``),
         from ``signal_start_angles`` to ``intended_end_angles``."""
-        tr = MainSequence._times(t_ms) - self.onset_ms
-        if self._eps is None:
-            knots = np.arange(0.0, self._settle + 0.5, 0.5)
-            hv, _ = self._hv(knots, "intended")
-            total = (self.intended_end_angles - self.start_angles)[:, :2]
-            s_nom = self._prof.position(knots, 0)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                norm = np.where(total != 0, (hv - self.start_angles[:, :2]) / total, s_nom[:, None, None])
-            self._eps = (knots, norm.reshape(len(knots), 4))
-        knots, norm = self._eps
-        smooth = np.stack([self.eye_position.smooth(tr, knots, norm[:, c]) for c in range(4)], axis=-1)
-        start = self.signal_start_angles[:, :2]
-        hv = start + (self.intended_end_angles[:, :2] - start) * smooth.reshape(tr.shape + (2, 2))
-        return _listing(hv)
+        return self._at(t_ms, self._batch.eye_position_signal)
 
     def sample(self, step_ms: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
         """Times (relative to onset) and planned angles from onset to settle, every ``step_ms`` (in [0.001, 1000])."""

@@ -93,69 +93,59 @@ class SaccadeProfile:
     settle_deg: float
 
     def __post_init__(self):
-        rates = np.gradient(self.positions, self.dt_ms, axis=1)
-        object.__setattr__(self, "_rates", rates)
-        speed = rates[0] * self.amplitude_deg * 1000.0  # nominal plant, deg/s
-        above = np.flatnonzero(speed > DETECTION_THRESHOLD_DEG_S)
-        if len(above):
-            first, last = above[0] * self.dt_ms, (above[-1] + 1) * self.dt_ms
-        else:
-            first = last = 0.0
-        object.__setattr__(self, "_detected", (float(first), float(last)))
-        # settle: from here on every plant is within settle_deg of the endpoint (positions snap to 1)
-        err = (1.0 - self.positions).max(axis=0) * self.amplitude_deg
-        late = np.flatnonzero(err >= self.settle_deg)
-        object.__setattr__(self, "_settle", float((late[-1] + 1) * self.dt_ms) if len(late) else 0.0)
+        from . import _plan_kernels as K
+
+        tab = np.ascontiguousarray(np.asarray(self.positions, float)[None])  # a table of one amplitude
+        rates = np.ascontiguousarray(np.gradient(tab, self.dt_ms, axis=2))
+        zero = np.zeros(1, np.intp)
+        marks = np.empty((1, 4))
+        K.profile_marks(tab, self.dt_ms, zero, zero, np.zeros(1), np.array([float(self.amplitude_deg)]),
+                        np.array([tab.shape[2]], np.intp), DETECTION_THRESHOLD_DEG_S, self.settle_deg, marks)
+        object.__setattr__(self, "_marks", tuple(float(x) for x in marks[0]))
+        object.__setattr__(self, "_tables", (tab, rates, np.array([[0.0, 0.0, 0.0, self.amplitude_deg, marks[0, 2]]])))
 
     @property
     def onset_ms(self) -> float:
         """Movement onset after the burst onset: first 30 deg/s crossing (nominal plant), ms."""
-        return self._detected[0]
+        return self._marks[0]
 
     @property
     def offset_ms(self) -> float:
         """Movement offset after the burst onset: last 30 deg/s crossing, ms."""
-        return self._detected[1]
+        return self._marks[1]
 
     @property
     def duration_ms(self) -> float:
         """Detected duration: between the 30 deg/s crossings of the nominal plant's speed."""
-        return self._detected[1] - self._detected[0]
+        return self._marks[1] - self._marks[0]
 
     @property
     def settle_ms(self) -> float:
         """Time after burst onset from which all plants are within ``settle_deg`` of the endpoint."""
-        return self._settle
+        return self._marks[2]
 
     @property
     def peak_velocity_deg_s(self) -> float:
         """Peak speed of the nominal plant (deg/s)."""
-        return float(self._rates[0].max() * self.amplitude_deg * 1000.0)
+        return self._marks[3]
 
-    def _index(self, t_rel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        x = np.clip(t_rel / self.dt_ms, 0.0, self.positions.shape[1] - 1.0)
-        i = np.minimum(x.astype(np.intp), self.positions.shape[1] - 2)
-        return i, x - i, (t_rel >= self._settle) | (t_rel >= (self.positions.shape[1] - 1) * self.dt_ms)
+    def _values(self, t_rel, plant: int, rate: bool) -> np.ndarray:
+        from . import _plan_kernels as K
+
+        t = np.asarray(t_rel, float)
+        tab, rates, prof = self._tables
+        out = np.empty((1, t.size))
+        K.profile_values(tab, rates, self.dt_ms, prof, False, 0.0, 0.0, int(plant),
+                         np.ascontiguousarray(t.reshape(1, -1)), rate, out)
+        return out.reshape(t.shape)
 
     def position(self, t_rel: np.ndarray, plant: int = 0) -> np.ndarray:
         """Normalised position at ``t_rel`` ms after burst onset (0 before, 1 from ``settle_ms``)."""
-        t_rel = np.asarray(t_rel, float)
-        if self.amplitude_deg <= 0:
-            return (t_rel >= 0).astype(float)
-        i, w, done = self._index(t_rel)
-        p = self.positions[plant]
-        s = p[i] + w * (p[i + 1] - p[i])
-        return np.where(t_rel <= 0, 0.0, np.where(done, 1.0, s))
+        return self._values(t_rel, plant, False)
 
     def rate(self, t_rel: np.ndarray, plant: int = 0) -> np.ndarray:
         """d(position)/dt (1/ms) at ``t_rel`` (0 outside the movement)."""
-        t_rel = np.asarray(t_rel, float)
-        if self.amplitude_deg <= 0:
-            return np.zeros_like(t_rel)
-        i, w, done = self._index(t_rel)
-        r = self._rates[plant]
-        v = r[i] + w * (r[i + 1] - r[i])
-        return np.where((t_rel <= 0) | done, 0.0, v)
+        return self._values(t_rel, plant, True)
 
 
 def simulate(generator: "BurstGenerator", amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS,

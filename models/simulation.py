@@ -36,6 +36,8 @@ from conformal import checks
 from ._gl import mujoco
 from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, _path, _write_spec, build_spec
 from .eye_position_signal import EyePositionSignal
+from .gaze import cyclopean_amplitude, displaced
+from .oculomotor_state import OculomotorState
 from .oculomotor import (
     NULL_SACCADE,
     SACCADE_MODELS,
@@ -293,18 +295,73 @@ class Head:
                         "compiled MuJoCo model (its MjSpec) and an OpenGL context. Make a new Head with the same "
                         "arguments instead; for the same state, reset it with the same seed and repeat the calls")
 
+    # ------------------------------------------------------------------ state
+    def get_state(self) -> OculomotorState:
+        """The oculomotor state (:class:`OculomotorState`: clock, holds, fixation, plans, random
+        stream, shown objects); with ``data`` (MuJoCo's joints and set-points) all that a later
+        :meth:`set_state` needs to continue from here."""
+        m = self.model
+        return OculomotorState(
+            time_ms=self.time_ms, hold=self._hold.copy(), signal_hold=self._signal_hold.copy(),
+            fixation_head=self._fix_head.copy(), rng=self._rng, seed=self._seed, plan=self._plan,
+            signal_plan=self._signal_plan, last_plan=self.last_plan,
+            flashes={m.geom(g).name: off for g, off in self._flash_off.items()},
+            opacity={m.geom(g).name: float(m.geom_rgba[g, 3]) for g in self._alpha0})
+
+    def set_state(self, state: OculomotorState) -> None:
+        """Make ``state`` this head's oculomotor state (the physics in ``data`` is left as it is; call
+        ``mujoco.mj_forward`` after changing it). Objects not in ``state.opacity`` get the scene's own
+        visibility back, flashes not in ``state.flashes`` are hidden."""
+        if not isinstance(state, OculomotorState):
+            raise checks.InputTypeError(f"state must be a models.OculomotorState (from Head.get_state); "
+                                        f"got {type(state).__name__}")
+        m = self.model
+        for gid, alpha in self._alpha0.items():  # the scene's own visibility, then the state's
+            m.geom_rgba[gid, 3] = alpha
+        self._alpha0 = {}
+        for name, alpha in state.opacity.items():
+            gid = self._geom_id(name)
+            self._alpha0[gid] = float(m.geom_rgba[gid, 3])
+            m.geom_rgba[gid, 3] = alpha
+        for name in self.scene.flashes:
+            m.geom_rgba[m.geom(name).id, 3] = 0.0
+        self._flash_off = {}
+        for name, off in state.flashes.items():
+            gid = m.geom(name).id
+            m.geom_rgba[gid, 3] = 1.0
+            self._flash_off[gid] = int(off)
+        self.time_ms = int(state.time_ms)
+        self._hold = np.array(state.hold, float).reshape(2, 3)
+        self._signal_hold = np.array(state.signal_hold, float).reshape(2, 3)
+        self._fix_head = np.array(state.fixation_head, float).reshape(3)
+        self._rng, self._seed = state.rng, state.seed
+        self._plan, self._signal_plan, self.last_plan = state.plan, state.signal_plan, state.last_plan
+        self._table = None
+
+    @property
+    def eye_joint_addresses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where the six eye joints (left h, v, t, right h, v, t) sit in ``data.qpos`` and ``data.qvel``."""
+        return self._qadr.copy(), self._vadr.copy()
+
+    @property
+    def eye_actuator_ids(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The eye joints' actuator ids in ``data.ctrl``: position servo, velocity set-point and torque
+        feed-forward, six each (joints ordered as :attr:`eye_joint_addresses`)."""
+        return self._pos_act.copy(), self._vel_act.copy(), self._ff_act.copy()
+
     # ------------------------------------------------------------------ geometry
-    def _head_pose(self) -> tuple[np.ndarray, np.ndarray]:
+    def head_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """World position (3,) and orientation (3, 3) of the head body now."""
         return self.data.xpos[self._head_body].copy(), self.data.xmat[self._head_body].reshape(3, 3).copy()
 
     def to_head(self, point) -> np.ndarray:
         """World point -> head frame (x forward, y left, z up; origin at the head body)."""
-        x, R = self._head_pose()
+        x, R = self.head_pose()
         return R.T @ (_check_point(point) - x)
 
     def to_world(self, point_head) -> np.ndarray:
         """Head-frame point (a finite 3-vector) -> world."""
-        x, R = self._head_pose()
+        x, R = self.head_pose()
         return x + R @ _check_point(point_head, "point_head")
 
     @property
@@ -473,9 +530,10 @@ class Head:
                 raise OculomotorRangeError(f"neck angle {v} outside [{lo:.3f}, {hi:.3f}] rad")
         self.data.ctrl[self._neck_act] = [pan, tilt]
 
-    def _cyclopean_dir(self, p_head) -> np.ndarray:
-        d = np.asarray(p_head) - self._eye_centres_head.mean(axis=0)
-        return d / np.linalg.norm(d)
+    def _amplitude(self, p_head) -> float:
+        """Cyclopean angle (rad) between the fixation point and head-frame point ``p_head``."""
+        c = self._eye_centres_head.mean(axis=0)
+        return float(cyclopean_amplitude(c, self._fix_head[None], np.asarray(p_head, float)[None])[0])
 
     def plan_saccade_to(self, target, latency_ms: int = 0) -> SaccadePlan:
         """Plan a binocular saccade to ``target`` (object name or world point) starting
@@ -492,12 +550,7 @@ class Head:
         current fixation distance."""
         latency_ms = _ms("latency_ms", latency_ms)
         hv = np.array([_angle("horizontal", horizontal), _angle("vertical", vertical)])
-        c = self._eye_centres_head.mean(axis=0)
-        d = self._fix_head - c
-        dist = np.linalg.norm(d)
-        g = d / dist
-        H, V = np.arctan2(-g[1], g[0]), np.arcsin(g[2])
-        p_head = c + dist * gaze_direction(H + hv[0], V + hv[1])
+        p_head = displaced(self._eye_centres_head.mean(axis=0), self._fix_head[None], hv[None])[0]
         return self._plan_head(p_head, latency_ms, intended_world=self.to_world(p_head))
 
     def _plan_head(self, p_head, latency_ms, intended_world) -> SaccadePlan:
@@ -505,23 +558,19 @@ class Head:
             raise RuntimeError("a saccade is in flight; step until it ends (plan.end_ms) before planning the next")
         start = self._hold.copy()
         c = self._eye_centres_head.mean(axis=0)
-        amp = float(np.arccos(np.clip(self._cyclopean_dir(self._fix_head) @ self._cyclopean_dir(p_head), -1, 1)))
+        amp = self._amplitude(p_head)
         intended_amp = amp
         end_point = np.asarray(p_head, float)
         end = fixation_angles(end_point, self._eye_centres_head)  # validates the intended target
         intended_end = end.copy()
         if self.endpoint_noise > 0 and amp > NULL_SACCADE:
-            d = end_point - c
-            dist = np.linalg.norm(d)
-            g = d / dist
-            H, V = np.arctan2(-g[1], g[0]), np.arcsin(g[2])
-            dH, dV = self._rng.normal(0.0, self.endpoint_noise * amp, size=2)
-            end_point = c + dist * gaze_direction(H + dH, V + dV)
+            dHV = self._rng.normal(0.0, self.endpoint_noise * amp, size=2)
+            end_point = displaced(c, end_point[None], dHV[None])[0]
             try:
                 end = fixation_angles(end_point, self._eye_centres_head)
             except OculomotorRangeError:
                 end_point, end = np.asarray(p_head, float), fixation_angles(p_head, self._eye_centres_head)
-            amp = float(np.arccos(np.clip(self._cyclopean_dir(self._fix_head) @ self._cyclopean_dir(end_point), -1, 1)))
+            amp = self._amplitude(end_point)
         legacy = self.saccade_model == "legacy"
         return SaccadePlan(onset_ms=self.time_ms + latency_ms, start_angles=start, end_angles=end,
                            amplitude=amp, generator=self.main_sequence if legacy else self.generator,

@@ -23,12 +23,13 @@ Listing's law for each eye's own gaze direction at every instant (L1), as in the
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from conformal import checks
+
+from ._plan_kernels import vergence_fraction, vergence_rate
 
 __all__ = ["VergenceDynamics"]
 
@@ -48,26 +49,21 @@ class VergenceDynamics:
         object.__setattr__(self, "tau_ms", checks.real("tau_ms", self.tau_ms, 10.0, 2000.0))
         object.__setattr__(self, "saccade_speedup", checks.real("saccade_speedup", self.saccade_speedup, 1.0, 20.0))
 
-    def fraction(self, t_rel_ms, saccade_offset_ms: float) -> np.ndarray:
+    def fraction(self, t_rel_ms, saccade_offset_ms) -> np.ndarray:
         """Fraction of the vergence change done ``t_rel_ms`` after burst onset (0 before it)."""
-        t = np.asarray(t_rel_ms, float)
-        fast = np.clip(t, 0.0, saccade_offset_ms) * self.saccade_speedup
-        slow = np.maximum(t - saccade_offset_ms, 0.0)
-        return -np.expm1(-(fast + slow) / self.tau_ms)
+        return vergence_fraction(np.asarray(t_rel_ms, float), saccade_offset_ms, self.saccade_speedup, self.tau_ms)
 
-    def rate(self, t_rel_ms, saccade_offset_ms: float) -> np.ndarray:
+    def rate(self, t_rel_ms, saccade_offset_ms) -> np.ndarray:
         """d fraction / dt (1/ms)."""
-        t = np.asarray(t_rel_ms, float)
-        left = 1.0 - self.fraction(t, saccade_offset_ms)
-        k = np.where(t < saccade_offset_ms, self.saccade_speedup, 1.0) / self.tau_ms
-        return np.where(t > 0, k * left, 0.0)
+        return vergence_rate(np.asarray(t_rel_ms, float), saccade_offset_ms, self.saccade_speedup, self.tau_ms)
 
-    def settle_ms(self, change_deg: float, saccade_offset_ms: float, settle_deg: float) -> float:
-        """Time after burst onset from which the remaining vergence change is below ``settle_deg``."""
-        if change_deg <= settle_deg:
-            return 0.0
-        need = self.tau_ms * math.log(change_deg / settle_deg)  # "effective" time constants needed
-        fast = saccade_offset_ms * self.saccade_speedup
-        if need <= fast:
-            return need / self.saccade_speedup
-        return saccade_offset_ms + (need - fast)
+    def settle_ms(self, change_deg, saccade_offset_ms, settle_deg: float):
+        """Time after burst onset from which the remaining vergence change is below ``settle_deg``
+        (arrays broadcast; a float for scalar arguments)."""
+        change = np.asarray(change_deg, float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            need = self.tau_ms * np.log(np.where(change > settle_deg, change / settle_deg, 1.0))  # effective time constants
+        fast = np.asarray(saccade_offset_ms, float) * self.saccade_speedup
+        out = np.where(need <= fast, need / self.saccade_speedup, saccade_offset_ms + (need - fast))
+        out = np.where(change <= settle_deg, 0.0, out)
+        return float(out) if out.ndim == 0 else out

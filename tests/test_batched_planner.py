@@ -1,6 +1,6 @@
-"""The vectorised planner of the batched env (``envs.batched_planner``) against the per-world objects it
+"""The vectorised planner of the batched env (``models.planner``) against the per-world objects it
 batches: ``models.BurstGenerator.profile`` for every amplitude, and ``models.Head`` + ``models.SaccadePlan``
-(the single env's planning, ``envs.saccade_env.plan_clipped``) over sequences of saccades: plans,
+(the single env's planning, ``models.plan_clipped``) over sequences of saccades: plans,
 command tables, times, efference copies and the eye-position signal. Pure numpy (no GPU extra)."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 import envs
 import models
-from envs.batched_planner import BatchedPlanner, burst_profiles
-from envs.saccade_env import plan_clipped
+from models import BatchedPlanner, plan_clipped
+from models import profiles as burst_profiles
 
 PROFILE_FIELDS = ("onset_ms", "offset_ms", "duration_ms", "settle_ms", "peak_velocity_deg_s")
 
@@ -192,7 +192,7 @@ def test_planner_input_edges():
 def test_settled_reset_equals_head_reset(scene):
     """SettledReset (the batched env's resets) leaves a head as Head.reset does: joints, velocities,
     set-points, mocap layout, clock, held angles, fixation point and the generator's state."""
-    from envs.batched_planner import SettledReset
+    from models import SettledReset
 
     a, b = models.Head(scene, 16, seed=0), models.Head(scene, 16, seed=0)
     fast = SettledReset(a)

@@ -1,0 +1,281 @@
+"""The saccade model's trajectories as compiled loops (numba): the one implementation of the plan's
+time course, for one head (``models.SaccadePlan``, N = 1) and for N worlds (``models.SaccadePlans``).
+
+Per saccade ``w`` and time ``t`` after burst onset: the normalised profile of each plant (the burst
+generator's table interpolated in amplitude, or the analytic main sequence of the legacy model),
+vergence dynamics, the per-eye mix ``start + version s_plant + vergence r`` snapped to the endpoint at
+the settle time, Listing torsion, their rates, and the eye-position signal (the intended profile's
+increments spread by a Gaussian's CDF). The scalar formulas shared with numpy code (Listing torsion,
+the vergence fraction and its rate, the legacy main sequence) are written once, as plain functions
+compiled here both inline for the kernels and as numpy ufuncs (``numba.vectorize``).
+
+No fast-math: results are reproducible to the last bit between calls. Cached on disk as
+``conformal.kernels``' kernels are. Saccades run in parallel over numba's threads.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from conformal.kernels import DISK_CACHE
+
+__all__ = ["angles", "rates", "signals", "profile_marks", "profile_values", "listing_torsion", "vergence_fraction", "vergence_rate",
+           "legacy_position", "legacy_rate"]
+
+_inline = nb.njit(cache=DISK_CACHE, nogil=True, inline="always")
+_par = nb.njit(cache=DISK_CACHE, nogil=True, parallel=True)
+
+
+def _ufunc(f):
+    return nb.vectorize(cache=DISK_CACHE)(f)
+
+
+# ------------------------------------------------------------------------------ scalar formulas
+def _listing_torsion(h, v):
+    """Fick torsion in Listing's plane: ``tan(t/2) = tan(h/2) tan(v/2)`` (Tweed & Vilis 1990)."""
+    return 2.0 * math.atan(math.tan(h / 2) * math.tan(v / 2))
+
+
+def _vergence_fraction(t, offset, speedup, tau):
+    """Fraction of a vergence change done ``t`` ms after burst onset: first order with time constant
+    ``tau / speedup`` until the saccade's ``offset`` and ``tau`` after it (``models.VergenceDynamics``)."""
+    fast = min(max(t, 0.0), offset) * speedup
+    slow = max(t - offset, 0.0)
+    return -math.expm1(-(fast + slow) / tau)
+
+
+_vfrac = _inline(_vergence_fraction)
+
+
+def _vergence_rate(t, offset, speedup, tau):
+    """d(fraction)/dt (1/ms) of :func:`_vergence_fraction` (0 before onset)."""
+    if t <= 0:
+        return 0.0
+    k = (speedup if t < offset else 1.0) / tau
+    return k * (1.0 - _vfrac(t, offset, speedup, tau))
+
+
+def _legacy_position(t, amp, m0, vpk):
+    """The main sequence of Van Wetter & Van Opstal (2008) in degrees, ``t`` ms after onset:
+    ``E = m0 ln[A e^{vpk t/m0} / (1 + A e^{(vpk t - amp)/m0})]``, ``A = 1 / (1 - e^{-amp/m0})``."""
+    if amp <= 0:
+        return 0.0
+    t = max(t, 0.0)
+    lnA = -math.log(-math.expm1(-amp / m0))
+    y = lnA + (vpk * t - amp) / m0
+    softplus = max(y, 0.0) + math.log1p(math.exp(-abs(y)))  # ln(1 + e^y), stably
+    return m0 * (lnA + vpk * t / m0 - softplus)
+
+
+def _legacy_rate(t, amp, m0, vpk):
+    """dE/dt (deg/ms) of :func:`_legacy_position` (0 up to and including onset)."""
+    if amp <= 0 or t <= 0:
+        return 0.0
+    x = (vpk * t - amp) / m0
+    return vpk / (1.0 - math.exp(x) / math.expm1(-amp / m0))
+
+
+listing_torsion = _ufunc(_listing_torsion)
+vergence_fraction = _ufunc(_vergence_fraction)
+vergence_rate = _ufunc(_vergence_rate)
+legacy_position = _ufunc(_legacy_position)
+legacy_rate = _ufunc(_legacy_rate)
+_listing = _inline(_listing_torsion)
+_vrate = _inline(_vergence_rate)
+_lpos = _inline(_legacy_position)
+_lrate = _inline(_legacy_rate)
+
+
+# ------------------------------------------------------------------------------ profiles
+@_inline
+def _position(tab, dt, prof, w, t, plant, legacy, m0, vpk):  # pragma: no cover - compiled
+    """Normalised position of ``plant`` of saccade w at t ms after burst onset. ``prof[w]``: (lo, hi,
+    weight) of its interpolation in amplitude, its amplitude (deg) and its profile's settle time."""
+    amp, settle = prof[w, 3], prof[w, 4]
+    if amp <= 0:
+        return 1.0 if t >= 0 else 0.0
+    if t <= 0:
+        return 0.0
+    if legacy:
+        return 1.0 if t >= settle else _lpos(t, amp, m0, vpk) / amp
+    K = tab.shape[2]
+    if t >= settle or t >= (K - 1) * dt:
+        return 1.0
+    lo, hi, wt = int(prof[w, 0]), int(prof[w, 1]), prof[w, 2]
+    x = min(max(t / dt, 0.0), K - 1.0)
+    i = min(int(x), K - 2)
+    frac = x - i
+    a = (1 - wt) * tab[lo, plant, i] + wt * tab[hi, plant, i]
+    b = (1 - wt) * tab[lo, plant, i + 1] + wt * tab[hi, plant, i + 1]
+    return a + frac * (b - a)
+
+
+@_inline
+def _rate(rtab, dt, prof, w, t, plant, legacy, m0, vpk):  # pragma: no cover - compiled
+    """d(position)/dt (1/ms) of :func:`_position` (0 outside the movement); ``rtab``: the table's rates."""
+    amp, settle = prof[w, 3], prof[w, 4]
+    if amp <= 0 or t <= 0 or t >= settle:
+        return 0.0
+    if legacy:
+        return _lrate(t, amp, m0, vpk) / amp
+    K = rtab.shape[2]
+    if t >= (K - 1) * dt:
+        return 0.0
+    lo, hi, wt = int(prof[w, 0]), int(prof[w, 1]), prof[w, 2]
+    x = min(max(t / dt, 0.0), K - 1.0)
+    i = min(int(x), K - 2)
+    frac = x - i
+    a = (1 - wt) * rtab[lo, plant, i] + wt * rtab[hi, plant, i]
+    b = (1 - wt) * rtab[lo, plant, i + 1] + wt * rtab[hi, plant, i + 1]
+    return a + frac * (b - a)
+
+
+@_par
+def profile_values(tab, rtab, dt, prof, legacy, m0, vpk, plant, t_rel, rate, out):  # pragma: no cover - compiled
+    """Normalised positions (or, with ``rate``, their rates in 1/ms) of ``plant`` of n profiles, out (n, T),
+    at ``t_rel`` (n, T) ms after burst onset."""
+    n, T = t_rel.shape
+    for w in nb.prange(n):
+        for k in range(T):
+            if rate:
+                out[w, k] = _rate(rtab, dt, prof, w, t_rel[w, k], plant, legacy, m0, vpk)
+            else:
+                out[w, k] = _position(tab, dt, prof, w, t_rel[w, k], plant, legacy, m0, vpk)
+
+
+# ------------------------------------------------------------------------------ plans
+@_inline
+def _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start, end, w, t):  # pragma: no cover
+    """Fick (h, v) of both eyes of saccade w at t ms after onset: (s_nom, h_left, v_left, h_right, v_right).
+    ``plan[w]``: (settle time, saccade offset, version, dv_left, dv_right, vergence_left, vergence_right)."""
+    s_nom = _position(tab, dt, prof, w, t, 0, legacy, m0, vpk)
+    if t >= plan[w, 0]:
+        return s_nom, end[w, 0, 0], end[w, 0, 1], end[w, 1, 0], end[w, 1, 1]
+    r = _vfrac(t, plan[w, 1], speedup, tau) if verg_on else s_nom
+    s0 = s_nom if plants[w, 0] == 0 else _position(tab, dt, prof, w, t, plants[w, 0], legacy, m0, vpk)
+    s1 = s_nom if plants[w, 1] == 0 else _position(tab, dt, prof, w, t, plants[w, 1], legacy, m0, vpk)
+    version = plan[w, 2]
+    return (s_nom, start[w, 0, 0] + version * s0 + plan[w, 5] * r, start[w, 0, 1] + plan[w, 3] * s_nom,
+            start[w, 1, 0] + version * s1 + plan[w, 6] * r, start[w, 1, 1] + plan[w, 4] * s_nom)
+
+
+@_par
+def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start, end,
+           t_rel, out):  # pragma: no cover - compiled
+    """Fick angles (h, v, Listing torsion) of both eyes, out (n, T, 2, 3), of n saccades at ``t_rel``
+    (n, T) ms after their onsets. Arguments: see :func:`_hv` (``end``: executed or intended endpoint)."""
+    n, T = t_rel.shape
+    for w in nb.prange(n):
+        for k in range(T):
+            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start,
+                                    end, w, t_rel[w, k])
+            out[w, k, 0, 0], out[w, k, 0, 1], out[w, k, 0, 2] = h0, v0, _listing(h0, v0)
+            out[w, k, 1, 0], out[w, k, 1, 1], out[w, k, 1, 2] = h1, v1, _listing(h1, v1)
+
+
+@_par
+def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start, end,
+          t_rel, out):  # pragma: no cover - compiled
+    """Rates (rad/ms) of the Fick angles of both eyes, out (n, T, 2, 3), at ``t_rel`` (n, T); torsion's
+    by the chain rule of Listing's ``tan(t/2) = tan(h/2) tan(v/2)``."""
+    n, T = t_rel.shape
+    for w in nb.prange(n):
+        for k in range(T):
+            t = t_rel[w, k]
+            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start,
+                                    end, w, t)
+            if t >= plan[w, 0]:
+                for e in range(2):
+                    for c in range(3):
+                        out[w, k, e, c] = 0.0
+                continue
+            ds = _rate(rtab, dt, prof, w, t, 0, legacy, m0, vpk)
+            dr = _vrate(t, plan[w, 1], speedup, tau) if verg_on else ds
+            for e in range(2):
+                dsp = ds if plants[w, e] == 0 else _rate(rtab, dt, prof, w, t, plants[w, e], legacy, m0, vpk)
+                dh = plan[w, 2] * dsp + plan[w, 5 + e] * dr
+                dv = plan[w, 3 + e] * ds
+                h, v = (h0, v0) if e == 0 else (h1, v1)
+                th, tv = math.tan(h / 2), math.tan(v / 2)
+                out[w, k, e, 0], out[w, k, e, 1] = dh, dv
+                out[w, k, e, 2] = (1.0 / (1.0 + (th * tv) ** 2)) * ((1 + th ** 2) * tv * dh + th * (1 + tv ** 2) * dv)
+
+
+@_inline
+def _norm(x, s, e, s_nom):  # pragma: no cover - compiled
+    total = e - s
+    return (x - s) / total if total != 0 else s_nom
+
+
+@_par
+def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start, end, knot, count,
+            t_rel, sigma, out):  # pragma: no cover - compiled
+    """The eye-position signal's normalised time course (``models.EyePositionSignal``), out (n, m, 4)
+    [(h, v) of the left eye, then the right], at ``t_rel`` (n, m) (already less the delay): the intended
+    profile normalised per component at count[w] knots every ``knot`` ms, its increments spread by the
+    Gaussian's CDF (s.d. ``sigma``), plus the rest."""
+    n, m = t_rel.shape
+    r2 = 1.0 / math.sqrt(2.0)
+    for w in nb.prange(n):
+        for j in range(m):
+            for c in range(4):
+                out[w, j, c] = 0.0
+        p0 = p1 = p2 = p3 = 0.0
+        for k in range(count[w]):
+            s_nom, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants,
+                                        start, end, w, k * knot)
+            c0 = _norm(h0, start[w, 0, 0], end[w, 0, 0], s_nom)
+            c1 = _norm(v0, start[w, 0, 1], end[w, 0, 1], s_nom)
+            c2 = _norm(h1, start[w, 1, 0], end[w, 1, 0], s_nom)
+            c3 = _norm(v1, start[w, 1, 1], end[w, 1, 1], s_nom)
+            if k > 0:
+                mid = 0.5 * (k * knot + (k - 1) * knot)
+                for j in range(m):
+                    g = 0.5 * math.erfc(-((t_rel[w, j] - mid) / sigma) * r2)
+                    out[w, j, 0] += g * (c0 - p0)
+                    out[w, j, 1] += g * (c1 - p1)
+                    out[w, j, 2] += g * (c2 - p2)
+                    out[w, j, 3] += g * (c3 - p3)
+            p0, p1, p2, p3 = c0, c1, c2, c3
+        lk = (count[w] - 1) * knot
+        for j in range(m):
+            g = 0.5 * math.erfc(-((t_rel[w, j] - lk) / sigma) * r2)
+            out[w, j, 0] += g * (1.0 - p0)
+            out[w, j, 1] += g * (1.0 - p1)
+            out[w, j, 2] += g * (1.0 - p2)
+            out[w, j, 3] += g * (1.0 - p3)
+
+
+@_par
+def profile_marks(tab, dt, lo, hi, wt, amp, bound, threshold, settle_deg, out):  # pragma: no cover - compiled
+    """The burst generator's detected onset and offset (first and last step whose nominal speed exceeds
+    ``threshold`` deg/s, np.gradient's differences), settle time (after the last step at which a plant
+    is ``settle_deg`` or more from the endpoint) and peak speed, out (n, 4), of each interpolated
+    profile over its first bound[w] steps (past which nothing can change them)."""
+    n, K = out.shape[0], tab.shape[2]
+    for w in nb.prange(n):
+        Kb, a, l, h, f = bound[w], amp[w], lo[w], hi[w], wt[w]
+        first = last = late = -1
+        peak = -math.inf
+        for k in range(Kb):
+            # np.gradient of the whole row: central differences but at the table's two ends
+            k0, k1 = max(k - 1, 0), min(k + 1, K - 1)
+            p0 = (1 - f) * tab[l, 0, k0] + f * tab[h, 0, k0]
+            p1 = (1 - f) * tab[l, 0, k1] + f * tab[h, 0, k1]
+            rate = (p1 - p0) / (2.0 * dt) if 0 < k < K - 1 else (p1 - p0) / dt
+            if rate * a * 1000.0 > threshold:
+                if first < 0:
+                    first = k
+                last = k
+            peak = max(peak, rate)
+            err = -math.inf
+            for pl in range(3):
+                err = max(err, 1.0 - ((1 - f) * tab[l, pl, k] + f * tab[h, pl, k]))
+            if err * a >= settle_deg:
+                late = k
+        out[w, 0] = first * dt if first >= 0 else 0.0
+        out[w, 1] = (last + 1) * dt if first >= 0 else 0.0
+        out[w, 2] = (late + 1) * dt if late >= 0 else 0.0
+        out[w, 3] = peak * a * 1000.0

@@ -1,0 +1,48 @@
+"""Gaze geometry of N heads at once: fixation angles of targets, targets displaced in Fick angles, and
+cyclopean saccade amplitudes -- array code that ``models.Head`` runs for one head (N = 1) and
+``models.BatchedPlanner`` for many.
+
+Head frame (``models.oculomotor``): x forward, y left, z up; Fick ``h > 0`` right, ``v > 0`` up.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .oculomotor import H_RANGE, MIN_TARGET_DISTANCE, V_RANGE, gaze_direction
+from .saccade_plans import with_listing
+
+__all__ = ["fixation_batch", "displaced", "cyclopean_amplitude"]
+
+
+def fixation_batch(p_head: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Fick angles (m, 2, 3) that make both eyes (rotation centres ``centres`` (2, 3)) fixate each of
+    the head-frame points ``p_head`` (m, 3) -- each eye's optical axis aimed from its rotation centre
+    through the point, torsion by Listing's law -- and whether each point is reachable (m,): finite,
+    at least ``MIN_TARGET_DISTANCE`` from both eyes and within +-45 deg horizontal / +-35 deg vertical.
+    Also returns the distances (m, 2) from the eyes."""
+    d = p_head[:, None, :] - centres[None]
+    dist = np.linalg.norm(d, axis=2)
+    h = np.arctan2(-d[..., 1], d[..., 0])
+    v = np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1]))
+    ok = (np.all(dist >= MIN_TARGET_DISTANCE, axis=1) & np.all(np.abs(h) <= H_RANGE + 1e-9, axis=1)
+          & np.all(np.abs(v) <= V_RANGE + 1e-9, axis=1) & np.isfinite(p_head).all(axis=1))
+    return with_listing(np.stack([h, v], -1)), ok, dist
+
+
+def displaced(c: np.ndarray, p: np.ndarray, dhv: np.ndarray) -> np.ndarray:
+    """The points (m, 3) at the distances of ``p`` (m, 3) from ``c`` (3,) whose directions from ``c``
+    have Fick angles those of ``p`` plus ``dhv`` (m, 2) (a retinotopic saccade, or an endpoint error)."""
+    d = p - c
+    dist = np.linalg.norm(d, axis=1)
+    g = d / dist[:, None]
+    H, V = np.arctan2(-g[:, 1], g[:, 0]), np.arcsin(g[:, 2])
+    return c + dist[:, None] * gaze_direction(H + dhv[:, 0], V + dhv[:, 1])
+
+
+def cyclopean_amplitude(c: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """Angles (m,) (rad) at ``c`` (3,) between the directions to ``p0`` and ``p1`` (m, 3)."""
+    d0, d1 = p0 - c, p1 - c
+    d0 = d0 / np.linalg.norm(d0, axis=-1, keepdims=True)
+    d1 = d1 / np.linalg.norm(d1, axis=-1, keepdims=True)
+    return np.arccos(np.clip((d0 * d1).sum(axis=-1), -1, 1))

@@ -1,0 +1,360 @@
+"""The brain's side of N heads at once: their oculomotor states and saccade planning as arrays.
+
+``envs.BatchedBinocularSaccade`` plans one saccade per world per step. Building a
+``models.SaccadePlan`` per world costs about a millisecond of Python, which alone would cap 4096
+worlds near 1,000 env-steps/s; :class:`BatchedPlanner` plans all worlds at once:
+
+* the plan of ``Head.plan_saccade`` (and ``plan_saccade_to`` for vergence actions): the
+  retinotopic displacement at the current fixation distance, the fixation angles of both eyes
+  (Listing torsion), the amplitude, endpoint noise drawn from each world's own generator;
+* the trajectory, efference copies and eye-position signal of each plan: ``models.SaccadePlans``,
+  the same code ``models.SaccadePlan`` runs for one head.
+
+The geometry (fixation angles, retinotopic targets, the noisy endpoint) is :mod:`models.gaze`'s,
+which ``models.Head`` uses for one head; the sequence of checks and draws follows ``Head``'s, so
+plans and random streams agree with the single head's (``tests/test_batched_planner.py``: < 1e-9
+rad and exact integer times). Saccades that would leave the oculomotor range are shortened by
+:func:`plan_clipped`'s bisection, all such worlds at once. Vergence actions combined with endpoint
+noise are planned with ``Head``'s own code on the one scratch head, brought to each such world's
+state through ``Head.set_state``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .gaze import cyclopean_amplitude, displaced, fixation_batch
+from .oculomotor import NULL_SACCADE, OculomotorRangeError, SaccadePlan
+from .oculomotor_state import OculomotorState
+from .saccade_plans import SaccadePlans
+from .simulation import Head
+
+__all__ = ["BatchedPlanner", "SettledReset", "plan_clipped"]
+
+
+def plan_clipped(head: Head, h: float, v: float, factor: float) -> tuple[SaccadePlan, bool]:
+    """Plan the saccade by (h, v) (rad) with the fixation distance scaled by ``factor`` (a vergence
+    action: ``plan_saccade_to`` the point ``factor`` times as far from the cyclopean eye); one that
+    would leave the oculomotor range is shortened to its edge (bisection on its length, 10 halvings).
+    Returns (plan, clipped)."""
+
+    def attempt(scale: float):
+        plan = head.plan_saccade(h * scale, v * scale)
+        if factor != 1.0:
+            c = head.cyclopean_position
+            plan = head.plan_saccade_to(c + factor * (plan.intended_target - c))
+        return plan
+
+    try:
+        return attempt(1.0), False
+    except OculomotorRangeError:
+        pass
+    lo, hi, best = 0.0, 1.0, None
+    for _ in range(10):  # bisection on the saccade's length
+        mid = (lo + hi) / 2
+        try:
+            best, lo = attempt(mid), mid
+        except OculomotorRangeError:
+            hi = mid
+    return (best if best is not None else head.plan_saccade(0.0, 0.0)), True
+
+
+# ----------------------------------------------------------------------------------------- planner
+class BatchedPlanner:
+    """The oculomotor state and saccade planning of N worlds (see the module docstring).
+
+    One ``models.Head`` (``head``) serves every world as a scratch copy: the env resets it for a world
+    (scene layout, fixation, task: :class:`SettledReset`) and hands the result over with
+    :meth:`take_reset`; it also plans, from the world's state, the saccades that need the single
+    env's code (vergence actions with endpoint noise). State per world: the clock ``time_ms``, the
+    held eye angles, the fixation point, the eye-position signal now and the last plan behind it,
+    the generator of the world's endpoint noise (``rngs``) and its scene's movable objects
+    (``mocap_pos``, ``mocap_quat``).
+    """
+
+    def __init__(self, head: Head, num_worlds: int) -> None:
+        self.head = head
+        self.num_worlds = n = int(num_worlds)
+        self._centres = head.eye_centres_head
+        self._c = self._centres.mean(axis=0)
+        x, R = head.head_pose()
+        self._x, self._R = x, R
+        self.time_ms = np.zeros(n, np.int64)
+        self.hold = np.zeros((n, 2, 3))
+        self.signal_hold = np.zeros((n, 2, 3))
+        self.fix_head = np.zeros((n, 3))
+        self.signal_now = np.zeros((n, 2, 3))  # the eye-position signal at time_ms
+        self.rngs: list[np.random.Generator | None] = [None] * n
+        d = head.data
+        self.mocap_pos = np.zeros((n,) + d.mocap_pos.shape)
+        self.mocap_quat = np.zeros((n,) + d.mocap_quat.shape)
+        #: each world's joints, velocities and set-points at its last reset (what the physics loads)
+        self.qpos, self.qvel, self.ctrl = (np.zeros((n,) + getattr(d, k).shape) for k in ("qpos", "qvel", "ctrl"))
+        self._last: list[tuple[SaccadePlans, int] | None] = [None] * n
+
+    @property
+    def cyclopean_position(self) -> np.ndarray:
+        """World position of the cyclopean eye (``models.Head.cyclopean_position`` at reset)."""
+        return self._world(self._c[None])[0]
+
+    # ------------------------------------------------------------------ state
+    def take_reset(self, i: int) -> None:
+        """Make world ``i``'s state that of the (just reset) head: clock, angles, fixation, signal,
+        generator and the positions of the scene's movable objects."""
+        head = self.head
+        st = head.get_state()
+        if st.plan is not None or st.signal_plan is not None:
+            raise RuntimeError("take_reset expects a freshly reset head (no saccade planned yet)")
+        self.time_ms[i] = st.time_ms
+        self.hold[i] = st.hold
+        self.signal_hold[i] = st.signal_hold
+        self.fix_head[i] = st.fixation_head
+        self.signal_now[i] = st.signal_hold
+        self.rngs[i] = st.rng
+        d = head.data
+        self.mocap_pos[i], self.mocap_quat[i] = d.mocap_pos, d.mocap_quat
+        self.qpos[i], self.qvel[i], self.ctrl[i] = d.qpos, d.qvel, d.ctrl
+        self._last[i] = None
+
+    def eye_position_signal(self) -> np.ndarray:
+        """Every world's eye-position signal now (N, 2, 3) (``models.Head.eye_position_signal``)."""
+        return self.signal_now.copy()
+
+    def _sync_head(self, i: int) -> Head:
+        """The head, brought to world i's state (to plan with the single env's code; its draws of
+        endpoint noise come from the world's generator)."""
+        head = self.head
+        last = self._last[i]
+        st = head.get_state()
+        head.set_state(OculomotorState(
+            time_ms=int(self.time_ms[i]), hold=self.hold[i].copy(), signal_hold=self.signal_hold[i].copy(),
+            fixation_head=self.fix_head[i].copy(), rng=self.rngs[i], seed=st.seed,
+            signal_plan=None if last is None else SaccadePlan.from_batch(*last), flashes=st.flashes,
+            opacity=st.opacity))
+        return head
+
+    # ------------------------------------------------------------------ planning
+    def plan(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple[SaccadePlans, np.ndarray]:
+        """Plan the saccade of each of ``worlds`` (m,) by Fick increments ``hv`` (m, 2) (rad) with the
+        fixation distance scaled by ``factor`` (m,), as :func:`plan_clipped` does. Returns
+        the plans (in the order of ``worlds``) and whether each was shortened to the oculomotor range."""
+        worlds = np.asarray(worlds, np.intp)
+        m = len(worlds)
+        hv = np.asarray(hv, float).reshape(m, 2)
+        factor = np.asarray(factor, float).reshape(m)
+        head = self.head
+        noise = head.endpoint_noise
+        # vergence actions with endpoint noise are planned by the single env's code, world by world
+        fast = np.ones(m, bool) if noise == 0 else factor == 1.0
+        clipped = np.zeros(m, bool)
+        hv2, factor2 = hv.copy(), factor.copy()
+        f_idx = np.flatnonzero(fast)
+        targets, row = None, np.full(m, -1)
+        if len(f_idx):
+            targets = self._targets(worlds[f_idx], hv[f_idx], factor[f_idx])
+            row[f_idx] = np.arange(len(f_idx))
+            _, _, _, amp, reach, ok, _ = targets
+            drew = (noise > 0) & reach & (amp > NULL_SACCADE)  # Head._plan_head drew before failing
+            fast[f_idx[~ok & drew]] = False  # (only past the generator's 90 deg): replayed world by world
+            out = f_idx[~ok & ~drew]
+            if len(out):  # shortened to the range's edge: plan_clipped's bisection, all such worlds at once
+                h_c, f_c, burn, odd = self._bisect(worlds[out], hv[out], factor[out])
+                fast[out[odd]] = False
+                keep = ~odd
+                hv2[out[keep]], factor2[out[keep]] = h_c[keep], f_c[keep]
+                clipped[out[keep]] = True
+                for w, k in zip(worlds[out[keep]], burn[keep]):  # the draws of the attempts before the last
+                    for _ in range(k):
+                        self.rngs[w].normal(0.0, 1.0, size=2)  # the same stream whatever the scale
+                redo = out[keep]  # their targets, from the shortened increments
+                for arr, new in zip(targets, self._targets(worlds[redo], hv2[redo], factor2[redo])):
+                    arr[row[redo]] = new
+        batches, order = [], []
+        f_idx = np.flatnonzero(fast)
+        if len(f_idx) or m == 0:
+            known = None if targets is None else tuple(a[row[f_idx]] for a in targets)
+            b, ok = self._plan_fast(worlds[f_idx], hv2[f_idx], factor2[f_idx], known)
+            if not ok.all():  # pragma: no cover - the bisection keeps only reachable attempts
+                raise RuntimeError("a clipped saccade left the oculomotor range")
+            batches.append(b)
+            order.append(f_idx)
+        slow = np.flatnonzero(~fast)
+        if len(slow):
+            plans = []
+            for k in slow:
+                p, clipped[k] = plan_clipped(self._sync_head(worlds[k]), hv[k, 0], hv[k, 1], factor[k])
+                plans.append(p)
+            batches.append(SaccadePlans.concatenate([p._batch for p in plans]))
+            order.append(slow)
+        order = np.concatenate(order)
+        inverse = np.empty(m, np.intp)
+        inverse[order] = np.arange(m)
+        plans = (batches[0] if len(batches) == 1 and np.array_equal(order, np.arange(m))
+                 else SaccadePlans.concatenate(batches, inverse))
+        return plans, clipped
+
+    def _world(self, p_head: np.ndarray) -> np.ndarray:
+        return self._x + p_head @ self._R.T
+
+    def _head(self, p_world: np.ndarray) -> np.ndarray:
+        return (p_world - self._x) @ self._R
+
+    def _fixation(self, p_head: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(m, 2, 3) fixation angles and whether each target is reachable (``models.gaze.fixation_batch``)."""
+        ang, ok, _ = fixation_batch(p_head, self._centres)
+        return ang, ok
+
+    def _amp(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+        return cyclopean_amplitude(self._c, p0, p1)
+
+    def _targets(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple:
+        """What ``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) aims at, before any noise:
+        head-frame targets, world targets, fixation angles, amplitudes; ``reach``: the targets pass
+        ``Head._plan_head``'s checks made before it draws endpoint noise (the eyes can fixate them);
+        ``ok``: the plan is made (also within the burst generator's 90 deg, checked after the draw)."""
+        c = self._c
+        legacy = self.head.saccade_model == "legacy"
+        fix = self.fix_head[worlds]
+        p_head = displaced(c, fix, hv)
+        intended_world = self._world(p_head)
+        _, reach = self._fixation(p_head)
+        scaled = factor != 1.0
+        if scaled.any():  # plan_saccade_to(c + factor (intended_target - c)) from the cyclopean eye
+            amp1 = self._amp(fix[scaled], p_head[scaled])
+            if not legacy:  # the first plan (plan_saccade) must be made too
+                reach[np.flatnonzero(scaled)[np.rad2deg(amp1) > 90.0]] = False
+            cw = self._world(c[None])[0]
+            pw = cw + factor[scaled, None] * (intended_world[scaled] - cw)
+            intended_world[scaled] = pw
+            p_head[scaled] = self._head(pw)
+        end, reach2 = self._fixation(p_head)
+        reach &= reach2
+        amp = self._amp(fix, p_head)
+        ok = reach if legacy else reach & (np.rad2deg(amp) <= 90.0)
+        return p_head, intended_world, end, amp, reach, ok, fix
+
+    def _bisect(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple:
+        """``plan_clipped``'s bisection on the saccade's length, for all ``worlds`` at once. Returns the
+        increments and factors of the last attempt made (none: a null saccade, ``plan_saccade(0, 0)``),
+        the number of endpoint-noise draws the attempts before it made (``Head._plan_head`` draws at every
+        attempt that reaches its target; the last attempt's draw is ``_plan_fast``'s), and the worlds
+        whose attempts drew and then failed (past 90 deg: left to the single env's code)."""
+        m = len(worlds)
+        noise = self.head.endpoint_noise > 0
+        lo, hi, best = np.zeros(m), np.ones(m), np.full(m, -1.0)
+        wins, last_drew, odd = np.zeros(m, np.int64), np.zeros(m, bool), np.zeros(m, bool)
+        for _ in range(10):
+            mid = (lo + hi) / 2
+            _, _, _, amp, reach, ok, _ = self._targets(worlds, hv * mid[:, None], factor)
+            drew = noise & reach & (amp > NULL_SACCADE)
+            odd |= drew & ~ok
+            wins += drew & ok
+            last_drew = np.where(ok, drew, last_drew)
+            best, lo, hi = np.where(ok, mid, best), np.where(ok, mid, lo), np.where(ok, hi, mid)
+        none = best < 0
+        return (np.where(none[:, None], 0.0, hv * best[:, None]), np.where(none, 1.0, factor),
+                wins - last_drew, odd)
+
+    def _plan_fast(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray,
+                   targets: tuple | None = None) -> tuple[SaccadePlans, np.ndarray]:
+        """``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) for worlds whose saccade stays
+        in range; returns the plans of those worlds and the mask of them. ``targets``: ``_targets`` of
+        these arguments when already computed."""
+        c = self._c
+        p_head, intended_world, end, amp, _, ok, fix = targets or self._targets(worlds, hv, factor)
+        idx = np.flatnonzero(ok)
+        w = worlds[idx]
+        p_head, intended_world, end, amp = p_head[idx], intended_world[idx], end[idx], amp[idx]
+        intended_end, intended_amp = end.copy(), amp.copy()
+        end_point = p_head.copy()
+        noise = self.head.endpoint_noise
+        if noise > 0:  # each world's own generator, as Head._plan_head draws it
+            draw = np.flatnonzero(amp > NULL_SACCADE)
+            if len(draw):
+                dHV = np.array([self.rngs[w[k]].normal(0.0, noise * amp[k], size=2) for k in draw])
+                moved = displaced(c, p_head[draw], dHV)
+                e2, ok3 = self._fixation(moved)
+                keep = draw[ok3]
+                end_point[keep], end[keep] = moved[ok3], e2[ok3]
+                amp[draw] = self._amp(fix[idx][draw], end_point[draw])
+        head = self.head
+        plans = SaccadePlans(self.time_ms[w], self.hold[w], end, intended_end, amp, intended_amp, self.signal_now[w],
+                             self._world(end_point), intended_world,
+                             generator=head.main_sequence if head.saccade_model == "legacy" else head.generator,
+                             vergence=head.vergence, eye_position=head.eye_position)
+        return plans, ok
+
+    # ------------------------------------------------------------------ execution
+    def commands(self, plans: SaccadePlans) -> tuple[np.ndarray, np.ndarray]:
+        """The command tables: each plan's executed angles (m, T, 6) at every whole ms from its onset to
+        its ``end_ms`` (then held), and the rows in use per plan (m,) (``SaccadePlans.command_table``)."""
+        return plans.command_table()
+
+    def start(self, worlds: np.ndarray, plans: SaccadePlans, advance_ms: np.ndarray) -> None:
+        """Make ``plans`` the worlds' saccades and advance their clocks by ``advance_ms`` (past each plan's
+        end): the eyes then hold the endpoint, the signal follows the plan (``Head.start_saccade`` then
+        ``step_ms``)."""
+        worlds = np.asarray(worlds, np.intp)
+        if np.any(self.time_ms[worlds] + advance_ms < plans.end_ms):
+            raise ValueError("advance_ms must carry every world past its saccade's end")
+        self.fix_head[worlds] = self._head(plans.target)
+        self.hold[worlds] = plans.end
+        self.signal_hold[worlds] = plans.intended_end
+        self.time_ms[worlds] += np.asarray(advance_ms, np.int64)
+        self.signal_now[worlds] = plans.eye_position_signal(self.time_ms[worlds, None].astype(float))[:, 0]
+        for k, i in enumerate(worlds):
+            self._last[i] = (plans, k)
+
+
+
+# ------------------------------------------------------------------------------------------- reset
+class SettledReset:
+    """``models.Head.reset`` without its physics, for the many resets of a batched env.
+
+    A reset fixates the scene's default fixation point and lets the physics settle for 10 ms; only
+    the eyes and neck move, so the joints, set-points, clock and oculomotor state come out the same
+    in every world, whatever the layout drawn from the world's seed (the mocap bodies: a dots target,
+    the search display). This captures that settled state once from ``head`` and applies it with
+    each world's own layout. Usable (``usable``) when the fixation point is not moved by the layout;
+    ``tests/test_batched_planner.py`` checks the result against ``Head.reset`` in every scene.
+    """
+
+    def __init__(self, head: Head) -> None:
+        import mujoco
+
+        scene = head.scene
+        fix = scene.default_fixation
+        moved = scene.layout(np.random.default_rng(0)).keys() if scene.layout is not None else ()
+        self.usable = not (isinstance(fix, str) and fix in moved)
+        m = head.model
+        self._mocap_id = {name: int(m.body_mocapid[m.body(name).id]) for name in moved}
+        blank = mujoco.MjData(head.model)
+        mujoco.mj_resetData(head.model, blank)
+        self._mocap = blank.mocap_pos.copy(), blank.mocap_quat.copy()
+        head.reset(seed=0)
+        d = head.data
+        self._data = {k: getattr(d, k).copy() for k in ("qpos", "qvel", "ctrl", "act")}
+        self._time = float(d.time)
+        self._state = head.get_state()
+
+    def apply(self, head: Head, seed: int) -> None:
+        """Reset ``head`` as ``head.reset(seed=seed)`` would (same joints, set-points, clock, layout,
+        visibility of objects and generator state; MuJoCo's other buffers, such as the solver's warm
+        start, are not reset)."""
+        import mujoco
+
+        if not self.usable:
+            head.reset(seed=seed)
+            return
+        state = self._state.copy()
+        state.seed, state.rng = seed, np.random.default_rng(seed)
+        d = head.data
+        for k, v in self._data.items():
+            getattr(d, k)[:] = v
+        d.time = self._time
+        d.mocap_pos[:], d.mocap_quat[:] = self._mocap
+        if head.scene.layout is not None:  # Head.set_object_position of each, the names resolved once
+            for name, pos in head.scene.layout(state.rng).items():
+                d.mocap_pos[self._mocap_id[name]] = pos
+        head.set_state(state)  # no plans; the scene's own visibility, flashes hidden
+        mujoco.mj_forward(head.model, head.data)
