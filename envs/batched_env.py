@@ -42,7 +42,7 @@ from conformal import checks
 
 from models import BatchedPlanner, SettledReset
 from .saccade_env import _NO_COPY, BinocularSaccadeEnv
-from .tasks import FixateTask, FreeViewingTask, SearchTask, Task
+from .tasks import FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors
 
 __all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]
 
@@ -269,7 +269,7 @@ class BatchedBinocularSaccade(VectorEnv):
             self._remapped = torch.where(keep, remapped, now)
         with part("task"):
             target_err, landing = self._gaze_errors(plans, act, active)
-            reward, success, parts = self._score(target_err)
+            reward, success, parts = self.task.score_errors(target_err)
         self._saccades[active] += 1
         terminated = active & success
         truncated = active & ~terminated & (self._saccades >= self._max_steps)
@@ -470,36 +470,14 @@ class BatchedBinocularSaccade(VectorEnv):
     def _gaze_errors(self, plans, act: np.ndarray, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Both eyes' gaze errors (deg) to the task's target (N, 2) and the mean to each saccade's
         intended target (N,), from the device's camera poses (tasks._gaze_errors_deg, batched)."""
-        torch = self._torch
-        pos = self.physics.cam_xpos[:, self._cam_ids].double()  # (N, 2, 3)
-        axis = -self.physics.cam_xmat[:, self._cam_ids, :, 2].double()  # the optical axis: camera -z
+        ph = self.physics
+        pos = ph.cam_xpos[:, self._cam_ids].double().cpu().numpy()  # (N, 2, 3)
+        axis = -ph.cam_xmat[:, self._cam_ids, :, 2].double().cpu().numpy()  # the optical axis: camera -z
         n = self.num_envs
-
-        def errors(points):  # points (N, 3) on the device
-            d = points[:, None, :] - pos
-            cross = torch.linalg.cross(axis, d, dim=-1).norm(dim=-1)
-            return torch.rad2deg(torch.atan2(cross, (axis * d).sum(-1)))
-
         intended = np.broadcast_to(self.planner.cyclopean_position, (n, 3)).copy()
         if plans is not None:
             intended[act] = plans.intended_target
-        landing = errors(torch.as_tensor(intended, device=self.device)).mean(dim=1).cpu().numpy()
-        landing = np.where(active, landing, 0.0)
+        landing = np.where(active, gaze_errors(pos, axis, intended).mean(axis=1), 0.0)
         if self._target_gid is None:
             return np.zeros((n, 2)), landing
-        target = self.physics.geom_xpos[:, self._target_gid].double()
-        return errors(target).cpu().numpy(), landing
-
-    def _score(self, err: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """Rewards, successes and the rewards' ``reward_*`` components of the built-in tasks for gaze
-        errors (N, 2) (tasks.*.score, batched)."""
-        t, n = self.task, self.num_envs
-        if isinstance(t, FreeViewingTask):
-            return np.zeros(n), np.zeros(n, bool), {}
-        success = np.all(err <= t.tolerance_deg, axis=1)
-        if isinstance(t, FixateTask):
-            target = np.exp(-0.5 * (err.mean(axis=1) / t.tolerance_deg) ** 2)
-        else:
-            target = np.where(success, 1.0, 0.0)
-        parts = {"reward_target": target, "reward_saccade": np.full(n, -t.saccade_cost)}
-        return target + parts["reward_saccade"], success, parts
+        return gaze_errors(pos, axis, ph.geom_xpos[:, self._target_gid].double().cpu().numpy()), landing

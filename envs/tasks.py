@@ -18,7 +18,7 @@ import numpy as np
 import models
 from conformal import checks
 
-__all__ = ["Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "gaze_errors_deg", "make_task"]
+__all__ = ["Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "gaze_errors_deg", "gaze_errors", "make_task"]
 
 
 def _check_head(head) -> None:
@@ -33,21 +33,24 @@ def gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
     return _gaze_errors_deg(head, checks.array("point", point, kinds="biuf", shape=(3,)))
 
 
+def gaze_errors(positions: np.ndarray, axes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Angles (deg) between optical axes and the lines of sight to points, for any number of heads:
+    eye positions and unit optical axes (..., 2, 3), points (..., 3) -> (..., 2). ``atan2(|a x d|,
+    a . d)``: accurate near 0, where ``acos`` of the dot product is not."""
+    d = np.asarray(points, float)[..., None, :] - positions
+    cross = np.linalg.norm(np.cross(axes, d), axis=-1)
+    return np.degrees(np.arctan2(cross, (axes * d).sum(axis=-1)))
+
+
 def _gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
     """``gaze_errors_deg`` for a head and a point that the caller knows to be valid (a finite
     3-vector from the head itself: an object's position, a saccade's target)."""
     p = np.asarray(point, dtype=float)
-    out = []
-    for state in head.eye_states():
-        d = p - state.camera_position
-        norm = math.sqrt(d @ d)  # as np.linalg.norm of a real vector: sqrt(d . d)
-        if norm < 1e-9:
-            raise ValueError("point lies at an eye's nodal point, where no line of sight is defined")
-        d /= norm
-        c = float(state.eye_axes[:, 1] @ d)
-        c = -1.0 if c < -1.0 else 1.0 if c > 1.0 else c  # np.clip (NaN stays NaN)
-        out.append(math.degrees(math.acos(c)))
-    return np.array(out)
+    states = head.eye_states()
+    pos = np.stack([s.camera_position for s in states])
+    if np.any(np.linalg.norm(p - pos, axis=1) < 1e-9):
+        raise ValueError("point lies at an eye's nodal point, where no line of sight is defined")
+    return gaze_errors(pos, np.stack([s.eye_axes[:, 1] for s in states]), p)
 
 
 @dataclass
@@ -100,13 +103,24 @@ class Task:
 
     def score(self, head: "models.Head") -> tuple[float, bool, dict]:
         """(reward, terminated, info) after a saccade has landed; info holds the ``reward_keys``
-        components, which sum to the reward."""
+        components, which sum to the reward, the success and the mean gaze error to the target
+        (``target_error_deg``). :meth:`score_errors` for one head."""
+        err = _gaze_errors_deg(head, self.target_position(head))  # (target_position checks head)
+        reward, success, parts = self.score_errors(err[None])
+        info = {"target_error_deg": float(err.mean()), "success": bool(success[0]),
+                **{k: float(v[0]) for k, v in parts.items()}}
+        return float(reward[0]), bool(success[0]), info
+
+    def score_errors(self, err_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Rewards (N,), successes (N,) and the rewards' ``reward_keys`` components (each (N,), summing to
+        the reward) of N heads whose eyes' gaze errors to the target are ``err_deg`` (N, 2) degrees --
+        the scoring of both the single and the batched env."""
         raise NotImplementedError
 
     @staticmethod
-    def _total(parts: dict[str, float]) -> float:
+    def _total(parts: dict[str, np.ndarray]) -> np.ndarray:
         """The reward: the sum of its components (in their order, so the sum is the same float)."""
-        return float(sum(parts.values()))
+        return sum(parts.values())
 
 
 @dataclass
@@ -144,12 +158,11 @@ class FixateTask(Task):
         az, el = math.atan(math.tan(ecc) * math.cos(ang)), math.atan(math.tan(ecc) * math.sin(ang))
         head.set_object_position("target", models.screen_point(az, el, 1.0))
 
-    def score(self, head) -> tuple[float, bool, dict]:
-        err = _gaze_errors_deg(head, self.target_position(head))  # (target_position checks head)
-        e = float(err.mean())
-        success = bool(np.all(err <= self.tolerance_deg))
-        parts = {"reward_target": math.exp(-0.5 * (e / self.tolerance_deg) ** 2), "reward_saccade": -self.saccade_cost}
-        return self._total(parts), success, {"target_error_deg": e, "success": success, **parts}
+    def score_errors(self, err_deg):
+        success = np.all(err_deg <= self.tolerance_deg, axis=1)
+        parts = {"reward_target": np.exp(-0.5 * (err_deg.mean(axis=1) / self.tolerance_deg) ** 2),
+                 "reward_saccade": np.full(len(err_deg), -self.saccade_cost)}
+        return self._total(parts), success, parts
 
 
 @dataclass
@@ -165,11 +178,10 @@ class SearchTask(Task):
     name = "search"
     reward_keys = ("reward_target", "reward_saccade")
 
-    def score(self, head) -> tuple[float, bool, dict]:
-        err = _gaze_errors_deg(head, self.target_position(head))  # (target_position checks head)
-        success = bool(np.all(err <= self.tolerance_deg))
-        parts = {"reward_target": 1.0 if success else 0.0, "reward_saccade": -self.saccade_cost}
-        return self._total(parts), success, {"target_error_deg": float(err.mean()), "success": success, **parts}
+    def score_errors(self, err_deg):
+        success = np.all(err_deg <= self.tolerance_deg, axis=1)
+        parts = {"reward_target": np.where(success, 1.0, 0.0), "reward_saccade": np.full(len(err_deg), -self.saccade_cost)}
+        return self._total(parts), success, parts
 
 
 @dataclass
@@ -188,6 +200,10 @@ class FreeViewingTask(Task):
     def score(self, head) -> tuple[float, bool, dict]:
         _check_head(head)
         return 0.0, False, {"success": False}  # no target: no target_error_deg
+
+    def score_errors(self, err_deg):
+        n = len(err_deg)
+        return np.zeros(n), np.zeros(n, bool), {}
 
 
 TASKS = {"fixate": FixateTask, "search": SearchTask, "free": FreeViewingTask}

@@ -1,0 +1,300 @@
+"""The project's objects as Rerun archetypes under the entity tree of :mod:`experiments.recording`:
+:class:`Recorder`."""
+
+from __future__ import annotations
+
+import math
+import os
+import uuid
+from typing import Any, Sequence
+
+import numpy as np
+import rerun as rr
+
+import conformal as C
+
+from ..blueprint import blueprint
+from .display import _no_display_message, display_available
+from .images import _to_uint8, grid_strips, hemisphere_image, pinhole_matrix
+from .scene_geometry import POSE_TOLERANCE, SceneGeometry
+
+EYE_NAMES = ("left", "right")
+AXIS_NAMES = ("h", "v", "t")
+TIMELINE = "sim_time"
+#: The application id of ``study.rrd``; a Recorder with it gets the ``"study"`` layout.
+STUDY_APP_ID = "conformal_head_study"
+_AXIS_COLORS = np.array([[220, 50, 50], [50, 180, 50], [60, 90, 230]], np.uint8)
+_EYE_COLORS = {"left": [60, 120, 255], "right": [255, 120, 60]}
+
+
+class Recorder:
+    """Log the pipeline to a Rerun recording (see :mod:`experiments.recording` for the entity tree).
+
+    ``path`` saves an ``.rrd`` file; ``spawn=True`` opens a native viewer (needs a display);
+    ``connect`` streams to a running viewer or proxy (a ``rerun+http://.../proxy`` URL such as
+    ``WebViewer.grpc_url``). ``path`` may be combined with either. With none, data is buffered in
+    memory and dropped. Call :meth:`set_time_ms` before logging what belongs to an instant, and
+    :meth:`close` at the end (or use it as a context manager). ``layout`` picks the blueprint
+    (``"run"``, or ``"study"``; default ``"study"`` for ``app_id == STUDY_APP_ID``);
+    ``image_plane_distance`` is how far out (m) the 3-D view draws each eye's image in its frustum.
+    """
+
+    def __init__(self, path: str | os.PathLike | None = None, *, spawn: bool = False, connect: str | None = None,
+                 app_id: str = "conformal_head", recording_id: str | None = None, gaze_length: float = 1.0,
+                 image_plane_distance: float = 0.3, layout: str | None = None) -> None:
+        if not app_id:
+            raise ValueError("app_id must be a non-empty string")
+        for name, v in (("gaze_length", gaze_length), ("image_plane_distance", image_plane_distance)):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                    or not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number of metres; got {v!r}")
+        if spawn and connect is not None:
+            raise ValueError("give spawn=True or connect=URL, not both")
+        if spawn and not display_available():
+            raise RuntimeError(_no_display_message("spawn=True"))
+        if connect is not None and not str(connect).startswith(("rerun://", "rerun+http://", "rerun+https://")):
+            raise ValueError(f"connect must be a rerun://, rerun+http:// or rerun+https:// URL; got {connect!r}")
+        self.path = None if path is None else os.fspath(path)
+        if self.path is not None:
+            if not self.path.strip():
+                raise ValueError("path must name a file, e.g. 'run.rrd'; got ''")
+            if os.path.isdir(self.path):
+                raise ValueError(f"path {self.path!r} is a directory; give a file such as "
+                                 f"{os.path.join(self.path, 'run.rrd')!r}")
+        layout = layout or ("study" if app_id == STUDY_APP_ID else "run")
+        bp = blueprint(layout)
+        self.gaze_length = float(gaze_length)
+        self.image_plane_distance = float(image_plane_distance)
+        rid = recording_id or str(uuid.uuid4())
+        self.rec = rr.RecordingStream(app_id, recording_id=rid)
+        self._streaming = spawn or connect is not None
+        if self.path is not None:
+            os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
+        if self._streaming:
+            if spawn:
+                rr.spawn(connect=False, recording=self.rec)
+            sinks = [rr.GrpcSink(connect) if connect is not None else rr.GrpcSink()]
+            if self.path is not None:
+                sinks.append(rr.FileSink(self.path))
+            self.rec.set_sinks(*sinks, default_blueprint=bp)
+        elif self.path is not None:
+            self.rec.save(self.path, default_blueprint=bp)
+        self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        self.t_ms = 0.0
+        self._grid_logged: set[str] = set()
+        self._scenes: dict[int, tuple[Any, SceneGeometry]] = {}
+        self._last: dict[str, np.ndarray] = {}
+        self._closed = False
+
+    # ------------------------------------------------------------------ plumbing
+    def __enter__(self) -> "Recorder":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def set_time_ms(self, t_ms: float) -> None:
+        """Set the ``sim_time`` timeline to ``t_ms`` simulated milliseconds. Going back in time
+        makes the next 3-D logs log everything again (what is unchanged is only skipped forwards)."""
+        t = float(t_ms)
+        if not math.isfinite(t):
+            raise ValueError(f"t_ms must be finite; got {t_ms!r}")
+        if t < self.t_ms:
+            self._forget()
+        self.t_ms = t
+        self.rec.set_time(TIMELINE, duration=t / 1000.0)
+
+    def _forget(self) -> None:
+        self._last.clear()
+        for _, scene in self._scenes.values():
+            scene.reset()
+
+    def _changed(self, entity: str, key, tol: float = 0.0) -> bool:
+        key = np.asarray(key, float).ravel()
+        old = self._last.get(entity)
+        if old is not None and old.shape == key.shape and np.all(np.abs(old - key) <= tol):
+            return False
+        self._last[entity] = key
+        return True
+
+    def log(self, entity: str, archetype: Any, *, static: bool = False) -> None:
+        """Log any Rerun archetype at the current time (escape hatch for other modules)."""
+        self.rec.log(entity, archetype, static=static)
+
+    def close(self) -> None:
+        """Flush and close the recording (the ``.rrd`` file is complete afterwards)."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._streaming:
+            self.rec.flush(timeout_sec=60.0)  # a viewer that went away must not hang us
+        else:
+            self.rec.flush()
+        self.rec.disconnect()
+
+    # ------------------------------------------------------------------ 3-D
+    def log_scene(self, model, data) -> int:
+        """The MuJoCo scene's geoms and body poses (``world/scene/...``, see :class:`SceneGeometry`),
+        as far as they are new or changed; returns how many entities were logged."""
+        entry = self._scenes.get(id(model))
+        if entry is None or entry[0] is not model:
+            entry = (model, SceneGeometry(model))
+            self._scenes[id(model)] = entry
+        return entry[1].log(self.rec, data)
+
+    def log_eye_camera(self, eye: str, position, xmat, image_shape: tuple[int, int], pixels_per_unit: float) -> None:
+        """``world/eyes/{eye}/camera``: the camera's world pose; ``.../camera/image``: its Pinhole
+        (logged when they change)."""
+        if eye not in EYE_NAMES:
+            raise ValueError(f"eye must be one of {EYE_NAMES}; got {eye!r}")
+        p = np.asarray(position, float).reshape(3)
+        R = np.asarray(xmat, float).reshape(3, 3)
+        h, w = (int(v) for v in image_shape[:2])
+        f = float(pixels_per_unit)
+        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(R)) and math.isfinite(f) and f > 0 and h > 0 and w > 0):
+            raise ValueError("eye camera pose, image shape and focal length must be finite and positive")
+        path = f"world/eyes/{eye}/camera"
+        if self._changed(path, np.concatenate([p, R.ravel()]), POSE_TOLERANCE):
+            self.rec.log(path, rr.Transform3D(translation=p, mat3x3=R))
+        if self._changed(path + "/image#pinhole", [h, w, f, self.image_plane_distance]):
+            self.rec.log(path + "/image", rr.Pinhole(image_from_camera=pinhole_matrix(h, w, f), resolution=[w, h],
+                                                     camera_xyz=rr.ViewCoordinates.RUB, color=_EYE_COLORS[eye],
+                                                     image_plane_distance=self.image_plane_distance))
+
+    def log_head(self, head) -> None:
+        """The scene's geoms and moving bodies, both eye cameras (pose and pinhole), head pose and
+        axes, eye positions, gaze rays, scene objects and visible flashes."""
+        self.log_scene(head.model, head.data)
+        origin = head.to_world(np.zeros(3))
+        axes = np.stack([head.to_world(np.eye(3)[i]) - origin for i in range(3)])
+        self.rec.log("world/head/origin", rr.Points3D([origin], radii=0.01, colors=[[200, 200, 200]],
+                                                      labels=["head"]))
+        self.rec.log("world/head/axes", rr.Arrows3D(vectors=0.1 * axes, origins=np.repeat([origin], 3, 0),
+                                                    colors=_AXIS_COLORS))
+        for name, state in zip(EYE_NAMES, head.eye_states()):
+            p = np.asarray(state.camera_position, float)
+            self.log_eye_camera(name, p, state.camera_xmat, head.image_shape, head.pixels_per_unit)
+            gaze = np.asarray(state.eye_axes, float)[:, 1] * self.gaze_length
+            color = [_EYE_COLORS[name]]
+            self.rec.log(f"world/eyes/{name}/position", rr.Points3D([p], radii=0.012, colors=color))
+            self.rec.log(f"world/eyes/{name}/gaze", rr.Arrows3D(vectors=[gaze], origins=[p], colors=color))
+        flashes = set(head.scene.flashes)
+        names = [n for n in head.scene.objects if n not in flashes]
+        if names:
+            pos = np.stack([head.object_position(n) for n in names])
+            colors = [[255, 60, 60] if n == "target" else [230, 230, 230] for n in names]
+            self.rec.log("world/objects", rr.Points3D(pos, radii=rr.components.Radius.ui_points(4.0), labels=names,
+                                                      colors=colors))
+        visible = list(head.visible_flashes)
+        pos = np.stack([head.object_position(n) for n in visible]) if visible else np.zeros((0, 3))
+        self.rec.log("world/flashes", rr.Points3D(pos, radii=0.015, colors=[[255, 255, 0]] * len(visible)))
+
+    # ------------------------------------------------------------------ images
+    def log_frame(self, frame, grid: C.RetinaGrid, target_px=None) -> None:
+        """Both eyes' images (2-D, and in each eye's frustum in 3-D with the camera pose at render
+        time); the retina grid overlay (logged once per eye, static); the target.
+
+        ``target_px``: (2, 2) [eye, (row, col)] as from ``Head.project_to_pixels`` (pixel centres
+        at integers), or (2, 1, 2) of that, or None.
+        """
+        tp = None if target_px is None else np.asarray(target_px, float).reshape(2, -1, 2)
+        for i, (name, eye) in enumerate(zip(EYE_NAMES, (frame.left, frame.right))):
+            img = np.asarray(eye.image)
+            self.rec.log(f"eyes/{name}/image", rr.Image(img))
+            self.log_eye_camera(name, eye.camera_position, eye.camera_xmat, img.shape[:2], eye.pixels_per_unit)
+            self.rec.log(f"world/eyes/{name}/camera/image", rr.Image(img))
+            if name not in self._grid_logged:
+                strips = grid_strips(grid, img.shape[:2], eye.pixels_per_unit)
+                self.rec.log(f"eyes/{name}/grid", rr.LineStrips2D(strips, colors=[[0, 200, 200, 110]], radii=0.25),
+                             static=True)
+                self._grid_logged.add(name)
+            if tp is not None:
+                xy = np.stack([tp[i, :, 1] + 0.5, tp[i, :, 0] + 0.5], -1)
+                self.rec.log(f"eyes/{name}/target", rr.Points2D(xy, radii=2.5, colors=[[255, 40, 40]]))
+
+    def log_views(self, views, grid: C.RetinaGrid) -> None:
+        """Foveal and log-polar samples, the DPFT log-magnitude of each eye, both hemispheres."""
+        for name, v in zip(EYE_NAMES, views):
+            self.rec.log(f"retina/{name}/fovea", rr.Image(_to_uint8(C.fovea_image(v.fovea, grid))))
+            self.rec.log(f"retina/{name}/logpolar", rr.Image(_to_uint8(v.periphery)))
+            mag = np.log1p(np.abs(np.asarray(v.coeffs)))
+            if mag.ndim == 3:
+                mag = mag.mean(axis=-1)
+            self.rec.log(f"dpft/{name}/log_magnitude", rr.Image(np.fft.fftshift(mag).astype(np.float32)))
+        bc = C.binocular_cortex(views[0].periphery, views[1].periphery, grid)
+        self.rec.log("cortex/left_hemisphere", rr.Image(_to_uint8(hemisphere_image(bc.left_hemisphere))))
+        self.rec.log("cortex/right_hemisphere", rr.Image(_to_uint8(hemisphere_image(bc.right_hemisphere))))
+
+    def log_remap(self, predicted, actual, grid: C.RetinaGrid, errors: dict[str, float] | None = None) -> None:
+        """Predicted (from the pre-saccadic DPFT and the efference copy) vs actual post-saccadic
+        cortical maps of each eye and their absolute difference; optional per-model errors."""
+        for name, p, a in zip(EYE_NAMES, predicted, actual):
+            pm = np.asarray(p.mask, bool)[..., None]
+            both = pm & np.asarray(a.mask, bool)[..., None]
+            pred = np.where(pm, np.clip(p.periphery, 0.0, 1.0), 0.0)  # as the env's ``remapped``
+            diff = np.where(both, np.abs(pred - np.clip(a.periphery, 0.0, 1.0)), 0.0)
+            self.rec.log(f"remap/{name}/predicted", rr.Image(_to_uint8(C.cortical_map(pred, grid))))
+            self.rec.log(f"remap/{name}/actual", rr.Image(_to_uint8(C.cortical_map(a.periphery, grid))))
+            self.rec.log(f"remap/{name}/difference", rr.Image(_to_uint8(C.cortical_map(diff, grid))))
+        for model, err in (errors or {}).items():
+            self.rec.log(f"remap/error/{model}", rr.Scalars(float(err)))
+
+    # ------------------------------------------------------------------ flashes
+    def log_flash(self, true_deg: Sequence[float], perceived_deg: Sequence[float],
+                  target_deg: Sequence[float] | None = None) -> None:
+        """A flash's true and perceived (azimuth_deg, elevation_deg), and optionally the saccade
+        target's, in one frame of visual angle (fixation at 0, 0); shown with up = up."""
+        pts = [np.asarray(x, float).reshape(2) for x in (true_deg, perceived_deg)]
+        if target_deg is not None:
+            pts.append(np.asarray(target_deg, float).reshape(2))
+        if not all(np.all(np.isfinite(x)) for x in pts):
+            raise ValueError("flash positions must be finite (azimuth_deg, elevation_deg)")
+        flip = np.array([1.0, -1.0])
+        t, p = pts[0], pts[1]
+        self.rec.log("flash/fixation", rr.Points2D([[0.0, 0.0]], radii=0.25, colors=[[220, 220, 220]],
+                                                   labels=["fixation"]), static=True)
+        if target_deg is not None:
+            self.rec.log("flash/target", rr.Points2D([pts[2] * flip], radii=0.25, colors=[[255, 160, 0]],
+                                                     labels=["saccade target"]))
+        self.rec.log("flash/true", rr.Points2D([t * flip], radii=0.25, colors=[[40, 200, 40]]))
+        self.rec.log("flash/perceived", rr.Points2D([p * flip], radii=0.25, colors=[[230, 40, 40]]))
+        self.rec.log("flash/shift", rr.Arrows2D(vectors=[(p - t) * flip], origins=[t * flip],
+                                                colors=[[200, 200, 200]]))
+
+    # ------------------------------------------------------------------ eye kinematics
+    def log_eye_angles(self, angles_rad, velocities_rad_s, signal_rad=None) -> None:
+        """(2, 3) Fick angles (rad), joint rates (rad/s) and, if given, the eye-position signal
+        (rad) at the current time, logged in deg, deg/s."""
+        ang = np.degrees(np.asarray(angles_rad, float).reshape(2, 3))
+        vel = np.degrees(np.asarray(velocities_rad_s, float).reshape(2, 3))
+        sig = None if signal_rad is None else np.degrees(np.asarray(signal_rad, float).reshape(2, 3))
+        for e, name in enumerate(EYE_NAMES):
+            for j, ax in enumerate(AXIS_NAMES):
+                self.rec.log(f"eyes/{name}/angle/{ax}", rr.Scalars(ang[e, j]))
+                self.rec.log(f"eyes/{name}/velocity/{ax}", rr.Scalars(vel[e, j]))
+                if sig is not None:
+                    self.rec.log(f"eyes/{name}/signal/{ax}", rr.Scalars(sig[e, j]))
+
+    def log_eye_trace(self, trace) -> None:
+        """All samples of a ``models.EyeTrace`` at their own times (one column batch per series)."""
+        if trace is None or len(trace.times_ms) == 0:
+            return
+        times = rr.TimeColumn(TIMELINE, duration=np.asarray(trace.times_ms, float) / 1000.0)
+        series = [("angle", np.degrees(np.asarray(trace.angles, float))),
+                  ("velocity", np.degrees(np.asarray(trace.velocities, float)))]
+        if trace.eye_position_signal is not None:
+            series.append(("signal", np.degrees(np.asarray(trace.eye_position_signal, float))))
+        for e, name in enumerate(EYE_NAMES):
+            for j, ax in enumerate(AXIS_NAMES):
+                for kind, data in series:
+                    self.rec.send_columns(f"eyes/{name}/{kind}/{ax}", indexes=[times],
+                                          columns=rr.Scalars.columns(scalars=data[:, e, j]))
+
+    def log_saccade(self, plan) -> None:
+        """A saccade's amplitude, peak velocity and duration at its onset (the main sequence)."""
+        self.rec.set_time(TIMELINE, duration=float(plan.onset_ms) / 1000.0)
+        self.rec.log("saccades/amplitude_deg", rr.Scalars(float(plan.amplitude_deg)))
+        self.rec.log("saccades/peak_velocity_deg_s", rr.Scalars(math.degrees(plan.peak_velocity)))
+        self.rec.log("saccades/duration_ms", rr.Scalars(float(plan.duration_ms)))
+        self.rec.log("saccades/endpoint_error_deg", rr.Scalars(float(plan.endpoint_error_deg.mean())))
+        self.set_time_ms(self.t_ms)
