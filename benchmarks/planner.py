@@ -26,7 +26,7 @@ from envs.tasks import TASKS
 FIXATION_MS = 250
 
 
-def _actions(rng: np.random.Generator, n: int) -> np.ndarray:
+def random_actions(rng: np.random.Generator, n: int) -> np.ndarray:
     return rng.uniform(-0.4, 0.4, (n, 2)) * np.radians(30.0)  # the env's default 30 deg action scale
 
 
@@ -40,7 +40,7 @@ def baseline(task, n: int, steps: int, resets: float) -> float:
     for k in range(steps + 1):  # the first step builds the burst generator's table
         if k == 1:
             t0 = time.perf_counter()
-        hv, done = _actions(rng, n), rng.random(n) < resets
+        hv, done = random_actions(rng, n), rng.random(n) < resets
         for i, head in enumerate(heads):
             if done[i]:
                 head.reset(seed=int(rngs[i].integers(2**31 - 1)))
@@ -71,7 +71,7 @@ def batched(task, n: int, steps: int, resets: float) -> float:
     for k in range(steps + 1):  # the first step loads numba's compiled kernels
         if k == 1:
             t0 = time.perf_counter()
-        hv, done = _actions(rng, n), rng.random(n) < resets
+        hv, done = random_actions(rng, n), rng.random(n) < resets
         reset(np.flatnonzero(done))
         plans, _ = planner.plan(worlds, hv, np.ones(n))
         planner.commands(plans)

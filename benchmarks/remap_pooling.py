@@ -23,6 +23,8 @@ import time
 import numpy as np
 
 import envs
+from models import plan_clipped
+
 from env import SACCADE, bare_loop, env_loop  # benchmarks/env.py
 
 
@@ -52,17 +54,17 @@ def prediction_cost(models: tuple[str, ...], repeats: int = 300) -> dict[bool, f
     """Seconds per call of the env's prediction (both eyes, ``models``), point and pooled."""
     e = envs.BinocularSaccadeEnv(scene="bar", task="free", image_size=128)
     e.reset(seed=0)
-    plan, _ = e._plan(*e._decode(np.array([0.3, 0.1], np.float32)))
+    plan, _ = plan_clipped(e.head, 0.3 * e.max_amplitude, 0.1 * e.max_amplitude, 1.0)
     v = e.vision
-    kinds, params = v._map_params(models, plan.efference_copy_eye)
-    frame = e._seen
+    kinds, params = v.map_params(models, plan.efference_copy_eye)
+    frame = e.seen
     best = {}
     for pooled in (False, True):
-        v.plan._evaluate(frame.coeffs, frame.fovea, kinds, params, pooled)  # compile / warm up
+        v.plan.evaluate_prechecked(frame.coeffs, frame.fovea, kinds, params, pooled)  # compile / warm up
     for pooled in (False, True, False, True):
         t0 = time.perf_counter()
         for _ in range(repeats):
-            v.plan._evaluate(frame.coeffs, frame.fovea, kinds, params, pooled)
+            v.plan.evaluate_prechecked(frame.coeffs, frame.fovea, kinds, params, pooled)
         best[pooled] = min(best.get(pooled, np.inf), (time.perf_counter() - t0) / repeats)
     e.close()
     return best

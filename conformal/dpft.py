@@ -34,6 +34,10 @@ from .kernels import series_table
 
 __all__ = [
     "dpft",
+    "dpft_prechecked",
+    "dpft_tables",
+    "dpft_weight",
+    "mirror_map",
     "idpft",
     "dpft_direct",
     "idpft_direct",
@@ -77,12 +81,13 @@ def _expand(v: NDArray, ndim: int) -> NDArray:
     return v.reshape(v.shape + (1,) * (ndim - v.ndim))
 
 
-def _weight(grid: RetinaGrid) -> float:
+def dpft_weight(grid: RetinaGrid) -> float:
+    """The DPFT's quadrature weight ``2 pi T / (M N)`` of ``grid`` (eq. ``dpft``)."""
     return 2 * math.pi * grid.T / (grid.M * grid.N)
 
 
 @lru_cache(maxsize=32)
-def _tables(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+def dpft_tables(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Per-grid constants, computed once: phase (M, N), its conjugate, e^{u_k}, e^{-u_k}."""
     m = np.arange(grid.M)[:, None]
     n = np.arange(grid.N)[None, :]
@@ -95,7 +100,7 @@ def _tables(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
 
 def _phase(grid: RetinaGrid) -> NDArray[np.complex128]:
     """e^{-i (2 pi m u_0 / T + n theta_0)} for m = 0..M-1, n = 0..N-1, shape (M, N)."""
-    return _tables(grid)[0]
+    return dpft_tables(grid)[0]
 
 
 def pft_frequencies(grid: RetinaGrid) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -110,12 +115,13 @@ def dpft(samples: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
     Includes the e^{u_k} weight and the factor 2 pi T / (M N) of eq. ``pixels``.
     Accepts (M, N) or (M, N, C); transforms over the first two axes.
     """
-    return _dpft(_check_samples(samples, grid, "samples"), grid)
+    return dpft_prechecked(_check_samples(samples, grid, "samples"), grid)
 
 
-def _dpft(f: NDArray, grid: RetinaGrid) -> NDArray[np.complex128]:
-    """``dpft`` of samples already checked (``_check_samples``: (M, N[, C]) float32/float64 or integer)."""
-    weighted = _weight(grid) * _expand(_tables(grid)[2], f.ndim) * f
+def dpft_prechecked(f: NDArray, grid: RetinaGrid) -> NDArray[np.complex128]:
+    """``dpft`` of samples the caller has already checked (a hot path's entry: no validation here;
+    ``_check_samples``: (M, N[, C]) float32/float64 or integer)."""
+    weighted = dpft_weight(grid) * _expand(dpft_tables(grid)[2], f.ndim) * f
     return scipy.fft.fft2(weighted, axes=(0, 1)) * _expand(_phase(grid), f.ndim)
 
 
@@ -126,8 +132,8 @@ def idpft(coeffs: ArrayLike, grid: RetinaGrid, *, real: bool = True) -> NDArray:
     """
     real = checks.flag("real", real)
     F = _check_samples(coeffs, grid, "coeffs", complex_ok=True)
-    lp = scipy.fft.ifft2(F * _expand(_tables(grid)[1], F.ndim), axes=(0, 1))
-    f = lp * _expand(_tables(grid)[3], F.ndim) / _weight(grid)
+    lp = scipy.fft.ifft2(F * _expand(dpft_tables(grid)[1], F.ndim), axes=(0, 1))
+    f = lp * _expand(dpft_tables(grid)[3], F.ndim) / dpft_weight(grid)
     return f.real if real else f
 
 
@@ -143,7 +149,7 @@ def dpft_direct(samples: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
     kern = np.exp(-1j * n[None, :, None] * ang[None, None, :]) * np.exp(
         (-1j * 2 * math.pi * m[:, None, None] / grid.T + 1) * np.log(r)[None, None, :]
     )
-    fk = _weight(grid) * f.reshape(grid.M * grid.N, -1)
+    fk = dpft_weight(grid) * f.reshape(grid.M * grid.N, -1)
     out = np.tensordot(kern, fk, axes=([2], [0]))
     return out.reshape(f.shape).astype(complex)
 
@@ -160,7 +166,7 @@ def idpft_direct(coeffs: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
         (1j * 2 * math.pi * m[None, :, None] / grid.T - 1) * np.log(r)[:, None, None]
     )
     out = np.tensordot(kern, F.reshape(grid.M, grid.N, -1), axes=([1, 2], [0, 1])) / (grid.M * grid.N)
-    return (out / _weight(grid)).reshape(F.shape)
+    return (out / dpft_weight(grid)).reshape(F.shape)
 
 
 # ---------------------------------------------------------------------- off-grid evaluation
@@ -175,7 +181,7 @@ def _check_points(z: ArrayLike, name: str = "points") -> NDArray[np.complex128]:
 
 def _centred(coeffs: NDArray, grid: RetinaGrid) -> NDArray[np.complex128]:
     """Origin-relative coefficients A (eq. ``lpdft``), fft-shifted to signed frequencies."""
-    A = coeffs * _expand(_tables(grid)[1], coeffs.ndim)
+    A = coeffs * _expand(dpft_tables(grid)[1], coeffs.ndim)
     return np.fft.fftshift(A, axes=(0, 1))
 
 
@@ -284,7 +290,7 @@ class OffGridEvaluator:
         """Per-point factor of the complex series: e^{-u} / (M N w) (paper) or 1 / (rows N) (mirror)."""
         g = self.grid
         if self.extension == "paper":
-            return np.exp(-self.u) / (g.M * g.N * _weight(g))
+            return np.exp(-self.u) / (g.M * g.N * dpft_weight(g))
         return np.full(self.u.shape, 1.0 / (self._rows * g.N))
 
     def _plan(self, n_trans: int):
@@ -349,7 +355,7 @@ def _check_float_dtype(dtype) -> np.dtype:
 
 
 @lru_cache(maxsize=32)
-def _mirror_map(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+def mirror_map(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """The linear map from DPFT coefficients F to the weighted mirror-series coefficients, per grid.
 
     The series of the samples f = Re idpft(F) takes their real FFT in theta and their DCT-II in
@@ -365,7 +371,7 @@ def _mirror_map(grid: RetinaGrid) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     idft = np.exp(2j * np.pi * np.outer(k, k) / m_) / m_  # rows k, columns m'
     alpha = np.exp(-2j * np.pi * k * grid.u[0] / grid.T)
     beta = np.exp(-1j * np.arange(n_) * grid.theta[0])
-    scale = _tables(grid)[3] / _weight(grid)  # e^{-u_k} / w
+    scale = dpft_tables(grid)[3] / dpft_weight(grid)  # e^{-u_k} / w
     wm = np.full(m_, 1.0 / m_)
     wm[0] *= 0.5
     A = wm[:, None] * (dct @ (scale[:, None] * idft)) * np.conj(alpha)[None, :]
@@ -385,7 +391,7 @@ def _mirror_series(coeffs: NDArray, grid: RetinaGrid, dtype) -> NDArray:
     """The weighted real coefficients of the mirror series of E pictures' DPFT coefficients
     (E, M, N, C): (E, M C, 2 nh) of ``dtype``, row m C + c holding the cosine then the sine
     coefficients of the angular frequencies q = 0..N/2 (compiled gather: ``kernels.series_table``)."""
-    A, b1, b2, neg = _mirror_map(grid)
+    A, b1, b2, neg = mirror_map(grid)
     e, c = coeffs.shape[0], coeffs.shape[3]
     H = (A @ coeffs.reshape(e, grid.M, grid.N * c)).reshape(e, grid.M, grid.N, c)
     out = np.empty((e, grid.M * c, 2 * len(b1)), dtype)
@@ -440,7 +446,7 @@ def evaluate_direct(
     t = (en @ B.reshape(rows, grid.N, -1).transpose(1, 0, 2).reshape(grid.N, -1)).reshape(len(zf), rows, -1)
     vals = np.einsum("pm,pmc->pc", em, t)
     if extension == "paper":
-        out = vals * np.exp(-u)[:, None] / (grid.M * grid.N * _weight(grid))
+        out = vals * np.exp(-u)[:, None] / (grid.M * grid.N * dpft_weight(grid))
     else:
         out = vals / (rows * grid.N)
     out = out.reshape(zp.shape + F.shape[2:])

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import checks
 
 __all__ = [
+    "PERM_FLAT",
     "project",
     "lift_to_sphere",
     "act",
@@ -292,8 +293,8 @@ def rotation_homography(R: ArrayLike) -> NDArray[np.float64]:
 
 
 _PERM = [2, 0, 1]  # (x3, x1, x2) <- (x1, x2, x3)
-#: P R P^T as a gather of R's row-major entries: H.ravel() = R.ravel()[_PERM_FLAT] (a copy, exact).
-_PERM_FLAT = np.array([3 * i + j for i in _PERM for j in _PERM])
+#: P R P^T as a gather of R's row-major entries: H.ravel() = R.ravel()[PERM_FLAT] (a copy, exact).
+PERM_FLAT = np.array([3 * i + j for i in _PERM for j in _PERM])
 
 
 def _rotation_homography(r: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -34,7 +34,8 @@ from .grid import RetinaGrid
 from .kernels import KIND_MOBIUS, KIND_PROJECTIVE
 from .sampling import RetinaSamples
 
-__all__ = ["ProjectiveMap", "MobiusMap", "homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix"]
+__all__ = ["ProjectiveMap", "MobiusMap", "homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix",
+           "mobius_params", "su2_entries", "su2_params", "target_shift_matrix"]
 
 PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
 
@@ -88,7 +89,7 @@ class ProjectiveMap:
         return np.where(w > _POLE_TOL, out, np.nan + 0j)
 
 
-def _mobius_params(g: NDArray[np.complex128]) -> NDArray[np.float64]:
+def mobius_params(g: NDArray[np.complex128]) -> NDArray[np.float64]:
     """A ``MobiusMap``'s ``params`` (for the compiled kernels) from its complex 2x2 matrix g."""
     a, b, c, d = g.ravel()
     return np.array([a.real, a.imag, b.real, b.imag, c.real, c.imag, d.real, d.imag, 0.0])
@@ -108,7 +109,7 @@ class MobiusMap:
         if not abs(ad - bc) > 1e-12 * (abs(ad) + abs(bc)):
             raise ValueError("g must be invertible (a d - b c != 0): a singular g sends every point to one point")
         self.matrix = _fixed(m)
-        self.params = _mobius_params(self.matrix)
+        self.params = mobius_params(self.matrix)
 
     def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
         a, b, c, d = self.matrix.ravel()
@@ -139,11 +140,11 @@ def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
 
 def _su2_of_rotation(r: NDArray[np.float64]) -> NDArray[np.complex128]:
     """``mobius_for_rotation`` of a rotation already validated (``check_rotation``)."""
-    a, b = _su2_entries(r.tolist())
+    a, b = su2_entries(r.tolist())
     return np.array([[a.conjugate(), -b.conjugate()], [b, a]])
 
 
-def _su2_entries(rows: list[list[float]]) -> tuple[complex, complex]:
+def su2_entries(rows: list[list[float]]) -> tuple[complex, complex]:
     """(a, b) of ``mobius_for_rotation``'s k = [[conj(a), -conj(b)], [b, a]] from a validated rotation
     given as nested lists of Python floats (``r.tolist()``: the same IEEE arithmetic as on numpy
     scalars, faster)."""
@@ -155,8 +156,8 @@ def _su2_entries(rows: list[list[float]]) -> tuple[complex, complex]:
     return a / norm, b / norm
 
 
-def _su2_params(a: complex, b: complex) -> tuple[float, ...]:
-    """``MobiusMap(k).params`` for k = [[conj(a), -conj(b)], [b, a]] (``_su2_entries``), without the
+def su2_params(a: complex, b: complex) -> tuple[float, ...]:
+    """``MobiusMap(k).params`` for k = [[conj(a), -conj(b)], [b, a]] (``su2_entries``), without the
     matrix: the same numbers (conjugation and negation are exact)."""
     return (a.real, -a.imag, -b.real, b.imag, b.real, b.imag, a.real, a.imag, 0.0)
 
@@ -176,10 +177,10 @@ def target_shift_map(z_target: complex, shift: float, delta: float) -> MobiusMap
     delta = checks.real("delta", delta, 0.0, 100.0, lo_open=True)
     if abs(shift * delta) > 40:
         raise ValueError(f"shift * delta = {shift * delta:.4g}: the scale e^(shift delta) must lie within e^(+-40)")
-    return MobiusMap(_target_shift_matrix(zt, shift, delta))
+    return MobiusMap(target_shift_matrix(zt, shift, delta))
 
 
-def _target_shift_matrix(zt: complex, shift: float, delta: float) -> NDArray[np.complex128]:
+def target_shift_matrix(zt: complex, shift: float, delta: float) -> NDArray[np.complex128]:
     """``target_shift_map``'s 2x2 matrix from already validated arguments (|shift delta| <= 40)."""
     root = math.exp(shift * delta / 2)  # sqrt of the scale
     return np.array([[1 / root, 0], [zt / root, root]])

@@ -5,7 +5,7 @@ points, the foveal lattice for points landing in the old fovea), organised for a
 frames on one grid:
 
 * everything that depends only on the grid is built once: the output points, the linear map
-  from DPFT coefficients to the series' coefficients (``dpft._mirror_map``), the foveal lattice indices;
+  from DPFT coefficients to the series' coefficients (``dpft.mirror_map``), the foveal lattice indices;
 * per frame, one compiled pass maps the points (``kernels.map_points``), one tabulates the
   angular factors (``kernels.tabulate_angles``), one batched BLAS product sums over the
   angular frequencies and one compiled pass over the rings (``kernels.contract_rings``).
@@ -173,9 +173,9 @@ class RemapPlan:
         pooled = checks.flag("pooled", pooled)
         F, fov = self._check(coeffs, fovea)
         kinds, params = self._maps(maps, F.shape[0])
-        return self._evaluate(F, fov, kinds, params, pooled)
+        return self.evaluate_prechecked(F, fov, kinds, params, pooled)
 
-    def _evaluate(
+    def evaluate_prechecked(
         self, F: NDArray, fov: NDArray, kinds: NDArray[np.int64], params: NDArray[np.float64], pooled: bool = False
     ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """``__call__`` on arguments that are already valid: F finite (E, M, N, C) coefficients, fov

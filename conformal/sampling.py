@@ -153,7 +153,7 @@ class Retina:
         rowsum = np.asarray(op.sum(axis=1)).ravel()
         scale = np.divide(1.0, rowsum, out=np.zeros_like(rowsum), where=rowsum > 0)
         self._op = sp.csr_matrix(sp.diags(scale) @ op)
-        self._empty = rowsum <= 0
+        self._empty = rowsum <= 0  # (the public mask: ``empty``)
         valid = self.coverage >= min_coverage
         self.fovea_mask = valid[:n_f].copy()
         self.mask = valid[n_f:].reshape(m, n).copy()
@@ -271,6 +271,11 @@ class Retina:
             fovea_mask=self.fovea_mask,
         )
 
+    @property
+    def empty(self) -> NDArray[np.bool_]:
+        """Mask of the receptive fields no pixel falls in (their samples are ``fill``)."""
+        return self._empty.copy()
+
     def sample_many(self, images, scale: float = 1.0) -> NDArray[np.float64]:
         """Sample several pictures into one array (E, N_f + M N[, C]) in retina order (the
         rows of ``operator``: fovea, then periphery [k, l]), each value times ``scale`` (finite)."""
@@ -280,9 +285,9 @@ class Retina:
         if isinstance(images, (str, bytes)) or not hasattr(images, "__iter__"):
             raise checks.InputTypeError(f"images must be a sequence of pictures; got {type(images).__name__}")
         scale = checks.real("scale", scale)
-        return self._sample_many([self._check_image(im) for im in images], scale)
+        return self.sample_prechecked([self._check_image(im) for im in images], scale)
 
-    def _sample_many(self, imgs: list[NDArray], scale: float) -> NDArray[np.float64]:
+    def sample_prechecked(self, imgs: list[NDArray], scale: float) -> NDArray[np.float64]:
         """``sample_many`` of pictures already checked (``_check_image``) and a finite float ``scale``."""
         chans = self.image_shape[2:]
         out = np.empty((len(imgs), self._op.shape[0], int(np.prod(chans))))

@@ -33,7 +33,6 @@ import time
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -173,7 +172,7 @@ class BatchedBinocularSaccade(VectorEnv):
         self.grid = env.vision.grid
         m = env.head.model
         self._target_gid = m.geom("target").id if "target" in env.head.scene.objects else None
-        self._cam_ids = torch.as_tensor(self.physics._cam_ids, device=self.device)
+        self._cam_ids = torch.as_tensor(self.physics.cam_ids, device=self.device)
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._saccades = np.zeros(self.num_envs, np.int64)
         self._autoreset = np.zeros(self.num_envs, bool)

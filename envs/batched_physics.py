@@ -74,9 +74,10 @@ class WarpHeads:
         self.num_worlds = n = int(num_worlds)
         self.image_shape = head.image_shape
         self.chunk_ms = int(chunk_ms)
-        self._qadr, self._vadr = head._qadr, head._vadr
-        self._pos0, self._vel0, self._ff0 = (int(a[0]) for a in (head._pos_act, head._vel_act, head._ff_act))
-        for a, a0 in ((head._pos_act, self._pos0), (head._vel_act, self._vel0), (head._ff_act, self._ff0)):
+        self._qadr, self._vadr = head.eye_joint_addresses
+        acts = head.eye_actuator_ids
+        self._pos0, self._vel0, self._ff0 = (int(a[0]) for a in acts)
+        for a, a0 in zip(acts, (self._pos0, self._vel0, self._ff0)):
             if not np.array_equal(a, np.arange(a0, a0 + 6)):
                 raise ValueError("the head model's eye actuators are not contiguous (pos, vel, ff of 6 joints each)")
         M = np.zeros((mjm.nv, mjm.nv))
@@ -95,7 +96,7 @@ class WarpHeads:
         from ._warp_kernels import advance, servo
 
         self._servo, self._advance = servo, advance
-        self._cam_ids = [mjm.camera(e).id for e in EYES]
+        self.cam_ids = [mjm.camera(e).id for e in EYES]
         groups = [g for g in range(6) if g not in HIDDEN_GEOM_GROUPS]
         h, w = self.image_shape
         with wp.ScopedDevice(self.device):
@@ -104,13 +105,13 @@ class WarpHeads:
             if retina_directions is None:
                 self.render_context = mjw.create_render_context(
                     mjm, nworld=n, cam_res=(w, h), render_rgb=True, render_depth=False, use_textures=True,
-                    use_shadows=False, enabled_geom_groups=groups, cam_active=self._cam_ids)
+                    use_shadows=False, enabled_geom_groups=groups, cam_active=self.cam_ids)
                 self._rgb = [wp.zeros((n, h, w), dtype=wp.vec3f) for _ in EYES]
                 self.retina = None
             else:
                 from .retina_rays import RetinaRenderContext
 
-                self.retina = RetinaRenderContext(mjm, n, self._cam_ids, retina_directions, groups)
+                self.retina = RetinaRenderContext(mjm, n, self.cam_ids, retina_directions, groups)
             self._step = wp.zeros(1, dtype=wp.int32)
             self._ncmd = wp.ones(n, dtype=wp.int32)
             self._cmd = wp.zeros((n, 2, 6), dtype=wp.float32)

@@ -5,12 +5,12 @@ those pictures through the same steps as ``Vision`` does for one world, all worl
 set of tensor operations on the device ("cuda" or "cpu"):
 
 * ``see``: receptive-field pooling (``conformal.Retina``'s sparse operator as a torch sparse CSR
-  matrix; ``Retina._sample_many`` / ``kernels.pool_picture``), grayscale, the DPFT of the periphery
-  (``conformal.dpft._dpft``, eqs. ``lpdft``/``dpft``): ``Vision._see_frame`` / ``Vision._frame``;
+  matrix; ``Retina.sample_prechecked`` / ``kernels.pool_picture``), grayscale, the DPFT of the periphery
+  (``conformal.dpft.dpft_prechecked``, eqs. ``lpdft``/``dpft``): ``Vision._see_frame`` / ``Vision._frame``;
 * ``predict``: the efference-copy remapping's point prediction of every model
   (``Vision._predict_frame`` -> ``RemapPlan._evaluate`` with ``pooled=False``: ``kernels.map_points``,
-  the mirror series of eq. ``dppcc'`` via ``dpft._mirror_map``, ``kernels.tabulate_angles``,
-  ``kernels.contract_rings``), with the models' parameters from the rotations (``Vision._map_params``);
+  the mirror series of eq. ``dppcc'`` via ``dpft.mirror_map``, ``kernels.tabulate_angles``,
+  ``kernels.contract_rings``), with the models' parameters from the rotations (``Vision.map_params``);
 * ``errors``: the normalized RMS errors of the predictions (``Vision._frame_errors`` ->
   ``kernels.normalized_errors``);
 * ``cortical``: the env's ``cortical`` observation (``BinocularSaccadeEnv._cortical``, with
@@ -39,9 +39,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from conformal import checks
-from conformal.dpft import _mirror_map, _tables, _weight
+from conformal.dpft import dpft_tables, dpft_weight, mirror_map
 from conformal.fovea import fovea_indices
-from conformal.geometry import _PERM_FLAT
+from conformal.geometry import PERM_FLAT
 from conformal.kernels import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
 
 from .vision import REMAP_MODELS, Vision
@@ -64,7 +64,7 @@ class TorchFrame:
 
     samples (B, E, P, C) float32 in retina order (the N_f foveal samples, then the periphery [k, l]
     row-major; P = N_f + M N), periphery (B, E, M, N, C) and fovea (B, E, N_f, C) views of it, and
-    coeffs (B, E, M, N, C) complex64: the DPFT of the periphery (``conformal.dpft._dpft``)."""
+    coeffs (B, E, M, N, C) complex64: the DPFT of the periphery (``conformal.dpft.dpft_prechecked``)."""
 
     samples: torch.Tensor
     periphery: torch.Tensor
@@ -120,7 +120,7 @@ class TorchVision:
         dev, f32 = self.device, torch.float32
         retina = vision.retina
 
-        # --- sampling (Retina._sample_many): the receptive-field operator, rows normalised to averages
+        # --- sampling (Retina.sample_prechecked): the receptive-field operator, rows normalised to averages
         op = retina.operator.tocsr()
         op.sort_indices()
         index_dtype = torch.int32 if op.nnz < 2**31 - 1 else torch.int64
@@ -131,16 +131,16 @@ class TorchVision:
                 torch.as_tensor(op.indices.astype(np.int64), dtype=index_dtype),
                 torch.as_tensor(op.data, dtype=f32), size=op.shape, check_invariants=True).to(dev)
         self._fill = float(retina.fill)
-        self._empty = torch.as_tensor(np.flatnonzero(retina._empty), device=dev) if self._fill != 0.0 else None
+        self._empty = torch.as_tensor(np.flatnonzero(retina.empty), device=dev) if self._fill != 0.0 else None
         self.valid = torch.as_tensor(np.array(vision._valid), device=dev)
 
-        # --- DPFT (dpft._dpft): w e^{u_k} per ring, the phase e^{-i (2 pi m u_0 / T + n theta_0)}
-        phase, _, exp_u, _ = _tables(g)
-        self._dpft_weight = torch.as_tensor(_weight(g) * np.array(exp_u), dtype=f32, device=dev).view(g.M, 1, 1)
+        # --- DPFT (dpft.dpft_prechecked): w e^{u_k} per ring, the phase e^{-i (2 pi m u_0 / T + n theta_0)}
+        phase, _, exp_u, _ = dpft_tables(g)
+        self._dpft_weight = torch.as_tensor(dpft_weight(g) * np.array(exp_u), dtype=f32, device=dev).view(g.M, 1, 1)
         self._dpft_phase = torch.as_tensor(np.array(phase), dtype=torch.complex64, device=dev).view(g.M, g.N, 1)
 
-        # --- the mirror series (dpft._mirror_map / _mirror_series): H = A F, D[q] = H[q] b1 + conj(H[-q]) b2
-        A, b1, b2, neg = _mirror_map(g)
+        # --- the mirror series (dpft.mirror_map / _mirror_series): H = A F, D[q] = H[q] b1 + conj(H[-q]) b2
+        A, b1, b2, neg = mirror_map(g)
         self._nh = len(b1)
         self._series_A = torch.as_tensor(np.array(A), dtype=torch.complex64, device=dev)
         self._series_b1 = torch.as_tensor(np.array(b1), dtype=torch.complex64, device=dev).view(-1, 1)
@@ -155,7 +155,7 @@ class TorchVision:
         self._t_scale = math.pi / (g.M * g.delta)
         self._t_offset = math.pi / (2 * g.M)
 
-        self._perm_flat = torch.as_tensor(_PERM_FLAT, device=dev)
+        self._perm_flat = torch.as_tensor(PERM_FLAT, device=dev)
         self._indices: dict[tuple[int, ...], torch.Tensor] = {}
 
         # --- the output points (RemapPlan: the foveal points, then the periphery) and the validity radii
@@ -233,7 +233,7 @@ class TorchVision:
 
     def _frame(self, samples: torch.Tensor) -> TorchFrame:
         """``Vision._frame``: the periphery and fovea views of (B, E, P, C) float32 samples and the DPFT of
-        the periphery (``dpft._dpft``: the FFT over (ring, sector) of w e^{u_k} f, times the phase)."""
+        the periphery (``dpft.dpft_prechecked``: the FFT over (ring, sector) of w e^{u_k} f, times the phase)."""
         g, n_f = self.grid, self.grid.n_fovea
         b, e, _, c = samples.shape
         periphery = samples[:, :, n_f:].view(b, e, g.M, g.N, c)
@@ -245,13 +245,13 @@ class TorchVision:
     # ------------------------------------------------------------------ remapping
     def map_params(self, models: tuple[str, ...], rotations_eye: torch.Tensor) -> tuple[tuple[int, ...], torch.Tensor]:
         """The ``RemapPlan`` description of each model's point map for each world's eyes' rotations,
-        ``Vision._map_params`` vectorised over (B, E): kinds (K,) (``KIND_PROJECTIVE`` for the homography,
+        ``Vision.map_params`` vectorised over (B, E): kinds (K,) (``KIND_PROJECTIVE`` for the homography,
         else ``KIND_MOBIUS``) and params (B, E, K, 9) float64 on the device:
 
-        * homography: the rotation permuted, R.ravel()[_PERM_FLAT] (``rotation_homography``: P R P^T);
-        * mobius: the SU(2) element of the sphere's rotation (``_su2_params(*_su2_entries(R))``);
+        * homography: the rotation permuted, R.ravel()[PERM_FLAT] (``rotation_homography``: P R P^T);
+        * mobius: the SU(2) element of the sphere's rotation (``su2_params(*su2_entries(R))``);
         * shift: z -> z_t + e^{shift delta} z normalised to det 1, z_t the new optical axis (R's second
-          column) on the old retina plane (``_mobius_params(_target_shift_matrix(z_t, shift_rings, delta))``).
+          column) on the old retina plane (``mobius_params(target_shift_matrix(z_t, shift_rings, delta))``).
 
         rotations_eye (B, E, 3, 3) floating point on this device (float32 rotations are taken in float64),
         each a proper rotation (orthogonal to 1e-6, det +1: ``conformal.check_rotation``); with ``shift``,
@@ -288,7 +288,7 @@ class TorchVision:
         for k, m in enumerate(models):
             if m == "homography":
                 params[:, :, k] = flat[..., self._perm_flat]
-            elif m == "mobius":  # _su2_entries, _su2_params
+            elif m == "mobius":  # su2_entries, su2_params
                 cos_t = (r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1.0) / 2.0
                 s1 = (r[..., 2, 1] - r[..., 1, 2]) / 2.0
                 s2 = (r[..., 0, 2] - r[..., 2, 0]) / 2.0
@@ -296,7 +296,7 @@ class TorchVision:
                 norm = torch.sqrt(torch.hypot(cos_t, s2) ** 2 + torch.hypot(s1, s3) ** 2)
                 ar, ai, br, bi = cos_t / norm, s2 / norm, s1 / norm, -s3 / norm
                 params[:, :, k, :8] = torch.stack([ar, -ai, -br, bi, br, bi, ar, ai], dim=-1)
-            else:  # _shift_target, _target_shift_matrix, _mobius_params
+            else:  # _shift_target, target_shift_matrix, mobius_params
                 axis = r[..., :, 1]
                 root = math.exp(self.shift_rings * self.grid.delta / 2)
                 zr, zi = axis[..., 2] / axis[..., 1], axis[..., 0] / axis[..., 1]
@@ -340,10 +340,10 @@ class TorchVision:
         with _ieee_matmul(self.device):
             for s in range(0, be, chunk):
                 sl = slice(s, min(be, s + chunk))
-                values[sl], valid[sl] = self._evaluate(coeffs[sl], fovea[sl], kinds, params[sl])
+                values[sl], valid[sl] = self.evaluate_prechecked(coeffs[sl], fovea[sl], kinds, params[sl])
         return values.view(b, e, n_maps, n_pts, c), valid.view(b, e, n_maps, n_pts)
 
-    def _evaluate(self, F: torch.Tensor, fov: torch.Tensor, kinds: tuple[int, ...],
+    def evaluate_prechecked(self, F: torch.Tensor, fov: torch.Tensor, kinds: tuple[int, ...],
                   params: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``RemapPlan._evaluate`` (pooled=False) for n eyes: F (n, M, N, C) complex64, fov (n, N_f, C),
         params (n, K, 9) float32. Returns values (n, K, P, C) float32 and valid (n, K, P)."""

@@ -283,6 +283,12 @@ class BinocularSaccadeEnv(gym.Env):
         }
         return self._observation(), float(reward), terminated, truncated, info
 
+    @property
+    def seen(self):
+        """What vision made of the last frame (both eyes' retina samples, DPFT coefficients and fovea
+        arrays: ``frame.coeffs``, ``frame.fovea``, ``frame.periphery``); None before ``reset``."""
+        return self._seen
+
     def render(self):
         if self.render_mode != "rgb_array":
             return None

@@ -15,9 +15,9 @@ from numpy.typing import NDArray
 
 import conformal as C
 from conformal import checks
-from conformal.dpft import _dpft
-from conformal.geometry import _PERM_FLAT
-from conformal.remap import _mobius_params, _su2_entries, _su2_params, _target_shift_matrix
+from conformal.dpft import dpft_prechecked
+from conformal.geometry import PERM_FLAT
+from conformal.remap import mobius_params, su2_entries, su2_params, target_shift_matrix
 
 __all__ = ["EyeView", "Vision", "REMAP_MODELS", "POOLED_REMAP_DEFAULT", "normalized_error", "model_errors"]
 
@@ -239,7 +239,7 @@ class Vision:
         go straight to the sampler; anything else takes ``see_eyes``' checks first."""
         shape = self.retina.image_shape
         if images and all(type(im) is np.ndarray and im.dtype == np.uint8 and im.shape == shape for im in images):
-            return self._frame(self.retina._sample_many(list(images), 1.0 / 255.0))
+            return self._frame(self.retina.sample_prechecked(list(images), 1.0 / 255.0))
         imgs, scale = self._check_images(images)
         return self._frame(self.retina.sample_many(imgs, scale))
 
@@ -251,7 +251,7 @@ class Vision:
         n_eyes, chans = samples.shape[0], samples.shape[-1]
         periphery = samples[:, n_f:].reshape(n_eyes, g.M, g.N, chans)
         stacked = periphery.transpose(1, 2, 0, 3).reshape(g.M, g.N, n_eyes * chans)  # eyes side by side as channels
-        coeffs = _dpft(stacked, g).reshape(g.M, g.N, n_eyes, chans)  # (float64 samples of this grid: valid)
+        coeffs = dpft_prechecked(stacked, g).reshape(g.M, g.N, n_eyes, chans)  # (float64 samples of this grid: valid)
         mask, fovea_mask = self.retina.mask, self.retina.fovea_mask
         views = tuple(EyeView(samples[e, :n_f], periphery[e], coeffs[:, :, e], mask, fovea_mask) for e in range(n_eyes))
         return _Frame(views, samples, periphery, coeffs.transpose(2, 0, 1, 3), samples[:, :n_f])
@@ -269,7 +269,7 @@ class Vision:
             return C.target_shift_map(_shift_target(R), self.shift_rings, self.grid.delta)
         checks.choice("model", model, REMAP_MODELS)
 
-    def _map_params(self, models: tuple[str, ...], rotations_eye) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    def map_params(self, models: tuple[str, ...], rotations_eye) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """The ``RemapPlan`` description (kinds (K,), params (E, K, 9)) of ``point_map(m, R)`` for the
         ``models`` (names from ``REMAP_MODELS``, not checked) and each eye's rotation R, without
         building the map objects: the same numbers (``tests/test_env_hotpath.py`` compares them).
@@ -282,16 +282,16 @@ class Vision:
         rows = r.tolist()
         for k, m in enumerate(models):
             if m == "homography":
-                params[:, k] = r.reshape(n_eyes, 9)[:, _PERM_FLAT]
+                params[:, k] = r.reshape(n_eyes, 9)[:, PERM_FLAT]
             elif m == "mobius":
                 for e in range(n_eyes):
-                    params[e, k] = _su2_params(*_su2_entries(rows[e]))
+                    params[e, k] = su2_params(*su2_entries(rows[e]))
             else:
                 for e in range(n_eyes):
                     zt = complex(_shift_target(r[e]))
                     if abs(self.shift_rings * self.grid.delta) > 40:  # the public constructor's message
                         C.target_shift_map(zt, self.shift_rings, self.grid.delta)
-                    params[e, k] = _mobius_params(_target_shift_matrix(zt, self.shift_rings, self.grid.delta))
+                    params[e, k] = mobius_params(target_shift_matrix(zt, self.shift_rings, self.grid.delta))
         return kinds, params
 
     def predict(
@@ -340,8 +340,8 @@ class Vision:
         if len(rotations_eye) != len(frame.views):
             raise ValueError(f"rotations_eye must hold one 3x3 rotation per view ({len(frame.views)}); "
                              f"got {len(rotations_eye)}")
-        kinds, params = self._map_params(models, rotations_eye)
-        return self.plan._evaluate(frame.coeffs, frame.fovea, kinds, params, self.pooled_remap)
+        kinds, params = self.map_params(models, rotations_eye)
+        return self.plan.evaluate_prechecked(frame.coeffs, frame.fovea, kinds, params, self.pooled_remap)
 
     def _frame_errors(self, values: NDArray, valid: NDArray, frame: "_Frame") -> NDArray[np.float64]:
         """``errors(values, valid, frame.views)`` for ``_predict_frame``'s output and a ``_Frame``."""

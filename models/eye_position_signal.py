@@ -30,7 +30,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import ndtr
 
 from conformal import checks
 
@@ -56,13 +55,3 @@ class EyePositionSignal:
     def __post_init__(self):
         object.__setattr__(self, "sigma_ms", checks.real("sigma_ms", self.sigma_ms, 1.0, 500.0))
         object.__setattr__(self, "delay_ms", checks.real("delay_ms", self.delay_ms, -500.0, 500.0))
-
-    def smooth(self, t_rel_ms, knots_ms: np.ndarray, profile: np.ndarray) -> np.ndarray:
-        """``(G_sigma * s)(t - delay)`` at ``t_rel_ms`` (ms after burst onset) for a profile ``s``
-        sampled at ``knots_ms`` (rising from 0 to 1 and 1 after the last knot): the sum of the
-        profile's increments, each spread by the Gaussian's cumulative distribution."""
-        t = np.asarray(t_rel_ms, float) - self.delay_ms
-        mid = 0.5 * (knots_ms[1:] + knots_ms[:-1])
-        inc = np.diff(profile)
-        z = (t[..., None] - mid) / self.sigma_ms
-        return ndtr(z) @ inc + ndtr((t - knots_ms[-1]) / self.sigma_ms) * (1.0 - profile[-1])

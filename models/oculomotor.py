@@ -273,6 +273,11 @@ class MainSequence:
         return float((amp_deg + self.m0_deg * x) / self.vpk_deg_per_ms)
 
 
+def _times(t_ms) -> np.ndarray:
+    """Finite real times (ms) as a float array."""
+    return checks.array("t_ms", t_ms, kinds="biuf").astype(float)
+
+
 @dataclass
 class SaccadePlan:
     """A planned binocular saccade, with its efference copy, before the eyes move.
@@ -433,13 +438,13 @@ class SaccadePlan:
 
     # -- trajectory ------------------------------------------------------------------------
     def _at(self, t_ms, method, *args) -> np.ndarray:
-        t = MainSequence._times(t_ms)
+        t = _times(t_ms)
         return method(t.reshape(1, -1), *args).reshape(t.shape + (2, 3))
 
     def profile(self, t_ms) -> tuple[np.ndarray, np.ndarray]:
         """Normalised position ``s`` and its rate ``ds/dt`` (1/ms) of the nominal plant at finite
         absolute times ``t_ms``."""
-        t = MainSequence._times(t_ms)
+        t = _times(t_ms)
         tr = (t - self.onset_ms).reshape(1, -1)
         done = tr >= self.settle_ms
         p = self._batch.profiles

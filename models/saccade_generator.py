@@ -132,7 +132,8 @@ class SaccadeProfile:
     def _values(self, t_rel, plant: int, rate: bool) -> np.ndarray:
         from . import _plan_kernels as K
 
-        t = np.asarray(t_rel, float)
+        t = checks.array("t_rel", t_rel, kinds="biuf").astype(float)
+        plant = checks.integer("plant", plant, 0, len(PLANTS) - 1, hint="0 nominal, 1 abducting, 2 adducting")
         tab, rates, prof = self._tables
         out = np.empty((1, t.size))
         K.profile_values(tab, rates, self.dt_ms, prof, False, 0.0, 0.0, int(plant),

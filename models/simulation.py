@@ -46,7 +46,6 @@ from .oculomotor import (
     SaccadePlan,
     _check_point,
     fixation_angles,
-    gaze_direction,
 )
 from .saccade_generator import BurstGenerator
 from .vergence import VergenceDynamics

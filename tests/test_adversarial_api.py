@@ -200,7 +200,7 @@ class World:
 
     @cached_property
     def planner(self):
-        return envs.BatchedPlanner(self.head, 2)
+        return models.BatchedPlanner(self.head, 2)
 
     @cached_property
     def plan_batch(self):
@@ -559,6 +559,7 @@ API: dict[str, Api] = {
     "models.Head.set_visible": Api(lambda o: o.head.set_visible, dict(name="flash_00", visible=False),
                                    bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
                                    types=ALL_ERRORS + (KeyError,)),
+    "models.Head.set_state": Api(lambda o: o.head.set_state, dict(state=Lazy(lambda o: o.head.get_state()))),
     "models.Head.set_opacity": Api(lambda o: o.head.set_opacity, dict(name="ruler", opacity=0.5),
                                    bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
                                    types=ALL_ERRORS + (KeyError,)),
@@ -622,8 +623,6 @@ API: dict[str, Api] = {
         change_deg=1.0, saccade_offset_ms=30.0, settle_deg=0.01)),
     "models.EyePositionSignal": Api(lambda o: models.EyePositionSignal, {}, bad={
         p: {"huge": 1e9, "negative": -1e9} for p in ("sigma_ms", "delay_ms")}),
-    "models.EyePositionSignal.smooth": Api(lambda o: models.EyePositionSignal().smooth, dict(
-        t_rel_ms=np.array([0.0, 10.0]), knots_ms=np.array([0.0, 5.0, 10.0]), profile=np.array([0.0, 0.5, 1.0]))),
     "models.SaccadePlan": Api(lambda o: models.SaccadePlan, dict(
         **SP, generator=models.BurstGenerator(), target=[1.0, 0.0, 1.2], intended_target=[1.0, 0.0, 1.2],
         intended_end_angles=np.full((2, 3), 0.1), intended_amplitude=0.1, vergence=models.VergenceDynamics(),
@@ -737,8 +736,7 @@ API: dict[str, Api] = {
     "envs.FixateTask.check_scene": Api(lambda o: envs.FixateTask().check_scene, dict(head=Lazy(lambda o: o.head))),
     "envs.FixateTask.initialize_episode": Api(lambda o: envs.FixateTask().initialize_episode, dict(
         head=Lazy(lambda o: o.head), rng=np.random.default_rng(0)), bad={"rng": {"seed": 3, "legacy": np.random.RandomState(0)}}),
-    "envs.FixateTask.score": Api(lambda o: envs.FixateTask().score, dict(head=Lazy(lambda o: o.head))),
-    "envs.SearchTask.score": Api(lambda o: envs.SearchTask(scene="dots").score, dict(head=Lazy(lambda o: o.head))),
+    "envs.Task.score": Api(lambda o: envs.FixateTask().score, dict(head=Lazy(lambda o: o.head))),
     "envs.FreeViewingTask.check_scene": Api(lambda o: envs.FreeViewingTask(scene="dots").check_scene,
                                             dict(head=Lazy(lambda o: o.head))),
     "envs.FreeViewingTask.score": Api(lambda o: envs.FreeViewingTask(scene="dots").score, dict(head=Lazy(lambda o: o.head))),
@@ -761,15 +759,30 @@ EXEMPT = {
     "conformal.checks": "the checks themselves: tests/test_checks.py tries every hostile value on each",
     "conformal.kernels": "numba kernels the checked public functions call with validated arrays",
     "envs.BatchedBinocularSaccade": "needs the gpu extra (Warp); tests/test_batched_env.py checks its arguments and actions",
-    "envs.PlanBatch": "the batched env's host side: BatchedPlanner.plan builds it from its own tables",
+    "models.SaccadePlans": "arrays of plans that BatchedPlanner.plan and SaccadePlan (validated) build",
+    "models.Profiles": "the profiles SaccadePlans builds from validated amplitudes",
+    "models.profiles": "as models.Profiles",
+    "models.SaccadePlan.from_batch": "a plan of a SaccadePlans batch (its fields already checked), rebuilt through SaccadePlan's checks",
+    "models.fixation_batch": "array geometry of the planners (validated points); models.fixation_angles is its checked entry",
+    "models.displaced": "array geometry of the planners (as fixation_batch)",
+    "models.cyclopean_amplitude": "array geometry of the planners (as fixation_batch)",
+    "models.plan_clipped": "Head.plan_saccade / plan_saccade_to (walked) in a bisection; the env decodes its arguments",
+    "models.OculomotorState": "a record Head.get_state returns (Head.set_state checks its type)",
+    "envs.FixateTask.score_errors": "as envs.Task.score_errors",
+    "envs.SearchTask.score_errors": "as envs.Task.score_errors",
+    "envs.FreeViewingTask.score_errors": "as envs.Task.score_errors",
+    "envs.Task.score_errors": "the tasks' scoring of gaze errors the envs compute (arrays from the head or the device)",
+    "envs.gaze_errors": "array geometry of the envs' scoring (eye poses from the simulation); gaze_errors_deg is its checked entry",
+    "envs.Vision.map_params": "the env's hot path, fed the plan's efference copy (rotations the head computed)",
+    "conformal.RemapPlan.evaluate_prechecked": "the unchecked hot path of RemapPlan.predict (walked), named so",
+    "conformal.Retina.sample_prechecked": "the unchecked hot path of Retina.sample_many (walked), named so",
     "models.EyeTrace": "a record Head.step_ms(record=True) returns (a dataclass of arrays the head computed)",
     "models.EyeState": "a record Head.eye_states() returns",
     "models.EyeImage": "a record EyeRenderer.render returns",
     "models.StereoFrame": "a record EyeRenderer.render returns",
     "envs.EyeView": "a record Vision.see returns (unlike conformal.RetinaSamples it checks nothing)",
-    "envs.BatchedPlanner": "the batched env's host side, fed the env's validated arrays (it checks nothing itself)",
-    "envs.SettledReset": "the batched env's host side (as BatchedPlanner)",
-    "envs.Task.score": "abstract: each task overrides it (their entries are walked)",
+    "models.BatchedPlanner": "the batched env's host side, fed the env's validated arrays (it checks nothing itself)",
+    "models.SettledReset": "the batched env's host side (as BatchedPlanner)",
     "envs.BinocularSaccadeEnv.get_wrapper_attr": "gymnasium.Env's, not this package's",
     "envs.BinocularSaccadeEnv.has_wrapper_attr": "gymnasium.Env's, not this package's",
     "envs.BinocularSaccadeEnv.set_wrapper_attr": "gymnasium.Env's, not this package's",
@@ -779,12 +792,9 @@ EXEMPT = {
 #: strict xfail, so it fails as soon as one validates its arguments and the entry must move here
 UNVALIDATED = {
     "models.SaccadeProfile": "a dataclass of tables (BurstGenerator.profile builds it) with no checks",
-    "models.SaccadeProfile.position": "NaN times index with INT64_MIN (IndexError); plant unchecked (IndexError)",
-    "models.SaccadeProfile.rate": "as SaccadeProfile.position",
     "models.VergenceDynamics.fraction": "NaN and None times are accepted; strings reach numpy",
     "models.VergenceDynamics.rate": "as VergenceDynamics.fraction; a string offset reaches np.clip (UFuncTypeError)",
     "models.VergenceDynamics.settle_ms": "NaN, inf and bools accepted; strings and None reach arithmetic",
-    "models.EyePositionSignal.smooth": "NaN accepted; strings and None reach numpy (no message naming the argument)",
 }
 
 

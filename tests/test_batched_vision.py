@@ -176,7 +176,7 @@ def test_map_params_equal_cpu(case):
     rot = torch.as_tensor(case.rot64, device=case.device)  # float64: the CPU's own numbers
     kinds, params = case.tv.map_params(REMAP_MODELS, rot)
     for b in range(len(case.rot64)):
-        ref_kinds, ref_params = case.vis._map_params(REMAP_MODELS, case.rot64[b])
+        ref_kinds, ref_params = case.vis.map_params(REMAP_MODELS, case.rot64[b])
         assert kinds == tuple(ref_kinds)
         # the homography is a permutation (exact); the Mobius and shift parameters agree to a few ulp
         # (hypot and division in another order): measured 1.1e-16

@@ -31,12 +31,12 @@ def _images(seed, n=2):
 @pytest.mark.parametrize("seed", range(5))
 def test_map_params_equal_point_map_objects(vision, seed):
     R = _rotations(seed)
-    kinds, params = vision._map_params(MODELS, R)
+    kinds, params = vision.map_params(MODELS, R)
     ref_kinds, ref_params = vision.plan._maps([[vision.point_map(m, r) for m in MODELS] for r in R], len(R))
     assert np.array_equal(kinds, ref_kinds)
     assert np.array_equal(params, ref_params)
     # a list of rotations (not a float64 stack) takes check_rotation one by one
-    assert np.array_equal(vision._map_params(MODELS, list(R.astype(np.float32).astype(float)))[1],
+    assert np.array_equal(vision.map_params(MODELS, list(R.astype(np.float32).astype(float)))[1],
                           vision.plan._maps([[vision.point_map(m, r) for m in MODELS]
                                              for r in R.astype(np.float32).astype(float)], len(R))[1])
 
