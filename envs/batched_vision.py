@@ -218,15 +218,8 @@ class TorchVision:
         """A frame from retina samples already taken (``Vision._frame``): samples (B, E, P, 3) floats in
         [0, 1] (not checked) on this device in retina order (e.g. rendered along the receptive fields'
         rays: ``WarpHeads.render_retina``); in grayscale the channels are averaged."""
-        if not isinstance(samples, torch.Tensor):
-            raise _type_error(f"samples must be a torch.Tensor (B, E, P, 3); got {type(samples).__name__}")
-        if samples.dim() != 4 or samples.shape[2:] != (self.n_points, 3) or 0 in samples.shape[:2]:
-            raise ValueError(f"samples must be (B, E, P, 3) = (B, E, {self.n_points}, 3) with B, E >= 1; "
-                             f"got {tuple(samples.shape)}")
-        if not samples.is_floating_point():
-            raise _type_error(f"samples must be floating point; got {samples.dtype}")
-        self._check_device("samples", samples)
-        s = samples.to(torch.float32)
+        s = self._float_tensor("samples", samples, "(B, E, P, 3)", (self.n_points, 3), " with B, E >= 1",
+                               lambda t: t.dim() == 4 and t.shape[2:] == (self.n_points, 3) and 0 not in t.shape[:2])
         if self.grayscale:
             s = s.mean(dim=-1, keepdim=True)
         return self._frame(s.contiguous())
@@ -241,6 +234,19 @@ class TorchVision:
         coeffs = torch.fft.fft2(weighted, dim=(2, 3))
         coeffs.mul_(self._dpft_phase)
         return TorchFrame(samples=samples, periphery=periphery, fovea=samples[:, :, :n_f], coeffs=coeffs)
+
+    def _float_tensor(self, name: str, x, form: str, tail: tuple, extra: str, shape_ok) -> "torch.Tensor":
+        """``x`` as float32 after checking it is a floating-point tensor on this device of shape ``form``
+        (``shape_ok``), its trailing sizes ``tail``; errors name ``name``."""
+        if not isinstance(x, torch.Tensor):
+            raise _type_error(f"{name} must be a torch.Tensor {form}; got {type(x).__name__}")
+        if not shape_ok(x):
+            want = ", ".join(str(d) for d in tail)
+            raise ValueError(f"{name} must be {form} = (B, E, {want}){extra}; got {tuple(x.shape)}")
+        if not x.is_floating_point():
+            raise _type_error(f"{name} must be floating point; got {x.dtype}")
+        self._check_device(name, x)
+        return x.to(torch.float32)
 
     # ------------------------------------------------------------------ remapping
     def map_params(self, models: tuple[str, ...], rotations_eye: torch.Tensor) -> tuple[tuple[int, ...], torch.Tensor]:
@@ -468,15 +474,8 @@ class TorchVision:
         each hemisphere the contralateral hemifield of both eyes (``conformal.binocular_cortex``)."""
         checks.choice("cortex", cortex, ("eyes", "hemispheres"))
         g = self.grid
-        if not isinstance(periphery, torch.Tensor):
-            raise _type_error(f"periphery must be a torch.Tensor (B, E, M, N, C); got {type(periphery).__name__}")
-        if periphery.dim() != 5 or periphery.shape[2:4] != (g.M, g.N):
-            raise ValueError(f"periphery must be (B, E, M, N, C) = (B, E, {g.M}, {g.N}, C); "
-                             f"got {tuple(periphery.shape)}")
-        if not periphery.is_floating_point():
-            raise _type_error(f"periphery must be floating point; got {periphery.dtype}")
-        self._check_device("periphery", periphery)
-        p = periphery.to(torch.float32)
+        p = self._float_tensor("periphery", periphery, "(B, E, M, N, C)", (g.M, g.N, "C"), "",
+                               lambda t: t.dim() == 5 and t.shape[2:4] == (g.M, g.N))
         if cortex == "eyes":
             return p.clamp(0.0, 1.0)
         if self._hemifields is None:

@@ -90,19 +90,10 @@ _lrate = _inline(_legacy_rate)
 
 # ------------------------------------------------------------------------------ profiles
 @_inline
-def _position(tab, dt, prof, w, t, plant, legacy, m0, vpk):  # pragma: no cover - compiled
-    """Normalised position of ``plant`` of saccade w at t ms after burst onset. ``prof[w]``: (lo, hi,
-    weight) of its interpolation in amplitude, its amplitude (deg) and its profile's settle time."""
-    amp, settle = prof[w, 3], prof[w, 4]
-    if amp <= 0:
-        return 1.0 if t >= 0 else 0.0
-    if t <= 0:
-        return 0.0
-    if legacy:
-        return 1.0 if t >= settle else _lpos(t, amp, m0, vpk) / amp
+def _interp(tab, dt, prof, w, t, plant):  # pragma: no cover - compiled
+    """Row ``plant`` of the table ``tab`` (A, 3, K) at t ms, linear in time, interpolated in amplitude
+    between the rows ``prof[w, 0]`` and ``prof[w, 1]`` with weight ``prof[w, 2]``."""
     K = tab.shape[2]
-    if t >= settle or t >= (K - 1) * dt:
-        return 1.0
     lo, hi, wt = int(prof[w, 0]), int(prof[w, 1]), prof[w, 2]
     x = min(max(t / dt, 0.0), K - 1.0)
     i = min(int(x), K - 2)
@@ -113,6 +104,22 @@ def _position(tab, dt, prof, w, t, plant, legacy, m0, vpk):  # pragma: no cover 
 
 
 @_inline
+def _position(tab, dt, prof, w, t, plant, legacy, m0, vpk):  # pragma: no cover - compiled
+    """Normalised position of ``plant`` of saccade w at t ms after burst onset. ``prof[w]``: (lo, hi,
+    weight) of its interpolation in amplitude, its amplitude (deg) and its profile's settle time."""
+    amp, settle = prof[w, 3], prof[w, 4]
+    if amp <= 0:
+        return 1.0 if t >= 0 else 0.0
+    if t <= 0:
+        return 0.0
+    if legacy:
+        return 1.0 if t >= settle else _lpos(t, amp, m0, vpk) / amp
+    if t >= settle or t >= (tab.shape[2] - 1) * dt:
+        return 1.0
+    return _interp(tab, dt, prof, w, t, plant)
+
+
+@_inline
 def _rate(rtab, dt, prof, w, t, plant, legacy, m0, vpk):  # pragma: no cover - compiled
     """d(position)/dt (1/ms) of :func:`_position` (0 outside the movement); ``rtab``: the table's rates."""
     amp, settle = prof[w, 3], prof[w, 4]
@@ -120,16 +127,9 @@ def _rate(rtab, dt, prof, w, t, plant, legacy, m0, vpk):  # pragma: no cover - c
         return 0.0
     if legacy:
         return _lrate(t, amp, m0, vpk) / amp
-    K = rtab.shape[2]
-    if t >= (K - 1) * dt:
+    if t >= (rtab.shape[2] - 1) * dt:
         return 0.0
-    lo, hi, wt = int(prof[w, 0]), int(prof[w, 1]), prof[w, 2]
-    x = min(max(t / dt, 0.0), K - 1.0)
-    i = min(int(x), K - 2)
-    frac = x - i
-    a = (1 - wt) * rtab[lo, plant, i] + wt * rtab[hi, plant, i]
-    b = (1 - wt) * rtab[lo, plant, i + 1] + wt * rtab[hi, plant, i + 1]
-    return a + frac * (b - a)
+    return _interp(rtab, dt, prof, w, t, plant)
 
 
 @_par

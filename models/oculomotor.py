@@ -278,6 +278,11 @@ def _times(t_ms) -> np.ndarray:
     return checks.array("t_ms", t_ms, kinds="biuf").astype(float)
 
 
+def _one(name: str, cast, doc: str) -> property:
+    """A read-only property: ``cast`` of the first (the only) plan's ``name`` in the plan's batch."""
+    return property(lambda self: cast(getattr(self._batch, name)[0]), doc=doc)
+
+
 @dataclass
 class SaccadePlan:
     """A planned binocular saccade, with its efference copy, before the eyes move.
@@ -392,36 +397,17 @@ class SaccadePlan:
         """The legacy kinematics, when this plan uses them (else None)."""
         return self.generator if self.legacy else None
 
-    @property
-    def duration_ms(self) -> float:
-        """Saccade duration: between the 30 deg/s crossings of the eye speed (burst generator), or
-        onset until the speed falls below 20 deg/s (legacy main sequence)."""
-        return float(self._batch.duration_ms[0])
+    duration_ms = _one('duration_ms', float, """Saccade duration: between the 30 deg/s crossings of the eye speed (burst generator), or onset until the speed falls below 20 deg/s (legacy main sequence).""")
 
-    @property
-    def settle_ms(self) -> float:
-        """Time after onset at which the trajectory (vergence included) has reached its endpoint."""
-        return float(self._batch.settle_ms[0])
+    settle_ms = _one('settle_ms', float, """Time after onset at which the trajectory (vergence included) has reached its endpoint.""")
 
-    @property
-    def offset_ms(self) -> float:
-        """Absolute time of saccade offset (the last 30 deg/s crossing; legacy: onset + duration)."""
-        return float(self._batch.offset_ms[0])
+    offset_ms = _one('offset_ms', float, """Absolute time of saccade offset (the last 30 deg/s crossing; legacy: onset + duration).""")
 
-    @property
-    def movement_onset_ms(self) -> float:
-        """Absolute time the eye speed first exceeds 30 deg/s (legacy: ``onset_ms``)."""
-        return float(self._batch.movement_onset_ms[0])
+    movement_onset_ms = _one('movement_onset_ms', float, """Absolute time the eye speed first exceeds 30 deg/s (legacy: ``onset_ms``).""")
 
-    @property
-    def end_ms(self) -> int:
-        """Absolute whole millisecond from which the eyes hold the endpoint."""
-        return int(self._batch.end_ms[0])
+    end_ms = _one('end_ms', int, """Absolute whole millisecond from which the eyes hold the endpoint.""")
 
-    @property
-    def peak_velocity(self) -> float:
-        """Cyclopean peak speed, rad/s (of the executed displacement)."""
-        return float(self._batch.peak_velocity[0])
+    peak_velocity = _one('peak_velocity', float, """Cyclopean peak speed, rad/s (of the executed displacement).""")
 
     @property
     def burst(self) -> tuple[np.ndarray, np.ndarray] | None:

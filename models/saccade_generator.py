@@ -104,30 +104,15 @@ class SaccadeProfile:
         object.__setattr__(self, "_marks", tuple(float(x) for x in marks[0]))
         object.__setattr__(self, "_tables", (tab, rates, np.array([[0.0, 0.0, 0.0, self.amplitude_deg, marks[0, 2]]])))
 
-    @property
-    def onset_ms(self) -> float:
-        """Movement onset after the burst onset: first 30 deg/s crossing (nominal plant), ms."""
-        return self._marks[0]
+    onset_ms = property(lambda self: self._marks[0], doc="""Movement onset after the burst onset: first 30 deg/s crossing (nominal plant), ms.""")
 
-    @property
-    def offset_ms(self) -> float:
-        """Movement offset after the burst onset: last 30 deg/s crossing, ms."""
-        return self._marks[1]
+    offset_ms = property(lambda self: self._marks[1], doc="""Movement offset after the burst onset: last 30 deg/s crossing, ms.""")
 
-    @property
-    def duration_ms(self) -> float:
-        """Detected duration: between the 30 deg/s crossings of the nominal plant's speed."""
-        return self._marks[1] - self._marks[0]
+    duration_ms = property(lambda self: self._marks[1] - self._marks[0], doc="""Detected duration: between the 30 deg/s crossings of the nominal plant's speed.""")
 
-    @property
-    def settle_ms(self) -> float:
-        """Time after burst onset from which all plants are within ``settle_deg`` of the endpoint."""
-        return self._marks[2]
+    settle_ms = property(lambda self: self._marks[2], doc="""Time after burst onset from which all plants are within ``settle_deg`` of the endpoint.""")
 
-    @property
-    def peak_velocity_deg_s(self) -> float:
-        """Peak speed of the nominal plant (deg/s)."""
-        return self._marks[3]
+    peak_velocity_deg_s = property(lambda self: self._marks[3], doc="""Peak speed of the nominal plant (deg/s).""")
 
     def _values(self, t_rel, plant: int, rate: bool) -> np.ndarray:
         from . import _plan_kernels as K
