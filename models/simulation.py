@@ -242,6 +242,7 @@ class Head:
         self._head_body = m.body("head").id
         self._eye_centres_head = np.array([m.body_pos[m.body(f"{s}_eyeball").id] for s in ("left", "right")])
         self._cam_ids = [m.camera(e).id for e in EYES]
+        self._flash_gids = np.array([m.geom(name).id for name in self.scene.flashes], np.intp)
         self._seed = seed
         self.reset(seed=seed)
 
@@ -322,8 +323,7 @@ class Head:
             gid = self._geom_id(name)
             self._alpha0[gid] = float(m.geom_rgba[gid, 3])
             m.geom_rgba[gid, 3] = alpha
-        for name in self.scene.flashes:
-            m.geom_rgba[m.geom(name).id, 3] = 0.0
+        m.geom_rgba[self._flash_gids, 3] = 0.0
         self._flash_off = {}
         for name, off in state.flashes.items():
             gid = m.geom(name).id
