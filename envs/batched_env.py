@@ -241,7 +241,7 @@ class BatchedBinocularSaccade(VectorEnv):
                 table, lengths[act] = self.planner.commands(plans)
                 spans[act] = plans.end_ms - plans.onset_ms
             # the command tables: each world's commanded angles at every ms from now to its saccade's end
-            commands = np.empty((n, table.shape[1] if plans is not None else 1, 6), np.float32)
+            commands = np.empty((n, table.shape[1] if plans is not None else 1, 6))
             commands[:] = self.planner.hold.reshape(n, 1, 6)  # the worlds being reset hold their fixation
             if plans is not None:
                 commands[act] = table

@@ -7,7 +7,7 @@ One :class:`WarpHeads` holds ``mujoco_warp`` Model/Data for N worlds of one comp
 uploads, for each world, the commanded eye angles of its saccade at every millisecond from now
 (``models.SaccadePlan.angles``, the same command the CPU head's servo tracks); a Warp kernel then
 sets each world's position, velocity and inertial feed-forward set-points from that table before
-every physics step (as ``models.Head._saccade_table`` does on the CPU), so a whole step is a fixed
+every physics step (``models.servo_setpoints``, the CPU head's servo law), so a whole step is a fixed
 sequence of kernel launches: on CUDA it is captured once in a graph (``chunk_ms`` physics steps per
 graph) and replayed; on Warp's CPU backend the same launches run one by one.
 
@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 import models  # before mujoco_warp: models chooses MuJoCo's off-screen GL backend before mujoco loads
+from models import servo_setpoints
 from models.render import EYES, HIDDEN_GEOM_GROUPS
 
 __all__ = ["WarpHeads", "require_gpu_extra"]
@@ -114,7 +115,7 @@ class WarpHeads:
                 self.retina = RetinaRenderContext(mjm, n, self.cam_ids, retina_directions, groups)
             self._step = wp.zeros(1, dtype=wp.int32)
             self._ncmd = wp.ones(n, dtype=wp.int32)
-            self._cmd = wp.zeros((n, 2, 6), dtype=wp.float32)
+            self._cmd = wp.zeros((n, 2, 18), dtype=wp.float32)
         t = wp.to_torch
         d = self.data
         self.qpos, self.qvel, self.ctrl = t(d.qpos), t(d.qvel), t(d.ctrl)
@@ -163,19 +164,32 @@ class WarpHeads:
         return self.qpos[:, self._eye_q].reshape(-1, 2, 3)
 
     # ------------------------------------------------------------------ physics
+    def setpoints(self, commands: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+        """The servo's set-points (N, T, 18) of the command tables (N, T, 6) (``models.servo_setpoints``
+        at 1 ms, the rows from ``lengths[w] - 1`` on holding the endpoint: no velocity, no feed-forward)."""
+        q = np.asarray(commands, float)
+        n, T = q.shape[:2]
+        ext = np.concatenate([q[:, :1], q, q[:, -1:]], axis=1)  # at rest before the first row, held after the last
+        u = servo_setpoints(ext, np.full(T + 1, self._dt), self._inertia * np.eye(6))
+        u[np.arange(T)[None, :] >= np.asarray(lengths)[:, None] - 1, 6:] = 0.0
+        return u
+
     def run(self, commands: np.ndarray, lengths: np.ndarray, n_ms: int) -> int:
         """Step every world ``n_ms`` ms (rounded up to whole ``chunk_ms`` on CUDA) following ``commands``
-        (N, T, 6) float32: world w's commanded angles at 0, 1, ... ``lengths[w] - 1`` ms from now, then
-        held at the last. Returns the milliseconds stepped."""
+        (N, T, 6): world w's commanded angles at 0, 1, ... ``lengths[w] - 1`` ms from now, then held at
+        the last (the command at rest before them). The set-points are ``models.servo_setpoints``'
+        (the CPU head's servo law) at 1 ms steps with one inertia per joint. Returns the ms stepped."""
         wp, mjw = self._wp, self._mjw
         n, T = commands.shape[:2]
+        commands = self.setpoints(commands, lengths)
         with wp.ScopedDevice(self.device):
             if self._cmd.shape[1] < T:  # grown with headroom: each growth means a new graph
                 rows = 64 * math.ceil(max(T, 1.5 * self._cmd.shape[1]) / 64)
-                self._cmd = wp.zeros((n, rows, 6), dtype=wp.float32)
+                self._cmd = wp.zeros((n, rows, 18), dtype=wp.float32)
                 self._graph = None  # the graph captured the old table
             # only the rows in use travel (the kernel never reads a world's rows past lengths[w] - 1)
-            wp.to_torch(self._cmd)[:, :T] = self._torch.as_tensor(commands, device=self.torch_device)
+            wp.to_torch(self._cmd)[:, :T] = self._torch.as_tensor(commands, dtype=self._torch.float32,
+                                                                  device=self.torch_device)
             self._ncmd.assign(np.asarray(lengths, np.int32))
             if self.device.is_cuda:  # torch's copy (its stream) lands before Warp's kernels (Warp's stream)
                 self._torch.cuda.synchronize(self.torch_device)
@@ -227,7 +241,7 @@ class WarpHeads:
     def _physics_step(self) -> None:
         wp = self._wp
         wp.launch(self._servo, dim=(self.num_worlds, 6),
-                  inputs=[self._cmd, self._ncmd, self._step, self._inertia, self._dt, self._pos0, self._vel0, self._ff0],
+                  inputs=[self._cmd, self._ncmd, self._step, self._pos0, self._vel0, self._ff0],
                   outputs=[self.data.ctrl])
         self._mjw.step(self.model, self.data)
         wp.launch(self._advance, dim=1, inputs=[self._step])

@@ -1,23 +1,9 @@
 """``Head``: the binocular head simulation (MjModel/MjData, eye renderer, saccade plant).
 
-Time advances in whole milliseconds (``step_ms``). Eye joints are driven by actuators: a position
-servo plus a velocity set-point and a torque feed-forward per joint (natural frequency 2000 rad/s,
-critically damped; see ``models/head.xml``).
-
-Two physics timesteps (``Head(timestep_ms=..., saccade_timestep_ms=...)``, both must divide 1 ms):
-
-* fixation (no saccade in flight, or before a plan's onset): the set-points are constant, so the
-  physics runs in C, ``mj_step(nstep=...)``, at ``timestep_ms`` (default 1 ms; ~5 us per step,
-  ~1.5 ms per 300 ms). With the implicitfast integrator the servo is stable up to ~2.4 ms
-  (omega dt < 4.8) and at 1 ms its discrete poles have modulus 0.45 (well damped).
-* saccades: the commands of every physics step are tabulated once at onset and fed from a tight
-  loop, at ``saccade_timestep_ms`` (default 0.25 ms) until the saccade's offset and at
-  ``timestep_ms`` through the slow settle tail (the plant's and vergence's). The velocity set-point is the planned displacement
-  over the step divided by the step, so tracking is exact up to the solver (measured < 1e-4 deg
-  during the movement at 0.1-1 ms). The saccade step only limits how finely recorded
-  traces resolve the velocity profile: peak velocity is the mean over the first step (5 deg
-  saccade: -0.27 / -0.54 / -1.0 / -1.9 % at 0.1 / 0.25 / 0.5 / 1 ms) and the 20 deg/s offset is
-  seen up to one step late (+0.1 / +0.3 / +0.6 / +1.4 ms) -- hence 0.25 ms by default.
+Time advances in whole milliseconds (``step_ms``). The eyes follow their commands through the
+servo of :mod:`models.servo` (two physics timesteps: ``Head(timestep_ms=...,
+saccade_timestep_ms=...)``, both must divide 1 ms); scene objects, flashes and visibility are
+:mod:`models.scene_objects`'s; renders with an exposure :mod:`models.exposure`'s.
 
 Measured (dots scene, one core): 300 ms of fixation ~1.2 ms; a 10 deg saccade (~83 ms to its
 settled end with the burst generator) + 250 ms of fixation ~2.2 ms (``benchmarks/render.py`` prints current numbers).
@@ -25,7 +11,6 @@ settled end with the burst generator) + 250 ms of fixation ~2.2 ms (``benchmarks
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import Iterator, Sequence
 
@@ -34,7 +19,7 @@ import numpy as np
 from conformal import checks
 
 from ._gl import mujoco
-from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, _path, _write_spec, build_spec
+from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, build_spec
 from .eye_position_signal import EyePositionSignal
 from .gaze import cyclopean_amplitude, displaced
 from .oculomotor_state import OculomotorState
@@ -49,21 +34,13 @@ from .oculomotor import (
 )
 from .saccade_generator import BurstGenerator
 from .vergence import VergenceDynamics
-from .render import EYES, MAX_IMAGE_SIDE, EyeRenderer, StereoFrame, focal_pixels
+from .render import EYES, MAX_IMAGE_SIDE, EyeRenderer, focal_pixels
 from .scenes import SCENES, SceneInfo
+from .head_rendering import HeadRendering
+from .scene_objects import SceneObjects
+from .servo import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, EyeServo, _ms, _substeps
 
-__all__ = ["Head", "EyeState", "EyeTrace", "DEFAULT_TIMESTEP_MS", "DEFAULT_SACCADE_TIMESTEP_MS"]
-
-#: Physics timestep while no saccade is in flight (constant set-points, stepped in C).
-DEFAULT_TIMESTEP_MS = 1.0
-#: Physics timestep during saccades (set-points follow the plan at every step).
-DEFAULT_SACCADE_TIMESTEP_MS = 0.25
-#: The finest physics timestep accepted (100 steps per millisecond).
-MIN_TIMESTEP_MS = 0.01
-#: The longest stretch of simulated time one call may ask for (``step_ms``, ``settle_ms``,
-#: ``latency_ms``, ``duration_ms``, ``before_ms``/``after_ms``): one minute, far beyond any fixation
-#: (180-320 ms) or saccade latency, so that a typo cannot run for hours.
-MAX_STEP_MS = 60_000
+__all__ = ["Head", "EyeState", "EyeTrace"]
 
 _JOINTS = tuple(f"{side}_eye_{a}" for side in ("left", "right") for a in "hvt")
 # camera frame (x right, y up, z back) -> the README's eye axes (x1 up, x2 optical axis, x3 right)
@@ -115,20 +92,6 @@ def _world_points(points) -> np.ndarray:
     return p
 
 
-def _ms(name: str, value, lo: int = 0) -> int:
-    """A whole number of milliseconds in [lo, MAX_STEP_MS] (``2.5`` raises, never truncates)."""
-    return checks.integer(name, value, lo, MAX_STEP_MS, hint="times are whole milliseconds")
-
-
-def _substeps(timestep_ms, name: str) -> int:
-    """Physics steps per millisecond for ``timestep_ms`` (which must divide 1 ms, >= 0.01 ms)."""
-    ts = checks.real(name, timestep_ms, MIN_TIMESTEP_MS, 1.0, hint="it must divide 1 ms: 1, 0.5, 0.25, 0.1, ...")
-    k = int(round(1.0 / ts))
-    if k < 1 or abs(k * ts - 1.0) > 1e-9:
-        raise ValueError(f"{name} must divide 1 ms (1, 0.5, 0.25, 0.2, 0.1, ...), got {timestep_ms}")
-    return k
-
-
 def _angle(name: str, value) -> float:
     """A finite angle (radians); NaN or infinity is an :class:`OculomotorRangeError` (a ``ValueError``)."""
     try:
@@ -143,7 +106,7 @@ def _seed(seed) -> int | None:
     return None if seed is None else checks.integer("seed", seed, 0, None, hint="or None")
 
 
-class Head:
+class Head(SceneObjects, HeadRendering):
     """The binocular head in a scene.
 
     Args:
@@ -195,7 +158,6 @@ class Head:
             raise checks.InputTypeError(f"scene must be one of {', '.join(SCENES)}; got {scene!r}")
         self._k_fix = _substeps(timestep_ms, "timestep_ms")
         self._k_sac = _substeps(saccade_timestep_ms, "saccade_timestep_ms")
-        self._dt_fix, self._dt_sac = 1e-3 / self._k_fix, 1e-3 / self._k_sac
         self._renderer: EyeRenderer | None = None
         if isinstance(image_size, (tuple, list)):
             if len(image_size) != 2:
@@ -224,7 +186,7 @@ class Head:
         self.spec, info = build_spec(scene, ipd=ipd, fovy_deg=fovy_deg, quality=quality,
                                      offscreen_size=(self.image_shape[1], self.image_shape[0]))
         self.scene: SceneInfo = info
-        self.spec.option.timestep = self._dt_fix
+        self.spec.option.timestep = 1e-3 / self._k_fix
         self.model: mujoco.MjModel = self.spec.compile()
         self.data = mujoco.MjData(self.model)
         m = self.model
@@ -237,7 +199,7 @@ class Head:
         eye_ctrl = np.concatenate([self._pos_act, self._vel_act, self._ff_act])
         contiguous = np.array_equal(eye_ctrl, np.arange(eye_ctrl[0], eye_ctrl[0] + 18))
         self._eye_ctrl = slice(int(eye_ctrl[0]), int(eye_ctrl[0]) + 18) if contiguous else eye_ctrl
-        self._M = np.zeros((m.nv, m.nv))
+        self._servo = EyeServo(m, self.data, self._k_fix, self._k_sac, self._qadr, self._vadr, self._eye_ctrl)
         self._neck_act = np.array([m.actuator("neck_pan_pos").id, m.actuator("neck_tilt_pos").id])
         self._head_body = m.body("head").id
         self._eye_centres_head = np.array([m.body_pos[m.body(f"{s}_eyeball").id] for s in ("left", "right")])
@@ -261,7 +223,7 @@ class Head:
         mujoco.mj_resetData(self.model, self.data)
         self.time_ms = 0
         self._plan: SaccadePlan | None = None
-        self._table = None
+        self._servo.forget()
         self.last_plan: SaccadePlan | None = None
         self._signal_plan: SaccadePlan | None = None  # the plan the eye-position signal follows
         self._flash_off: dict[int, int] = {}
@@ -335,7 +297,7 @@ class Head:
         self._fix_head = np.array(state.fixation_head, float).reshape(3)
         self._rng, self._seed = state.rng, state.seed
         self._plan, self._signal_plan, self.last_plan = state.plan, state.signal_plan, state.last_plan
-        self._table = None
+        self._servo.forget()
 
     @property
     def eye_joint_addresses(self) -> tuple[np.ndarray, np.ndarray]:
@@ -378,12 +340,6 @@ class Head:
             return self.object_position(target)
         return _check_point(target)
 
-    def _name(self, what: str, name, kind: str = "an object") -> str:
-        if not isinstance(name, str):
-            raise checks.InputTypeError(f"{what} must be the name (str) of {kind} of scene {self.scene.name!r}; "
-                                        f"got {name!r:.60}")
-        return name
-
     def fixation_angles(self, point) -> np.ndarray:
         """Fick angles (2, 3) [left, right] fixating world ``point`` (Listing torsion)."""
         return fixation_angles(self.to_head(point), self._eye_centres_head)
@@ -423,80 +379,6 @@ class Head:
     def pixels_per_unit(self) -> float:
         """f_px of the eye images (same for both eyes)."""
         return focal_pixels(self.image_shape[0], np.deg2rad(self.model.cam_fovy[self._cam_ids[0]]))
-
-    # ------------------------------------------------------------------ scene objects
-    def _geom_id(self, name) -> int:
-        """The geom id of scene object ``name`` (a ``KeyError`` naming the scene's objects if none)."""
-        name = self._name("name", name)
-        gid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
-        if gid < 0:
-            raise KeyError(f"scene {self.scene.name!r} has no object {name!r}; objects: {', '.join(self.scene.objects)}")
-        return gid
-
-    def object_position(self, name: str) -> np.ndarray:
-        """World position of the scene object (geom) ``name``."""
-        return self.data.geom_xpos[self._geom_id(name)].copy()
-
-    def object_positions(self, group: str) -> dict[str, np.ndarray]:
-        """Positions of all objects in ``group`` (e.g. ``"flashes"``, ``"distractors"``)."""
-        group = self._name("group", group, "a group")
-        if group not in self.scene.groups:
-            raise KeyError(f"scene {self.scene.name!r} has no group {group!r}; groups: {', '.join(self.scene.groups)}")
-        return {n: self.object_position(n) for n in self.scene.groups[group]}
-
-    def _set_mocap(self, name: str, pos) -> None:
-        name = self._name("name", name)
-        bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
-        if bid < 0 or self.model.body_mocapid[bid] < 0:
-            raise KeyError(f"{name!r} is not a movable object of scene {self.scene.name!r}; movable: {', '.join(self.scene.movable)}")
-        self.data.mocap_pos[self.model.body_mocapid[bid]] = _check_point(pos, name)
-
-    def set_object_position(self, name: str, pos) -> None:
-        """Move a movable scene object (mocap body) to world ``pos``."""
-        self._set_mocap(name, pos)
-        mujoco.mj_forward(self.model, self.data)
-
-    def flash(self, names: str | Sequence[str], duration_ms: int = 8) -> None:
-        """Show flash object(s) now for ``duration_ms`` whole milliseconds of simulation time (1..60,000)."""
-        if not isinstance(names, str) and not (isinstance(names, (list, tuple)) and names):
-            raise checks.InputTypeError(f"names must be a flash name or a non-empty list of them; got {names!r:.60}")
-        names = [names] if isinstance(names, str) else [self._name("each of names", n, "a flash") for n in names]
-        duration_ms = _ms("duration_ms", duration_ms, 1)
-        for n in names:
-            if n not in self.scene.flashes:
-                raise KeyError(f"{n!r} is not a flash of scene {self.scene.name!r}")
-            gid = self.model.geom(n).id
-            self.model.geom_rgba[gid, 3] = 1.0
-            self._flash_off[gid] = self.time_ms + duration_ms
-
-    def set_visible(self, name: str, visible: bool) -> None:
-        """Show or hide the scene object (geom) ``name`` from now on (its alpha 1 or 0): e.g. the
-        ``dots`` scene's ``ruler``, ``target`` or ``screen`` for the conditions of a paradigm.
-        ``reset`` restores the scene's own visibility."""
-        gid = self._geom_id(name)
-        visible = checks.flag("visible", visible)
-        if gid not in self._alpha0:
-            self._alpha0[gid] = float(self.model.geom_rgba[gid, 3])
-        self.model.geom_rgba[gid, 3] = 1.0 if visible else 0.0
-
-    def set_opacity(self, name: str, opacity: float) -> None:
-        """Show scene object (geom) ``name`` at ``opacity`` in [0, 1] from now on: its alpha, blended
-        over what lies behind it, so that its contrast against the background scales with
-        ``opacity`` (e.g. references of graded visibility). ``reset`` restores the scene's own."""
-        gid = self._geom_id(name)
-        opacity = checks.real("opacity", opacity, 0.0, 1.0, hint="0 = invisible, 1 = full contrast")
-        if gid not in self._alpha0:
-            self._alpha0[gid] = float(self.model.geom_rgba[gid, 3])
-        self.model.geom_rgba[gid, 3] = opacity
-
-    def hide_flashes(self) -> None:
-        for gid in self._flash_off:
-            self.model.geom_rgba[gid, 3] = 0.0
-        self._flash_off.clear()
-
-    @property
-    def visible_flashes(self) -> tuple[str, ...]:
-        return tuple(self.model.geom(g).name for g in self._flash_off)
 
     # ------------------------------------------------------------------ gaze & saccades
     def set_gaze(self, target, settle_ms: int = 10) -> np.ndarray:
@@ -590,7 +472,7 @@ class Head:
         if not np.allclose(plan.start_angles, self._hold, atol=1e-9):
             raise ValueError("plan does not start from the current eye position; plan it again")
         self._plan = plan
-        self._table = None
+        self._servo.forget()
         self.last_plan = plan
         self._signal_plan = plan
         self._fix_head = self.to_head(plan.target)
@@ -657,15 +539,15 @@ class Head:
                 continue
             if plan is not None and self.time_ms >= plan.onset_ms:
                 until = min(stop, plan.end_ms)
-                self._saccade(plan, until, rec)
+                self._servo.saccade(plan, self.time_ms, until, rec)
                 self.time_ms = until
             else:
                 until = stop if plan is None else min(stop, plan.onset_ms)
-                self._fixate(until - self.time_ms, rec)
+                self._servo.hold(self._hold, self.time_ms, until - self.time_ms, rec)
                 self.time_ms = until
         if self._plan is not None and self.time_ms >= self._plan.end_ms:
             self._finish_saccade()
-        m.opt.timestep = self._dt_fix
+        self._servo.rest()
         if self._flash_off:  # flashes only matter to renders, which happen between calls
             for gid, off in list(self._flash_off.items()):
                 if self.time_ms >= off:
@@ -706,130 +588,3 @@ class Head:
         (the true orientation)."""
         t = float(self.time_ms) if t_ms is None else checks.real("t_ms", t_ms, 0.0, None, hint="sim milliseconds")
         return self._signal_hold_at(t)
-
-    def _fixate(self, n_ms: int, rec: list | None) -> None:
-        """``n_ms`` milliseconds with constant set-points (the hold), stepped in C."""
-        if n_ms <= 0:
-            return
-        m, d, k = self.model, self.data, self._k_fix
-        m.opt.timestep = self._dt_fix
-        u = np.zeros(18)
-        u[:6] = self._hold.ravel()
-        d.ctrl[self._eye_ctrl] = u
-        if rec is None:
-            mujoco.mj_step(m, d, nstep=n_ms * k)
-            return
-        hold = self._hold.ravel().copy()
-        for i in range(n_ms * k):
-            mujoco.mj_step(m, d)
-            rec.append((self.time_ms + (i + 1) / k, d.qpos[self._qadr].copy(), d.qvel[self._vadr].copy(), hold))
-
-    def _saccade_table(self, plan: SaccadePlan) -> dict:
-        """Per-physics-step commands for the whole of ``plan``, computed once at its onset.
-
-        Steps are ``saccade_timestep_ms`` long from onset until the whole millisecond after the
-        main-sequence offset (speed < 20 deg/s), then ``timestep_ms`` long through the slow settle
-        tail to ``plan.end_ms``. The velocity set-point of a step is the planned displacement over
-        it divided by its length (so the semi-implicit integrator lands on the planned angles), the
-        feed-forward torque ``M(q) (v_j - v_(j-1)) / dt_j`` uses the eye block of the mass matrix at
-        onset (its change over a saccade is < 0.3 %), and the position servo corrects what is left.
-        """
-        k_sac, k_fix = self._k_sac, self._k_fix
-        span = plan.end_ms - plan.onset_ms
-        fine_ms = min(span, int(np.ceil(plan.duration_ms)) + 1)
-        t = np.concatenate([np.arange(-1, fine_ms * k_sac + 1) / k_sac,
-                            fine_ms + np.arange(1, (span - fine_ms) * k_fix + 1) / k_fix])
-        q = plan.angles(plan.onset_ms + t).reshape(-1, 6)
-        dt = np.diff(t) * 1e-3  # s; dt[0] is the (virtual) step before onset
-        v = np.diff(q, axis=0) / dt[:, None]
-        a = np.diff(v, axis=0) / dt[1:, None]
-        mujoco.mj_fullM(self.model, self.data, self._M)
-        Mee = self._M[np.ix_(self._vadr, self._vadr)]
-        u = np.concatenate([q[1:-1], v[1:], a @ Mee.T], axis=1)
-        return {"plan": plan, "u": u, "t": plan.onset_ms + t[2:], "q": q[2:], "fine_steps": fine_ms * k_sac,
-                "fine_ms": fine_ms}
-
-    def _saccade(self, plan: SaccadePlan, until_ms: int, rec: list | None) -> None:
-        """Step the saccade in flight from now to ``until_ms`` (<= ``plan.end_ms``)."""
-        tab = self._table
-        if tab is None or tab["plan"] is not plan:
-            tab = self._table = self._saccade_table(plan)
-        m, d, ctrl, u = self.model, self.data, self._eye_ctrl, tab["u"]
-        fine, fine_ms = tab["fine_steps"], tab["fine_ms"]
-
-        def index(ms):  # first table row of absolute millisecond ``ms``
-            r = ms - plan.onset_ms
-            return r * self._k_sac if r <= fine_ms else fine + (r - fine_ms) * self._k_fix
-
-        j0, j1 = index(self.time_ms), index(until_ms)
-        for j in range(j0, j1):
-            if j == j0 or j == fine:
-                m.opt.timestep = self._dt_sac if j < fine else self._dt_fix
-            d.ctrl[ctrl] = u[j]
-            mujoco.mj_step(m, d)
-            if rec is not None:
-                rec.append((tab["t"][j], d.qpos[self._qadr].copy(), d.qvel[self._vadr].copy(), tab["q"][j].copy()))
-        if until_ms >= plan.end_ms:
-            self._table = None
-
-    # ------------------------------------------------------------------ rendering
-    @property
-    def renderer(self) -> EyeRenderer:
-        """The eye renderer (GL context created on first use)."""
-        if self._renderer is None:
-            self._renderer = EyeRenderer(self.model, *self.image_shape)
-        return self._renderer
-
-    def render(self, depth: bool = False, exposure_ms: float = 0.0, samples: int | None = None) -> StereoFrame:
-        """Render both eyes now (see :mod:`models.render` for the pixel convention).
-
-        With ``exposure_ms > 0`` the image is the retina's integral over the exposure: the mean of
-        ``samples`` renders (default: one per ms, at least 2) at instants spread evenly over
-        ``[now, now + exposure_ms)``, each with the eyes where the executed trajectory puts them
-        then (the servo tracks it to < 1e-4 deg), the scene as it is now (flashes visible now stay
-        visible). A flash during a saccade thus smears along its retinal path as on a real retina
-        (at 500 deg/s an 8 ms flash sweeps 4 deg). Time and physics do not advance; the frame's
-        camera poses are those at the middle of the exposure; images are rounded to uint8. While
-        the eyes hold still over the whole exposure this is the plain render of now.
-        """
-        depth = checks.flag("depth", depth)
-        exposure_ms = checks.real("exposure_ms", exposure_ms, 0.0, 1000.0, hint="milliseconds of integration")
-        if exposure_ms == 0:
-            if samples is not None:
-                raise ValueError("samples applies to an exposure; give exposure_ms > 0")
-            return self.renderer.render(self.data, depth=depth, time_ms=self.time_ms)
-        n = (max(2, int(np.ceil(exposure_ms))) if samples is None
-             else checks.integer("samples", samples, 1, 1000, hint="renders averaged over the exposure"))
-        if depth:
-            raise ValueError("depth is not defined for an exposure; render depth with exposure_ms=0")
-        m, d = self.model, self.data
-        qpos, qvel, act = d.qpos.copy(), d.qvel.copy(), d.act.copy()
-        times = self.time_ms + (np.arange(n) + 0.5) * exposure_ms / n
-        angles = self._command_at(np.append(times, self.time_ms + exposure_ms / 2)).reshape(-1, 6)
-        if np.ptp(angles, axis=0).max() == 0.0:  # the eyes hold still: the integral is the image now
-            return self.renderer.render(self.data, time_ms=self.time_ms)
-        acc, frame = None, None
-        try:
-            for k in range(n):
-                d.qpos[self._qadr] = angles[k]
-                mujoco.mj_forward(m, d)
-                frame = self.renderer.render(d, time_ms=self.time_ms)
-                pair = np.stack([frame.left.image, frame.right.image]).astype(np.float32)
-                acc = pair if acc is None else acc + pair
-            d.qpos[self._qadr] = angles[n]
-            mujoco.mj_forward(m, d)
-            poses = [(d.cam_xpos[c].copy(), d.cam_xmat[c].reshape(3, 3).copy()) for c in self._cam_ids]
-        finally:
-            d.qpos[:], d.qvel[:], d.act[:] = qpos, qvel, act
-            mujoco.mj_forward(m, d)
-        img = np.rint(acc / n).astype(np.uint8)
-        eyes = [dataclasses.replace(e, image=img[i], camera_position=poses[i][0], camera_xmat=poses[i][1])
-                for i, e in enumerate((frame.left, frame.right))]
-        return StereoFrame(eyes[0], eyes[1], self.time_ms)
-
-    def export_xml(self, path) -> None:
-        """Write this head+scene model as one MJCF file (textures beside it)."""
-        path = _path("path", path)
-        if path.is_dir():
-            raise ValueError(f"path {path} is a folder; give the MJCF file to write, e.g. {path / 'head.xml'}")
-        _write_spec(self.spec, path)
