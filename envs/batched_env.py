@@ -41,6 +41,7 @@ from conformal import checks
 
 from models import BatchedPlanner, SettledReset
 from .saccade_env import _NO_COPY, BinocularSaccadeEnv
+from .actions import decode_actions
 from .tasks import FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors
 
 __all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]
@@ -181,10 +182,6 @@ class BatchedBinocularSaccade(VectorEnv):
         #: Set to a dict to accumulate each part's wall time per step (seconds, device synchronised
         #: around each part: slower; for benchmarks/batched.py); None (default) to time nothing.
         self.timings: dict[str, float] | None = None
-        self._cell_angles = None
-        if env.action_mode == "cell":
-            z = self.grid.points.ravel()
-            self._cell_angles = np.stack([np.arctan(z.real), np.arctan2(z.imag, np.hypot(1.0, z.real))], axis=1)
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
@@ -434,37 +431,11 @@ class BatchedBinocularSaccade(VectorEnv):
     def _decode(self, actions) -> tuple[np.ndarray, np.ndarray]:
         """Actions -> (N, 2) (horizontal, vertical) Fick increments (rad) and (N,) fixation-distance
         factors, with the single env's checks (the message names the world)."""
-        torch, n, env = self._torch, self.num_envs, self._template
-        if isinstance(actions, torch.Tensor):
+        if isinstance(actions, self._torch.Tensor):
             actions = actions.detach().cpu().numpy()
-        try:
-            a = np.asarray(actions)
-        except Exception:
-            raise ValueError(f"actions must be an array of shape {self.action_space.shape}; got {actions!r:.60}") from None
-        if env.action_mode == "cell":
-            k = env.action_space.n
-            if a.dtype.kind not in "iu":
-                raise checks.InputTypeError(f"actions must be integer cell indices in [0, {k}); got dtype {a.dtype}")
-            if a.shape != (n,):
-                raise ValueError(f"actions must have shape ({n},) (one cell per world); got {a.shape}")
-            bad = np.flatnonzero((a < 0) | (a >= k))
-            if bad.size:
-                raise ValueError(f"actions must be cell indices in [0, {k}); world {bad[0]} has {a[bad[0]]}")
-            return self._cell_angles[a.astype(np.int64)], np.ones(n)
-        if a.dtype.kind not in "iuf":
-            raise checks.InputTypeError(f"actions must be real numbers in [-1, 1]; got dtype {a.dtype}")
-        shape = self.action_space.shape
-        if a.shape != shape:
-            raise ValueError(f"actions must have shape {shape} (one action per world); got {a.shape}")
-        a = a.astype(np.float64)
-        bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
-        if bad.size:
-            raise ValueError(f"actions contain NaN or infinity: world {bad[0]} has {a[bad[0]].tolist()}")
-        bad = np.flatnonzero((np.abs(a) > 1.0 + 1e-6).any(axis=1))
-        if bad.size:
-            raise ValueError(f"action components must lie in [-1, 1]; world {bad[0]} has {a[bad[0]].tolist()}")
-        factor = 2.0 ** a[:, 2] if env.vergence else np.ones(n)
-        return a[:, :2] * env.max_amplitude, factor
+        env = self._template
+        return decode_actions(actions, self.action_space.shape, cells=env._cells, max_amplitude=env.max_amplitude,
+                              vergence=env.vergence, who="actions")
 
     def _gaze_errors(self, plans, act: np.ndarray, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Both eyes' gaze errors (deg) to the task's target (N, 2) and the mean to each saccade's

@@ -13,6 +13,7 @@ import conformal as C
 import models
 from conformal import checks
 
+from .actions import cell_angles, decode_actions
 from .tasks import Task, _gaze_errors_deg, make_task
 from .vision import POOLED_REMAP_DEFAULT, REMAP_MODELS, EyeView, Vision
 
@@ -222,6 +223,7 @@ class BinocularSaccadeEnv(gym.Env):
             self.action_space = spaces.Box(-1.0, 1.0, (3 if vergence else 2,), np.float32)
         else:
             self.action_space = spaces.Discrete(g.M * g.N)
+        self._cells = None if action_mode == "vector" else cell_angles(g.points)  # saccade to each cell
         self._views: tuple[EyeView, EyeView] | None = None
         self._seen = None  # the last frame's views and arrays (vision._Frame)
         self._remapped: np.ndarray | None = None
@@ -336,36 +338,9 @@ class BinocularSaccadeEnv(gym.Env):
 
     def _decode(self, action) -> tuple[float, float, float]:
         """Action -> (horizontal, vertical) Fick increments (rad) and a fixation-distance factor."""
-        if self.action_mode == "cell":
-            n = self.action_space.n
-            what = f"action must be an integer cell index in [0, {n})"
-            try:
-                a = np.asarray(action)
-            except Exception:  # e.g. a ragged list
-                raise checks.InputTypeError(f"{what}; got {action!r:.60}") from None
-            if a.shape != () or a.dtype.kind not in "iu":
-                raise checks.InputTypeError(f"{what}; got {action!r:.60} ({a.dtype}, shape {a.shape})")
-            if not 0 <= int(a) < n:
-                raise ValueError(f"{what}; got {int(a)}")
-            k, l = divmod(int(a), self.vision.grid.N)
-            z = self.vision.grid.points[k, l]
-            return math.atan(z.real), math.atan2(z.imag, math.hypot(1.0, z.real)), 1.0
-        what = f"action must be {self.action_space.shape[0]} real numbers in [-1, 1]"
-        try:
-            a = np.asarray(action)
-        except Exception:  # e.g. a ragged list
-            raise ValueError(f"{what}; got {action!r:.60}") from None
-        if a.dtype.kind not in "iuf":  # complex ([1j, 0] would silently lose its imaginary part), bool, str, object
-            raise checks.InputTypeError(f"{what}; got {action!r:.60} of dtype {a.dtype}")
-        a = a.astype(np.float64)
-        if a.shape != self.action_space.shape:
-            raise ValueError(f"action must have shape {self.action_space.shape}; got {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action contains NaN or infinity: {a.tolist()}")
-        if np.any(np.abs(a) > 1.0 + 1e-6):
-            raise ValueError(f"action components must lie in [-1, 1]; got {a.tolist()}")
-        factor = 2.0 ** float(a[2]) if self.vergence else 1.0
-        return float(a[0]) * self.max_amplitude, float(a[1]) * self.max_amplitude, factor
+        hv, factor = decode_actions(action, self.action_space.shape, cells=self._cells, max_amplitude=self.max_amplitude,
+                                    vergence=self.vergence)
+        return float(hv[0, 0]), float(hv[0, 1]), float(factor[0])
 
     def _plan(self, h: float, v: float, factor: float):
         return models.plan_clipped(self.head, h, v, factor)

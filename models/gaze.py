@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .oculomotor import H_RANGE, MIN_TARGET_DISTANCE, V_RANGE, gaze_direction
+from .oculomotor import H_RANGE, MIN_TARGET_DISTANCE, NULL_SACCADE, V_RANGE, gaze_direction
 from .saccade_plans import with_listing
 
-__all__ = ["fixation_batch", "displaced", "cyclopean_amplitude"]
+__all__ = ["fixation_batch", "displaced", "cyclopean_amplitude", "noisy_endpoints"]
 
 
 def fixation_batch(p_head: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -46,3 +46,22 @@ def cyclopean_amplitude(c: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.nda
     d0 = d0 / np.linalg.norm(d0, axis=-1, keepdims=True)
     d1 = d1 / np.linalg.norm(d1, axis=-1, keepdims=True)
     return np.arccos(np.clip((d0 * d1).sum(axis=-1), -1, 1))
+
+
+def noisy_endpoints(c: np.ndarray, centres: np.ndarray, fix: np.ndarray, targets: np.ndarray, angles: np.ndarray,
+                    amp: np.ndarray, noise: float, rngs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Signal-dependent endpoint noise on m planned saccades from the fixation points ``fix`` (m, 3) to
+    the head-frame ``targets`` (m, 3) with fixation ``angles`` (m, 2, 3) and cyclopean amplitudes
+    ``amp`` (m,): each saccade larger than ``NULL_SACCADE`` lands off its target by Fick errors drawn
+    from its own generator ``rngs[k]`` with s.d. ``noise * amp`` (horizontal and vertical, about the
+    cyclopean eye ``c``); an endpoint the eyes cannot reach falls back to the target. Returns the
+    executed endpoints (m, 3), their fixation angles (m, 2, 3) and amplitudes (m,)."""
+    end_point, end, amp = targets.copy(), angles.copy(), np.array(amp, float)
+    draw = np.flatnonzero(amp > NULL_SACCADE) if noise > 0 else np.zeros(0, np.intp)
+    if len(draw):
+        dhv = np.array([rngs[k].normal(0.0, noise * amp[k], size=2) for k in draw])
+        moved = displaced(c, targets[draw], dhv)
+        ang, ok, _ = fixation_batch(moved, centres)
+        end_point[draw[ok]], end[draw[ok]] = moved[ok], ang[ok]
+        amp[draw] = cyclopean_amplitude(c, fix[draw], end_point[draw])
+    return end_point, end, amp

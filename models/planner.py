@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .gaze import cyclopean_amplitude, displaced, fixation_batch
+from .gaze import cyclopean_amplitude, displaced, fixation_batch, noisy_endpoints
 from .oculomotor import NULL_SACCADE, OculomotorRangeError, SaccadePlan
 from .oculomotor_state import OculomotorState
 from .saccade_plans import SaccadePlans
@@ -265,20 +265,10 @@ class BatchedPlanner:
         idx = np.flatnonzero(ok)
         w = worlds[idx]
         p_head, intended_world, end, amp = p_head[idx], intended_world[idx], end[idx], amp[idx]
-        intended_end, intended_amp = end.copy(), amp.copy()
-        end_point = p_head.copy()
-        noise = self.head.endpoint_noise
-        if noise > 0:  # each world's own generator, as Head._plan_head draws it
-            draw = np.flatnonzero(amp > NULL_SACCADE)
-            if len(draw):
-                dHV = np.array([self.rngs[w[k]].normal(0.0, noise * amp[k], size=2) for k in draw])
-                moved = displaced(c, p_head[draw], dHV)
-                e2, ok3 = self._fixation(moved)
-                keep = draw[ok3]
-                end_point[keep], end[keep] = moved[ok3], e2[ok3]
-                amp[draw] = self._amp(fix[idx][draw], end_point[draw])
+        end_point, noisy_end, noisy_amp = noisy_endpoints(c, self._centres, fix[idx], p_head, end, amp,
+                                                           self.head.endpoint_noise, [self.rngs[k] for k in w])
         head = self.head
-        plans = SaccadePlans(self.time_ms[w], self.hold[w], end, intended_end, amp, intended_amp, self.signal_now[w],
+        plans = SaccadePlans(self.time_ms[w], self.hold[w], noisy_end, end, noisy_amp, amp, self.signal_now[w],
                              self._world(end_point), intended_world,
                              generator=head.main_sequence if head.saccade_model == "legacy" else head.generator,
                              vergence=head.vergence, eye_position=head.eye_position)

@@ -21,10 +21,9 @@ from conformal import checks
 from ._gl import mujoco
 from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, build_spec
 from .eye_position_signal import EyePositionSignal
-from .gaze import cyclopean_amplitude, displaced
+from .gaze import cyclopean_amplitude, displaced, noisy_endpoints
 from .oculomotor_state import OculomotorState
 from .oculomotor import (
-    NULL_SACCADE,
     SACCADE_MODELS,
     MainSequence,
     OculomotorRangeError,
@@ -411,11 +410,6 @@ class Head(SceneObjects, HeadRendering):
                 raise OculomotorRangeError(f"neck angle {v} outside [{lo:.3f}, {hi:.3f}] rad")
         self.data.ctrl[self._neck_act] = [pan, tilt]
 
-    def _amplitude(self, p_head) -> float:
-        """Cyclopean angle (rad) between the fixation point and head-frame point ``p_head``."""
-        c = self._eye_centres_head.mean(axis=0)
-        return float(cyclopean_amplitude(c, self._fix_head[None], np.asarray(p_head, float)[None])[0])
-
     def plan_saccade_to(self, target, latency_ms: int = 0) -> SaccadePlan:
         """Plan a binocular saccade to ``target`` (object name or world point) starting
         ``latency_ms`` from now. Vergence follows from depth, torsion from Listing's law; with
@@ -437,26 +431,16 @@ class Head(SceneObjects, HeadRendering):
     def _plan_head(self, p_head, latency_ms, intended_world) -> SaccadePlan:
         if self._plan is not None:
             raise RuntimeError("a saccade is in flight; step until it ends (plan.end_ms) before planning the next")
-        start = self._hold.copy()
-        c = self._eye_centres_head.mean(axis=0)
-        amp = self._amplitude(p_head)
-        intended_amp = amp
-        end_point = np.asarray(p_head, float)
-        end = fixation_angles(end_point, self._eye_centres_head)  # validates the intended target
-        intended_end = end.copy()
-        if self.endpoint_noise > 0 and amp > NULL_SACCADE:
-            dHV = self._rng.normal(0.0, self.endpoint_noise * amp, size=2)
-            end_point = displaced(c, end_point[None], dHV[None])[0]
-            try:
-                end = fixation_angles(end_point, self._eye_centres_head)
-            except OculomotorRangeError:
-                end_point, end = np.asarray(p_head, float), fixation_angles(p_head, self._eye_centres_head)
-            amp = self._amplitude(end_point)
+        c, p = self._eye_centres_head.mean(axis=0), np.asarray(p_head, float)[None]
+        end = fixation_angles(p[0], self._eye_centres_head)[None]  # validates the intended target
+        amp = cyclopean_amplitude(c, self._fix_head[None], p)
+        end_point, noisy_end, noisy_amp = noisy_endpoints(c, self._eye_centres_head, self._fix_head[None], p, end, amp,
+                                                          self.endpoint_noise, [self._rng])
         legacy = self.saccade_model == "legacy"
-        return SaccadePlan(onset_ms=self.time_ms + latency_ms, start_angles=start, end_angles=end,
-                           amplitude=amp, generator=self.main_sequence if legacy else self.generator,
-                           target=self.to_world(end_point), intended_target=np.asarray(intended_world, float),
-                           intended_end_angles=intended_end, intended_amplitude=intended_amp,
+        return SaccadePlan(onset_ms=self.time_ms + latency_ms, start_angles=self._hold.copy(), end_angles=noisy_end[0],
+                           amplitude=float(noisy_amp[0]), generator=self.main_sequence if legacy else self.generator,
+                           target=self.to_world(end_point[0]), intended_target=np.asarray(intended_world, float),
+                           intended_end_angles=end[0], intended_amplitude=float(amp[0]),
                            vergence=self.vergence, eye_position=self.eye_position,
                            signal_start_angles=self._signal_hold_at(self.time_ms + latency_ms))
 
