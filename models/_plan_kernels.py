@@ -169,6 +169,11 @@ def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, 
     n, T = t_rel.shape
     for w in nb.prange(n):
         for k in range(T):
+            if k > 0 and t_rel[w, k] == t_rel[w, k - 1]:  # a held row (command tables): the same angles
+                for e in range(2):
+                    for c in range(3):
+                        out[w, k, e, c] = out[w, k - 1, e, c]
+                continue
             _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start,
                                     end, w, t_rel[w, k])
             out[w, k, 0, 0], out[w, k, 0, 1], out[w, k, 0, 2] = h0, v0, _listing(h0, v0)

@@ -25,6 +25,7 @@ Literature:
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -453,7 +454,18 @@ class SaccadePlan:
         """The extraretinal eye-position signal (Fick angles, ``(..., 2, 3)`` rad) at absolute
         times ``t_ms``: the intended trajectory smoothed and delayed (``models.eye_position_signal``),
         from ``signal_start_angles`` to ``intended_end_angles``."""
-        return self._at(t_ms, self._batch.eye_position_signal)
+        return self._at(t_ms, self._batch.eye_position_signal, self.eye_position)
+
+    def with_eye_position(self, eye_position) -> "SaccadePlan":
+        """This plan read through another eye-position signal timing (an ``EyePositionSignal``): a copy
+        that shares the validated trajectory (no re-validation, unlike ``dataclasses.replace``)."""
+        from .eye_position_signal import EyePositionSignal
+
+        if not isinstance(eye_position, EyePositionSignal):
+            raise checks.InputTypeError(f"eye_position must be a models.EyePositionSignal; got {type(eye_position).__name__}")
+        plan = copy.copy(self)
+        plan.eye_position = eye_position
+        return plan
 
     def sample(self, step_ms: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
         """Times (relative to onset) and planned angles from onset to settle, every ``step_ms`` (in [0.001, 1000])."""

@@ -119,6 +119,27 @@ def focal_pixels(height: int, fovy: float) -> float:
     return 0.5 * height / np.tan(fovy / 2.0)
 
 
+def _sample_textures_bilinear(renderer: "mujoco.Renderer") -> None:
+    """Sample every texture of ``renderer``'s GL context at full resolution with bilinear filtering
+    (``GL_LINEAR``), as MuJoCo Warp's ray-traced renderer does, instead of MuJoCo's trilinear mipmaps
+    (``GL_LINEAR_MIPMAP_LINEAR``, which blur a texture seen from afar): so the single env and the batched
+    engine see alike pictures of textured scenes (``tests/test_batched_env.py`` measures them on every
+    scene). Reaches the GL texture ids through ``mujoco.Renderer``'s context (``_mjr_context``, tested
+    with MuJoCo 4.0)."""
+    from OpenGL import GL
+
+    ctx, gl = getattr(renderer, "_mjr_context", None), getattr(renderer, "_gl_context", None)
+    if ctx is None or gl is None:
+        raise RuntimeError("this MuJoCo's Renderer keeps no _mjr_context/_gl_context: the texture filter cannot "
+                           "be set (models.render was written for MuJoCo 4.0)")
+    gl.make_current()
+    for tid, kind in zip(np.asarray(ctx.texture)[:ctx.ntexture], np.asarray(ctx.textureType)[:ctx.ntexture]):
+        target = GL.GL_TEXTURE_2D if kind == mujoco.mjtTexture.mjTEXTURE_2D else GL.GL_TEXTURE_CUBE_MAP
+        GL.glBindTexture(target, int(tid))
+        GL.glTexParameteri(target, GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR)
+    GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+
+
 class EyeRenderer:
     """Renders the ``left_eye`` and ``right_eye`` cameras off-screen at ``height x width``.
 
@@ -163,6 +184,7 @@ class EyeRenderer:
                 f"cannot create an off-screen OpenGL context ({type(exc).__name__}: {exc}). "
                 f"Install the backend's Debian packages: {gl_install_hint()}"
             ) from exc
+        _sample_textures_bilinear(self._renderer)
 
     def render(self, data: mujoco.MjData, depth: bool = False, time_ms: int = 0) -> StereoFrame:
         """Render both eyes for the current state of ``data`` (kinematics must be up to date)."""

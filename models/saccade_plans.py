@@ -270,11 +270,12 @@ class SaccadePlans:
         t = self.onset_ms[:, None] + np.minimum(np.arange(T)[None, :], count[:, None] - 1).astype(float)
         return self.angles(t).reshape(self.n, T, 6), count
 
-    def eye_position_signal(self, t_ms) -> np.ndarray:
+    def eye_position_signal(self, t_ms, eye_position: EyePositionSignal | None = None) -> np.ndarray:
         """The eye-position signal (n, m, 2, 3) of each plan at absolute times ``t_ms`` (n, m): the
-        intended trajectory smoothed and delayed (``models.EyePositionSignal``), from ``signal_start``
-        to ``intended_end``; torsion by Listing's law for the signal's own gaze."""
-        eps = self.eye_position
+        intended trajectory smoothed and delayed (``models.EyePositionSignal``: ``eye_position``, default
+        the plans' own), from ``signal_start`` to ``intended_end``; torsion by Listing's law for the
+        signal's own gaze."""
+        eps = self.eye_position if eye_position is None else eye_position
         t = self._rel(t_ms) - eps.delay_ms
         count = np.ceil((self.settle_ms + KNOT_MS) / KNOT_MS).astype(np.int64)  # len(np.arange(0, settle + 0.5, 0.5))
         smooth = np.empty(t.shape + (4,))

@@ -187,7 +187,7 @@ def _texture(spec, name, rng, c0, c1, size=256) -> str:
     spec.assets[fname] = encode_png(rgb)
     ttype = mujoco.mjtTexture.mjTEXTURE_2D if name.endswith("2d") else mujoco.mjtTexture.mjTEXTURE_CUBE
     spec.add_texture(name=name, type=ttype, file=fname)
-    spec.add_material(name=name, textures=["", name], texrepeat=[1, 1], texuniform=False)
+    spec.add_material(name=name, textures=["", name], texrepeat=[1, 1], texuniform=not name.startswith(("backdrop", "floor")))
     return name
 
 
@@ -205,7 +205,7 @@ def _natural(spec, seed: int = 0) -> SceneInfo:
             zaxis=[-1, 0, 0], material=back)
     _static(spec, "floor", [2.1, 0, 0], type=_G.mjGEOM_PLANE, size=[2.0, 6.0, 0.1], material=floor)
     for name, (dx, dy, dz, gtype, size, cols) in objs.items():
-        mat = _texture(spec, f"{name}_tex", rng, *cols, size=128)
+        mat = _texture(spec, f"{name}_2d", rng, *cols, size=128)
         _static(spec, name, CYCLOPEAN_EYE + [dx, dy, dz], type=gtype, size=size, material=mat)
     return SceneInfo("natural", "1/f-textured backdrop (4 m) and floor with objects at 1.2-3.2 m",
                      groups={"backdrop": ("backdrop", "floor"), "objects": tuple(objs)},

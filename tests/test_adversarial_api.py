@@ -542,6 +542,8 @@ API: dict[str, Api] = {
     "models.Head.plan_saccade_to": Api(lambda o: o.head.plan_saccade_to, dict(target="target"), bad={
         "target": {"nan": [NAN, 0, 1.2], "matrix": np.eye(3), "unknown": "unicorn"}, "latency_ms": counts(0, 60_000)},
         names={"target": "target|unicorn"}, types=ALL_ERRORS + (KeyError,)),
+    "models.SaccadePlan.with_eye_position": Api(lambda o: o.saccade.with_eye_position,
+                                                dict(eye_position=models.EyePositionSignal(30.0, 20.0))),
     "models.Head.start_saccade": Api(lambda o: o.head.start_saccade, dict(plan=Lazy(lambda o: o.saccade)), bad={
         "plan": {"dict": {"onset_ms": 0}}}, run_valid=False),
     "models.Head.run_saccade": Api(lambda o: o.head.run_saccade, dict(plan=Lazy(lambda o: o.saccade)), bad={
@@ -549,18 +551,18 @@ API: dict[str, Api] = {
     "models.Head.saccade_to": Api(lambda o: o.head.saccade_to, dict(target="target"), bad={
         "after_ms": counts(0, 60_000), "latency_ms": counts(0, 60_000), "target": {"unknown": "unicorn"}},
         names={"target": "target|unicorn"}, types=ALL_ERRORS + (KeyError,), run_valid=False),
-    "models.Head.flash": Api(lambda o: o.head.flash, dict(names="flash_00"), bad={
+    "models.SceneObjects.flash": Api(lambda o: o.head.flash, dict(names="flash_00"), bad={
         "duration_ms": counts(1, 60_000), "names": {"empty": [], "member": [1]}}, names={"names": "name"}),
-    "models.Head.object_position": Api(lambda o: o.head.object_position, dict(name="target"), bad={"name": {"list": ["a"]}}),
-    "models.Head.object_positions": Api(lambda o: o.head.object_positions, dict(group="flashes")),
-    "models.Head.set_object_position": Api(lambda o: o.head.set_object_position, dict(
+    "models.SceneObjects.object_position": Api(lambda o: o.head.object_position, dict(name="target"), bad={"name": {"list": ["a"]}}),
+    "models.SceneObjects.object_positions": Api(lambda o: o.head.object_positions, dict(group="flashes")),
+    "models.SceneObjects.set_object_position": Api(lambda o: o.head.set_object_position, dict(
         name="target", pos=Lazy(lambda o: o.head.object_position("target"))), bad={"pos": {"short": [1, 2]}},
         names={"pos": "target|pos"}),
-    "models.Head.set_visible": Api(lambda o: o.head.set_visible, dict(name="flash_00", visible=False),
+    "models.SceneObjects.set_visible": Api(lambda o: o.head.set_visible, dict(name="flash_00", visible=False),
                                    bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
                                    types=ALL_ERRORS + (KeyError,)),
     "models.Head.set_state": Api(lambda o: o.head.set_state, dict(state=Lazy(lambda o: o.head.get_state()))),
-    "models.Head.set_opacity": Api(lambda o: o.head.set_opacity, dict(name="ruler", opacity=0.5),
+    "models.SceneObjects.set_opacity": Api(lambda o: o.head.set_opacity, dict(name="ruler", opacity=0.5),
                                    bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
                                    types=ALL_ERRORS + (KeyError,)),
     "models.Head.to_head": Api(lambda o: o.head.to_head, dict(point=[1.0, 0.0, 1.2]), bad={"point": {"short": [1.0]}},
@@ -572,11 +574,11 @@ API: dict[str, Api] = {
     "models.Head.project": Api(lambda o: o.head.project, dict(points=np.array([[1.0, 0.0, 1.2]])), bad={
         "points": {"four_columns": np.zeros((2, 4)), "ragged": [[1.0, 2.0], [3.0]]}}),
     "models.Head.project_to_pixels": Api(lambda o: o.head.project_to_pixels, dict(points=np.array([[1.0, 0.0, 1.2]]))),
-    "models.Head.render": Api(lambda o: o.head.render, dict(depth=False, exposure_ms=2.0, samples=2), bad={
+    "models.HeadRendering.render": Api(lambda o: o.head.render, dict(depth=False, exposure_ms=2.0, samples=2), bad={
         "exposure_ms": bounds(0.0, 1000.0), "samples": counts(1, 1000)}),
     "models.Head.eye_position_signal": Api(lambda o: o.head.eye_position_signal, dict(t_ms=Lazy(lambda o: o.head.time_ms)),
                                            bad={"t_ms": {"below": -1.0}}),
-    "models.Head.export_xml": Api(lambda o: o.head.export_xml, dict(path=Lazy(lambda o: _tmp("head.xml"))),
+    "models.HeadRendering.export_xml": Api(lambda o: o.head.export_xml, dict(path=Lazy(lambda o: _tmp("head.xml"))),
                                   bad={"path": {"empty": "", "folder": "/tmp"}}),
     "models.EyeState.project": Api(lambda o: o.head.eye_states()[0].project, dict(points=np.array([[1.0, 0.0, 1.2]]))),
     "models.EyeRenderer": Api(lambda o: models.EyeRenderer, dict(model=Lazy(lambda o: o.head.model), height=16, width=16),
@@ -767,6 +769,7 @@ EXEMPT = {
     "models.displaced": "array geometry of the planners (as fixation_batch)",
     "models.cyclopean_amplitude": "array geometry of the planners (as fixation_batch)",
     "models.plan_clipped": "Head.plan_saccade / plan_saccade_to (walked) in a bisection; the env decodes its arguments",
+    "models.servo_setpoints": "the servo law, fed the command tables the planners compute (Head's and the batched env's)",
     "models.OculomotorState": "a record Head.get_state returns (Head.set_state checks its type)",
     "envs.FixateTask.score_errors": "as envs.Task.score_errors",
     "envs.SearchTask.score_errors": "as envs.Task.score_errors",

@@ -29,7 +29,6 @@ true image point moved towards z_T by e^{-g}, through the same geometry) is repo
 
 from __future__ import annotations
 
-import copy
 import math
 import warnings
 from dataclasses import dataclass
@@ -467,8 +466,7 @@ class TrialRunner:
         trial, plan = obs.trial, obs.plan
         eps = models.EyePositionSignal(cfg.eps_sigma_ms, cfg.eps_delay_ms)
         if plan.eye_position != eps:
-            plan = copy.copy(plan)  # the same validated plan, read through another signal timing
-            plan.eye_position = eps  # (dataclasses.replace would re-validate the plan: ~4 ms a trial)
+            plan = plan.with_eye_position(eps)  # the same validated plan, read through another signal timing
         t_mid = obs.t_mid
         true_pose = self._pose(plan.angles(t_mid))
         weight = 0.0
