@@ -21,6 +21,8 @@ state through ``Head.set_state``.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from .gaze import cyclopean_amplitude, displaced, fixation_batch, noisy_endpoints
@@ -336,7 +338,7 @@ class SettledReset:
         if not self.usable:
             head.reset(seed=seed)
             return
-        state = self._state.copy()
+        state = copy.copy(self._state)  # set_state copies its arrays
         state.seed, state.rng = seed, np.random.default_rng(seed)
         d = head.data
         for k, v in self._data.items():

@@ -267,8 +267,10 @@ class SaccadePlans:
         held), and the rows in use (n,)."""
         count = self.end_ms - self.onset_ms + 1
         T = int(count.max()) if self.n else 1
-        t = self.onset_ms[:, None] + np.minimum(np.arange(T)[None, :], count[:, None] - 1).astype(float)
-        return self.angles(t).reshape(self.n, T, 6), count
+        t_rel = np.minimum(np.arange(T, dtype=float)[None, :], (count - 1)[:, None].astype(float))
+        out = np.empty((self.n, T, 2, 3))
+        K.angles(*self.profiles.args(), *self._args("executed"), t_rel, out)
+        return out.reshape(self.n, T, 6), count
 
     def eye_position_signal(self, t_ms, eye_position: EyePositionSignal | None = None) -> np.ndarray:
         """The eye-position signal (n, m, 2, 3) of each plan at absolute times ``t_ms`` (n, m): the
