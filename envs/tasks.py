@@ -13,10 +13,12 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numba as nb
 import numpy as np
 
 import models
 from conformal import checks
+from conformal.kernels import DISK_CACHE
 
 __all__ = ["Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "gaze_errors_deg", "gaze_errors", "make_task"]
 
@@ -37,20 +39,37 @@ def gaze_errors(positions: np.ndarray, axes: np.ndarray, points: np.ndarray) -> 
     """Angles (deg) between optical axes and the lines of sight to points, for any number of heads:
     eye positions and unit optical axes (..., 2, 3), points (..., 3) -> (..., 2). ``atan2(|a x d|,
     a . d)``: accurate near 0, where ``acos`` of the dot product is not."""
-    d = np.asarray(points, float)[..., None, :] - positions
-    cross = np.linalg.norm(np.cross(axes, d), axis=-1)
-    return np.degrees(np.arctan2(cross, (axes * d).sum(axis=-1)))
+    pos = np.asarray(positions, float)
+    lead = pos.shape[:-2]
+    pts = np.asarray(points, float)
+    if pts.shape[:-1] != lead:
+        pts = np.broadcast_to(pts, lead + (3,))
+    out = np.empty(lead + (2,))
+    _gaze_errors(pos.reshape(-1, 2, 3), np.asarray(axes, float).reshape(-1, 2, 3), pts.reshape(-1, 3), out.reshape(-1, 2))
+    return out
+
+
+@nb.njit(cache=DISK_CACHE, nogil=True)
+def _gaze_errors(pos, axes, points, out):  # pragma: no cover - compiled
+    for w in range(pos.shape[0]):
+        for e in range(2):
+            dx, dy, dz = points[w, 0] - pos[w, e, 0], points[w, 1] - pos[w, e, 1], points[w, 2] - pos[w, e, 2]
+            ax, ay, az = axes[w, e, 0], axes[w, e, 1], axes[w, e, 2]
+            cross = math.sqrt((ay * dz - az * dy) ** 2 + (az * dx - ax * dz) ** 2 + (ax * dy - ay * dx) ** 2)
+            out[w, e] = math.degrees(math.atan2(cross, ax * dx + ay * dy + az * dz))
 
 
 def _gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
     """``gaze_errors_deg`` for a head and a point that the caller knows to be valid (a finite
     3-vector from the head itself: an object's position, a saccade's target)."""
     p = np.asarray(point, dtype=float)
-    states = head.eye_states()
-    pos = np.stack([s.camera_position for s in states])
-    if np.any(np.linalg.norm(p - pos, axis=1) < 1e-9):
+    left, right = head.eye_states()
+    if min(math.dist(p, left.camera_position), math.dist(p, right.camera_position)) < 1e-9:
         raise ValueError("point lies at an eye's nodal point, where no line of sight is defined")
-    return gaze_errors(pos, np.stack([s.eye_axes[:, 1] for s in states]), p)
+    out = np.empty((1, 2))
+    _gaze_errors(np.array([[left.camera_position, right.camera_position]]),
+                 np.array([[left.eye_axes[:, 1], right.eye_axes[:, 1]]]), p.reshape(1, 3), out)
+    return out[0]
 
 
 @dataclass
