@@ -8,16 +8,17 @@ The vector entry point of ``BinocularSaccade-v0``::
 Each world is one ``BinocularSaccadeEnv`` episode: the same spaces, tasks, rewards, seeding and
 info keys. What runs where, per step:
 
-* host (numpy and numba, all worlds at once): the action's decoding, the saccade plans, command
-  tables, efference copies and eye-position signals (``envs.batched_planner``: the arithmetic of
-  ``models.Head.plan_saccade`` and ``models.SaccadePlan`` batched, agreeing with them to 1e-9), i.e.
-  the brain's side; episode resets world by world on one host ``models.Head`` (the settled state of
-  ``Head.reset`` with each world's own seed, ``models.SettledReset``), with no CPU physics
-  and no CPU rendering;
+* host (numpy and numba, all worlds at once): the action's decoding (``envs.actions``, as the single
+  env's), the saccade plans, command tables, efference copies and eye-position signals
+  (``models.BatchedPlanner`` and ``models.SaccadePlans``: the code ``models.Head`` and
+  ``models.SaccadePlan`` run for one head), the servo's set-points (``models.servo_setpoints``) and
+  the task's score of the gaze errors (``Task.score_errors``), i.e. the brain's side; episode resets
+  world by world on one host ``models.Head`` (the settled state of ``Head.reset`` with each world's
+  own seed, ``models.SettledReset``), with no CPU physics and no CPU rendering;
 * device: the remapping predictions of every model from the previous frame and the efference
-  copies (``envs.batched_vision.TorchVision``), the physics (MuJoCo Warp, the servo following each
-  world's command table in a kernel, ``envs.batched_physics.WarpHeads``), both eyes rendered by
-  MJWarp's batch renderer, retina pooling, DPFT, remapping errors and the task's score.
+  copies (``envs.batched_vision.TorchVision``), the physics (MuJoCo Warp, a kernel reading each
+  world's set-points, ``envs.batched_physics.WarpHeads``), both eyes rendered by MJWarp's batch
+  renderer, retina pooling, DPFT and remapping errors.
 
 Observations stay on the device as torch tensors (``output="torch"``, default) or come back as
 numpy arrays (``output="numpy"``). Rewards, terminations and truncations are numpy arrays (the
