@@ -29,13 +29,13 @@ from numpy.typing import ArrayLike, NDArray
 from . import checks
 from .dpft import OffGridEvaluator, _check_float_dtype, _check_grid, _check_samples
 from .fovea import fovea_image
-from .geometry import _POLE_TOL, _check_homography, check_rotation, rotation_homography
+from .geometry import _POLE_TOL, PERM_FLAT, _check_homography, check_rotation, rotation_homography
 from .grid import RetinaGrid
 from .kernels import KIND_MOBIUS, KIND_PROJECTIVE
 from .sampling import RetinaSamples
 
 __all__ = ["ProjectiveMap", "MobiusMap", "homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix",
-           "mobius_params", "su2_entries", "su2_params", "target_shift_matrix"]
+           "mobius_params", "point_map_params", "target_shift_matrix"]
 
 PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
 
@@ -90,9 +90,13 @@ class ProjectiveMap:
 
 
 def mobius_params(g: NDArray[np.complex128]) -> NDArray[np.float64]:
-    """A ``MobiusMap``'s ``params`` (for the compiled kernels) from its complex 2x2 matrix g."""
-    a, b, c, d = g.ravel()
-    return np.array([a.real, a.imag, b.real, b.imag, c.real, c.imag, d.real, d.imag, 0.0])
+    """``MobiusMap``'s ``params`` (for the compiled kernels) of complex 2x2 matrices g (..., 2, 2):
+    (..., 9) = (a, b, c, d) as (real, imag) pairs and a 0."""
+    g = np.asarray(g)
+    out = np.zeros(g.shape[:-2] + (9,))
+    flat = g.reshape(g.shape[:-2] + (4,))
+    out[..., 0:8:2], out[..., 1:8:2] = flat.real, flat.imag
+    return out
 
 
 class MobiusMap:
@@ -139,27 +143,38 @@ def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
 
 
 def _su2_of_rotation(r: NDArray[np.float64]) -> NDArray[np.complex128]:
-    """``mobius_for_rotation`` of a rotation already validated (``check_rotation``)."""
-    a, b = su2_entries(r.tolist())
-    return np.array([[a.conjugate(), -b.conjugate()], [b, a]])
+    """``mobius_for_rotation`` of rotations already validated (``check_rotation``), (..., 3, 3) -> (..., 2, 2)."""
+    cos_t = (r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1.0) / 2.0
+    s1, s2, s3 = (r[..., 2, 1] - r[..., 1, 2]) / 2.0, (r[..., 0, 2] - r[..., 2, 0]) / 2.0, (r[..., 1, 0] - r[..., 0, 1]) / 2.0
+    norm = np.sqrt(np.hypot(cos_t, s2) ** 2 + np.hypot(s1, s3) ** 2)  # 1 up to R's rounding
+    k = np.empty(np.shape(cos_t) + (2, 2), complex)  # [[conj(a), -conj(b)], [b, a]], a = (cos_t + i s2) / norm, b = (s1 - i s3) / norm
+    ar, ai, br, bi = cos_t / norm, s2 / norm, s1 / norm, -s3 / norm
+    k[..., 0, 0].real, k[..., 0, 0].imag, k[..., 0, 1].real, k[..., 0, 1].imag = ar, -ai, -br, bi
+    k[..., 1, 0].real, k[..., 1, 0].imag, k[..., 1, 1].real, k[..., 1, 1].imag = br, bi, ar, ai
+    return k
 
 
-def su2_entries(rows: list[list[float]]) -> tuple[complex, complex]:
-    """(a, b) of ``mobius_for_rotation``'s k = [[conj(a), -conj(b)], [b, a]] from a validated rotation
-    given as nested lists of Python floats (``r.tolist()``: the same IEEE arithmetic as on numpy
-    scalars, faster)."""
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rows
-    cos_t = (r00 + r11 + r22 - 1.0) / 2.0
-    s1, s2, s3 = (r21 - r12) / 2.0, (r02 - r20) / 2.0, (r10 - r01) / 2.0
-    a, b = complex(cos_t, s2), complex(s1, -s3)
-    norm = math.sqrt(abs(a) ** 2 + abs(b) ** 2)  # 1 up to R's rounding
-    return a / norm, b / norm
-
-
-def su2_params(a: complex, b: complex) -> tuple[float, ...]:
-    """``MobiusMap(k).params`` for k = [[conj(a), -conj(b)], [b, a]] (``su2_entries``), without the
-    matrix: the same numbers (conjugation and negation are exact)."""
-    return (a.real, -a.imag, -b.real, b.imag, b.real, b.imag, a.real, a.imag, 0.0)
+def point_map_params(names, rotations: NDArray[np.float64], shift: float, delta: float,
+                     ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """``RemapPlan``'s description -- kinds (K,) and params (..., K, 9) -- of the point maps ``names``
+    (``"homography"``: :func:`homography_map`; ``"mobius"``: :func:`mobius_map`; ``"shift"``:
+    :func:`target_shift_map` to the new optical axis, R's second column, on the old retina plane) of
+    rotations (..., 3, 3) already validated (proper; with ``shift``, the new optical axis in front of
+    the old eye), without building the map objects: the numbers the maps' ``params`` hold."""
+    r = np.asarray(rotations, float)
+    lead = r.shape[:-2]
+    kinds = np.array([KIND_PROJECTIVE if m == "homography" else KIND_MOBIUS for m in names], np.int64)
+    params = np.empty(lead + (len(names), 9))
+    for k, m in enumerate(names):
+        if m == "homography":
+            params[..., k, :] = r.reshape(lead + (9,))[..., PERM_FLAT]
+        elif m == "mobius":
+            params[..., k, :] = mobius_params(_su2_of_rotation(r))
+        else:
+            axis = r[..., :, 1]
+            params[..., k, :] = mobius_params(target_shift_matrix((axis[..., 2] + 1j * axis[..., 0]) / axis[..., 1],
+                                                                  shift, delta))
+    return kinds, params
 
 
 def mobius_map(R: ArrayLike) -> MobiusMap:
@@ -180,10 +195,14 @@ def target_shift_map(z_target: complex, shift: float, delta: float) -> MobiusMap
     return MobiusMap(target_shift_matrix(zt, shift, delta))
 
 
-def target_shift_matrix(zt: complex, shift: float, delta: float) -> NDArray[np.complex128]:
-    """``target_shift_map``'s 2x2 matrix from already validated arguments (|shift delta| <= 40)."""
+def target_shift_matrix(zt, shift: float, delta: float) -> NDArray[np.complex128]:
+    """``target_shift_map``'s 2x2 matrices (..., 2, 2) for targets ``zt`` (...) from already validated
+    arguments (|shift delta| <= 40)."""
     root = math.exp(shift * delta / 2)  # sqrt of the scale
-    return np.array([[1 / root, 0], [zt / root, root]])
+    zt = np.asarray(zt, complex)
+    out = np.zeros(zt.shape + (2, 2), complex)
+    out[..., 0, 0], out[..., 1, 0], out[..., 1, 1] = 1 / root, zt / root, root
+    return out
 
 
 def _fovea_lookup(fovea: NDArray, grid: RetinaGrid, w: NDArray[np.complex128]) -> NDArray:

@@ -41,7 +41,7 @@ import numpy as np
 from conformal import checks
 from conformal.dpft import dpft_tables, dpft_weight, mirror_map
 from conformal.fovea import fovea_indices
-from conformal.geometry import PERM_FLAT
+from conformal.remap import point_map_params
 from conformal.kernels import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
 
 from .vision import REMAP_MODELS, Vision
@@ -155,7 +155,6 @@ class TorchVision:
         self._t_scale = math.pi / (g.M * g.delta)
         self._t_offset = math.pi / (2 * g.M)
 
-        self._perm_flat = torch.as_tensor(PERM_FLAT, device=dev)
         self._indices: dict[tuple[int, ...], torch.Tensor] = {}
 
         # --- the output points (RemapPlan: the foveal points, then the periphery) and the validity radii
@@ -254,10 +253,8 @@ class TorchVision:
         ``Vision.map_params`` vectorised over (B, E): kinds (K,) (``KIND_PROJECTIVE`` for the homography,
         else ``KIND_MOBIUS``) and params (B, E, K, 9) float64 on the device:
 
-        * homography: the rotation permuted, R.ravel()[PERM_FLAT] (``rotation_homography``: P R P^T);
-        * mobius: the SU(2) element of the sphere's rotation (``su2_params(*su2_entries(R))``);
-        * shift: z -> z_t + e^{shift delta} z normalised to det 1, z_t the new optical axis (R's second
-          column) on the old retina plane (``mobius_params(target_shift_matrix(z_t, shift_rings, delta))``).
+        ``conformal.remap.point_map_params``'s numbers, computed on the host (the rotations are checked on
+        the device first):
 
         rotations_eye (B, E, 3, 3) floating point on this device (float32 rotations are taken in float64),
         each a proper rotation (orthogonal to 1e-6, det +1: ``conformal.check_rotation``); with ``shift``,
@@ -288,29 +285,8 @@ class TorchVision:
             w, k = (int(i) for i in torch.nonzero(flags[1])[0])
             raise ValueError(f"world {w}, eye {k}: the shift model needs the new optical axis in front of the old eye "
                              "(a rotation below 90 degrees)")
-        kinds = tuple(KIND_PROJECTIVE if m == "homography" else KIND_MOBIUS for m in models)
-        params = torch.zeros((b, e, len(models), 9), dtype=torch.float64, device=r.device)
-        flat = r.reshape(b, e, 9)
-        for k, m in enumerate(models):
-            if m == "homography":
-                params[:, :, k] = flat[..., self._perm_flat]
-            elif m == "mobius":  # su2_entries, su2_params
-                cos_t = (r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1.0) / 2.0
-                s1 = (r[..., 2, 1] - r[..., 1, 2]) / 2.0
-                s2 = (r[..., 0, 2] - r[..., 2, 0]) / 2.0
-                s3 = (r[..., 1, 0] - r[..., 0, 1]) / 2.0
-                norm = torch.sqrt(torch.hypot(cos_t, s2) ** 2 + torch.hypot(s1, s3) ** 2)
-                ar, ai, br, bi = cos_t / norm, s2 / norm, s1 / norm, -s3 / norm
-                params[:, :, k, :8] = torch.stack([ar, -ai, -br, bi, br, bi, ar, ai], dim=-1)
-            else:  # _shift_target, target_shift_matrix, mobius_params
-                axis = r[..., :, 1]
-                root = math.exp(self.shift_rings * self.grid.delta / 2)
-                zr, zi = axis[..., 2] / axis[..., 1], axis[..., 0] / axis[..., 1]
-                params[:, :, k, 0] = 1.0 / root
-                params[:, :, k, 4] = zr / root
-                params[:, :, k, 5] = zi / root
-                params[:, :, k, 6] = root
-        return kinds, params
+        kinds, params = point_map_params(models, r.cpu().numpy(), self.shift_rings, self.grid.delta)  # conformal's numbers
+        return tuple(int(k) for k in kinds), torch.as_tensor(params, device=r.device)
 
     def predict(self, frame: TorchFrame, rotations_eye: torch.Tensor,
                 models: tuple[str, ...]) -> tuple[torch.Tensor, torch.Tensor]:

@@ -16,8 +16,7 @@ from numpy.typing import NDArray
 import conformal as C
 from conformal import checks
 from conformal.dpft import dpft_prechecked
-from conformal.geometry import PERM_FLAT
-from conformal.remap import mobius_params, su2_entries, su2_params, target_shift_matrix
+from conformal.remap import point_map_params
 
 __all__ = ["EyeView", "Vision", "REMAP_MODELS", "POOLED_REMAP_DEFAULT", "normalized_error", "model_errors"]
 
@@ -275,24 +274,12 @@ class Vision:
         building the map objects: the same numbers (``tests/test_env_hotpath.py`` compares them).
         The rotations are checked as ``check_rotation`` does (orthogonal to 1e-6, det +1)."""
         r = _check_rotations(rotations_eye)
-        n_eyes = len(r)
-        kinds = np.array([C.kernels.KIND_PROJECTIVE if m == "homography" else C.kernels.KIND_MOBIUS for m in models],
-                         np.int64)
-        params = np.empty((n_eyes, len(models), 9))
-        rows = r.tolist()
-        for k, m in enumerate(models):
-            if m == "homography":
-                params[:, k] = r.reshape(n_eyes, 9)[:, PERM_FLAT]
-            elif m == "mobius":
-                for e in range(n_eyes):
-                    params[e, k] = su2_params(*su2_entries(rows[e]))
-            else:
-                for e in range(n_eyes):
-                    zt = complex(_shift_target(r[e]))
-                    if abs(self.shift_rings * self.grid.delta) > 40:  # the public constructor's message
-                        C.target_shift_map(zt, self.shift_rings, self.grid.delta)
-                    params[e, k] = mobius_params(target_shift_matrix(zt, self.shift_rings, self.grid.delta))
-        return kinds, params
+        if "shift" in models:
+            for e in range(len(r)):
+                _shift_target(r[e])  # the new optical axis must lie in front of the old eye
+            if abs(self.shift_rings * self.grid.delta) > 40:  # the public constructor's message
+                C.target_shift_map(0j, self.shift_rings, self.grid.delta)
+        return point_map_params(models, r, self.shift_rings, self.grid.delta)
 
     def predict(
         self, view: EyeView, model: str, rotation_eye: NDArray[np.float64], *, pooled: bool | None = None
