@@ -21,8 +21,6 @@ state through ``Head.set_state``.
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from .gaze import cyclopean_amplitude, displaced, fixation_batch, noisy_endpoints
@@ -338,8 +336,8 @@ class SettledReset:
         if not self.usable:
             head.reset(seed=seed)
             return
-        state = copy.copy(self._state)  # set_state copies its arrays
-        state.seed, state.rng = seed, np.random.default_rng(seed)
+        st = self._state  # (a freshly reset head's: no plans, flashes or opacity changes; set_state copies arrays)
+        state = OculomotorState(st.time_ms, st.hold, st.signal_hold, st.fixation_head, np.random.default_rng(seed), seed)
         d = head.data
         for k, v in self._data.items():
             getattr(d, k)[:] = v
