@@ -10,6 +10,7 @@ env (``BinocularSaccadeEnv``, the classic renderer) runs the same actions in the
     python benchmarks/batched.py                              # CUDA if Warp finds it, else the CPU backend
     python benchmarks/batched.py --device cpu --num-envs 1 4 16 --steps 3
     python benchmarks/batched.py --device cuda --num-envs 1 64 1024 4096 --image-size 128
+    python benchmarks/batched.py --device cuda --retina-rays 1    # the retina rendered along its rays
 
 Each configuration is warmed up (kernel compilation, graph capture) before it is timed.
 """
@@ -50,7 +51,8 @@ def single_env(args) -> float:
 def batched(args, n: int) -> dict:
     import torch
 
-    env = envs.BatchedBinocularSaccade(n, device=args.device, image_size=args.image_size)
+    env = envs.BatchedBinocularSaccade(n, device=args.device, image_size=args.image_size,
+                                       retina_rays=args.retina_rays)
     rng = np.random.default_rng(0)
     actions = [_actions(rng, n) for _ in range(args.steps)]
     env.reset(seed=0)
@@ -94,6 +96,9 @@ def main(argv=None) -> None:
     ap.add_argument("--image-size", type=int, default=128)
     ap.add_argument("--steps", type=int, default=None, help="timed steps per configuration (default 20 CUDA, 3 CPU)")
     ap.add_argument("--single-steps", type=int, default=20)
+    ap.add_argument("--retina-rays", type=int, default=None,
+                    help="render the retina along s x s rays per receptive field (envs.retina_rays) instead of "
+                         "pinhole pictures (default: pictures)")
     args = ap.parse_args(argv)
     import torch
     import warp as wp
@@ -104,7 +109,9 @@ def main(argv=None) -> None:
     args.num_envs = args.num_envs or ([1, 4, 16] if cpu else [1, 64, 1024, 4096])
     args.steps = args.steps or (3 if cpu else 20)
     device_name = "CPU backend" if cpu else wp.get_device(args.device).name
-    print(f"device: {args.device} ({device_name}); {args.image_size} px per eye; dots scene, fixate task")
+    seen = (f"{args.image_size} px per eye" if args.retina_rays is None else
+            f"retina rays ({args.retina_rays}x{args.retina_rays} per field; the single env: {args.image_size} px)")
+    print(f"device: {args.device} ({device_name}); {seen}; dots scene, fixate task")
     single = single_env(args)
     print(f"single CPU env (BinocularSaccadeEnv, classic renderer): {single:.0f} steps/s (it simulates the whole "
           "250 ms fixation; the batched env simulates settle_ms = 20 ms past the last world's saccade and keeps "

@@ -164,14 +164,20 @@ class WarpHeads:
         return self.qpos[:, self._eye_q].reshape(-1, 2, 3)
 
     # ------------------------------------------------------------------ physics
-    def setpoints(self, commands: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    def setpoints(self, commands: np.ndarray, lengths: np.ndarray, out=None):
         """The servo's set-points (N, T, 18) of the command tables (N, T, 6) (``models.servo_setpoints``
-        at 1 ms, the rows from ``lengths[w] - 1`` on holding the endpoint: no velocity, no feed-forward)."""
-        q = np.asarray(commands, float)
-        n, T = q.shape[:2]
-        ext = np.concatenate([q[:, :1], q, q[:, -1:]], axis=1)  # at rest before the first row, held after the last
-        u = servo_setpoints(ext, np.full(T + 1, self._dt), self._inertia * np.eye(6))
-        u[np.arange(T)[None, :] >= np.asarray(lengths)[:, None] - 1, 6:] = 0.0
+        at 1 ms, the rows from ``lengths[w] - 1`` on holding the endpoint: no velocity, no feed-forward),
+        computed on this device in float64 (the host's numbers): a torch tensor, or written into ``out``
+        (N, T, 18) in its dtype. Only the commanded angles travel to the device, a third of the table."""
+        torch, dev = self._torch, self.torch_device
+        q = torch.as_tensor(np.asarray(commands, np.float64), device=dev)
+        T = q.shape[1]
+        ext = torch.cat([q[:, :1], q, q[:, -1:]], dim=1)  # at rest before the first row, held after the last
+        dt = torch.full((T + 1,), self._dt, dtype=torch.float64, device=dev)
+        u = servo_setpoints(ext, dt, self._inertia * torch.eye(6, dtype=torch.float64, device=dev), out)
+        ends = torch.as_tensor(np.asarray(lengths, np.int64), device=dev)
+        held = torch.arange(T, device=dev)[None, :] >= ends[:, None] - 1
+        u[:, :, 6:].masked_fill_(held[:, :, None], 0.0)
         return u
 
     def run(self, commands: np.ndarray, lengths: np.ndarray, n_ms: int) -> int:
@@ -181,15 +187,14 @@ class WarpHeads:
         (the CPU head's servo law) at 1 ms steps with one inertia per joint. Returns the ms stepped."""
         wp, mjw = self._wp, self._mjw
         n, T = commands.shape[:2]
-        commands = self.setpoints(commands, lengths)
         with wp.ScopedDevice(self.device):
             if self._cmd.shape[1] < T:  # grown with headroom: each growth means a new graph
                 rows = 64 * math.ceil(max(T, 1.5 * self._cmd.shape[1]) / 64)
                 self._cmd = wp.zeros((n, rows, 18), dtype=wp.float32)
                 self._graph = None  # the graph captured the old table
+                self._handoff_to_torch()  # Warp's zeroing (its stream) lands before torch writes the table
             # only the rows in use travel (the kernel never reads a world's rows past lengths[w] - 1)
-            wp.to_torch(self._cmd)[:, :T] = self._torch.as_tensor(commands, dtype=self._torch.float32,
-                                                                  device=self.torch_device)
+            self.setpoints(commands, lengths, out=wp.to_torch(self._cmd)[:, :T])
             self._ncmd.assign(np.asarray(lengths, np.int32))
             if self.device.is_cuda:  # torch's copy (its stream) lands before Warp's kernels (Warp's stream)
                 self._torch.cuda.synchronize(self.torch_device)

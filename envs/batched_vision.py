@@ -4,8 +4,8 @@ The batched env (``envs.batched_env``) renders every world's eyes on a device; t
 those pictures through the same steps as ``Vision`` does for one world, all worlds and eyes in one
 set of tensor operations on the device ("cuda" or "cpu"):
 
-* ``see``: receptive-field pooling (``conformal.Retina``'s sparse operator as a torch sparse CSR
-  matrix; ``Retina.sample_prechecked`` / ``kernels.pool_picture``), grayscale, the DPFT of the periphery
+* ``see``: receptive-field pooling (``conformal.Retina``'s sparse operator applied as a gather and a
+  segment sum, deterministic on CUDA; ``Retina.sample_prechecked`` / ``kernels.pool_picture``), grayscale, the DPFT of the periphery
   (``conformal.dpft.dpft_prechecked``, eqs. ``lpdft``/``dpft``): ``Vision._see_frame`` / ``Vision._frame``;
 * ``predict``: the efference-copy remapping's point prediction of every model
   (``Vision._predict_frame`` -> ``RemapPlan._evaluate`` with ``pooled=False``: ``kernels.map_points``,
@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,7 +43,7 @@ from conformal.fovea import fovea_indices
 from conformal.remap import point_map_params
 from conformal.kernels import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
 
-from .vision import REMAP_MODELS, Vision
+from .vision import REMAP_MODELS, Vision, rotation_faults
 
 try:
     import torch
@@ -121,15 +120,15 @@ class TorchVision:
         retina = vision.retina
 
         # --- sampling (Retina.sample_prechecked): the receptive-field operator, rows normalised to averages
+        # as CSR arrays: each field's pixels (sorted) and weights, and the rows' offsets. The product is a
+        # gather and a segment sum (each field's pixels added in index order, one thread per field and
+        # column), not cuSPARSE's SpMM, whose default algorithm on CUDA adds in an order that changes from
+        # call to call: that broke "same seed, same observations" and a world's independence of the others
         op = retina.operator.tocsr()
         op.sort_indices()
-        index_dtype = torch.int32 if op.nnz < 2**31 - 1 else torch.int64
-        with warnings.catch_warnings():  # "sparse CSR support is in beta": the product used here is stable
-            warnings.simplefilter("ignore", UserWarning)
-            self._op = torch.sparse_csr_tensor(
-                torch.as_tensor(op.indptr.astype(np.int64), dtype=index_dtype),
-                torch.as_tensor(op.indices.astype(np.int64), dtype=index_dtype),
-                torch.as_tensor(op.data, dtype=f32), size=op.shape, check_invariants=True).to(dev)
+        self._pool_pixels = torch.as_tensor(op.indices.astype(np.int64), device=dev)
+        self._pool_weights = torch.as_tensor(op.data, dtype=f32, device=dev).view(-1, 1)
+        self._pool_offsets = torch.as_tensor(op.indptr.astype(np.int64), device=dev)
         self._fill = float(retina.fill)
         self._empty = torch.as_tensor(np.flatnonzero(retina.empty), device=dev) if self._fill != 0.0 else None
         self.valid = torch.as_tensor(np.array(vision._valid), device=dev)
@@ -206,7 +205,10 @@ class TorchVision:
             cols = torch.empty((h, w, b, e, 3), dtype=torch.float32, device=self.device)
             cols.copy_(view)
             cols = cols.view(h * w, b * e * 3)
-        pooled = torch.sparse.mm(self._op, cols)  # (P, B E C)
+        picked = cols.index_select(0, self._pool_pixels).mul_(self._pool_weights)  # (nnz, B E C)
+        pooled = torch.segment_reduce(picked, "sum", offsets=self._pool_offsets, axis=0, unsafe=True,
+                                      initial=0.0)  # (P, B E C)
+        del picked
         samples = pooled.view(self.n_points, b, e, self.channels).permute(1, 2, 0, 3).contiguous()
         samples.mul_(scale)
         if self._empty is not None:  # cells with no pixel (Retina's fill; Vision's default fill is 0)
@@ -265,27 +267,17 @@ class TorchVision:
         return self._map_params(models, r)
 
     def _map_params(self, models: tuple[str, ...], r: torch.Tensor) -> tuple[tuple[int, ...], torch.Tensor]:
-        r = r.to(torch.float64)
-        b, e = r.shape[:2]
-        eye = torch.eye(3, dtype=torch.float64, device=r.device)
-        err = (r @ r.transpose(-1, -2) - eye).abs().amax(dim=(-1, -2))  # NaN for non-finite entries
-        (a_, b_, c_), (d_, e_, f_), (g_, h_, i_) = (row.unbind(-1) for row in r.unbind(-2))
-        det = a_ * (e_ * i_ - f_ * h_) - b_ * (d_ * i_ - f_ * g_) + c_ * (d_ * h_ - e_ * g_)
-        bad = ~(err <= 1e-6) | (det < 0)
-        flags = [bad]
-        shift = "shift" in models
-        if shift:
-            flags.append(~bad & (r[..., 1, 1] <= 1e-6))  # the new optical axis not in front (Vision._shift_target)
-        flags = torch.stack(flags).cpu()  # the one sync
-        if flags[0].any():
-            w, k = (int(i) for i in torch.nonzero(flags[0])[0])
+        rot = r.to(torch.float64).cpu().numpy()  # the one sync
+        bad, behind = rotation_faults(rot, "shift" in models)
+        if bad.any():
+            w, k = (int(i) for i in np.argwhere(bad)[0])
             raise ValueError(f"rotations_eye[{w}, {k}] (world {w}, eye {k}) must be a proper rotation matrix "
                              "(orthogonal, det +1)")
-        if shift and flags[1].any():
-            w, k = (int(i) for i in torch.nonzero(flags[1])[0])
+        if behind.any():
+            w, k = (int(i) for i in np.argwhere(behind)[0])
             raise ValueError(f"world {w}, eye {k}: the shift model needs the new optical axis in front of the old eye "
                              "(a rotation below 90 degrees)")
-        kinds, params = point_map_params(models, r.cpu().numpy(), self.shift_rings, self.grid.delta)  # conformal's numbers
+        kinds, params = point_map_params(models, rot, self.shift_rings, self.grid.delta)  # conformal's numbers
         return tuple(int(k) for k in kinds), torch.as_tensor(params, device=r.device)
 
     def predict(self, frame: TorchFrame, rotations_eye: torch.Tensor,

@@ -94,21 +94,29 @@ def _errors(values: NDArray, valid: NDArray, actual: NDArray, actual_valid: NDAr
 _EYE3 = np.eye(3)
 
 
+_BEHIND = "the shift model needs the new optical axis in front of the old eye (a rotation below 90 degrees)"
+
+
 def _check_rotations(rotations_eye) -> NDArray[np.float64]:
     """A stack of proper rotations (E, 3, 3) float64, checked as ``conformal.check_rotation`` checks
     each one; a float64 (E, 3, 3) array (the head's efference copy) in a few vectorised operations."""
     r = rotations_eye
     if not (type(r) is np.ndarray and r.dtype == np.float64 and r.ndim == 3 and r.shape[1:] == (3, 3)):
         return np.array([C.check_rotation(x, "rotation_eye") for x in r]).reshape(-1, 3, 3)
-    err = np.abs(r @ r.transpose(0, 2, 1) - _EYE3).max(axis=(1, 2))  # NaN for non-finite entries
-    if not np.all(err <= 1e-6):
-        e = int(np.argmin(err <= 1e-6))
-        C.check_rotation(r[e], "rotation_eye")  # raises with the public message
+    bad, _ = rotation_faults(r, False)
+    if bad.any():
+        C.check_rotation(r[int(np.argmax(bad))], "rotation_eye")  # raises with the public message
         raise ValueError("rotation_eye must be a proper rotation matrix (orthogonal, det +1)")
-    for (a, b, c), (d, e_, f), (g, h, i) in r.tolist():
-        if a * (e_ * i - f * h) - b * (d * i - f * g) + c * (d * h - e_ * g) < 0:
-            raise ValueError("rotation_eye must be a proper rotation matrix (orthogonal, det +1)")
     return r
+
+
+def rotation_faults(r: NDArray[np.float64], shift: bool) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Masks (...) of the rotations ``r`` (..., 3, 3) that are not proper (orthogonal to 1e-6, det +1; a
+    non-finite entry fails) and, with ``shift``, of the proper ones whose new optical axis (second column)
+    is not in front of the old eye (the ``shift`` model needs it there): the checks of both visions."""
+    err = np.abs(r @ np.swapaxes(r, -1, -2) - _EYE3).max(axis=(-2, -1))  # NaN for non-finite entries
+    bad = ~(err <= 1e-6) | (np.linalg.det(np.where(np.isfinite(r), r, 0.0)) < 0)
+    return bad, (~bad & (r[..., 1, 1] <= 1e-6)) if shift else np.zeros_like(bad)
 
 
 def _shift_target(r: NDArray[np.float64]) -> complex:
@@ -116,8 +124,7 @@ def _shift_target(r: NDArray[np.float64]) -> complex:
     coordinates) projected on the old retina plane."""
     axis = r[:, 1]
     if axis[1] <= 1e-6:
-        raise ValueError("the shift model needs the new optical axis in front of the old eye (a rotation "
-                         "below 90 degrees)")
+        raise ValueError(_BEHIND)
     return (axis[2] + 1j * axis[0]) / axis[1]
 
 
@@ -275,8 +282,8 @@ class Vision:
         The rotations are checked as ``check_rotation`` does (orthogonal to 1e-6, det +1)."""
         r = _check_rotations(rotations_eye)
         if "shift" in models:
-            for e in range(len(r)):
-                _shift_target(r[e])  # the new optical axis must lie in front of the old eye
+            if rotation_faults(r, True)[1].any():
+                raise ValueError(_BEHIND)
             if abs(self.shift_rings * self.grid.delta) > 40:  # the public constructor's message
                 C.target_shift_map(0j, self.shift_rings, self.grid.delta)
         return point_map_params(models, r, self.shift_rings, self.grid.delta)

@@ -58,7 +58,7 @@ def _substeps(timestep_ms, name: str) -> int:
     return k
 
 
-def servo_setpoints(q: np.ndarray, dt_s: np.ndarray, inertia: np.ndarray) -> np.ndarray:
+def servo_setpoints(q, dt_s, inertia, out=None):
     """The eye servo's set-points for the physics steps j = 0..T-1 of commanded trajectories.
 
     ``q`` (n, T + 2, 6): the commanded joint angles at the step boundaries t_(-1), t_0, ..., t_T
@@ -66,10 +66,21 @@ def servo_setpoints(q: np.ndarray, dt_s: np.ndarray, inertia: np.ndarray) -> np.
     the lengths of those steps (s); ``inertia`` (6, 6) the eye joints' inertia. Returns (n, T, 18):
     per step the position set-point ``q_j``, the velocity set-point ``v_j = (q_(j+1) - q_j) / dt_j``
     (so the semi-implicit integrator lands on the command) and the inverse-dynamics feed-forward
-    torque ``I (v_j - v_(j-1)) / dt_j``."""
-    v = np.diff(q, axis=1) / dt_s[:, None]
-    a = np.diff(v, axis=1) / dt_s[1:, None]
-    return np.concatenate([q[:, 1:-1], v[:, 1:], a @ np.asarray(inertia).T], axis=2)
+    torque ``I (v_j - v_(j-1)) / dt_j``.
+
+    The arrays are numpy arrays (``models.Head``) or torch tensors on one device (the batched env
+    computes its worlds' set-points where its physics runs): the same operations on either. ``out``
+    (n, T, 18), optional: written in place (and returned), in its own dtype; by default a new float64
+    numpy array."""
+    v = (q[:, 1:] - q[:, :-1]) / dt_s[:, None]
+    a = (v[:, 1:] - v[:, :-1]) / dt_s[1:, None]
+    k = q.shape[2]
+    if out is None:
+        out = np.empty((q.shape[0], q.shape[1] - 2, 3 * k))
+    out[:, :, :k] = q[:, 1:-1]
+    out[:, :, k:2 * k] = v[:, 1:]
+    out[:, :, 2 * k:] = a @ inertia.T
+    return out
 
 
 class EyeServo:

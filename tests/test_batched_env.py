@@ -8,6 +8,7 @@ The first construction compiles Warp's kernels (~30 s on a cold cache); the envs
 from __future__ import annotations
 
 import math
+import os
 
 import gymnasium as gym
 import numpy as np
@@ -19,6 +20,9 @@ pytest.importorskip("mujoco_warp")
 import envs  # noqa: E402
 from envs import BatchedBinocularSaccade, BinocularSaccadeEnv  # noqa: E402
 
+#: The device the batched envs run on: Warp's CPU backend unless CONFORMAL_TEST_DEVICE names another
+#: (``CONFORMAL_TEST_DEVICE=cuda python -m pytest tests/test_batched_env.py`` on a machine with an NVIDIA GPU).
+DEVICE = os.environ.get("CONFORMAL_TEST_DEVICE", "cpu")
 N = 2
 SIZE = 64
 ACTIONS = [np.array([[0.5, 0.2], [-0.3, 0.4]], np.float32), np.array([[-0.4, -0.1], [0.2, -0.5]], np.float32)]
@@ -26,7 +30,7 @@ ACTIONS = [np.array([[0.5, 0.2], [-0.3, 0.4]], np.float32), np.array([[-0.4, -0.
 
 @pytest.fixture(scope="module")
 def benv():
-    env = BatchedBinocularSaccade(N, device="cpu", image_size=SIZE, task_kwargs={"max_saccades": 2})
+    env = BatchedBinocularSaccade(N, device=DEVICE, image_size=SIZE, task_kwargs={"max_saccades": 2})
     yield env
     env.close()
 
@@ -54,16 +58,16 @@ def test_spaces_and_vector_entry_point(benv):
     single.close()
     obs, info = benv.reset(seed=3)
     for k, space in benv.single_observation_space.spaces.items():
-        assert isinstance(obs[k], torch.Tensor) and obs[k].device.type == "cpu"
+        assert isinstance(obs[k], torch.Tensor) and obs[k].device.type == torch.device(DEVICE).type
         assert tuple(obs[k].shape) == (N,) + space.shape and obs[k].dtype == torch.float32, k
-        assert benv.single_observation_space[k].contains(obs[k][0].numpy()), k
+        assert benv.single_observation_space[k].contains(obs[k][0].cpu().numpy()), k
     assert info["sim_time_ms"].shape == (N,) and info["_sim_time_ms"].all()
     spec = gym.spec("BinocularSaccade-v0")
     assert spec.vector_entry_point == "envs.batched_env:BatchedBinocularSaccade"
 
 
 def test_make_vec_builds_the_batched_env():
-    env = gym.make_vec("BinocularSaccade-v0", num_envs=1, vectorization_mode="vector_entry_point", device="cpu",
+    env = gym.make_vec("BinocularSaccade-v0", num_envs=1, vectorization_mode="vector_entry_point", device=DEVICE,
                        image_size=32, fovea_deg=5.0, output="numpy")
     try:
         assert isinstance(env, BatchedBinocularSaccade)
@@ -78,7 +82,7 @@ def test_max_episode_steps_caps_the_budget_as_a_time_limit():
     """make_vec(..., max_episode_steps=K) reaches the vector entry point: worlds are truncated after
     min(K, max_saccades) steps, as TimeLimit(K) around the single env truncates them (here free viewing,
     budget 20, K = 1); -1 or None leave the budget alone; a bad K is refused."""
-    env = gym.make_vec("BinocularSaccade-v0", num_envs=1, vectorization_mode="vector_entry_point", device="cpu",
+    env = gym.make_vec("BinocularSaccade-v0", num_envs=1, vectorization_mode="vector_entry_point", device=DEVICE,
                        image_size=32, fovea_deg=5.0, output="numpy", task="free", scene="bar", max_episode_steps=1)
     try:
         env.reset(seed=0)
@@ -88,7 +92,7 @@ def test_max_episode_steps_caps_the_budget_as_a_time_limit():
         env.close()
     for bad in (0, -2, 2.5, "5"):
         with pytest.raises(ValueError, match="max_episode_steps"):  # (checks' TypeError is a ValueError too)
-            BatchedBinocularSaccade(1, device="cpu", image_size=32, max_episode_steps=bad)
+            BatchedBinocularSaccade(1, device=DEVICE, image_size=32, max_episode_steps=bad)
 
 
 def test_max_episode_steps_default_is_the_budget(benv):
@@ -167,7 +171,7 @@ def test_remapping_errors_agree_on_a_contrasted_scene():
     """The bar scene (untextured, high contrast; task free): observations within 0.0039 (one grey
     level) everywhere and the remapping errors of all three models within 0.005 of the single env's
     (measured: 0.0002-0.0023 mean, <= 0.0053 max for the observations; errors within 0.002)."""
-    env = BatchedBinocularSaccade(N, device="cpu", image_size=SIZE, task="free", scene="bar", output="numpy")
+    env = BatchedBinocularSaccade(N, device=DEVICE, image_size=SIZE, task="free", scene="bar", output="numpy")
     try:
         env.reset(seed=11)
         steps = [env.step(a) for a in ACTIONS]
@@ -198,10 +202,10 @@ def test_textures_are_sampled_alike_by_both_renderers():
     head.reset(seed=11)
     ref = head.render()
     gl = np.stack([ref.left.image, ref.right.image]).astype(float) / 255
-    warp = WarpHeads(head, 1, "cpu")
+    warp = WarpHeads(head, 1, DEVICE)
     d = head.data
     warp.load(np.arange(1), d.qpos[None], d.qvel[None], d.ctrl[None], d.mocap_pos[None], d.mocap_quat[None])
-    diff = np.abs(warp.render()[0].numpy() - gl)
+    diff = np.abs(warp.render()[0].cpu().numpy() - gl)
     head.close()
     assert diff.mean() < 0.006, diff.mean()
 
@@ -217,7 +221,7 @@ def test_every_scene_looks_alike_on_both_engines(scene, task, typical, worst):
     is); cortical maps within 0.01 on average everywhere."""
     actions = ACTIONS + [np.array([[0.1, -0.3], [0.3, 0.1]], np.float32)]
     kw = dict(image_size=SIZE, task=task, scene=scene)
-    env = BatchedBinocularSaccade(N, device="cpu", output="numpy", **kw)
+    env = BatchedBinocularSaccade(N, device=DEVICE, output="numpy", **kw)
     try:
         obs, _ = env.reset(seed=11)
         steps = [obs] + [env.step(a)[0] for a in actions]
@@ -314,7 +318,7 @@ def test_step_before_reset_and_bad_arguments():
 
 def test_search_and_cell_actions():
     """The search task (its layout drawn per world) and the cell action mode against the single env."""
-    env = BatchedBinocularSaccade(N, device="cpu", task="search", action_mode="cell", image_size=SIZE, output="numpy")
+    env = BatchedBinocularSaccade(N, device=DEVICE, task="search", action_mode="cell", image_size=SIZE, output="numpy")
     try:
         obs, _ = env.reset(seed=2)
         cells = np.array([5, 40])
@@ -341,7 +345,7 @@ def test_search_and_cell_actions():
 def test_same_step_autoreset():
     """autoreset_mode="same_step": the step that ends an episode returns the next episode's first
     observation (the single env's next reset()) and the ended one's in info["final_obs"]."""
-    env = BatchedBinocularSaccade(N, device="cpu", image_size=SIZE, task_kwargs={"max_saccades": 1},
+    env = BatchedBinocularSaccade(N, device=DEVICE, image_size=SIZE, task_kwargs={"max_saccades": 1},
                                   autoreset_mode="same_step", output="numpy")
     try:
         assert env.metadata["autoreset_mode"] is gym.vector.AutoresetMode.SAME_STEP
@@ -369,8 +373,8 @@ def test_retina_rays_observations():
     """retina_rays=s: the retina rendered along its fields' rays; the observations keep their spaces and
     stay close to the pooled pinhole picture's (bar scene; measured mean |difference| ~0.01)."""
     kw = dict(image_size=SIZE, task="free", scene="bar")
-    native = BatchedBinocularSaccade(1, device="cpu", retina_rays=3, output="numpy", **kw)
-    pinhole = BatchedBinocularSaccade(1, device="cpu", output="numpy", **kw)
+    native = BatchedBinocularSaccade(1, device=DEVICE, retina_rays=3, output="numpy", **kw)
+    pinhole = BatchedBinocularSaccade(1, device=DEVICE, output="numpy", **kw)
     try:
         a, _ = native.reset(seed=0)
         b, _ = pinhole.reset(seed=0)
@@ -384,7 +388,7 @@ def test_retina_rays_observations():
         native.close()
         pinhole.close()
     with pytest.raises(ValueError, match="retina_rays"):
-        BatchedBinocularSaccade(1, device="cpu", retina_rays=9)
+        BatchedBinocularSaccade(1, device=DEVICE, retina_rays=9)
 
 
 def test_skrl_recipe(tmp_path):
@@ -397,10 +401,10 @@ def test_skrl_recipe(tmp_path):
     from experiments import skrl_recipe
 
     out = tmp_path / "ppo"
-    assert skrl_recipe.main(["--out", str(out), "--device", "cpu", "--num-envs", "2", "--timesteps", "4",
+    assert skrl_recipe.main(["--out", str(out), "--device", DEVICE, "--num-envs", "2", "--timesteps", "4",
                              "--rollouts", "2", "--image-size", "32", "--hidden", "32"]) == 0
     summary = json.loads((out / "ppo.json").read_text())
-    assert summary["env_steps"] == 8 and summary["device"] == "cpu"
+    assert summary["env_steps"] == 8 and torch.device(summary["device"]).type == torch.device(DEVICE).type
     with open(out / "learning_curve.csv") as f:
         assert next(csv.reader(f)) == ["env_steps", "episodes", "mean_return", "success_rate"]
     assert (out / "agent.pt").stat().st_size > 0 and (out / "learning_curve.png").stat().st_size > 0
@@ -419,7 +423,7 @@ def test_options_agree_with_the_single_env(kwargs):
     ``BinocularSaccadeEnv`` after one saccade of each of 2 worlds (bar scene, task free)."""
     dims = 3 if kwargs.get("vergence") else 2
     action = np.array([[0.4, 0.1, 0.5], [-0.3, 0.2, -0.4]], np.float32)[:, :dims]
-    env = BatchedBinocularSaccade(N, device="cpu", image_size=SIZE, task="free", scene="bar", output="numpy", **kwargs)
+    env = BatchedBinocularSaccade(N, device=DEVICE, image_size=SIZE, task="free", scene="bar", output="numpy", **kwargs)
     try:
         b0, _ = env.reset(seed=7)
         b1, _, _, _, bi = env.step(action)
@@ -469,7 +473,7 @@ def test_device_needs_a_cuda_build_of_torch(monkeypatch):
 def test_same_step_infos_are_masked_and_a_closed_env_refuses():
     """SAME_STEP with a one-saccade budget: every world ends in its first step, so final_info carries the ended episodes' step info under masks and-ed with the ended worlds; the new
     episodes' remap_error is a reset's (zeros). A closed env refuses step and reset."""
-    env = BatchedBinocularSaccade(N, device="cpu", image_size=32, task="free", scene="bar",
+    env = BatchedBinocularSaccade(N, device=DEVICE, image_size=32, task="free", scene="bar",
                                   task_kwargs={"max_saccades": 1}, autoreset_mode="same_step", output="numpy")
     env.reset(seed=1)
     obs, r, te, tr, info = env.step(ACTIONS[0])
@@ -501,15 +505,15 @@ def test_recipe_reports_truncation_as_termination():
     pytest.importorskip("skrl")
     from experiments.skrl_recipe import DeviceVectorWrapper
 
-    env = BatchedBinocularSaccade(N, device="cpu", image_size=32, task="fixate", task_kwargs={"max_saccades": 1},
+    env = BatchedBinocularSaccade(N, device=DEVICE, image_size=32, task="fixate", task_kwargs={"max_saccades": 1},
                                   autoreset_mode="same_step")
     try:
         w = DeviceVectorWrapper(env)
         env.reset(seed=3)
-        _, r, te, tr, _ = w.step(torch.zeros(N, 2))
+        _, r, te, tr, _ = w.step(torch.zeros(N, 2, device=env.device))
         assert te.shape == (N, 1) and te.all() and not tr.any()  # each world's one-saccade budget ran out
         assert len(w.episodes) == N and isinstance(w._returns, np.ndarray)
-        np.testing.assert_allclose([e[1] for e in w.episodes], r.view(-1).numpy(), atol=1e-6)
+        np.testing.assert_allclose([e[1] for e in w.episodes], r.view(-1).cpu().numpy(), atol=1e-6)
     finally:
         env.close()
 

@@ -5,6 +5,7 @@ geometry, and the rendered samples against the pooled samples of a fine pinhole 
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -21,6 +22,8 @@ import warp as wp  # noqa: E402
 import mujoco_warp as mjw  # noqa: E402
 
 GROUPS = [0, 2, 3, 4, 5]
+#: Warp's device for these tests: its CPU backend unless CONFORMAL_TEST_DEVICE names another (cuda).
+DEVICE = os.environ.get("CONFORMAL_TEST_DEVICE", "cpu")
 
 
 def _warp_world(head):
@@ -38,7 +41,7 @@ def test_pinhole_rays_are_the_renderers_own():
     Our table convention (camera frame, row-major from the top row, models.render's pixel mapping)
     must reproduce them, or the retina's rays would land elsewhere than we think."""
     head = models.Head("dots", image_size=(48, 64), seed=0)
-    with wp.ScopedDevice("cpu"):
+    with wp.ScopedDevice(DEVICE):
         rc = mjw.create_render_context(head.model, nworld=1, cam_res=(64, 48), render_rgb=True, render_depth=False,
                                        enabled_geom_groups=GROUPS, cam_active=[0, 1])
         theirs = rc.ray.numpy()
@@ -82,11 +85,11 @@ def test_native_samples_match_a_fine_pooled_picture():
     frame = head.render()
     ref = np.stack([v.samples for v in vision.see_eyes((frame.left.image, frame.right.image))])
     diffs = {}
-    with wp.ScopedDevice("cpu"):
+    with wp.ScopedDevice(DEVICE):
         m, d = _warp_world(head)
         for s in (1, 4):
             rr = RetinaRenderContext(head.model, 1, [0, 1], field_ray_directions(vision.grid, s), GROUPS)
-            native = rr.render(m, d)[0].numpy()
+            native = rr.render(m, d)[0].cpu().numpy()
             assert native.shape == ref.shape
             diffs[s] = np.abs(native - ref)
     assert diffs[4].mean() < 0.008 and diffs[4].max() < 0.08, (diffs[4].mean(), diffs[4].max())
