@@ -50,9 +50,6 @@ __all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]
 #: The most worlds one batched env holds.
 MAX_NUM_ENVS = 65_536
 _TASKS = (FixateTask, SearchTask, FreeViewingTask)
-_STEP_KEYS = ("saccade_amplitude_deg", "saccade_duration_ms", "peak_velocity_deg_s", "landing_error_deg",
-              "endpoint_error_deg", "efference_copy", "executed_rotation", "eye_angles", "clipped")
-
 
 def _resolve_device(device, wp, torch) -> str:
     """The device both Warp and torch can use: CUDA needs a CUDA build of torch as well as Warp's CUDA."""
@@ -209,10 +206,7 @@ class BatchedBinocularSaccade(VectorEnv):
         self._load(np.arange(n))
         self._see()
         self._remapped = self._cortical_now()
-        info = {"sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": np.ones(n, bool),
-                "remap_error": self._masked({m: np.zeros(n) for m in self.remap_models}, np.ones(n, bool)),
-                "_remap_error": np.ones(n, bool)}
-        return self._observation(), info
+        return self._observation(), self._info({m: np.zeros(n) for m in self.remap_models})
 
     def step(self, actions):
         self._check_open()
@@ -275,11 +269,7 @@ class BatchedBinocularSaccade(VectorEnv):
             self._autoreset = terminated | truncated
 
         errors = errors.double().cpu().numpy()
-        remap_error = {m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)}
-        info: dict[str, Any] = {
-            "sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": np.ones(n, bool),
-            "remap_error": self._masked(remap_error, np.ones(n, bool)), "_remap_error": np.ones(n, bool),
-        }
+        info = self._info({m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)})
         per_world = {
             "saccade_amplitude_deg": ((), lambda p: np.rad2deg(p.amplitude)),
             "saccade_duration_ms": ((), lambda p: p.duration_ms),
@@ -334,17 +324,14 @@ class BatchedBinocularSaccade(VectorEnv):
         self._remapped = self._torch.where(keep, self._remapped, now)
         with self._part("host sync"):
             obs = self._observation()
-        n = self.num_envs
-        info = {"sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": np.ones(n, bool),
+        # the reset worlds' remapping errors are a reset's (zeros), as BinocularSaccadeEnv.reset reports
+        info = {**self._info({m: np.where(done, 0.0, v) for m, v in final_info["remap_error"].items()
+                              if not m.startswith("_")}),
                 "final_obs": final_obs, "_final_obs": done.copy(),
                 "final_info": self._mask_info(final_info, done), "_final_info": done.copy()}
         for k, v in final_info.items():  # the running worlds' step info stays where it was
             if k not in info and not k.startswith("_") and not isinstance(v, dict):
                 info[k], info["_" + k] = v.copy(), final_info["_" + k] & ~done
-        # the reset worlds' remapping errors are a reset's (zeros), as BinocularSaccadeEnv.reset reports
-        info["remap_error"] = self._masked({m: np.where(done, 0.0, v) for m, v in final_info["remap_error"].items()
-                                            if not m.startswith("_")}, np.ones(n, bool))
-        info["_remap_error"] = np.ones(n, bool)
         return obs, info
 
     @contextlib.contextmanager
@@ -407,12 +394,11 @@ class BatchedBinocularSaccade(VectorEnv):
             out["_" + k] = info["_" + k] & mask
         return out
 
-    @staticmethod
-    def _masked(values: dict, mask: np.ndarray) -> dict:
-        out = dict(values)
-        for k in values:
-            out["_" + k] = mask.copy()
-        return out
+    def _info(self, remap_error: dict[str, np.ndarray]) -> dict[str, Any]:
+        """The info of every reset and step: the clock and each model's remapping error, in every world."""
+        every = np.ones(self.num_envs, bool)
+        return {"sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": every.copy(), "_remap_error": every,
+                "remap_error": {**remap_error, **{"_" + m: every.copy() for m in remap_error}}}
 
     def _observation(self) -> dict:
         torch = self._torch

@@ -5,10 +5,10 @@ rendered by MJWarp's batch renderer (the physics and rendering half of
 One :class:`WarpHeads` holds ``mujoco_warp`` Model/Data for N worlds of one compiled head model
 (``models.Head.model``) and a render context for the two eye cameras. Per env step the host
 uploads, for each world, the commanded eye angles of its saccade at every millisecond from now
-(``models.SaccadePlan.angles``, the same command the CPU head's servo tracks); a Warp kernel then
-sets each world's position, velocity and inertial feed-forward set-points from that table before
-every physics step (``models.servo_setpoints``, the CPU head's servo law), so a whole step is a fixed
-sequence of kernel launches: on CUDA it is captured once in a graph (``chunk_ms`` physics steps per
+(``models.SaccadePlan.angles``, the same command the CPU head's servo tracks); the position, velocity
+and inertial feed-forward set-points are computed from them on the device (``models.servo_setpoints``,
+the CPU head's servo law, on torch tensors) and a Warp kernel writes each world's row into its controls
+before every physics step, so a whole step is a fixed sequence of kernel launches: on CUDA it is captured once in a graph (``chunk_ms`` physics steps per
 graph) and replayed; on Warp's CPU backend the same launches run one by one.
 
 Differences from the CPU head, by design: the physics steps at 1 ms throughout (the CPU head steps
@@ -30,11 +30,6 @@ from models import servo_setpoints
 from models.render import EYES, HIDDEN_GEOM_GROUPS
 
 __all__ = ["WarpHeads", "require_gpu_extra"]
-
-#: The versions this module was written and tested against: the ray table of the render context
-#: (``RenderContext.ray``) that the retina-native option fills is an internal field of mujoco-warp.
-TESTED_MUJOCO_WARP = "4.0.0"
-
 
 def require_gpu_extra():
     """Import and return (warp, mujoco_warp, torch), or raise ImportError saying how to install them."""
@@ -124,7 +119,6 @@ class WarpHeads:
         self.geom_xpos = t(d.geom_xpos)
         self._eye_q = torch.as_tensor(np.asarray(self._qadr), device=self.torch_device)
         self._graph = None
-        self._graph_cmd_shape = None
 
     # ------------------------------------------------------------------ state
     def load(self, worlds: np.ndarray, qpos, qvel, ctrl, mocap_pos, mocap_quat) -> None:

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from conformal import checks
+from conformal import checks, hemifields
 from conformal.dpft import dpft_tables, dpft_weight, mirror_map
 from conformal.fovea import fovea_indices
 from conformal.remap import point_map_params
@@ -76,10 +76,6 @@ class TorchFrame:
         return tuple(self.samples.shape[:2])
 
 
-def _type_error(msg: str) -> checks.InputTypeError:
-    return checks.InputTypeError(msg)
-
-
 class TorchVision:
     """Vision's per-frame pipeline for B worlds x E eyes at once, in torch (built from a CPU ``Vision``).
 
@@ -104,7 +100,7 @@ class TorchVision:
     def __init__(self, vision: Vision, device: str | torch.device = "cpu", *,
                  chunk_bytes: int = _DEFAULT_CHUNK_BYTES) -> None:
         if not isinstance(vision, Vision):
-            raise _type_error(f"vision must be an envs.vision.Vision; got {type(vision).__name__}")
+            raise checks.InputTypeError(f"vision must be an envs.vision.Vision; got {type(vision).__name__}")
         if vision.pooled_remap:
             raise ValueError("TorchVision ports the point prediction only; build the Vision with pooled_remap=False")
         self.device = _resolve_device(device)
@@ -175,10 +171,8 @@ class TorchVision:
         # --- the cortex (cortex.hemifields): right and left hemifield sectors from the upper meridian
         self._hemifields = None
         if g.N % 4 == 0:
-            q = g.N // 4
-            right = np.r_[np.arange(q - 1, -1, -1), np.arange(g.N - 1, 3 * q - 1, -1)]
-            left = np.arange(q, 3 * q)
-            self._hemifields = (torch.as_tensor(right, device=dev), torch.as_tensor(left, device=dev))
+            right, left = hemifields(np.tile(np.arange(g.N), (g.M, 1)), g)  # the sectors' indices, in order
+            self._hemifields = (torch.as_tensor(right[0], device=dev), torch.as_tensor(left[0], device=dev))
 
     # ------------------------------------------------------------------ frames
     def see(self, images: torch.Tensor, *, check_range: bool = True) -> TorchFrame:
@@ -240,12 +234,12 @@ class TorchVision:
         """``x`` as float32 after checking it is a floating-point tensor on this device of shape ``form``
         (``shape_ok``), its trailing sizes ``tail``; errors name ``name``."""
         if not isinstance(x, torch.Tensor):
-            raise _type_error(f"{name} must be a torch.Tensor {form}; got {type(x).__name__}")
+            raise checks.InputTypeError(f"{name} must be a torch.Tensor {form}; got {type(x).__name__}")
         if not shape_ok(x):
             want = ", ".join(str(d) for d in tail)
             raise ValueError(f"{name} must be {form} = (B, E, {want}){extra}; got {tuple(x.shape)}")
         if not x.is_floating_point():
-            raise _type_error(f"{name} must be floating point; got {x.dtype}")
+            raise checks.InputTypeError(f"{name} must be floating point; got {x.dtype}")
         self._check_device(name, x)
         return x.to(torch.float32)
 
@@ -413,14 +407,14 @@ class TorchVision:
         b, e = frame.batch_shape
         c = frame.samples.shape[-1]
         if not isinstance(values, torch.Tensor) or not isinstance(valid, torch.Tensor):
-            raise _type_error(f"values and valid must be torch tensors (predict's output); got "
+            raise checks.InputTypeError(f"values and valid must be torch tensors (predict's output); got "
                               f"{type(values).__name__} and {type(valid).__name__}")
         if values.dim() != 5 or values.shape[:2] != (b, e) or values.shape[3:] != (self.n_points, c):
             raise ValueError(f"values must be (B, E, K, P, C) = ({b}, {e}, K, {self.n_points}, {c}) "
                              "(predict's output); "
                              f"got {tuple(values.shape)}")
         if values.dtype != torch.float32:
-            raise _type_error(f"values must be float32; got {values.dtype}")
+            raise checks.InputTypeError(f"values must be float32; got {values.dtype}")
         if valid.dtype != torch.bool or valid.shape != values.shape[:4]:
             raise ValueError(f"valid must be bool of shape {tuple(values.shape[:4])}; got {valid.dtype} "
                              f"{tuple(valid.shape)}")
@@ -469,13 +463,13 @@ class TorchVision:
     def _check_images(self, images, check_range: bool) -> torch.Tensor:
         h, w = self.image_shape
         if not isinstance(images, torch.Tensor):
-            raise _type_error(f"images must be a torch.Tensor (B, E, {h}, {w}, 3); got {type(images).__name__}")
+            raise checks.InputTypeError(f"images must be a torch.Tensor (B, E, {h}, {w}, 3); got {type(images).__name__}")
         check_range = checks.flag("check_range", check_range)
         if images.dim() != 5 or images.shape[2:] != (h, w, 3) or 0 in images.shape[:2]:
             raise ValueError(f"images must be (B, E, H, W, 3) = (B, E, {h}, {w}, 3) with B, E >= 1 (this Vision's "
                              f"image shape); got {tuple(images.shape)}")
         if images.dtype != torch.uint8 and not images.is_floating_point():
-            raise _type_error(f"images must be uint8 (0..255) or floating point in [0, 1]; got {images.dtype}")
+            raise checks.InputTypeError(f"images must be uint8 (0..255) or floating point in [0, 1]; got {images.dtype}")
         self._check_device("images", images)
         if images.dtype == torch.uint8:
             return images
@@ -491,7 +485,7 @@ class TorchVision:
 
     def _check_frame(self, frame) -> None:
         if not isinstance(frame, TorchFrame):
-            raise _type_error(f"frame must be a TorchFrame (from TorchVision.see); got {type(frame).__name__}")
+            raise checks.InputTypeError(f"frame must be a TorchFrame (from TorchVision.see); got {type(frame).__name__}")
         g = self.grid
         if frame.coeffs.shape[2:4] != (g.M, g.N) or frame.samples.shape[2] != self.n_points:
             raise ValueError(f"frame does not belong to this TorchVision's retina ({g.M} rings x {g.N} sectors, "
@@ -500,7 +494,7 @@ class TorchVision:
 
     def _check_models(self, models) -> tuple[str, ...]:
         if isinstance(models, str) or not isinstance(models, (list, tuple)) or not models:
-            raise _type_error(f"models must be a non-empty tuple of model names from {REMAP_MODELS}; "
+            raise checks.InputTypeError(f"models must be a non-empty tuple of model names from {REMAP_MODELS}; "
                               f"got {models!r:.60}")
         for m in models:
             checks.choice("each model", m, REMAP_MODELS)
@@ -511,9 +505,9 @@ class TorchVision:
 
     def _check_rotation_tensor(self, rotations_eye, batch: tuple[int, int] | None = None) -> torch.Tensor:
         if not isinstance(rotations_eye, torch.Tensor):
-            raise _type_error(f"rotations_eye must be a torch.Tensor (B, E, 3, 3); got {type(rotations_eye).__name__}")
+            raise checks.InputTypeError(f"rotations_eye must be a torch.Tensor (B, E, 3, 3); got {type(rotations_eye).__name__}")
         if not rotations_eye.is_floating_point():
-            raise _type_error(f"rotations_eye must be floating point; got {rotations_eye.dtype}")
+            raise checks.InputTypeError(f"rotations_eye must be floating point; got {rotations_eye.dtype}")
         want = ("(B, E, 3, 3)" if batch is None
                 else f"(B, E, 3, 3) = ({batch[0]}, {batch[1]}, 3, 3) (one per world's eye)")
         if rotations_eye.dim() != 4 or rotations_eye.shape[2:] != (3, 3) or 0 in rotations_eye.shape[:2] or (
@@ -533,7 +527,7 @@ def _resolve_device(device) -> torch.device:
     elif isinstance(device, torch.device):
         dev = device
     else:
-        raise _type_error(f"device must be a string or a torch.device; got {type(device).__name__}")
+        raise checks.InputTypeError(f"device must be a string or a torch.device; got {type(device).__name__}")
     if dev.type == "cuda":
         if not torch.cuda.is_available():
             raise RuntimeError(f"device={str(dev)!r} but torch finds no CUDA device; use device='cpu'")
@@ -552,29 +546,14 @@ def _ieee_matmul(device: torch.device):
     """Full float32 matrix products on CUDA for the duration (cuBLAS without TF32), the caller's setting
     restored after it. Through ``torch.backends.cuda.matmul.fp32_precision`` where torch has it (reading
     the legacy ``allow_tf32`` raises once a caller has used that newer API), else ``allow_tf32``."""
-    if device.type != "cuda":
+    matmul = torch.backends.cuda.matmul  # torch < 2.9 has the legacy flag only
+    flag, ieee = ("fp32_precision", "ieee") if hasattr(matmul, "fp32_precision") else ("allow_tf32", False)
+    before = getattr(matmul, flag) if device.type == "cuda" else ieee
+    if before == ieee:  # not CUDA, or TF32 already off
         yield
         return
-    matmul = torch.backends.cuda.matmul
-    try:
-        before = matmul.fp32_precision
-    except AttributeError:  # torch < 2.9: the legacy flag only
-        before = None
-    if before is None:
-        if not matmul.allow_tf32:
-            yield
-            return
-        matmul.allow_tf32 = False
-        try:
-            yield
-        finally:
-            matmul.allow_tf32 = True
-        return
-    if before == "ieee":
-        yield
-        return
-    matmul.fp32_precision = "ieee"
+    setattr(matmul, flag, ieee)
     try:
         yield
     finally:
-        matmul.fp32_precision = before
+        setattr(matmul, flag, before)

@@ -126,33 +126,14 @@ class BinocularSaccadeEnv(gym.Env):
     #: The longest fixation after a saccade (ms): 10 s, far beyond human fixations (180-320 ms).
     MAX_FIXATION_MS = 10_000
 
-    def __init__(
-        self,
-        scene: str | None = None,
-        task: str | Task = "fixate",
-        action_mode: str = "vector",
-        image_size: int = 128,
-        render_mode: str | None = None,
-        *,
-        fixation_ms: int = 250,
-        max_amplitude_deg: float = 30.0,
-        vergence: bool = False,
-        remap_model: str = "homography",
-        remap_models: tuple[str, ...] | None = None,
-        shift_rings: float = 0.0,
-        pooled_remap: bool = POOLED_REMAP_DEFAULT,
-        grayscale: bool = False,
-        cortex: str = "eyes",
-        include_coeffs: bool = False,
-        fovea_deg: float = 3.0,
-        n_sectors: int | None = None,
-        sampling: str = "pool",
-        fovy_deg: float = models.DEFAULT_FOVY_DEG,
-        endpoint_noise: float = 0.0,
-        saccade_model: str = "burst",
-        quality: str = "fast",
-        task_kwargs: dict | None = None,
-    ) -> None:
+    def __init__(self, scene: str | None = None, task: str | Task = "fixate", action_mode: str = "vector",
+                 image_size: int = 128, render_mode: str | None = None, *, fixation_ms: int = 250,
+                 max_amplitude_deg: float = 30.0, vergence: bool = False, remap_model: str = "homography",
+                 remap_models: tuple[str, ...] | None = None, shift_rings: float = 0.0,
+                 pooled_remap: bool = POOLED_REMAP_DEFAULT, grayscale: bool = False, cortex: str = "eyes",
+                 include_coeffs: bool = False, fovea_deg: float = 3.0, n_sectors: int | None = None,
+                 sampling: str = "pool", fovy_deg: float = models.DEFAULT_FOVY_DEG, endpoint_noise: float = 0.0,
+                 saccade_model: str = "burst", quality: str = "fast", task_kwargs: dict | None = None) -> None:
         super().__init__()
         checks.choice("action_mode", action_mode, ("vector", "cell"))
         checks.choice("render_mode", render_mode, ("rgb_array",), allow_none=True)
@@ -189,10 +170,8 @@ class BinocularSaccadeEnv(gym.Env):
         self.remap_models = remap_models
         self.cortex = cortex
 
-        # how this env builds its head (the batched env builds one per world the same way)
-        self._head_kwargs = dict(image_size=image_size, fovy_deg=fovy_deg, quality=quality, seed=0,
-                                 endpoint_noise=endpoint_noise, saccade_model=saccade_model)
-        self.head = models.Head(self.scene, **self._head_kwargs)
+        self.head = models.Head(self.scene, image_size=image_size, fovy_deg=fovy_deg, quality=quality, seed=0,
+                                endpoint_noise=endpoint_noise, saccade_model=saccade_model)
         try:
             self.task.check_scene(self.head)
         except ValueError:

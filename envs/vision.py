@@ -92,8 +92,6 @@ def _errors(values: NDArray, valid: NDArray, actual: NDArray, actual_valid: NDAr
 
 
 _EYE3 = np.eye(3)
-
-
 _BEHIND = "the shift model needs the new optical axis in front of the old eye (a rotation below 90 degrees)"
 
 
@@ -164,18 +162,9 @@ class Vision:
     Images are (H, W, 3): uint8, or floats in [0, 1].
     """
 
-    def __init__(
-        self,
-        image_shape: tuple[int, int],
-        pixels_per_unit: float,
-        *,
-        fovea_deg: float = 3.0,
-        n_sectors: int | None = None,
-        grayscale: bool = False,
-        sampling: str = "pool",
-        shift_rings: float = 0.0,
-        pooled_remap: bool = POOLED_REMAP_DEFAULT,
-    ) -> None:
+    def __init__(self, image_shape: tuple[int, int], pixels_per_unit: float, *, fovea_deg: float = 3.0,
+                 n_sectors: int | None = None, grayscale: bool = False, sampling: str = "pool",
+                 shift_rings: float = 0.0, pooled_remap: bool = POOLED_REMAP_DEFAULT) -> None:
         if isinstance(image_shape, (str, bytes)) or not hasattr(image_shape, "__len__"):
             raise checks.InputTypeError(f"image_shape must be an (H, W) pair; got {image_shape!r}")
         if len(image_shape) != 2:
@@ -288,31 +277,27 @@ class Vision:
                 C.target_shift_map(0j, self.shift_rings, self.grid.delta)
         return point_map_params(models, r, self.shift_rings, self.grid.delta)
 
-    def predict(
-        self, view: EyeView, model: str, rotation_eye: NDArray[np.float64], *, pooled: bool | None = None
-    ) -> C.RetinaSamples:
+    def predict(self, view: EyeView, model: str, rotation_eye: NDArray[np.float64], *,
+                pooled: bool | None = None) -> C.RetinaSamples:
         """Predicted post-saccadic samples from the pre-saccadic coefficients and the efference copy.
 
         ``pooled``: average each prediction over its receptive field (``conformal.RemapPlan``'s
         ``pooled``) or take the series at the field's centre; None: this Vision's ``pooled_remap``."""
         return self.predict_models(view, (model,), rotation_eye, pooled=pooled)[model]
 
-    def predict_models(
-        self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64], *, pooled: bool | None = None
-    ) -> dict[str, C.RetinaSamples]:
+    def predict_models(self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64], *,
+                       pooled: bool | None = None) -> dict[str, C.RetinaSamples]:
         """``predict`` for several remapping models at once."""
         return self.predict_eyes((view,), models, (rotation_eye,), pooled=pooled)[0]
 
-    def predict_eyes(
-        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *, pooled: bool | None = None
-    ) -> list[dict[str, C.RetinaSamples]]:
+    def predict_eyes(self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *,
+                     pooled: bool | None = None) -> list[dict[str, C.RetinaSamples]]:
         """``predict_models`` for several eyes, each with its own efference copy: [eye]{model: samples}."""
         values, valid = self.predict_arrays(views, models, rotations_eye, pooled=pooled)
         return [dict(zip(models, per_eye)) for per_eye in self.plan.samples(values, valid)]
 
-    def predict_arrays(
-        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *, pooled: bool | None = None
-    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    def predict_arrays(self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *,
+                       pooled: bool | None = None) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """The predictions as arrays in retina order: values (E, K, N_f + M N, C) float32 and
         valid (E, K, N_f + M N), for E eyes and the K ``models`` (``conformal.RemapPlan``).
 
@@ -325,9 +310,8 @@ class Vision:
         fovea = np.stack([v.fovea for v in views])
         return self.plan(coeffs, fovea, maps, pooled=pooled)
 
-    def _predict_frame(
-        self, frame: "_Frame", models: tuple[str, ...], rotations_eye
-    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    def _predict_frame(self, frame: "_Frame", models: tuple[str, ...],
+                       rotations_eye) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """``predict_arrays(frame.views, models, rotations_eye)`` (``pooled`` as this Vision's
         ``pooled_remap``) for a ``_Frame`` of this Vision (``_see_frame``) and ``models`` already
         checked; the rotations are checked (one per eye)."""
@@ -380,9 +364,7 @@ class Vision:
         return _errors(values, valid, actual, views[0].valid)
 
 
-def model_errors(
-    predictions: list[dict[str, C.RetinaSamples]], actual: tuple[EyeView, ...]
-) -> dict[str, float]:
+def model_errors(predictions: list[dict[str, C.RetinaSamples]], actual: tuple[EyeView, ...]) -> dict[str, float]:
     """{model: ``normalized_error`` of its prediction, mean over the eyes}: ``predictions`` [eye]{model:
     samples} (``Vision.predict_eyes``) and ``actual`` the views of the same eyes."""
     if not isinstance(predictions, (list, tuple)) or not predictions or not all(

@@ -32,23 +32,9 @@ import numpy as np
 
 from conformal import checks
 
-__all__ = [
-    "SACCADE_MODELS",
-    "H_RANGE",
-    "V_RANGE",
-    "T_RANGE",
-    "MAX_PEAK_VELOCITY",
-    "MainSequence",
-    "OculomotorRangeError",
-    "SaccadePlan",
-    "fick_matrix",
-    "fick_angles",
-    "listing_torsion",
-    "gaze_direction",
-    "rotation_vector",
-    "fixation_angles",
-    "eye_frame_basis",
-]
+__all__ = ["SACCADE_MODELS", "H_RANGE", "V_RANGE", "T_RANGE", "MAX_PEAK_VELOCITY", "MainSequence",
+           "OculomotorRangeError", "SaccadePlan", "fick_matrix", "fick_angles", "listing_torsion", "gaze_direction",
+           "rotation_vector", "fixation_angles", "eye_frame_basis"]
 
 H_RANGE = np.deg2rad(45.0)  #: horizontal oculomotor range (+-), radians
 V_RANGE = np.deg2rad(35.0)  #: vertical oculomotor range (+-), radians
@@ -134,14 +120,9 @@ def listing_torsion(h, v) -> np.ndarray:
     Derived from the rotation about the axis ``primary x gaze`` (which lies in Listing's plane);
     the tests check it against that construction, not against this formula.
     """
+    from ._plan_kernels import listing_torsion as formula  # the formula's one home
+
     h, v = _angles(h=h, v=v)
-    return _listing_torsion(h, v)
-
-
-def _listing_torsion(h: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``listing_torsion`` for arrays already checked (the formula's one home: ``models._plan_kernels``)."""
-    from ._plan_kernels import listing_torsion as formula
-
     return np.asarray(formula(h, v), float)
 
 
@@ -226,10 +207,6 @@ class MainSequence:
     def _amp(amp_deg) -> float:
         return checks.real("amp_deg", amp_deg, 0.0, 180.0, hint="a saccade amplitude in degrees")
 
-    @staticmethod
-    def _times(t_ms) -> np.ndarray:
-        return checks.array("t_ms", t_ms, kinds="biuf").astype(float)
-
     def _A(self, amp_deg):
         return 1.0 / -np.expm1(-np.asarray(amp_deg, float) / self.m0_deg)
 
@@ -237,14 +214,14 @@ class MainSequence:
         """E(t) in degrees for ``t_ms`` after onset (0 before onset)."""
         from ._plan_kernels import legacy_position
 
-        t = self._times(t_ms)
+        t = _times(t_ms)
         return np.asarray(legacy_position(t, self._amp(amp_deg), self.m0_deg, self.vpk_deg_per_ms), float)
 
     def velocity_deg_per_ms(self, t_ms, amp_deg: float) -> np.ndarray:
         """dE/dt in deg/ms (0 up to and including onset; jumps to the peak just after it)."""
         from ._plan_kernels import legacy_rate
 
-        t = self._times(t_ms)
+        t = _times(t_ms)
         return np.asarray(legacy_rate(t, self._amp(amp_deg), self.m0_deg, self.vpk_deg_per_ms), float)
 
     def peak_velocity_deg_s(self, amp_deg: float) -> float:
@@ -367,8 +344,6 @@ class SaccadePlan:
 
         self._amp_deg = float(np.rad2deg(self.amplitude))
         self._int_deg = float(np.rad2deg(self.intended_amplitude))
-        if not self.legacy and self._int_deg > 90.0:
-            raise OculomotorRangeError(f"saccade amplitude {self._int_deg:.1f} deg exceeds the generator's 90 deg")
         nan3 = np.full(3, np.nan)
         self._batch = b = SaccadePlans(
             self.onset_ms, self.start_angles, self.end_angles, self.intended_end_angles, self.amplitude,
@@ -399,15 +374,10 @@ class SaccadePlan:
         return self.generator if self.legacy else None
 
     duration_ms = _one('duration_ms', float, """Saccade duration: between the 30 deg/s crossings of the eye speed (burst generator), or onset until the speed falls below 20 deg/s (legacy main sequence).""")
-
     settle_ms = _one('settle_ms', float, """Time after onset at which the trajectory (vergence included) has reached its endpoint.""")
-
     offset_ms = _one('offset_ms', float, """Absolute time of saccade offset (the last 30 deg/s crossing; legacy: onset + duration).""")
-
     movement_onset_ms = _one('movement_onset_ms', float, """Absolute time the eye speed first exceeds 30 deg/s (legacy: ``onset_ms``).""")
-
     end_ms = _one('end_ms', int, """Absolute whole millisecond from which the eyes hold the endpoint.""")
-
     peak_velocity = _one('peak_velocity', float, """Cyclopean peak speed, rad/s (of the executed displacement).""")
 
     @property

@@ -77,8 +77,7 @@ class BatchedPlanner:
         self.num_worlds = n = int(num_worlds)
         self._centres = head.eye_centres_head
         self._c = self._centres.mean(axis=0)
-        x, R = head.head_pose()
-        self._x, self._R = x, R
+        self._x, self._R = head.head_pose()
         self.time_ms = np.zeros(n, np.int64)
         self.hold = np.zeros((n, 2, 3))
         self.signal_hold = np.zeros((n, 2, 3))
@@ -199,14 +198,6 @@ class BatchedPlanner:
     def _head(self, p_world: np.ndarray) -> np.ndarray:
         return (p_world - self._x) @ self._R
 
-    def _fixation(self, p_head: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(m, 2, 3) fixation angles and whether each target is reachable (``models.gaze.fixation_batch``)."""
-        ang, ok, _ = fixation_batch(p_head, self._centres)
-        return ang, ok
-
-    def _amp(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-        return cyclopean_amplitude(self._c, p0, p1)
-
     def _targets(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray) -> tuple:
         """What ``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) aims at, before any noise:
         head-frame targets, world targets, fixation angles, amplitudes; ``reach``: the targets pass
@@ -217,19 +208,19 @@ class BatchedPlanner:
         fix = self.fix_head[worlds]
         p_head = displaced(c, fix, hv)
         intended_world = self._world(p_head)
-        _, reach = self._fixation(p_head)
+        reach = fixation_batch(p_head, self._centres)[1]
         scaled = factor != 1.0
         if scaled.any():  # plan_saccade_to(c + factor (intended_target - c)) from the cyclopean eye
-            amp1 = self._amp(fix[scaled], p_head[scaled])
+            amp1 = cyclopean_amplitude(c, fix[scaled], p_head[scaled])
             if not legacy:  # the first plan (plan_saccade) must be made too
                 reach[np.flatnonzero(scaled)[np.rad2deg(amp1) > 90.0]] = False
             cw = self._world(c[None])[0]
             pw = cw + factor[scaled, None] * (intended_world[scaled] - cw)
             intended_world[scaled] = pw
             p_head[scaled] = self._head(pw)
-        end, reach2 = self._fixation(p_head)
+        end, reach2, _ = fixation_batch(p_head, self._centres)
         reach &= reach2
-        amp = self._amp(fix, p_head)
+        amp = cyclopean_amplitude(c, fix, p_head)
         ok = reach if legacy else reach & (np.rad2deg(amp) <= 90.0)
         return p_head, intended_world, end, amp, reach, ok, fix
 
@@ -296,7 +287,6 @@ class BatchedPlanner:
             self._last[i] = (plans, k)
 
 
-
 # ------------------------------------------------------------------------------------------- reset
 class SettledReset:
     """``models.Head.reset`` without its physics, for the many resets of a batched env.
@@ -318,8 +308,7 @@ class SettledReset:
         self.usable = not (isinstance(fix, str) and fix in moved)
         m = head.model
         self._mocap_id = {name: int(m.body_mocapid[m.body(name).id]) for name in moved}
-        blank = mujoco.MjData(head.model)
-        mujoco.mj_resetData(head.model, blank)
+        blank = mujoco.MjData(head.model)  # as made: reset
         self._mocap = blank.mocap_pos.copy(), blank.mocap_quat.copy()
         head.reset(seed=0)
         d = head.data

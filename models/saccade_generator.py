@@ -57,8 +57,8 @@ simulation of the amplitude, checked in the tests).
 
 from __future__ import annotations
 
-import threading
-from dataclasses import dataclass, fields
+import functools
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -105,13 +105,9 @@ class SaccadeProfile:
         object.__setattr__(self, "_tables", (tab, rates, np.array([[0.0, 0.0, 0.0, self.amplitude_deg, marks[0, 2]]])))
 
     onset_ms = property(lambda self: self._marks[0], doc="""Movement onset after the burst onset: first 30 deg/s crossing (nominal plant), ms.""")
-
     offset_ms = property(lambda self: self._marks[1], doc="""Movement offset after the burst onset: last 30 deg/s crossing, ms.""")
-
     duration_ms = property(lambda self: self._marks[1] - self._marks[0], doc="""Detected duration: between the 30 deg/s crossings of the nominal plant's speed.""")
-
     settle_ms = property(lambda self: self._marks[2], doc="""Time after burst onset from which all plants are within ``settle_deg`` of the endpoint.""")
-
     peak_velocity_deg_s = property(lambda self: self._marks[3], doc="""Peak speed of the nominal plant (deg/s).""")
 
     def _values(self, t_rel, plant: int, rate: bool) -> np.ndarray:
@@ -206,23 +202,18 @@ class BurstGenerator:
             object.__setattr__(self, name, checks.real(name, getattr(self, name), lo, hi))
 
     # ------------------------------------------------------------------ the table
+    @functools.lru_cache(maxsize=None)  # one table per parameter set (frozen: hashed by value)
     def _table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        key = tuple(getattr(self, f.name) for f in fields(self))
-        with _LOCK:
-            tab = _TABLES.get(key)
-            if tab is None:
-                amps = np.arange(0.0, _AMP_MAX_DEG + _AMP_STEP_DEG / 2, _AMP_STEP_DEG)
-                every = int(round(_TABLE_DT_MS / _SIM_DT_MS))
-                pos, burst = simulate(self, amps, every=every)
-                peak = float((np.diff(pos, axis=1) / _TABLE_DT_MS).max()) * 1000.0
-                if peak > MAX_PEAK_VELOCITY_DEG_S:
-                    raise ValueError(f"these burst-generator parameters drive the eye at {peak:.0f} deg/s, above the "
-                                     f"physiological ceiling of {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s; lower "
-                                     "burst_max_deg_s or raise adaptation_gain")
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    norm = np.where(amps > 0, pos / amps, 0.0)
-                tab = _TABLES[key] = (amps, norm.astype(np.float64), burst)
-            return tab
+        amps = np.arange(0.0, _AMP_MAX_DEG + _AMP_STEP_DEG / 2, _AMP_STEP_DEG)
+        pos, burst = simulate(self, amps, every=int(round(_TABLE_DT_MS / _SIM_DT_MS)))
+        peak = float((np.diff(pos, axis=1) / _TABLE_DT_MS).max()) * 1000.0
+        if peak > MAX_PEAK_VELOCITY_DEG_S:
+            raise ValueError(f"these burst-generator parameters drive the eye at {peak:.0f} deg/s, above the "
+                             f"physiological ceiling of {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s; lower "
+                             "burst_max_deg_s or raise adaptation_gain")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            norm = np.where(amps > 0, pos / amps, 0.0)
+        return amps, norm.astype(np.float64), burst
 
     def profile(self, amp_deg: float) -> SaccadeProfile:
         """Normalised trajectories of a saccade of ``amp_deg`` (0-90 deg), interpolated from the table."""
@@ -243,6 +234,3 @@ class BurstGenerator:
     def duration_ms(self, amp_deg: float) -> float:
         return self.profile(amp_deg).duration_ms
 
-
-_TABLES: dict = {}
-_LOCK = threading.Lock()

@@ -19,8 +19,8 @@ thousands at once with the same code; the trajectories are the compiled loops of
 
 from __future__ import annotations
 
-import threading
-from dataclasses import dataclass, fields
+import functools
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -49,16 +49,8 @@ class _BurstTable:
     bound: np.ndarray
 
 
-_TABLES: dict = {}
-_LOCK = threading.Lock()
-
-
+@functools.lru_cache(maxsize=None)  # one table per parameter set (a frozen dataclass: hashed by value)
 def _burst_table(gen: BurstGenerator) -> _BurstTable:
-    key = tuple(getattr(gen, f.name) for f in fields(gen))
-    with _LOCK:
-        tab = _TABLES.get(key)
-        if tab is not None:
-            return tab
     amps, norm, _ = gen._table()
     normT = np.ascontiguousarray(np.moveaxis(norm, 2, 0))  # (A, 3, K)
     Kn = normT.shape[2]
@@ -78,10 +70,7 @@ def _burst_table(gen: BurstGenerator) -> _BurstTable:
         peak = r.max(axis=0) >= floor - tol * abs(floor) if floor > 0 else np.ones(Kn, bool)
         need = np.flatnonzero(unsettled | moving | peak)
         bound[j] = min(Kn, (need[-1] + 4) if len(need) else 4)
-    tab = _BurstTable(amps, normT, rates, bound)
-    with _LOCK:
-        _TABLES[key] = tab
-    return tab
+    return _BurstTable(amps, normT, rates, bound)
 
 
 _NO_TABLE = np.zeros((1, 3, 2))

@@ -23,14 +23,7 @@ from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, build_spec
 from .eye_position_signal import EyePositionSignal
 from .gaze import cyclopean_amplitude, displaced, noisy_endpoints
 from .oculomotor_state import OculomotorState
-from .oculomotor import (
-    SACCADE_MODELS,
-    MainSequence,
-    OculomotorRangeError,
-    SaccadePlan,
-    _check_point,
-    fixation_angles,
-)
+from .oculomotor import SACCADE_MODELS, MainSequence, OculomotorRangeError, SaccadePlan, _check_point, fixation_angles
 from .saccade_generator import BurstGenerator
 from .vergence import VergenceDynamics
 from .render import EYES, MAX_IMAGE_SIDE, EyeRenderer, focal_pixels
