@@ -29,7 +29,8 @@ class OculomotorState:
     fixation_head : the head-frame point (3,) the eyes fixate.
     rng : the head's random generator -- the object itself, not a copy: drawing from it advances the
         head's stream (endpoint noise, scene layouts).
-    seed : the seed ``Head.reset()`` uses when called without one (None: fresh entropy).
+    seed : the seed the head's random stream was last started from (``Head(seed=...)`` or
+        ``Head.reset(seed=...)``; None: fresh entropy).
     plan : the saccade in flight (None between saccades).
     signal_plan : the plan the eye-position signal follows (None before the first saccade).
     last_plan : the last plan started (``Head.last_plan``).

@@ -203,15 +203,19 @@ class Head(SceneObjects, HeadRendering):
     # ------------------------------------------------------------------ lifecycle
     def reset(self, seed: int | None = None, fixate: str | Sequence[float] | None = None,
               settle_ms: int = 10) -> None:
-        """Reset physics and time to 0, hide flashes, re-draw the scene layout from ``seed`` and
-        fixate ``fixate`` (an object name or world point; default: the scene's fixation)."""
+        """Reset physics and time to 0, hide flashes, re-draw the scene layout and fixate ``fixate`` (an
+        object name or world point; default: the scene's fixation).
+
+        ``seed`` restarts the head's random stream (scene layouts, endpoint noise) from that seed; without
+        one the stream continues, so each trial draws its own layout and motor noise (as gymnasium's
+        ``reset`` does). The head's first reset, in its constructor, starts the stream from its ``seed``."""
         seed = _seed(seed)
         settle_ms = _ms("settle_ms", settle_ms)
         target = self.scene.default_fixation if fixate is None else fixate
         self._resolve(target)  # a bad name or point raises before anything changes
-        if seed is not None:
-            self._seed = seed
-        self._rng = np.random.default_rng(self._seed)
+        if seed is not None or getattr(self, "_rng", None) is None:  # a seed restarts the stream; none continues it
+            self._seed = self._seed if seed is None else seed
+            self._rng = np.random.default_rng(self._seed)
         mujoco.mj_resetData(self.model, self.data)
         self.time_ms = 0
         self._plan: SaccadePlan | None = None

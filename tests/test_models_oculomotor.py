@@ -141,6 +141,26 @@ def test_endpoint_noise_is_seeded_and_signal_dependent():
     assert np.linalg.norm(endpoints(3, 20), axis=1).mean() > 1.5 * np.linalg.norm(a, axis=1).mean()
 
 
+def test_reset_without_a_seed_continues_the_stream():
+    """Each trial draws its own noise and layout: ``reset()`` continues the head's random stream and
+    ``reset(seed=s)`` restarts it (the audit of issue 24: a reset without a seed re-seeded the
+    generator, so every trial replayed the same motor error and the same search display)."""
+    def trial(h, seed=None):
+        h.reset(seed=seed)
+        plan = h.plan_saccade(np.deg2rad(10.0), 0.0)
+        return np.concatenate([h.data.mocap_pos.ravel(), plan.target - plan.intended_target])
+
+    with Head("search", image_size=16, seed=3, endpoint_noise=0.1) as h, \
+            Head("search", image_size=16, seed=3, endpoint_noise=0.1) as fresh:
+        first, second, third = trial(h), trial(h), trial(h)
+        assert not np.array_equal(first, second) and not np.array_equal(second, third)
+        assert np.array_equal(trial(h, seed=3), trial(fresh, seed=3))  # a seed restarts the stream...
+        assert np.array_equal(trial(h), trial(fresh))  # ...and the draws after it continue alike
+        again = Head("search", image_size=16, seed=3, endpoint_noise=0.1)
+        assert np.array_equal(trial(again, seed=3), trial(again, seed=3))
+        again.close()
+
+
 def test_run_saccade_yields_times_relative_to_onset(head):
     head.reset()
     plan = head.plan_saccade_to("target", latency_ms=30)
