@@ -51,6 +51,7 @@ __all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]
 MAX_NUM_ENVS = 65_536
 _TASKS = (FixateTask, SearchTask, FreeViewingTask)
 
+
 def _resolve_device(device, wp, torch) -> str:
     """The device both Warp and torch can use: CUDA needs a CUDA build of torch as well as Warp's CUDA."""
     cuda = wp.is_cuda_available() and torch.cuda.is_available()

@@ -8,8 +8,9 @@ uploads, for each world, the commanded eye angles of its saccade at every millis
 (``models.SaccadePlan.angles``, the same command the CPU head's servo tracks); the position, velocity
 and inertial feed-forward set-points are computed from them on the device (``models.servo_setpoints``,
 the CPU head's servo law, on torch tensors) and a Warp kernel writes each world's row into its controls
-before every physics step, so a whole step is a fixed sequence of kernel launches: on CUDA it is captured once in a graph (``chunk_ms`` physics steps per
-graph) and replayed; on Warp's CPU backend the same launches run one by one.
+before every physics step, so a whole step is a fixed sequence of kernel launches: on CUDA it is
+captured once in a graph (``chunk_ms`` physics steps per graph) and replayed; on Warp's CPU backend
+the same launches run one by one.
 
 Differences from the CPU head, by design: the physics steps at 1 ms throughout (the CPU head steps
 saccades at 0.25 ms), and the feed-forward torque uses one constant inertia per joint. Both
@@ -161,14 +162,16 @@ class WarpHeads:
     def setpoints(self, commands: np.ndarray, lengths: np.ndarray, out=None):
         """The servo's set-points (N, T, 18) of the command tables (N, T, 6) (``models.servo_setpoints``
         at 1 ms, the rows from ``lengths[w] - 1`` on holding the endpoint: no velocity, no feed-forward),
-        computed on this device in float64 (the host's numbers): a torch tensor, or written into ``out``
-        (N, T, 18) in its dtype. Only the commanded angles travel to the device, a third of the table."""
+        computed on this device in float64 (the host's numbers): a new float64 tensor, or written into
+        ``out`` (N, T, 18) in its dtype. Only the commanded angles travel to the device, a third of the table."""
         torch, dev = self._torch, self.torch_device
         q = torch.as_tensor(np.asarray(commands, np.float64), device=dev)
         T = q.shape[1]
         ext = torch.cat([q[:, :1], q, q[:, -1:]], dim=1)  # at rest before the first row, held after the last
         dt = torch.full((T + 1,), self._dt, dtype=torch.float64, device=dev)
         u = servo_setpoints(ext, dt, self._inertia * torch.eye(6, dtype=torch.float64, device=dev), out)
+        if out is None:
+            out = torch.empty((q.shape[0], T, 18), dtype=torch.float64, device=dev)
         ends = torch.as_tensor(np.asarray(lengths, np.int64), device=dev)
         held = torch.arange(T, device=dev)[None, :] >= ends[:, None] - 1
         u[:, :, 6:].masked_fill_(held[:, :, None], 0.0)

@@ -5,8 +5,9 @@ those pictures through the same steps as ``Vision`` does for one world, all worl
 set of tensor operations on the device ("cuda" or "cpu"):
 
 * ``see``: receptive-field pooling (``conformal.Retina``'s sparse operator applied as a gather and a
-  segment sum, deterministic on CUDA; ``Retina.sample_prechecked`` / ``kernels.pool_picture``), grayscale, the DPFT of the periphery
-  (``conformal.dpft.dpft_prechecked``, eqs. ``lpdft``/``dpft``): ``Vision._see_frame`` / ``Vision._frame``;
+  segment sum, deterministic on CUDA; ``Retina.sample_prechecked`` / ``kernels.pool_picture``),
+  grayscale, the DPFT of the periphery (``conformal.dpft.dpft_prechecked``, eqs. ``lpdft``/``dpft``):
+  ``Vision._see_frame`` / ``Vision._frame``;
 * ``predict``: the efference-copy remapping's point prediction of every model
   (``Vision._predict_frame`` -> ``RemapPlan._evaluate`` with ``pooled=False``: ``kernels.map_points``,
   the mirror series of eq. ``dppcc'`` via ``dpft.mirror_map``, ``kernels.tabulate_angles``,
@@ -463,13 +464,15 @@ class TorchVision:
     def _check_images(self, images, check_range: bool) -> torch.Tensor:
         h, w = self.image_shape
         if not isinstance(images, torch.Tensor):
-            raise checks.InputTypeError(f"images must be a torch.Tensor (B, E, {h}, {w}, 3); got {type(images).__name__}")
+            raise checks.InputTypeError(f"images must be a torch.Tensor (B, E, {h}, {w}, 3); "
+                                        f"got {type(images).__name__}")
         check_range = checks.flag("check_range", check_range)
         if images.dim() != 5 or images.shape[2:] != (h, w, 3) or 0 in images.shape[:2]:
             raise ValueError(f"images must be (B, E, H, W, 3) = (B, E, {h}, {w}, 3) with B, E >= 1 (this Vision's "
                              f"image shape); got {tuple(images.shape)}")
         if images.dtype != torch.uint8 and not images.is_floating_point():
-            raise checks.InputTypeError(f"images must be uint8 (0..255) or floating point in [0, 1]; got {images.dtype}")
+            raise checks.InputTypeError(f"images must be uint8 (0..255) or floating point in [0, 1]; "
+                                        f"got {images.dtype}")
         self._check_device("images", images)
         if images.dtype == torch.uint8:
             return images
@@ -485,7 +488,8 @@ class TorchVision:
 
     def _check_frame(self, frame) -> None:
         if not isinstance(frame, TorchFrame):
-            raise checks.InputTypeError(f"frame must be a TorchFrame (from TorchVision.see); got {type(frame).__name__}")
+            raise checks.InputTypeError(f"frame must be a TorchFrame (from TorchVision.see); "
+                                        f"got {type(frame).__name__}")
         g = self.grid
         if frame.coeffs.shape[2:4] != (g.M, g.N) or frame.samples.shape[2] != self.n_points:
             raise ValueError(f"frame does not belong to this TorchVision's retina ({g.M} rings x {g.N} sectors, "
@@ -495,7 +499,7 @@ class TorchVision:
     def _check_models(self, models) -> tuple[str, ...]:
         if isinstance(models, str) or not isinstance(models, (list, tuple)) or not models:
             raise checks.InputTypeError(f"models must be a non-empty tuple of model names from {REMAP_MODELS}; "
-                              f"got {models!r:.60}")
+                                        f"got {models!r:.60}")
         for m in models:
             checks.choice("each model", m, REMAP_MODELS)
         if "shift" in models and abs(self.shift_rings * self.grid.delta) > 40:  # target_shift_map's message
@@ -505,7 +509,8 @@ class TorchVision:
 
     def _check_rotation_tensor(self, rotations_eye, batch: tuple[int, int] | None = None) -> torch.Tensor:
         if not isinstance(rotations_eye, torch.Tensor):
-            raise checks.InputTypeError(f"rotations_eye must be a torch.Tensor (B, E, 3, 3); got {type(rotations_eye).__name__}")
+            raise checks.InputTypeError(f"rotations_eye must be a torch.Tensor (B, E, 3, 3); "
+                                        f"got {type(rotations_eye).__name__}")
         if not rotations_eye.is_floating_point():
             raise checks.InputTypeError(f"rotations_eye must be floating point; got {rotations_eye.dtype}")
         want = ("(B, E, 3, 3)" if batch is None

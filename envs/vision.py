@@ -95,16 +95,19 @@ _EYE3 = np.eye(3)
 _BEHIND = "the shift model needs the new optical axis in front of the old eye (a rotation below 90 degrees)"
 
 
-def _check_rotations(rotations_eye) -> NDArray[np.float64]:
+def _check_rotations(rotations_eye, shift: bool = False) -> NDArray[np.float64]:
     """A stack of proper rotations (E, 3, 3) float64, checked as ``conformal.check_rotation`` checks
-    each one; a float64 (E, 3, 3) array (the head's efference copy) in a few vectorised operations."""
+    each one (a float64 (E, 3, 3) array, the head's efference copy, in a few vectorised operations)
+    and, with ``shift``, with the new optical axis in front of the old eye (``rotation_faults``)."""
     r = rotations_eye
     if not (type(r) is np.ndarray and r.dtype == np.float64 and r.ndim == 3 and r.shape[1:] == (3, 3)):
-        return np.array([C.check_rotation(x, "rotation_eye") for x in r]).reshape(-1, 3, 3)
-    bad, _ = rotation_faults(r, False)
+        r = np.array([C.check_rotation(x, "rotation_eye") for x in r]).reshape(-1, 3, 3)
+    bad, behind = rotation_faults(r, shift)
     if bad.any():
         C.check_rotation(r[int(np.argmax(bad))], "rotation_eye")  # raises with the public message
         raise ValueError("rotation_eye must be a proper rotation matrix (orthogonal, det +1)")
+    if behind.any():
+        raise ValueError(_BEHIND)
     return r
 
 
@@ -269,12 +272,9 @@ class Vision:
         ``models`` (names from ``REMAP_MODELS``, not checked) and each eye's rotation R, without
         building the map objects: the same numbers (``tests/test_env_hotpath.py`` compares them).
         The rotations are checked as ``check_rotation`` does (orthogonal to 1e-6, det +1)."""
-        r = _check_rotations(rotations_eye)
-        if "shift" in models:
-            if rotation_faults(r, True)[1].any():
-                raise ValueError(_BEHIND)
-            if abs(self.shift_rings * self.grid.delta) > 40:  # the public constructor's message
-                C.target_shift_map(0j, self.shift_rings, self.grid.delta)
+        r = _check_rotations(rotations_eye, "shift" in models)
+        if "shift" in models and abs(self.shift_rings * self.grid.delta) > 40:  # the public constructor's message
+            C.target_shift_map(0j, self.shift_rings, self.grid.delta)
         return point_map_params(models, r, self.shift_rings, self.grid.delta)
 
     def predict(self, view: EyeView, model: str, rotation_eye: NDArray[np.float64], *,
