@@ -215,6 +215,46 @@ class BurstGenerator:
             norm = np.where(amps > 0, pos / amps, 0.0)
         return amps, norm.astype(np.float64), burst
 
+    # ------------------------------------------------------------------ files
+    def to_file(self, path, **extra) -> None:
+        """Write these parameters as JSON: ``{"model": "BurstGenerator", "parameters": {...}}`` plus the
+        keyword arguments ``extra`` (a fit's CIs, data source, ...) as further top-level keys."""
+        import dataclasses
+        import json
+        from pathlib import Path
+
+        doc = {"model": "BurstGenerator", "parameters": dataclasses.asdict(self), **extra}
+        Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+
+    @classmethod
+    def from_file(cls, path) -> "BurstGenerator":
+        """Parameters from a JSON file written by :meth:`to_file` (e.g. the ``generator.json`` of
+        ``python -m experiments saccades --recording``); parameters it omits keep their defaults.
+        An unreadable file, another model or an unknown or out-of-range parameter is a ``ValueError``
+        naming the file and the problem."""
+        import dataclasses
+        import json
+        from pathlib import Path
+
+        try:
+            doc = json.loads(Path(path).read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ValueError(f"cannot read a burst generator from {path}: {exc}; pass the generator.json "
+                             "written by `python -m experiments saccades --recording FILE --out DIR`") from None
+        if not isinstance(doc, dict) or doc.get("model") != "BurstGenerator" or not isinstance(doc.get("parameters"), dict):
+            raise ValueError(f"{path} is not a burst-generator file: it needs \"model\": \"BurstGenerator\" and a "
+                             "\"parameters\" object (as written by BurstGenerator.to_file)")
+        params = doc["parameters"]
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(params) - known)
+        if unknown:
+            raise ValueError(f"{path}: unknown burst-generator parameter(s) {', '.join(unknown)}; "
+                             f"known: {', '.join(sorted(known))}")
+        try:
+            return cls(**params)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{path}: {exc}") from None
+
     def profile(self, amp_deg: float) -> SaccadeProfile:
         """Normalised trajectories of a saccade of ``amp_deg`` (0-90 deg), interpolated from the table."""
         amp = checks.real("amp_deg", amp_deg, 0.0, _AMP_MAX_DEG, hint="a saccade amplitude in degrees")
