@@ -133,6 +133,18 @@ class Recording:
     def name(self) -> str:
         return self.path.name
 
+    @property
+    def noise_deg(self) -> float:
+        """Tracker noise (deg, per axis): robust SD (1.4826 MAD) of the sample-to-sample differences
+        between samples slower than 30 deg/s, / sqrt(2)."""
+        still = speed_deg_s(self.x_deg, self.y_deg, 1000.0 / self.rate_hz) < THRESHOLD_DEG_S
+        still = still[1:] & still[:-1]  # both samples of a difference at fixation, not in a saccade
+        d = np.concatenate([np.diff(self.x_deg)[still], np.diff(self.y_deg)[still]])
+        d = d[np.isfinite(d)]
+        if not len(d):
+            return 0.0
+        return float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(2.0))
+
 
 # ---------------------------------------------------------------------------------------- reading
 def _format_of(path: Path, fmt: str | None) -> str:
@@ -185,8 +197,6 @@ def _geometry_hint(kind: str) -> str:
 
 
 def _read_asc(path: Path, text: str, screen: Screen | None, screen_cm_only: bool) -> Recording:
-    import pymovements as pm
-
     lines = text.splitlines()
     n_samples = sum(1 for ln in lines[:5000] if ln[:1].isdigit())
     if not any(ln.startswith("**") or ln.startswith("MSG") or ln.startswith("START") for ln in lines[:2000]) \
@@ -202,6 +212,11 @@ def _read_asc(path: Path, text: str, screen: Screen | None, screen_cm_only: bool
                              "has no END line (was the file cut short while copying or converting?)")
     if not text.endswith("\n"):
         raise RecordingError(f"{path} looks truncated: its last line is incomplete")
+    if screen is None and any(ln.startswith("MSG") and "GAZE_COORDS" in ln for ln in lines[:5000]):
+        raise RecordingError(f"{path}: the gaze is in pixels but the recording has no screen size or viewing "
+                             f"distance; {_geometry_hint('asc')}")
+    import pymovements as pm  # after the cheap checks: importing it takes seconds
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
@@ -242,9 +257,6 @@ def _read_asc(path: Path, text: str, screen: Screen | None, screen_cm_only: bool
 
 
 def _read_csv(path: Path, text: str, screen: Screen | None) -> Recording:
-    import polars as pl
-    import pymovements as pm
-
     first = text.split("\n", 1)[0]
     sep = "\t" if ("\t" in first and "," not in first) else ","
     header = [h.strip() for h in first.split(sep)]
@@ -268,6 +280,9 @@ def _read_csv(path: Path, text: str, screen: Screen | None) -> Recording:
     if len(rows) > 1 and len(rows[-1].split(sep)) < len(header):
         raise RecordingError(f"{path} looks truncated: its last line ({len(rows)}) has {len(rows[-1].split(sep))} of "
                              f"{len(header)} fields")
+    import polars as pl
+    import pymovements as pm  # after the cheap checks: importing it takes seconds
+
     try:
         df = pl.read_csv(path, separator=sep, columns=["time_ms"] + cols, null_values=["", "nan", "NaN", "."],
                          schema_overrides={c: pl.Float64 for c in ["time_ms"] + cols}, comment_prefix="#")
@@ -311,6 +326,10 @@ def read_recording(path, *, screen: Screen | None = None, fmt: str | None = None
     are used (the resolution is the file's ``GAZE_COORDS``). Raises :class:`RecordingError` naming
     the problem for anything unusable."""
     path = Path(path)
+    if not path.exists():
+        raise RecordingError(f"{path}: no such file")
+    if path.is_dir():
+        raise RecordingError(f"{path} is a folder; give a recording file (.asc or .csv)")
     kind = _format_of(path, fmt)
     text = _read_text(path)
     if not text.strip():
@@ -412,7 +431,10 @@ def _engbert(rec: Recording) -> list[tuple[float, float]]:
         if "velocity" not in gaze.samples.columns:
             gaze.pos2vel(method="fivepoint")
         # minimum_duration is in the time column's unit (ms): 8 ms keeps 2-sample events out at 250 Hz
-        gaze.detect("microsaccades", minimum_duration=8, clear=True)
+        try:
+            gaze.detect("microsaccades", minimum_duration=8, clear=True)
+        except ValueError:  # a noise-free trace: the median-based threshold is 0; use a fixed 5 deg/s per axis
+            gaze.detect("microsaccades", minimum_duration=8, clear=True, threshold=(5.0, 5.0))
     ev = gaze.events.frame
     return [(float(a), float(b)) for a, b in zip(ev["onset"].to_list(), ev["offset"].to_list())]
 

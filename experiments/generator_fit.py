@@ -20,8 +20,12 @@ Residuals, per saccade: ``log(peak_obs / peak_model)`` and ``log(duration_obs / 
 fit is then repeated with those weights). 95 % CIs are asymptotic: ``(J'J)^-1`` scaled by the
 residual variance at the optimum, on the log scale (so they are asymmetric and positive). Not a
 bootstrap: each objective evaluation simulates the grid (~30 ms), and a bootstrap of a few hundred
-refits would take minutes. Tracker noise, which the forward model leaves out, raises observed
-peak velocities slightly (a few deg/s at 0.02 deg noise).
+refits would take minutes. Tracker noise raises observed peak velocities (the maximum of a
+noisy speed) and shifts the threshold crossings; the forward model adds Gaussian noise of the
+recording's own level (``Recording.noise_deg``, estimated from sample-to-sample differences) to
+the simulated traces (48 draws) to get the measurement's bias at the current estimate, and
+refits the noise-free forward model corrected by that bias (twice): a noisy forward model inside
+the optimiser would make the objective rough (threshold crossings jump with each draw).
 
 :func:`plot_main_sequence` draws the data against the fitted and the default generator.
 """
@@ -39,9 +43,10 @@ __all__ = ["FitResult", "fit_generator", "predict", "plot_main_sequence", "DEFAU
 
 DEFAULT_FIT = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms")
 FITTABLE = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms", "adaptation_gain", "adaptation_ms", "plant_t2_ms")
-_SIM_DT_MS = 0.1
+_SIM_DT_MS = 0.2
 _PHASES = 4
-_GRID_N = 18
+_GRID_N = 16
+_NOISE_DRAWS = 48
 _PRE_MS = 50.0  # rest before the burst onset in the simulated traces
 
 
@@ -70,6 +75,7 @@ class FitResult:
                                ci95={k: [float(v[0]), float(v[1])] for k, v in self.ci95.items()},
                                estimates={k: float(v) for k, v in self.estimates.items()},
                                n_saccades=self.n_saccades, sampling_rate_hz=self.rate_hz,
+                               tracker_noise_deg=self.extra.get("noise_deg", 0.0),
                                residual_sd=self.residual_sd,
                                method="least squares on log peak velocity and log duration vs amplitude; "
                                       "95% CIs from the Jacobian (asymptotic, log scale)",
@@ -83,15 +89,20 @@ def _grid_dt(rate_hz: float) -> tuple[float, int]:
     return period / k, k
 
 
-def predict(generator, amplitudes_deg, rate_hz: float, phases: int = _PHASES) -> dict:
+def predict(generator, amplitudes_deg, rate_hz: float, noise_deg: float = 0.0, phases: int | None = None) -> dict:
     """Measured kinematics of the generator's saccades of true amplitudes ``amplitudes_deg`` sampled
-    at ``rate_hz`` (mean over ``phases`` sampling phases): arrays ``amplitude_deg`` (as measured),
-    ``peak_velocity_deg_s``, ``duration_ms``, ``skewness``. NaN where the measure fails."""
+    at ``rate_hz`` with Gaussian tracker noise ``noise_deg`` (per axis; the same fixed draws at every
+    call, so the objective stays deterministic): arrays ``amplitude_deg`` (as measured),
+    ``peak_velocity_deg_s``, ``duration_ms``, ``skewness``, each the mean over ``phases`` sampling
+    phases (default 4 without noise, 16 with: each phase its own noise draw). NaN where the measure
+    fails."""
     from models.saccade_generator import simulate
 
     from .eyetracking import POST_WINDOW_MS, PRE_WINDOW_MS, measure_saccade, speed_deg_s
 
     A = np.asarray(amplitudes_deg, float)
+    phases = phases or (_PHASES if noise_deg <= 0 else 4 * _PHASES)
+    rng = np.random.default_rng(12345)
     dt, k = _grid_dt(rate_hz)
     span = min(320.0, 3.0 * float(A.max()) + 40.0 * generator.burst_scale_deg / 2.82 + 60.0 + POST_WINDOW_MS[1])
     pos, _ = simulate(generator, A, span_ms=span, dt_ms=dt)
@@ -104,8 +115,12 @@ def predict(generator, amplitudes_deg, rate_hz: float, phases: int = _PHASES) ->
         idx = np.arange(int(round(ph * k / phases)), p.shape[0], k)
         t, trace = tt[idx], p[idx]
         sdt = 1000.0 / rate_hz
+        ortho = None
+        if noise_deg > 0:
+            trace = trace + rng.normal(0.0, noise_deg, trace.shape)
+            ortho = rng.normal(0.0, noise_deg, trace.shape)
         for j in range(len(A)):
-            s = speed_deg_s(trace[:, j], None, sdt)
+            s = speed_deg_s(trace[:, j], None if ortho is None else ortho[:, j], sdt)
             ip = int(np.nanargmax(s))
             m = measure_saccade(t, s, ip, rate_hz)
             if m is None:
@@ -123,9 +138,9 @@ def predict(generator, amplitudes_deg, rate_hz: float, phases: int = _PHASES) ->
     return {key: v.mean(axis=0) for key, v in out.items()}
 
 
-def _curves(generator, amp_lo: float, amp_hi: float, rate_hz: float, n: int = _GRID_N):
+def _curves(generator, amp_lo: float, amp_hi: float, rate_hz: float, noise_deg: float = 0.0, n: int = _GRID_N):
     grid = np.geomspace(max(0.5, amp_lo * 0.9), amp_hi * 1.05 + 0.5, n)
-    pr = predict(generator, grid, rate_hz)
+    pr = predict(generator, grid, rate_hz, noise_deg)
     ok = np.isfinite(pr["amplitude_deg"]) & np.isfinite(pr["peak_velocity_deg_s"]) & np.isfinite(pr["duration_ms"])
     order = np.argsort(pr["amplitude_deg"][ok])
     return {key: v[ok][order] for key, v in pr.items()}
@@ -139,9 +154,10 @@ def _rows_arrays(rows) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return A[ok], pv[ok], du[ok]
 
 
-def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, start=None) -> FitResult:
+def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0.0, start=None) -> FitResult:
     """Least-squares fit of the generator parameters ``fit`` to the main sequence ``rows`` of a
-    recording sampled at ``rate_hz`` (module docstring). ``start``: a ``BurstGenerator`` to start
+    recording sampled at ``rate_hz`` with tracker noise ``noise_deg`` (``Recording.noise_deg``;
+    module docstring). ``start``: a ``BurstGenerator`` to start
     from and to take the unfitted parameters from (default: the defaults). ``ValueError`` with fewer
     saccades than 2 per fitted parameter (and at least 5)."""
     from scipy.optimize import least_squares
@@ -168,26 +184,50 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, start=None) -> FitRe
     def gen_of(x):
         return dataclasses.replace(base, **{f: float(v) for f, v in zip(fit, np.exp(x))})
 
+    n = len(A)
+    w = np.ones(2)
+    bias = [np.zeros(1), np.zeros(1), np.zeros(1)]  # measured amplitude, log pv, log duration corrections
+
     def raw(x):
         c = _curves(gen_of(x), amp_lo, amp_hi, rate_hz)
         if len(c["amplitude_deg"]) < 3:
             return np.full(2 * len(A), 10.0)
-        ppv = np.interp(A, c["amplitude_deg"], c["peak_velocity_deg_s"])
-        pdu = np.interp(A, c["amplitude_deg"], c["duration_ms"])
+        if len(bias[0]) == len(c["amplitude_deg"]):
+            am = c["amplitude_deg"] + bias[0]
+            ppv, pdu = c["peak_velocity_deg_s"] * np.exp(bias[1]), c["duration_ms"] * np.exp(bias[2])
+        else:
+            am, ppv, pdu = c["amplitude_deg"], c["peak_velocity_deg_s"], c["duration_ms"]
+        order = np.argsort(am)
+        ppv = np.interp(A, am[order], ppv[order])
+        pdu = np.interp(A, am[order], pdu[order])
         return np.concatenate([np.log(pv / ppv), np.log(du / pdu)])
-
-    n = len(A)
-    w = np.ones(2)
 
     def resid(x):
         r = raw(x)
         return np.concatenate([r[:n] / w[0], r[n:] / w[1]])
 
-    kw = dict(bounds=(lo, hi), diff_step=3e-3, x_scale=1.0, xtol=1e-6, ftol=1e-8, max_nfev=200)
+    kw = dict(bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, xtol=1e-5, ftol=1e-7, max_nfev=100)
     res = least_squares(resid, x0, **kw)
     r = raw(res.x)
     w = np.array([max(np.std(r[:n]), 1e-4), max(np.std(r[n:]), 1e-4)])
     res = least_squares(resid, res.x, **kw)
+    for _ in range(2 if noise_deg > 0 else 0):
+        # Tracker noise: the measurement's bias (noisy minus clean prediction, many noise draws) at the
+        # current estimate, held fixed while refitting the clean model (a smooth objective).
+        g = gen_of(res.x)
+        clean = _curves(g, amp_lo, amp_hi, rate_hz)
+        grid = np.geomspace(max(0.5, amp_lo * 0.9), amp_hi * 1.05 + 0.5, _GRID_N)
+        noisy = predict(g, grid, rate_hz, noise_deg, phases=_NOISE_DRAWS)
+        clean_all = predict(g, grid, rate_hz)
+        ok = np.all([np.isfinite(v) for v in (*noisy.values(), *clean_all.values()) if v is not noisy["skewness"]
+                     and v is not clean_all["skewness"]], axis=0)
+        if ok.sum() != len(clean["amplitude_deg"]) or not ok.all():
+            break
+        order = np.argsort(clean_all["amplitude_deg"])
+        bias = [(noisy["amplitude_deg"] - clean_all["amplitude_deg"])[order],
+                np.log(noisy["peak_velocity_deg_s"] / clean_all["peak_velocity_deg_s"])[order],
+                np.log(noisy["duration_ms"] / clean_all["duration_ms"])[order]]
+        res = least_squares(resid, res.x, **kw)
     J = res.jac
     dof = max(1, 2 * n - len(fit))
     s2 = float(res.fun @ res.fun) / dof
@@ -203,10 +243,10 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, start=None) -> FitRe
     kept = {f.name: getattr(gen, f.name) for f in dataclasses.fields(gen) if f.name not in fit}
     return FitResult(gen, fit, {f: float(v) for f, v in zip(fit, est)}, ci, kept, n, float(rate_hz),
                      {"peak_velocity_rel": float(np.std(r[:n])), "duration_rel": float(np.std(r[n:]))},
-                     bool(res.success), str(res.message))
+                     bool(res.success), str(res.message), {"noise_deg": float(noise_deg)})
 
 
-def plot_main_sequence(rows, generator, path, *, rate_hz: float, title: str = "") -> None:
+def plot_main_sequence(rows, generator, path, *, rate_hz: float, noise_deg: float = 0.0, title: str = "") -> None:
     """``main_sequence.png``: peak velocity and duration against amplitude -- the recorded saccades
     (points), the fitted generator (line) and the default generator (dashed), both measured as the
     data were at ``rate_hz``."""
@@ -223,7 +263,7 @@ def plot_main_sequence(rows, generator, path, *, rate_hz: float, title: str = ""
     lo = float(A.min()) if len(A) else 1.0
     for gen, style, label in ((generator, dict(color="C3", lw=1.8), "fitted generator"),
                               (models.BurstGenerator(), dict(color="0.3", lw=1.2, ls="--"), "default generator")):
-        c = _curves(gen, lo, hi, rate_hz, n=30)
+        c = _curves(gen, lo, hi, rate_hz, noise_deg, n=30)
         ax[0].plot(c["amplitude_deg"], c["peak_velocity_deg_s"], label=label, **style)
         ax[1].plot(c["amplitude_deg"], c["duration_ms"], label=label, **style)
     ax[0].plot(A, pv, "o", ms=3.5, color="C0", alpha=0.7, label=f"recorded saccades (n={len(A)})")

@@ -14,6 +14,15 @@ threshold crossings) and writes:
 
 Both trajectory models (``burst``, the default, and ``legacy``) are measured, so the figure shows
 what the burst generator changed. About 5 s on one core.
+
+With ``--recording FILE`` it measures a person instead (``experiments.eyetracking``): it reads an
+EyeLink ASC file or a CSV/TSV of samples, finds the saccades (the file's own events or Engbert &
+Kliegl detection; saccades near blinks dropped) and writes ``main_sequence.csv`` (one row per
+saccade: amplitude, duration, peak velocity, direction, skewness), ``generator.json`` (the burst
+generator fitted to that main sequence, with 95 % CIs; usable as ``--generator`` of ``run``,
+``phenomena`` and ``fit`` and as ``models.BurstGenerator.from_file``) and ``main_sequence.png``.
+Pixels need the screen: ``--screen WIDTH_CM HEIGHT_CM DISTANCE_CM`` for ASC (resolution from the
+file) or ``--screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM``.
 """
 
 from __future__ import annotations
@@ -132,7 +141,86 @@ def plot(results: dict[str, dict], path: Path) -> None:
     plt.close(fig)
 
 
+def _screen(values: list[str]):
+    """``--screen``: 3 numbers (cm, for ASC files) or 5 (px and cm)."""
+    from .eyetracking import RecordingError, Screen
+
+    if len(values) not in (3, 5):
+        raise argparse.ArgumentTypeError(f"--screen takes 3 numbers (WIDTH_CM HEIGHT_CM DISTANCE_CM) or 5 "
+                                         f"(WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM); got {len(values)}")
+    try:
+        nums = [float(v) for v in values]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--screen takes numbers; got {' '.join(values)!r}") from None
+    if len(nums) == 3:
+        nums = [1, 1] + nums  # resolution from the ASC file (a CSV in pixels needs all five)
+    try:
+        return Screen(int(nums[0]), int(nums[1]), *nums[2:]), len(values) == 3
+    except RecordingError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _fit_parameters(text: str) -> tuple[str, ...]:
+    from .generator_fit import FITTABLE
+
+    names = tuple(v.strip() for v in text.split(",") if v.strip())
+    bad = [n for n in names if n not in FITTABLE]
+    if not names or bad or len(set(names)) != len(names):
+        raise argparse.ArgumentTypeError(f"expected distinct names among {', '.join(FITTABLE)}; got {text!r}")
+    return names
+
+
+def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | None = None) -> int:
+    """``saccades --recording FILE``: main sequence, fitted generator and figure of a recording."""
+    from . import eyetracking as et
+    from . import generator_fit as gf
+
+    screen, cm_only = (None, False)
+    if args.screen is not None:
+        try:
+            screen, cm_only = _screen(args.screen)
+        except argparse.ArgumentTypeError as e:
+            parser.error(f"argument --screen: {e}")
+    path = Path(args.recording)
+    try:
+        if cm_only and (args.format or et._SUFFIX_FORMAT.get(path.suffix.lower())) == "csv":
+            raise et.RecordingError(f"{path}: a CSV in pixels needs the resolution too: --screen WIDTH_PX HEIGHT_PX "
+                                    "WIDTH_CM HEIGHT_CM DISTANCE_CM (3 numbers serve ASC files only)")
+        rec = et.read_recording(path, screen=screen, fmt=args.format)
+        sacc = et.detect_saccades(rec, args.detect)
+        rows = et.main_sequence_rows(rec, sacc)
+        if not rows:
+            raise et.RecordingError(f"{path}: no measurable saccades found ({len(sacc)} candidate(s) from "
+                                    f"{'the file events' if rec.file_saccades_ms and args.detect != 'engbert' else 'Engbert-Kliegl detection'}, "
+                                    f"{len(rec.times_ms)} samples at {rec.rate_hz:g} Hz)")
+        need = max(5, 2 * len(args.fit_parameters))
+        if len(rows) < need:
+            raise et.RecordingError(f"{path}: only {len(rows)} measurable saccade(s); fitting "
+                                    f"{len(args.fit_parameters)} parameters needs at least {need}")
+    except et.RecordingError as e:
+        parser.error(f"argument --recording: {e}")
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    et.write_rows(rows, out / "main_sequence.csv")
+    noise = rec.noise_deg
+    fit = gf.fit_generator(rows, fit=args.fit_parameters, rate_hz=rec.rate_hz, noise_deg=noise)
+    fit.to_file(out / "generator.json", file=path.name, format=rec.fmt, sampling_rate_hz=rec.rate_hz,
+                n_samples=int(len(rec.times_ms)), detection=args.detect, units=rec.units,
+                screen=None if rec.screen is None else vars(rec.screen))
+    gf.plot_main_sequence(rows, fit.generator, out / "main_sequence.png", rate_hz=rec.rate_hz, noise_deg=noise,
+                          title=f"{path.name}: {len(rows)} saccades at {rec.rate_hz:g} Hz")
+    print(f"{path.name}: {len(rec.times_ms)} samples at {rec.rate_hz:g} Hz, {len(rows)} saccades measured "
+          f"(tracker noise {noise:.3f} deg)")
+    for name in fit.fitted:
+        lo, hi = fit.ci95[name]
+        print(f"  {name:18s} {fit.estimates[name]:9.3f}  95% CI [{lo:.3f}, {hi:.3f}]")
+    print(f"wrote {out / 'main_sequence.csv'}, {out / 'generator.json'} and {out / 'main_sequence.png'}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if getattr(args, "recording", None) is not None:
+        return run_recording(args, getattr(args, "parser", None))
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     models_ = ("burst", "legacy") if args.model == "both" else (args.model,)
@@ -162,7 +250,20 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--model", choices=("burst", "legacy", "both"), default="both",
                    help="trajectory model(s) to measure (the figure needs burst)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars (they go to stderr)")
-    p.set_defaults(func=run)
+    g = p.add_argument_group("a person's recording (experiments.eyetracking)")
+    g.add_argument("--recording", metavar="FILE", default=None,
+                   help="EyeLink ASC file or CSV/TSV of samples (time_ms and x_deg,y_deg or x_px,y_px); writes "
+                        "main_sequence.csv, generator.json and main_sequence.png instead of the model's kinematics")
+    g.add_argument("--format", choices=("asc", "csv"), default=None, help="recording format (default: from the suffix)")
+    g.add_argument("--screen", nargs="+", metavar="N", default=None,
+                   help="screen geometry for gaze in pixels: WIDTH_CM HEIGHT_CM DISTANCE_CM (ASC: resolution from "
+                        "GAZE_COORDS) or WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM")
+    g.add_argument("--detect", choices=("auto", "file", "engbert"), default="auto",
+                   help="saccades: the file's own ESACC events (file), Engbert & Kliegl 2003 detection (engbert), "
+                        "or the events where the file has them (auto)")
+    g.add_argument("--fit-parameters", type=_fit_parameters, default=("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms"),
+                   metavar="NAMES", help="comma-separated burst-generator parameters to fit (the others keep their defaults)")
+    p.set_defaults(func=run, parser=p)
 
 
 if __name__ == "__main__":  # pragma: no cover
