@@ -87,6 +87,8 @@ class WarpHeads:
         # (off-diagonal terms ~ I sin(elevation)) is left to the servo, as the CPU head leaves the
         # change of M over a saccade
         self._inertia = float(np.mean(np.diag(Mee)))
+        # the orbital plant (``models.plant``): the command's inertia, stiffness and damping, the CPU head's
+        self._plant = head.plant_command
         self._dt = float(mjm.opt.timestep)
         if abs(self._dt - 1e-3) > 1e-12:
             raise ValueError(f"the batched physics steps 1 ms; the model's timestep is {self._dt}")
@@ -161,7 +163,8 @@ class WarpHeads:
     # ------------------------------------------------------------------ physics
     def setpoints(self, commands: np.ndarray, lengths: np.ndarray, out=None):
         """The servo's set-points (N, T, 18) of the command tables (N, T, 6) (``models.servo_setpoints``
-        at 1 ms, the rows from ``lengths[w] - 1`` on holding the endpoint: no velocity, no feed-forward),
+        at 1 ms, the rows from ``lengths[w] - 1`` on holding the endpoint: no velocity, no feed-forward;
+        with the orbital plant the torques, from the last step ``lengths[w] - 2`` on the step ``K q`` alone),
         computed on this device in float64 (the host's numbers): a new float64 tensor, or written into
         ``out`` (N, T, 18) in its dtype. Only the commanded angles travel to the device, a third of the table."""
         torch, dev = self._torch, self.torch_device
@@ -169,12 +172,23 @@ class WarpHeads:
         T = q.shape[1]
         ext = torch.cat([q[:, :1], q, q[:, -1:]], dim=1)  # at rest before the first row, held after the last
         dt = torch.full((T + 1,), self._dt, dtype=torch.float64, device=dev)
-        u = servo_setpoints(ext, dt, self._inertia * torch.eye(6, dtype=torch.float64, device=dev), out)
+        ends = torch.as_tensor(np.asarray(lengths, np.int64), device=dev)
         if out is None:
             out = torch.empty((q.shape[0], T, 18), dtype=torch.float64, device=dev)
-        ends = torch.as_tensor(np.asarray(lengths, np.int64), device=dev)
-        held = torch.arange(T, device=dev)[None, :] >= ends[:, None] - 1
-        u[:, :, 6:].masked_fill_(held[:, :, None], 0.0)
+        if self._plant is None:
+            u = servo_setpoints(ext, dt, self._inertia * torch.eye(6, dtype=torch.float64, device=dev), out)
+            held = torch.arange(T, device=dev)[None, :] >= ends[:, None] - 1
+            u[:, :, 6:].masked_fill_(held[:, :, None], 0.0)
+            return u
+        I, K, B = (torch.as_tensor(a, dtype=torch.float64, device=dev) for a in self._plant)
+        u = servo_setpoints(ext, dt, I, out, stiffness=K, damping=B)
+        # from the plan's snap onto its endpoint (its last step) on, the plant gets the step alone: K q
+        # (the CPU head's rule, ``models.servo.EyeServo.table``)
+        held = torch.arange(T, device=dev)[None, :] >= ends[:, None] - 2
+        u[:, :, 6:12].masked_fill_(held[:, :, None], 0.0)
+        last = q[torch.arange(q.shape[0], device=dev), (ends - 1).clamp(min=0)]
+        tonic = (last @ K.T).to(u.dtype)[:, None, :]
+        u[:, :, 12:] = torch.where(held[:, :, None], tonic, u[:, :, 12:])
         return u
 
     def run(self, commands: np.ndarray, lengths: np.ndarray, n_ms: int) -> int:

@@ -21,6 +21,7 @@ from .oculomotor_state import OculomotorState
 from .saccade_plans import Profiles, SaccadePlans, profiles
 from .planner import BatchedPlanner, SettledReset, plan_clipped
 from .servo import servo_setpoints
+from .plant import EYE_DRIVES, OrbitalPlant
 
 __all__ = [
     "SCENES", "QUALITIES", "EYES", "DEFAULT_FOVY_DEG", "DEFAULT_IPD", "HEAD_XML", "CYCLOPEAN_EYE",
@@ -31,6 +32,6 @@ __all__ = [
     "SACCADE_MODELS", "BurstGenerator", "SaccadeProfile", "PLANTS", "VergenceDynamics", "EyePositionSignal",
     "VISUAL_LATENCY_MS", "MainSequence", "SaccadePlan", "fixation_angles", "listing_torsion", "fick_matrix", "fick_angles",
     "gaze_direction", "rotation_vector", "OculomotorState", "SaccadePlans", "Profiles", "profiles",
-    "BatchedPlanner", "SettledReset", "plan_clipped", "servo_setpoints", "fixation_batch", "displaced", "cyclopean_amplitude",
+    "BatchedPlanner", "SettledReset", "plan_clipped", "servo_setpoints", "OrbitalPlant", "EYE_DRIVES", "fixation_batch", "displaced", "cyclopean_amplitude",
     "GLBackendError", "ForkedGLContextError", "ModelFileError", "OculomotorRangeError", "gl_install_hint",
 ]

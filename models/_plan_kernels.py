@@ -38,23 +38,33 @@ def _listing_torsion(h, v):
     return 2.0 * math.atan(math.tan(h / 2) * math.tan(v / 2))
 
 
-def _vergence_fraction(t, offset, speedup, tau):
-    """Fraction of a vergence change done ``t`` ms after burst onset: first order with time constant
-    ``tau / speedup`` until the saccade's ``offset`` and ``tau`` after it (``models.VergenceDynamics``)."""
+def _vergence_fraction(t, offset, speedup, tau, latency):
+    """Fraction of a vergence change done ``t`` ms after burst onset (``models.VergenceDynamics``): a
+    critically damped response ``1 - (1 + s) e^-s`` (bell-shaped velocity, zero at its start) of the
+    internal time ``s``, which runs ``speedup`` times faster from burst onset to the saccade's
+    ``offset`` (saccadic facilitation) and at ``1 / tau`` after it. Without a saccade (``offset <= 0``)
+    the response starts ``latency`` ms after onset (disparity vergence's own latency)."""
+    if offset <= 0.0:
+        t = t - latency
     fast = min(max(t, 0.0), offset) * speedup
-    slow = max(t - offset, 0.0)
-    return -math.expm1(-(fast + slow) / tau)
+    slow = max(t - max(offset, 0.0), 0.0)
+    s = (fast + slow) / tau
+    return -math.expm1(-s) - s * math.exp(-s)
 
 
 _vfrac = _inline(_vergence_fraction)
 
 
-def _vergence_rate(t, offset, speedup, tau):
-    """d(fraction)/dt (1/ms) of :func:`_vergence_fraction` (0 before onset)."""
+def _vergence_rate(t, offset, speedup, tau, latency):
+    """d(fraction)/dt (1/ms) of :func:`_vergence_fraction` (0 before its start)."""
+    if offset <= 0.0:
+        t = t - latency
     if t <= 0:
         return 0.0
     k = (speedup if t < offset else 1.0) / tau
-    return k * (1.0 - _vfrac(t, offset, speedup, tau))
+    fast = min(t, max(offset, 0.0)) * speedup
+    s = (fast + max(t - max(offset, 0.0), 0.0)) / tau
+    return k * s * math.exp(-s)
 
 
 def _legacy_position(t, amp, m0, vpk):
@@ -147,13 +157,13 @@ def profile_values(tab, rtab, dt, prof, legacy, m0, vpk, plant, t_rel, rate, out
 
 # ------------------------------------------------------------------------------ plans
 @_inline
-def _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start, end, w, t):  # pragma: no cover
+def _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start, end, w, t):  # pragma: no cover
     """Fick (h, v) of both eyes of saccade w at t ms after onset: (s_nom, h_left, v_left, h_right, v_right).
     ``plan[w]``: (settle time, saccade offset, version, dv_left, dv_right, vergence_left, vergence_right)."""
     s_nom = _position(tab, dt, prof, w, t, 0, legacy, m0, vpk)
     if t >= plan[w, 0]:
         return s_nom, end[w, 0, 0], end[w, 0, 1], end[w, 1, 0], end[w, 1, 1]
-    r = _vfrac(t, plan[w, 1], speedup, tau) if verg_on else s_nom
+    r = _vfrac(t, plan[w, 1], speedup, tau, latency) if verg_on else s_nom
     s0 = s_nom if plants[w, 0] == 0 else _position(tab, dt, prof, w, t, plants[w, 0], legacy, m0, vpk)
     s1 = s_nom if plants[w, 1] == 0 else _position(tab, dt, prof, w, t, plants[w, 1], legacy, m0, vpk)
     version = plan[w, 2]
@@ -162,7 +172,7 @@ def _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, sta
 
 
 @_par
-def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start, end,
+def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start, end,
            t_rel, out):  # pragma: no cover - compiled
     """Fick angles (h, v, Listing torsion) of both eyes, out (n, T, 2, 3), of n saccades at ``t_rel``
     (n, T) ms after their onsets. Arguments: see :func:`_hv` (``end``: executed or intended endpoint)."""
@@ -174,14 +184,14 @@ def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, 
                     for c in range(3):
                         out[w, k, e, c] = out[w, k - 1, e, c]
                 continue
-            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start,
+            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start,
                                     end, w, t_rel[w, k])
             out[w, k, 0, 0], out[w, k, 0, 1], out[w, k, 0, 2] = h0, v0, _listing(h0, v0)
             out[w, k, 1, 0], out[w, k, 1, 1], out[w, k, 1, 2] = h1, v1, _listing(h1, v1)
 
 
 @_par
-def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start, end,
+def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start, end,
           t_rel, out):  # pragma: no cover - compiled
     """Rates (rad/ms) of the Fick angles of both eyes, out (n, T, 2, 3), at ``t_rel`` (n, T); torsion's
     by the chain rule of Listing's ``tan(t/2) = tan(h/2) tan(v/2)``."""
@@ -189,7 +199,7 @@ def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, pla
     for w in nb.prange(n):
         for k in range(T):
             t = t_rel[w, k]
-            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start,
+            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start,
                                     end, w, t)
             if t >= plan[w, 0]:
                 for e in range(2):
@@ -197,7 +207,7 @@ def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, pla
                         out[w, k, e, c] = 0.0
                 continue
             ds = _rate(rtab, dt, prof, w, t, 0, legacy, m0, vpk)
-            dr = _vrate(t, plan[w, 1], speedup, tau) if verg_on else ds
+            dr = _vrate(t, plan[w, 1], speedup, tau, latency) if verg_on else ds
             for e in range(2):
                 dsp = ds if plants[w, e] == 0 else _rate(rtab, dt, prof, w, t, plants[w, e], legacy, m0, vpk)
                 dh = plan[w, 2] * dsp + plan[w, 5 + e] * dr
@@ -215,7 +225,7 @@ def _norm(x, s, e, s_nom):  # pragma: no cover - compiled
 
 
 @_par
-def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants, start, end, knot, count,
+def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start, end, knot, count,
             t_rel, sigma, out):  # pragma: no cover - compiled
     """The eye-position signal's normalised time course (``models.EyePositionSignal``), out (n, m, 4)
     [(h, v) of the left eye, then the right], at ``t_rel`` (n, m) (already less the delay): the intended
@@ -229,7 +239,7 @@ def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants,
                 out[w, j, c] = 0.0
         p0 = p1 = p2 = p3 = 0.0
         for k in range(count[w]):
-            s_nom, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, plants,
+            s_nom, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants,
                                         start, end, w, k * knot)
             c0 = _norm(h0, start[w, 0, 0], end[w, 0, 0], s_nom)
             c1 = _norm(v0, start[w, 0, 1], end[w, 0, 1], s_nom)

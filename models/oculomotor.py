@@ -274,8 +274,9 @@ class SaccadePlan:
     ``vergence``) or a :class:`MainSequence` (``saccade_model="legacy"``: one analytic profile for
     every component, vergence included, as before). Per eye, the horizontal angle is
     ``h0 + dVersion * s_plant(t) + dVergence * r(t)`` and the vertical ``v0 + dv * s(t)``; torsion
-    follows Listing's law at every instant. The profiles are those of the *intended* amplitude;
-    motor noise scales the executed displacement (``end_angles``) downstream of the generator.
+    follows Listing's law at every instant. The executed trajectory is the generator's saccade of
+    the executed amplitude (with motor noise, the noisy one: it keeps the main sequence); the intended
+    command (the efference copy) that of the intended amplitude.
 
     ``intended_end_angles`` is where the command aims (default: ``end_angles``);
     ``efference_copy[e]`` is the intended rotation of eye ``e`` in the head frame,
@@ -404,7 +405,7 @@ class SaccadePlan:
         t = _times(t_ms)
         tr = (t - self.onset_ms).reshape(1, -1)
         done = tr >= self.settle_ms
-        p = self._batch.profiles
+        p = self._batch.executed_profiles
         s = np.where(done, 1.0, p.position(tr, 0)).reshape(t.shape)
         return s, np.where(done, 0.0, p.rate(tr, 0)).reshape(t.shape)
 

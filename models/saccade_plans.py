@@ -163,8 +163,9 @@ class SaccadePlans:
 
     Per eye, the horizontal angle is ``h0 + dVersion s_plant(t) + dVergence r(t)`` and the vertical
     ``v0 + dv s(t)``; torsion follows Listing's law at every instant. The profiles are those of the
-    *intended* amplitude: motor noise scales the executed displacement (``end``) downstream of the
-    generator.
+    executed amplitude (``end``: with motor noise the generator's saccade of the noisy amplitude, so
+    executed saccades keep the main sequence); the intended command (the efference copy's time course)
+    has those of the intended amplitude.
     """
 
     def __init__(self, onset_ms, start, end, intended_end, amplitude, intended_amplitude, signal_start, target,
@@ -184,15 +185,21 @@ class SaccadePlans:
         self._int_deg = np.rad2deg(self.intended_amplitude)
         if not self.legacy and n and self._int_deg.max() > 90.0:
             raise OculomotorRangeError(f"saccade amplitude {self._int_deg.max():.1f} deg exceeds the generator's 90 deg")
-        self.profiles = prof = Profiles(generator, self._int_deg)
+        self.profiles = Profiles(generator, self._int_deg)  # the command's (intended) kinematics
+        if not self.legacy and n and self._amp_deg.max() > 90.0:
+            raise OculomotorRangeError(f"executed saccade amplitude {self._amp_deg.max():.1f} deg exceeds the generator's 90 deg")
+        # the executed saccade is the generator's for its own (noisy) amplitude: it keeps the main sequence
+        same = np.array_equal(self._amp_deg, self._int_deg)
+        self.executed_profiles = prof = self.profiles if same else Profiles(generator, self._amp_deg)
+        self._prof = {"executed": prof, "intended": self.profiles}
         R0, R1, Ri = (fick_matrix(a[..., 0], a[..., 1], a[..., 2]) for a in (self.start, self.end, self.intended_end))
         R0T = np.swapaxes(R0, -1, -2)
         self.executed_rotation = R1 @ R0T
         self.efference_copy = Ri @ R0T
         B = PRIMARY_EYE_BASIS
         self.efference_copy_eye = B.T @ R0T @ Ri @ B
-        self._parts = {"executed": self._decompose(self.end), "intended": self._decompose(self.intended_end)}
-        settle = prof.settle_ms
+        self._parts = {"executed": self._decompose(self.end, prof), "intended": self._decompose(self.intended_end, self.profiles)}
+        settle = np.maximum(prof.settle_ms, self.profiles.settle_ms)
         if self.vergence is not None:
             verg = np.maximum(np.abs(self._parts["executed"][1][:, 5:7]).max(axis=1),
                               np.abs(self._parts["intended"][1][:, 5:7]).max(axis=1))
@@ -204,13 +211,12 @@ class SaccadePlans:
         self.duration_ms = prof.duration_ms
         self.offset_ms = self.onset_ms + prof.offset_ms
         self.movement_onset_ms = self.onset_ms + prof.onset_ms
-        scale = np.where(self._int_deg > 0, self._amp_deg / np.where(self._int_deg > 0, self._int_deg, 1.0), 0.0)
-        self.peak_velocity = np.deg2rad(prof.peak_velocity_deg_s * scale)
+        self.peak_velocity = np.deg2rad(prof.peak_velocity_deg_s)
         g1 = gaze_direction(self.end[:, :, 0], self.end[:, :, 1])
         g0 = gaze_direction(self.intended_end[:, :, 0], self.intended_end[:, :, 1])
         self.endpoint_error_deg = np.degrees(np.arccos(np.clip((g0 * g1).sum(axis=-1), -1.0, 1.0)))
 
-    def _decompose(self, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _decompose(self, end: np.ndarray, prof: Profiles) -> tuple[np.ndarray, np.ndarray]:
         """Per plan the plants (n, 2) and the kernels' plan row (n, 7): settle time (filled in later),
         saccade offset, version, vertical displacements (2) and vergence (2) of each eye."""
         d = end[:, :, :2] - self.start[:, :, :2]
@@ -219,7 +225,7 @@ class SaccadePlans:
         # plant rows: 0 nominal, 1 abducting, 2 adducting; the right eye abducts moving right (h > 0)
         plants = np.where((version > 0)[:, None], [2, 1], [1, 2])
         plants = np.where(((version == 0) | self.legacy)[:, None], 0, plants).astype(np.intp)
-        row = np.column_stack([np.zeros(self.n), self.profiles.offset_ms if self.n else np.zeros(0), version,
+        row = np.column_stack([np.zeros(self.n), prof.offset_ms if self.n else np.zeros(0), version,
                                d[:, :, 1], vergence])
         return plants, row
 
@@ -227,7 +233,8 @@ class SaccadePlans:
         plants, row = self._parts[which]
         vd = self.vergence
         verg_on = vd is not None
-        return (row, verg_on, vd.tau_ms if verg_on else 1.0, vd.saccade_speedup if verg_on else 1.0, plants,
+        return (row, verg_on, vd.tau_ms if verg_on else 1.0, vd.saccade_speedup if verg_on else 1.0,
+                vd.latency_ms if verg_on else 0.0, plants,
                 self.start, self.end if which == "executed" else self.intended_end)
 
     def _rel(self, t_ms) -> np.ndarray:
@@ -240,14 +247,14 @@ class SaccadePlans:
         or the ``"intended"`` command (noise-free; the efference copy's time course)."""
         t = self._rel(t_ms)
         out = np.empty(t.shape + (2, 3))
-        K.angles(*self.profiles.args(), *self._args(which), t, out)
+        K.angles(*self._prof[which].args(), *self._args(which), t, out)
         return out
 
     def velocities(self, t_ms) -> np.ndarray:
         """Executed angular rates (rad/ms) of the Fick angles (n, T, 2, 3) at absolute times ``t_ms`` (n, T)."""
         t = self._rel(t_ms)
         out = np.empty(t.shape + (2, 3))
-        p = self.profiles
+        p = self.executed_profiles
         K.rates(p.tab, p.rtab, _TABLE_DT_MS, p.prof, p.legacy, p.m0, p.vpk, *self._args("executed"), t, out)
         return out
 
@@ -258,7 +265,7 @@ class SaccadePlans:
         T = int(count.max()) if self.n else 1
         t_rel = np.minimum(np.arange(T, dtype=float)[None, :], (count - 1)[:, None].astype(float))
         out = np.empty((self.n, T, 2, 3))
-        K.angles(*self.profiles.args(), *self._args("executed"), t_rel, out)
+        K.angles(*self.executed_profiles.args(), *self._args("executed"), t_rel, out)
         return out.reshape(self.n, T, 6), count
 
     def eye_position_signal(self, t_ms, eye_position: EyePositionSignal | None = None) -> np.ndarray:

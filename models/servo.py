@@ -58,7 +58,7 @@ def _substeps(timestep_ms, name: str) -> int:
     return k
 
 
-def servo_setpoints(q, dt_s, inertia, out=None):
+def servo_setpoints(q, dt_s, inertia, out=None, stiffness=None, damping=None):
     """The eye servo's set-points for the physics steps j = 0..T-1 of commanded trajectories.
 
     ``q`` (n, T + 2, 6): the commanded joint angles at the step boundaries t_(-1), t_0, ..., t_T
@@ -67,6 +67,11 @@ def servo_setpoints(q, dt_s, inertia, out=None):
     per step the position set-point ``q_j``, the velocity set-point ``v_j = (q_(j+1) - q_j) / dt_j``
     (so the semi-implicit integrator lands on the command) and the inverse-dynamics feed-forward
     torque ``I (v_j - v_(j-1)) / dt_j``.
+
+    With ``stiffness`` and ``damping`` (6, 6; ``models.OrbitalPlant.install``) the feed-forward is the
+    torque that moves the orbital plant along the command, ``I a_j + B v_j + K q_j`` (the pulse-step of
+    :mod:`models.plant`; ``v_j`` the velocity after the step, as MuJoCo integrates joint damping
+    implicitly): with the servos off it is the only drive, the position and velocity set-points unused.
 
     The arrays are numpy arrays (``models.Head``) or torch tensors on one device (the batched env
     computes its worlds' set-points where its physics runs): the same operations on either. ``out``
@@ -80,6 +85,8 @@ def servo_setpoints(q, dt_s, inertia, out=None):
     out[:, :, :k] = q[:, 1:-1]
     out[:, :, k:2 * k] = v[:, 1:]
     out[:, :, 2 * k:] = a @ inertia.T
+    if stiffness is not None:
+        out[:, :, 2 * k:] += q[:, 1:-1] @ stiffness.T + v[:, 1:] @ damping.T
     return out
 
 
@@ -90,13 +97,24 @@ class EyeServo:
     eye joints' addresses in ``qpos`` / ``qvel``; ``ctrl``: the 18 eye set-points' slice (or indices)
     of ``data.ctrl`` (position, velocity, feed-forward of the six joints)."""
 
-    def __init__(self, model, data, k_fix: int, k_sac: int, qadr: np.ndarray, vadr: np.ndarray, ctrl) -> None:
+    def __init__(self, model, data, k_fix: int, k_sac: int, qadr: np.ndarray, vadr: np.ndarray, ctrl,
+                 plant: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
         self.model, self.data = model, data
         self.k_fix, self.k_sac = k_fix, k_sac
         self.dt_fix, self.dt_sac = 1e-3 / k_fix, 1e-3 / k_sac
         self.qadr, self.vadr, self.ctrl = qadr, vadr, ctrl
+        self.plant = plant  # the command's (inertia, stiffness, damping) of the orbital plant; None: the servo
         self._M = np.zeros((model.nv, model.nv))
         self._table = None
+
+    def hold_controls(self, angles: np.ndarray) -> np.ndarray:
+        """The 18 eye controls holding ``angles`` (2, 3): the servo's position set-points, or the
+        plant's tonic torque ``K q`` (the step alone)."""
+        u = np.zeros(18)
+        u[:6] = angles.ravel()
+        if self.plant is not None:
+            u[12:] = self.plant[1] @ u[:6]
+        return u
 
     def forget(self) -> None:
         """Drop the tabulated saccade (a reset or a new state)."""
@@ -113,9 +131,7 @@ class EyeServo:
             return
         m, d, k = self.model, self.data, self.k_fix
         m.opt.timestep = self.dt_fix
-        u = np.zeros(18)
-        u[:6] = angles.ravel()
-        d.ctrl[self.ctrl] = u
+        d.ctrl[self.ctrl] = self.hold_controls(angles)
         if rec is None:
             mujoco.mj_step(m, d, nstep=n_ms * k)
             return
@@ -129,8 +145,9 @@ class EyeServo:
 
         Steps are ``saccade_timestep_ms`` long from onset until the whole millisecond after the
         main-sequence offset (speed < 20 deg/s), then ``timestep_ms`` long through the slow settle
-        tail to ``plan.end_ms``; the feed-forward uses the eye block of the mass matrix at onset (its
-        change over a saccade is < 0.3 %), and the position servo corrects what is left.
+        tail to ``plan.end_ms``; the servo's feed-forward uses the eye block of the mass matrix at onset (its
+        change over a saccade is < 0.3 %), and the position servo corrects what is left; the plant's
+        torque uses the brain's model of the plant (``models.plant``) and nothing corrects it.
         """
         k_sac, k_fix = self.k_sac, self.k_fix
         span = plan.end_ms - plan.onset_ms
@@ -138,8 +155,15 @@ class EyeServo:
         t = np.concatenate([np.arange(-1, fine_ms * k_sac + 1) / k_sac,
                             fine_ms + np.arange(1, (span - fine_ms) * k_fix + 1) / k_fix])
         q = plan.angles(plan.onset_ms + t).reshape(-1, 6)
-        mujoco.mj_fullM(self.model, self.data, self._M)
-        u = servo_setpoints(q[None], np.diff(t) * 1e-3, self._M[np.ix_(self.vadr, self.vadr)])[0]
+        if self.plant is None:
+            mujoco.mj_fullM(self.model, self.data, self._M)
+            u = servo_setpoints(q[None], np.diff(t) * 1e-3, self._M[np.ix_(self.vadr, self.vadr)])[0]
+        else:
+            I, K, B = self.plant
+            u = servo_setpoints(q[None], np.diff(t) * 1e-3, I, stiffness=K, damping=B)[0]
+            # the last step is the plan's snap onto its endpoint (the last settle_deg): the plant gets the
+            # step alone there, no pulse, and settles by itself (the batched physics does the same)
+            u[-1] = self.hold_controls(q[-1])
         return {"plan": plan, "u": u, "t": plan.onset_ms + t[2:], "q": q[2:], "fine_steps": fine_ms * k_sac,
                 "fine_ms": fine_ms}
 

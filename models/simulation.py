@@ -31,6 +31,7 @@ from .scenes import SCENES, SceneInfo
 from .head_rendering import HeadRendering
 from .scene_objects import SceneObjects
 from .servo import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, EyeServo, _ms, _substeps
+from .plant import EYE_DRIVES, OrbitalPlant
 
 __all__ = ["Head", "EyeState", "EyeTrace"]
 
@@ -125,6 +126,10 @@ class Head(SceneObjects, HeadRendering):
             1 ms, at least 0.01 ms). Finer costs proportionally more and changes nothing visible.
         saccade_timestep_ms: physics timestep during saccades up to their offset (default
             0.25 ms; must divide 1 ms, at least 0.01 ms); sets the resolution of recorded :class:`EyeTrace` s.
+        eye_drive: ``"plant"`` (default: torques move each eye through the orbital plant,
+            :mod:`models.plant`; perturbations and a mismatched pulse show in the traces) or
+            ``"servo"`` (a stiff position servo tracks the command: exact, noise-free pointing).
+        plant: the plant's time constants and the brain's pulse (default ``OrbitalPlant()``; ``"plant"`` only).
 
     Times given to its methods are whole milliseconds, at most ``MAX_STEP_MS`` (60,000) per call.
 
@@ -145,7 +150,8 @@ class Head(SceneObjects, HeadRendering):
                  main_sequence: MainSequence | None = None, generator: BurstGenerator | None = None,
                  vergence: VergenceDynamics | None = None, eye_position: EyePositionSignal | None = None,
                  timestep_ms: float = DEFAULT_TIMESTEP_MS,
-                 saccade_timestep_ms: float = DEFAULT_SACCADE_TIMESTEP_MS):
+                 saccade_timestep_ms: float = DEFAULT_SACCADE_TIMESTEP_MS, eye_drive: str = "plant",
+                 plant: OrbitalPlant | None = None):
         if not isinstance(scene, str):
             raise checks.InputTypeError(f"scene must be one of {', '.join(SCENES)}; got {scene!r}")
         self._k_fix = _substeps(timestep_ms, "timestep_ms")
@@ -161,7 +167,11 @@ class Head(SceneObjects, HeadRendering):
         self.endpoint_noise = checks.real("endpoint_noise", endpoint_noise, 0.0, 1.0,
                                           hint="the s.d. of the endpoint error as a fraction of the amplitude")
         self.saccade_model = checks.choice("saccade_model", saccade_model, SACCADE_MODELS)
+        self.eye_drive = checks.choice("eye_drive", eye_drive, EYE_DRIVES)
+        if plant is not None and self.eye_drive != "plant":
+            raise ValueError("plant configures eye_drive='plant'; the servo has no plant parameters")
         for name, value, kind in (("main_sequence", main_sequence, MainSequence), ("generator", generator, BurstGenerator),
+                                  ("plant", plant, OrbitalPlant),
                                   ("vergence", vergence, VergenceDynamics),
                                   ("eye_position", eye_position, EyePositionSignal)):
             if value is not None and not isinstance(value, kind):
@@ -191,7 +201,15 @@ class Head(SceneObjects, HeadRendering):
         eye_ctrl = np.concatenate([self._pos_act, self._vel_act, self._ff_act])
         contiguous = np.array_equal(eye_ctrl, np.arange(eye_ctrl[0], eye_ctrl[0] + 18))
         self._eye_ctrl = slice(int(eye_ctrl[0]), int(eye_ctrl[0]) + 18) if contiguous else eye_ctrl
-        self._servo = EyeServo(m, self.data, self._k_fix, self._k_sac, self._qadr, self._vadr, self._eye_ctrl)
+        self.plant = None
+        command = None
+        if self.eye_drive == "plant":
+            self.plant = plant or OrbitalPlant()
+            command = self.plant.install(m, self._vadr, np.array(jid), np.concatenate([self._pos_act, self._vel_act]),
+                                         self.generator.plant_t2_ms)
+        #: the command's model of the plant: (inertia, stiffness, damping), each (6, 6); None for the servo
+        self.plant_command = command
+        self._servo = EyeServo(m, self.data, self._k_fix, self._k_sac, self._qadr, self._vadr, self._eye_ctrl, command)
         self._neck_act = np.array([m.actuator("neck_pan_pos").id, m.actuator("neck_tilt_pos").id])
         self._head_body = m.body("head").id
         self._eye_centres_head = np.array([m.body_pos[m.body(f"{s}_eyeball").id] for s in ("left", "right")])
@@ -390,9 +408,7 @@ class Head(SceneObjects, HeadRendering):
         self._fix_head = self.to_head(p)
         self.data.qpos[self._qadr] = ang.ravel()
         self.data.qvel[self._vadr] = 0.0
-        self.data.ctrl[self._pos_act] = ang.ravel()
-        self.data.ctrl[self._vel_act] = 0.0
-        self.data.ctrl[self._ff_act] = 0.0
+        self.data.ctrl[self._eye_ctrl] = self._servo.hold_controls(ang)
         mujoco.mj_forward(self.model, self.data)
         if settle_ms:
             self.step_ms(settle_ms)

@@ -616,7 +616,7 @@ API: dict[str, Api] = {
     "models.SaccadeProfile.rate": Api(lambda o: o.profile.rate, dict(t_rel=np.array([1.0, 2.0]), plant=0),
                                       bad={"plant": {"above": 3}}),
     "models.VergenceDynamics": Api(lambda o: models.VergenceDynamics, {}, bad={
-        p: {"huge": 1e9, "negative": -1e9} for p in ("tau_ms", "saccade_speedup")}),
+        p: {"huge": 1e9, "negative": -1e9} for p in ("tau_ms", "saccade_speedup", "latency_ms")}),
     "models.VergenceDynamics.fraction": Api(lambda o: models.VergenceDynamics().fraction, dict(
         t_rel_ms=np.array([1.0, 20.0]), saccade_offset_ms=30.0)),
     "models.VergenceDynamics.rate": Api(lambda o: models.VergenceDynamics().rate, dict(
