@@ -129,6 +129,22 @@ def amplitude_list(text: str) -> tuple[float, ...]:
     return vals
 
 
+def generator_file(text: str):
+    """``--generator FILE``: a ``models.BurstGenerator`` read from a JSON file (``BurstGenerator.from_file``,
+    e.g. the ``generator.json`` of ``python -m experiments saccades --recording``); a bad file is a usage error."""
+    import models
+
+    check_path_text(text)
+    try:
+        return models.BurstGenerator.from_file(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+GENERATOR_HELP = ("burst-generator parameters from a JSON file (the generator.json that `saccades --recording` "
+                  "fits to a person's eye-tracker recording); default: the generator's defaults")
+
+
 def bounded(name: str, what: str = "") -> Callable[[str], float | int]:
     """An argparse type for the parameter ``name`` of ``psychophysics.bounds.LIMITS``: a usage error
     (exit 2, one line naming the option) for anything but a finite number within the bounds (a

@@ -39,14 +39,18 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FitResult", "fit_generator", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE"]
+__all__ = ["FitResult", "fit_generator", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
 
 DEFAULT_FIT = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms")
 FITTABLE = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms", "adaptation_gain", "adaptation_ms", "plant_t2_ms")
-_SIM_DT_MS = 0.2
+_SIM_DT_MS = 0.05  # the generator's own simulation step (its profile table's)
 _PHASES = 4
 _GRID_N = 16
 _NOISE_DRAWS = 48
+_BIAS_ROUNDS = 2
+#: Parametric-bootstrap replicates behind the CIs (``fit_generator(bootstrap=...)``, ``--bootstrap``).
+DEFAULT_BOOTSTRAP = 100
+_CI_STEP = 0.03  # log-parameter step of the CIs' Jacobian
 _PRE_MS = 50.0  # rest before the burst onset in the simulated traces
 
 
@@ -77,8 +81,12 @@ class FitResult:
                                n_saccades=self.n_saccades, sampling_rate_hz=self.rate_hz,
                                tracker_noise_deg=self.extra.get("noise_deg", 0.0),
                                residual_sd=self.residual_sd,
+                               ci95_asymptotic={k: [float(v[0]), float(v[1])]
+                                                for k, v in self.extra.get("ci95_asymptotic", {}).items()},
+                               bootstrap_replicates=self.extra.get("bootstrap", 0),
                                method="least squares on log peak velocity and log duration vs amplitude; "
-                                      "95% CIs from the Jacobian (asymptotic, log scale)",
+                                      "95% CIs from a bootstrap over saccades (percentile, log scale; "
+                                      "ci95_asymptotic: from the Jacobian)",
                                source=source)
 
 
@@ -89,6 +97,51 @@ def _grid_dt(rate_hz: float) -> tuple[float, int]:
     return period / k, k
 
 
+def _traces(generator, amplitudes_deg, rate_hz: float):
+    """The generator's saccades of ``amplitudes_deg`` (nominal plant, degrees), from ``_PRE_MS`` before
+    the burst onset, on a grid ``k`` steps per sample: times (K,), positions (K, n), ``k``."""
+    from models.saccade_generator import simulate
+
+    from .eyetracking import POST_WINDOW_MS
+
+    A = np.asarray(amplitudes_deg, float)
+    dt, k = _grid_dt(rate_hz)
+    span = min(320.0, 3.0 * float(A.max()) + 40.0 * generator.burst_scale_deg / 2.82 + 60.0 + POST_WINDOW_MS[1])
+    p = simulate(generator, A, span_ms=span, dt_ms=dt)[0][0]
+    n_pre = int(round(_PRE_MS / dt))
+    p = np.concatenate([np.zeros((n_pre, len(A))), p], axis=0)
+    return (np.arange(p.shape[0]) - n_pre) * dt, p, k
+
+
+def _measure(t_grid, p, k, rate_hz: float, noise_deg: float, rng, phases: np.ndarray) -> np.ndarray:
+    """Measure each saccade ``j`` of the traces ``p`` (K, n) sampled from grid step ``phases[j]`` on
+    (every ``k``-th grid point), with Gaussian tracker noise ``noise_deg`` per axis drawn from ``rng``,
+    as a recording is measured (``eyetracking.measure_saccade``). Returns (4, n): measured amplitude,
+    peak velocity, duration, skewness (NaN where the measure fails)."""
+    from .eyetracking import POST_WINDOW_MS, PRE_WINDOW_MS, measure_saccade, speed_deg_s
+
+    n = p.shape[1]
+    out = np.full((4, n), np.nan)
+    sdt = 1000.0 / rate_hz
+    for j in range(n):
+        idx = np.arange(int(phases[j]), p.shape[0], k)
+        t, trace = t_grid[idx], p[idx, j]
+        ortho = None
+        if noise_deg > 0:
+            trace = trace + rng.normal(0.0, noise_deg, trace.shape)
+            ortho = rng.normal(0.0, noise_deg, trace.shape)
+        s = speed_deg_s(trace, ortho, sdt)
+        m = measure_saccade(t, s, int(np.nanargmax(s)), rate_hz)
+        if m is None:
+            continue
+        on, off, pk, tp, skew = m
+        pre = (t >= on - PRE_WINDOW_MS[0]) & (t <= on - PRE_WINDOW_MS[1])
+        post = (t >= off + POST_WINDOW_MS[0]) & (t <= off + POST_WINDOW_MS[1])
+        if pre.any() and post.any():
+            out[:, j] = (float(np.median(trace[post]) - np.median(trace[pre])), pk, off - on, skew)
+    return out
+
+
 def predict(generator, amplitudes_deg, rate_hz: float, noise_deg: float = 0.0, phases: int | None = None) -> dict:
     """Measured kinematics of the generator's saccades of true amplitudes ``amplitudes_deg`` sampled
     at ``rate_hz`` with Gaussian tracker noise ``noise_deg`` (per axis; the same fixed draws at every
@@ -96,46 +149,13 @@ def predict(generator, amplitudes_deg, rate_hz: float, noise_deg: float = 0.0, p
     ``peak_velocity_deg_s``, ``duration_ms``, ``skewness``, each the mean over ``phases`` sampling
     phases (default 4 without noise, 16 with: each phase its own noise draw). NaN where the measure
     fails."""
-    from models.saccade_generator import simulate
-
-    from .eyetracking import POST_WINDOW_MS, PRE_WINDOW_MS, measure_saccade, speed_deg_s
-
     A = np.asarray(amplitudes_deg, float)
     phases = phases or (_PHASES if noise_deg <= 0 else 4 * _PHASES)
     rng = np.random.default_rng(12345)
-    dt, k = _grid_dt(rate_hz)
-    span = min(320.0, 3.0 * float(A.max()) + 40.0 * generator.burst_scale_deg / 2.82 + 60.0 + POST_WINDOW_MS[1])
-    pos, _ = simulate(generator, A, span_ms=span, dt_ms=dt)
-    p = pos[0]  # (K, n): nominal plant, degrees
-    n_pre = int(round(_PRE_MS / dt))
-    p = np.concatenate([np.zeros((n_pre, len(A))), p], axis=0)
-    tt = (np.arange(p.shape[0]) - n_pre) * dt
-    out = {key: np.zeros((phases, len(A))) for key in ("amplitude_deg", "peak_velocity_deg_s", "duration_ms", "skewness")}
-    for ph in range(phases):
-        idx = np.arange(int(round(ph * k / phases)), p.shape[0], k)
-        t, trace = tt[idx], p[idx]
-        sdt = 1000.0 / rate_hz
-        ortho = None
-        if noise_deg > 0:
-            trace = trace + rng.normal(0.0, noise_deg, trace.shape)
-            ortho = rng.normal(0.0, noise_deg, trace.shape)
-        for j in range(len(A)):
-            s = speed_deg_s(trace[:, j], None if ortho is None else ortho[:, j], sdt)
-            ip = int(np.nanargmax(s))
-            m = measure_saccade(t, s, ip, rate_hz)
-            if m is None:
-                for key in out:
-                    out[key][ph, j] = np.nan
-                continue
-            on, off, pk, tp, skew = m
-            pre = (t >= on - PRE_WINDOW_MS[0]) & (t <= on - PRE_WINDOW_MS[1])
-            post = (t >= off + POST_WINDOW_MS[0]) & (t <= off + POST_WINDOW_MS[1])
-            amp = float(np.median(trace[post, j]) - np.median(trace[pre, j])) if pre.any() and post.any() else np.nan
-            out["amplitude_deg"][ph, j] = amp
-            out["peak_velocity_deg_s"][ph, j] = pk
-            out["duration_ms"][ph, j] = off - on
-            out["skewness"][ph, j] = skew
-    return {key: v.mean(axis=0) for key, v in out.items()}
+    t, p, k = _traces(generator, A, rate_hz)
+    m = np.stack([_measure(t, p, k, rate_hz, noise_deg, rng, np.full(len(A), int(round(ph * k / phases))))
+                  for ph in range(phases)])
+    return dict(zip(("amplitude_deg", "peak_velocity_deg_s", "duration_ms", "skewness"), m.mean(axis=0)))
 
 
 def _curves(generator, amp_lo: float, amp_hi: float, rate_hz: float, noise_deg: float = 0.0, n: int = _GRID_N):
@@ -154,12 +174,14 @@ def _rows_arrays(rows) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return A[ok], pv[ok], du[ok]
 
 
-def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0.0, start=None) -> FitResult:
+def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0.0, start=None,
+                  bootstrap: int = DEFAULT_BOOTSTRAP, seed: int = 0) -> FitResult:
     """Least-squares fit of the generator parameters ``fit`` to the main sequence ``rows`` of a
     recording sampled at ``rate_hz`` with tracker noise ``noise_deg`` (``Recording.noise_deg``;
-    module docstring). ``start``: a ``BurstGenerator`` to start
-    from and to take the unfitted parameters from (default: the defaults). ``ValueError`` with fewer
-    saccades than 2 per fitted parameter (and at least 5)."""
+    module docstring). ``start``: a ``BurstGenerator`` to start from and to take the unfitted
+    parameters from (default: the defaults). 95 % CIs from a parametric bootstrap of ``bootstrap``
+    simulated recordings (at least 20; ``seed`` seeds them; 0 gives the asymptotic CIs alone).
+    ``ValueError`` with fewer saccades than 2 per fitted parameter (and at least 5)."""
     from scipy.optimize import least_squares
 
     import models
@@ -168,6 +190,8 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
     bad = [f for f in fit if f not in FITTABLE]
     if bad or not fit or len(set(fit)) != len(fit):
         raise ValueError(f"parameters to fit must be distinct names among {', '.join(FITTABLE)}; got {', '.join(fit) or '(none)'}")
+    if bootstrap != 0 and not (isinstance(bootstrap, int) and 20 <= bootstrap <= 10_000):
+        raise ValueError(f"bootstrap must be 0 (asymptotic CIs) or a whole number of replicates in [20, 10000]; got {bootstrap!r}")
     A, pv, du = _rows_arrays(rows)
     need = max(5, 2 * len(fit))
     if len(A) < need:
@@ -184,34 +208,36 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
     def gen_of(x):
         return dataclasses.replace(base, **{f: float(v) for f, v in zip(fit, np.exp(x))})
 
-    n = len(A)
     w = np.ones(2)
     bias = [np.zeros(1), np.zeros(1), np.zeros(1)]  # measured amplitude, log pv, log duration corrections
 
-    def raw(x):
+    def raw(x, data):
+        a, v, d = data
         c = _curves(gen_of(x), amp_lo, amp_hi, rate_hz)
         if len(c["amplitude_deg"]) < 3:
-            return np.full(2 * len(A), 10.0)
+            return np.full(2 * len(a), 10.0)
         if len(bias[0]) == len(c["amplitude_deg"]):
             am = c["amplitude_deg"] + bias[0]
             ppv, pdu = c["peak_velocity_deg_s"] * np.exp(bias[1]), c["duration_ms"] * np.exp(bias[2])
         else:
             am, ppv, pdu = c["amplitude_deg"], c["peak_velocity_deg_s"], c["duration_ms"]
         order = np.argsort(am)
-        ppv = np.interp(A, am[order], ppv[order])
-        pdu = np.interp(A, am[order], pdu[order])
-        return np.concatenate([np.log(pv / ppv), np.log(du / pdu)])
+        ppv = np.interp(a, am[order], ppv[order])
+        pdu = np.interp(a, am[order], pdu[order])
+        return np.concatenate([np.log(v / ppv), np.log(d / pdu)])
 
-    def resid(x):
-        r = raw(x)
-        return np.concatenate([r[:n] / w[0], r[n:] / w[1]])
+    def resid(x, data=(A, pv, du)):
+        r = raw(x, data)
+        m = len(data[0])
+        return np.concatenate([r[:m] / w[0], r[m:] / w[1]])
 
+    n = len(A)
     kw = dict(bounds=(lo, hi), diff_step=1e-3, x_scale=1.0, xtol=1e-5, ftol=1e-7, max_nfev=100)
     res = least_squares(resid, x0, **kw)
-    r = raw(res.x)
+    r = raw(res.x, (A, pv, du))
     w = np.array([max(np.std(r[:n]), 1e-4), max(np.std(r[n:]), 1e-4)])
     res = least_squares(resid, res.x, **kw)
-    for _ in range(2 if noise_deg > 0 else 0):
+    for _ in range(_BIAS_ROUNDS if noise_deg > 0 else 0):
         # Tracker noise: the measurement's bias (noisy minus clean prediction, many noise draws) at the
         # current estimate, held fixed while refitting the clean model (a smooth objective).
         g = gen_of(res.x)
@@ -228,22 +254,47 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
                 np.log(noisy["peak_velocity_deg_s"] / clean_all["peak_velocity_deg_s"])[order],
                 np.log(noisy["duration_ms"] / clean_all["duration_ms"])[order]]
         res = least_squares(resid, res.x, **kw)
-    J = res.jac
+    # asymptotic CIs: the Jacobian by central differences over +-3 % of each parameter (the forward
+    # model's threshold crossings and grid make it piecewise smooth: the optimiser's 0.1 % steps can
+    # land on its small jumps, too large a slope and too narrow a CI)
+    J = np.empty((len(res.fun), len(fit)))
+    for i in range(len(fit)):
+        e = np.zeros(len(fit))
+        e[i] = _CI_STEP
+        J[:, i] = (resid(res.x + e) - resid(res.x - e)) / (2 * _CI_STEP)
     dof = max(1, 2 * n - len(fit))
     s2 = float(res.fun @ res.fun) / dof
     try:
-        cov = np.linalg.inv(J.T @ J) * s2
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
+        se = np.sqrt(np.clip(np.diag(np.linalg.inv(J.T @ J) * s2), 0, None))
     except np.linalg.LinAlgError:
         se = np.full(len(fit), np.inf)
+    asym = {f: (float(np.exp(res.x[i] - 1.96 * se[i])), float(np.exp(res.x[i] + 1.96 * se[i]))) for i, f in enumerate(fit)}
+    ci, boot_x = asym, None
+    if bootstrap:
+        # bootstrap over saccades: the recorded saccades resampled with replacement, each resample fitted
+        # as the data were (same weights, the noise bias held); percentile intervals on the log scale.
+        # Resampling the saccades themselves keeps what a model of the measurement misses (each
+        # saccade's sampling phase, its tracker noise where it met the threshold, the person's scatter).
+        rng = np.random.default_rng(seed)
+        xs = []
+        for _ in range(bootstrap):
+            i = rng.integers(0, n, n)
+            if len(np.unique(A[i])) < need:
+                continue
+            xs.append(least_squares(resid, res.x, args=((A[i], pv[i], du[i]),), **kw).x)
+        boot_x = np.array(xs)
+        if len(boot_x) >= 20:
+            q_lo, q_hi = np.percentile(boot_x, [2.5, 97.5], axis=0)
+            ci = {f: (float(np.exp(q_lo[i])), float(np.exp(q_hi[i]))) for i, f in enumerate(fit)}
     est = np.exp(res.x)
-    ci = {f: (float(np.exp(res.x[i] - 1.96 * se[i])), float(np.exp(res.x[i] + 1.96 * se[i]))) for i, f in enumerate(fit)}
-    r = raw(res.x)
+    r = raw(res.x, (A, pv, du))
     gen = gen_of(res.x)
     kept = {f.name: getattr(gen, f.name) for f in dataclasses.fields(gen) if f.name not in fit}
+    extra = {"noise_deg": float(noise_deg), "ci95_asymptotic": asym,
+             "bootstrap": 0 if boot_x is None else int(len(boot_x))}
     return FitResult(gen, fit, {f: float(v) for f, v in zip(fit, est)}, ci, kept, n, float(rate_hz),
                      {"peak_velocity_rel": float(np.std(r[:n])), "duration_rel": float(np.std(r[n:]))},
-                     bool(res.success), str(res.message), {"noise_deg": float(noise_deg)})
+                     bool(res.success), str(res.message), extra)
 
 
 def plot_main_sequence(rows, generator, path, *, rate_hz: float, noise_deg: float = 0.0, title: str = "") -> None:

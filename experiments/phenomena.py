@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import bounded, int_in, out_dir
+from .cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
 
 __all__ = ["add_subcommand", "ROWS", "CALIBRATION", "THEORIES", "COLUMNS", "measure", "score", "bootstrap",
            "statistics", "markdown_table"]
@@ -141,8 +141,9 @@ def _columns(rows: list[dict]) -> dict[str, np.ndarray]:
 
 
 def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False, image_size: int = IMAGE_SIZE,
-            quick: bool = False) -> dict:
-    """Observe every design once (cached), read it out with every model; returns {model: {design: table}}."""
+            quick: bool = False, generator=None) -> dict:
+    """Observe every design once (cached), read it out with every model; returns {model: {design: table}}.
+    ``generator``: the burst generator's parameters (``models.BurstGenerator``; None: its defaults)."""
     from .folders import write_csv
     from .modelfit.observe import observe_trials
     from .psychophysics import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner, read_table, run_trials
@@ -150,7 +151,7 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
     tables: dict = {m: {} for m in models}
     (out / "tables").mkdir(parents=True, exist_ok=True)
     for name, (design, kw) in _designs(quick).items():
-        base = TrialConfig(image_size=image_size, **kw)
+        base = TrialConfig(image_size=image_size, generator=generator, **kw)
         runner = TrialRunner(base)
         try:
             obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
@@ -162,7 +163,8 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
         finally:
             runner.close()
     for m in models:
-        cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement"), m)
+        cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement",
+                                        generator=generator), m)
         path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress)
         tables[m]["displacement"] = read_table(path)
     return tables
@@ -440,7 +442,8 @@ def run(args: argparse.Namespace) -> int:
     def work() -> int:
         with folder_lock(out):
             tables = measure(out, workers=args.workers, progress=not args.no_progress,
-                             image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False))
+                             image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False),
+                             generator=getattr(args, "generator", None))
             text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT))
         print(text, end="")
         print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
@@ -468,6 +471,7 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--quick", action="store_true",
                    help="8 flash positions instead of 24 and 3 displacement repetitions instead of 8: a fast look "
                         "with wider CIs (a folder holds one of the two)")
+    p.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run, _parser=p)
 

@@ -203,7 +203,8 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
     out.mkdir(parents=True, exist_ok=True)
     et.write_rows(rows, out / "main_sequence.csv")
     noise = rec.noise_deg
-    fit = gf.fit_generator(rows, fit=args.fit_parameters, rate_hz=rec.rate_hz, noise_deg=noise)
+    fit = gf.fit_generator(rows, fit=args.fit_parameters, rate_hz=rec.rate_hz, noise_deg=noise,
+                           bootstrap=getattr(args, "bootstrap", gf.DEFAULT_BOOTSTRAP))
     fit.to_file(out / "generator.json", file=path.name, format=rec.fmt, sampling_rate_hz=rec.rate_hz,
                 n_samples=int(len(rec.times_ms)), detection=args.detect, units=rec.units,
                 screen=None if rec.screen is None else vars(rec.screen))
@@ -242,6 +243,15 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bootstrap(text: str) -> int:
+    from .cli import whole_number
+
+    n = whole_number(text)
+    if n != 0 and not 20 <= n <= 10_000:
+        raise argparse.ArgumentTypeError(f"must be 0 (asymptotic CIs) or 20-10000 resamples; got {n}")
+    return n
+
+
 def add_subcommand(subparsers) -> None:
     """Register ``saccades`` on the ``experiments`` command line."""
     p = subparsers.add_parser("saccades", help="saccade kinematics vs the published main sequence (figure, table)",
@@ -263,6 +273,9 @@ def add_subcommand(subparsers) -> None:
                         "or the events where the file has them (auto)")
     g.add_argument("--fit-parameters", type=_fit_parameters, default=("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms"),
                    metavar="NAMES", help="comma-separated burst-generator parameters to fit (the others keep their defaults)")
+    g.add_argument("--bootstrap", type=_bootstrap, default=100, metavar="N",
+                   help="resamples of the saccades behind the 95%% CIs (20-10000, default 100; 0: asymptotic CIs "
+                        "from the Jacobian only)")
     p.set_defaults(func=run, parser=p)
 
 

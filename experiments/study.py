@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import amplitude_list, bounded, check_path_text
+from .cli import GENERATOR_HELP, amplitude_list, bounded, check_path_text, generator_file
 from .folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
 from .folders import interruptible as _interruptible
 from .psychophysics.bounds import LIMITS, MAX_TRIALS
@@ -178,6 +178,7 @@ def add_subcommand(subparsers) -> None:
                         "(seeded per trial)")
     m.add_argument("--saccade-model", choices=("burst", "legacy"), default="burst",
                    help="saccade trajectories: the brainstem burst generator or the legacy main-sequence planner")
+    m.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
     m.add_argument("--eye-position", choices=("signal", "true"), default="signal",
                    help="read-out from retina to head: the extraretinal eye-position signal (slow, from the "
                         "efference copy) or the true eye orientation (an oracle, for comparison)")
@@ -258,7 +259,8 @@ def _build(args: argparse.Namespace):
         config = TrialConfig(image_size=args.image_size, fovy_deg=args.fovy_deg, fovea_deg=args.fovea_deg,
                              timecourse=tc, threshold=args.threshold, endpoint_noise=args.endpoint_noise,
                              oversample=args.oversample, flash_radius_deg=args.flash_radius_deg,
-                             saccade_model=args.saccade_model, eye_position=args.eye_position,
+                             saccade_model=args.saccade_model, generator=args.generator,
+                             eye_position=args.eye_position,
                              visual_latency_ms=args.visual_latency_ms, model=args.model, condition=args.condition,
                              paradigm=args.paradigm, feedback_gain=args.feedback_gain,
                              reference_weight=args.reference_weight, disabled=args.disable,

@@ -26,7 +26,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..cli import amplitude_list, bounded, guarded, int_in, out_dir, out_file
+from ..cli import GENERATOR_HELP, amplitude_list, bounded, generator_file, guarded, int_in, out_dir, out_file
 
 __all__ = ["add_subcommands", "bundled_data"]
 
@@ -88,6 +88,7 @@ def _observing_options(p: argparse.ArgumentParser, defaults_from: str) -> None:
     g.add_argument("--fovy-deg", type=bounded("fovy_deg"), default=None, help="each eye's vertical field of view")
     g.add_argument("--fovea-deg", type=bounded("fovea_deg"), default=None, help="foveal radius of the retina")
     g.add_argument("--saccade-model", choices=("burst", "legacy"), default=None, help="saccade trajectories")
+    g.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
     g.add_argument("--endpoint-noise", type=bounded("endpoint_noise"), default=None,
                    help="saccade endpoint noise (fraction of the amplitude; trials' seeds from the data)")
 

@@ -30,7 +30,7 @@ import numpy as np
 __all__ = ["ForwardModel", "forward_model", "config_from_fingerprint", "ForwardModelError", "OBSERVING_OPTIONS"]
 
 #: Options of ``fit``/``compare`` that set the observing configuration (``TrialConfig`` fields).
-OBSERVING_OPTIONS = ("image_size", "fovy_deg", "fovea_deg", "saccade_model", "endpoint_noise")
+OBSERVING_OPTIONS = ("image_size", "fovy_deg", "fovea_deg", "saccade_model", "endpoint_noise", "generator")
 _ROW_COLUMNS = ("seed", "flash_dx_deg", "flash_dy_deg", "paradigm", "config_hash")
 
 
@@ -71,7 +71,10 @@ def config_from_fingerprint(cfg: dict):
     kw = {k: (tuple(v) if k == "disabled" else v) for k, v in cfg.items() if k in fields}
     if "markers" in kw and isinstance(kw["markers"], list):
         kw["markers"] = tuple(tuple(m) if isinstance(m, list) else m for m in kw["markers"])
-    for name, kind in (("observer", ObserverParams), ("population", PopulationParams)):
+    import models
+
+    for name, kind in (("observer", ObserverParams), ("population", PopulationParams),
+                       ("generator", models.BurstGenerator)):
         if isinstance(kw.get(name), dict):
             try:
                 kw[name] = kind(**kw[name])

@@ -215,6 +215,10 @@ def config_fingerprint(design: Design, config: TrialConfig) -> dict:
     cfg["markers"] = [list(m) for m in cfg["markers"]]
     cfg["observer"] = dataclasses.asdict(config.observer)
     cfg["population"] = dataclasses.asdict(config.population)
+    if config.generator is None:
+        del cfg["generator"]  # the defaults: fingerprints (and config hashes) of earlier runs stay valid
+    else:
+        cfg["generator"] = dataclasses.asdict(config.generator)
     cfg.update(peak_time_ms=tc.peak_time_ms, rise_ms=tc.rise_ms, decay_ms=tc.decay_ms, peak_gain=tc.peak_gain)
     return {"design": design.to_dict(), "config": cfg}
 

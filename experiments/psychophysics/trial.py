@@ -100,6 +100,8 @@ class TrialConfig:
     timecourse : the remapping gain time course. threshold : centroid threshold (fraction of peak).
     endpoint_noise : saccade endpoint noise (fraction of amplitude; 0 = none), seeded per trial.
     saccade_model : ``"burst"`` (the brainstem generator) or ``"legacy"`` (``models.Head``).
+    generator : the burst generator's parameters (a ``models.BurstGenerator``, e.g. fitted to a person's
+        recording by ``python -m experiments saccades --recording``; None: the defaults). Burst model only.
     eye_position : ``"signal"`` (the extraretinal eye-position signal, default) or ``"true"``
         (the true eye orientation: an oracle, for comparison) for the retinal-to-head read-out.
     visual_latency_ms : delay from the flash to its cortical response (0-300 ms): the read-out
@@ -143,6 +145,7 @@ class TrialConfig:
     oversample: int = 3
     flash_radius_deg: float = 1.0
     saccade_model: str = "burst"
+    generator: models.BurstGenerator | None = None
     eye_position: str = "signal"
     visual_latency_ms: float = models.VISUAL_LATENCY_MS
     model: str = "mechanistic"
@@ -193,6 +196,10 @@ class TrialConfig:
                 raise TypeError(f"{name} must be one of {', '.join(options)}; got {value!r:.60}")
             if value not in options:
                 raise ValueError(f"{name} must be one of {', '.join(options)}; got {value!r:.60}")
+        if self.generator is not None and not isinstance(self.generator, models.BurstGenerator):
+            raise TypeError(f"generator must be a models.BurstGenerator or None; got {self.generator!r:.60}")
+        if self.generator is not None and self.saccade_model != "burst":
+            raise ValueError("generator configures saccade_model='burst'; the legacy planner has no burst generator")
         if not isinstance(self.timecourse, RemapTimeCourse):
             raise TypeError(f"timecourse must be a RemapTimeCourse; got {self.timecourse!r}")
         if self.fovea_deg >= self.fovy_deg / 4:
@@ -263,6 +270,7 @@ class TrialRunner:
         self.config = config
         self.head = models.Head("dots", int(config.image_size), fovy_deg=config.fovy_deg,
                                 endpoint_noise=config.endpoint_noise, saccade_model=config.saccade_model,
+                                generator=config.generator,
                                 eye_position=models.EyePositionSignal(config.eps_sigma_ms, config.eps_delay_ms))
         # each eye's nodal point relative to its rotation centre, in the eye's own frame (constant)
         states = self.head.eye_states()
