@@ -265,10 +265,19 @@ class BurstGenerator:
         keyword arguments ``extra`` (a fit's CIs, data source, ...) as further top-level keys."""
         import dataclasses
         import json
-        from pathlib import Path
 
+        from .build import _path
+
+        path = _path("path", path)
         doc = {"model": "BurstGenerator", "parameters": dataclasses.asdict(self), **extra}
-        Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+        try:
+            text = json.dumps(doc, indent=2) + "\n"
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"the extra entries of a burst-generator file must be JSON values: {exc}") from None
+        try:
+            path.write_text(text)
+        except OSError as exc:
+            raise ValueError(f"path {path}: cannot write the burst generator there ({exc.strerror or exc})") from None
 
     @classmethod
     def from_file(cls, path) -> "BurstGenerator":
@@ -278,12 +287,14 @@ class BurstGenerator:
         naming the file and the problem."""
         import dataclasses
         import json
-        from pathlib import Path
 
+        from .build import _path
+
+        path = _path("path", path)
         try:
-            doc = json.loads(Path(path).read_text())
+            doc = json.loads(path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ValueError(f"cannot read a burst generator from {path}: {exc}; pass the generator.json "
+            raise ValueError(f"path {path}: cannot read a burst generator from it ({exc}); pass the generator.json "
                              "written by `python -m experiments saccades --recording FILE --out DIR`") from None
         if not isinstance(doc, dict) or doc.get("model") != "BurstGenerator" or not isinstance(doc.get("parameters"), dict):
             raise ValueError(f"{path} is not a burst-generator file: it needs \"model\": \"BurstGenerator\" and a "

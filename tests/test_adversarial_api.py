@@ -512,7 +512,8 @@ API: dict[str, Api] = {
     # ---------------------------------------------------------------- models: the head
     "models.Head": Api(lambda o: models.Head, dict(scene="bar", image_size=16, seed=0, generator=models.BurstGenerator(),
                                                    vergence=models.VergenceDynamics(),
-                                                   eye_position=models.EyePositionSignal()), bad={
+                                                   eye_position=models.EyePositionSignal(),
+                                                   plant=models.OrbitalPlant()), bad={
         "scene": {"unknown": "moon"},
         "image_size": {**counts(1, 4096), "pair_frac": (32, 7.5), "pair_huge": (32, 10**6), "triple": (32, 32, 3)},
         "fovy_deg": bounds(5.0, 170.0), "ipd": bounds(0.01, 0.15), "quality": unknown("fast"),
@@ -522,7 +523,8 @@ API: dict[str, Api] = {
         "saccade_model": unknown("burst"), "generator": {"dict": {}, "main_sequence": models.MainSequence()},
         "vergence": {"dict": {}, "float": 150.0}, "eye_position": {"dict": {}, "float": 50.0},
         "timestep_ms": {**bounds(0.01, 1.0), "not_a_divisor": 0.3, "tiny": 1e-9},
-        "saccade_timestep_ms": {**bounds(0.01, 1.0), "not_a_divisor": 0.7}},
+        "saccade_timestep_ms": {**bounds(0.01, 1.0), "not_a_divisor": 0.7},
+        "eye_drive": unknown("plant"), "plant": {"dict": {}, "float": 150.0}},
         names={"main_sequence": "main_sequence|saccade_model"},
         free={"main_sequence": "probed by its domain values (valid only with saccade_model='legacy')"}),
     "models.Head.step_ms": Api(lambda o: o.head.step_ms, dict(n=1), bad={"n": {**counts(0, 60_000), "1e9": 1e9}},
@@ -608,6 +610,14 @@ API: dict[str, Api] = {
     **{f"models.BurstGenerator.{m}": Api(lambda o, m=m: getattr(models.BurstGenerator(), m), dict(amp_deg=10.0),
                                          bad={"amp_deg": bounds(0.0, 90.0)})
        for m in ("profile", "peak_velocity_deg_s", "duration_ms")},
+    "models.BurstGenerator.to_file": Api(lambda o: models.BurstGenerator().to_file,
+                                         dict(path=Lazy(lambda o: _tmp("generator.json"))),
+                                         bad={"path": {"empty": "", "folder": "/tmp"}}),
+    "models.BurstGenerator.from_file": Api(lambda o: models.BurstGenerator.from_file,
+                                           dict(path=Lazy(lambda o: _generator_file())),
+                                           bad={"path": {"empty": "", "folder": "/tmp", "missing": "/nonexistent/g.json"}}),
+    "models.OrbitalPlant": Api(lambda o: models.OrbitalPlant, dict(t2_ms=7.0), bad={
+        p: {"huge": 1e9, "negative": -1e9} for p in ("t1_ms", "t2_ms", "pulse_gain")}),
     "models.SaccadeProfile": Api(lambda o: models.SaccadeProfile, dict(
         amplitude_deg=10.0, dt_ms=0.25, positions=Lazy(lambda o: o.profile.positions), burst=Lazy(lambda o: o.profile.burst),
         settle_deg=0.01)),
@@ -662,8 +672,9 @@ API: dict[str, Api] = {
     # ---------------------------------------------------------------- envs
     "envs.BinocularSaccadeEnv": Api(lambda o: envs.BinocularSaccadeEnv, dict(
         scene="dots", image_size=32, fixation_ms=10, n_sectors=16, remap_models=("homography",), render_mode="rgb_array",
-        task_kwargs={"max_saccades": 3}), bad={
+        task_kwargs={"max_saccades": 3}, generator=models.BurstGenerator()), bad={
         "scene": {"unknown": "moon", "list": ["dots"], "no_target": "bar"}, "task": {"unknown": "dance", "class": envs.FixateTask},
+        "generator": {"dict": {}, "main_sequence": models.MainSequence()}, "eye_drive": unknown("plant"),
         "action_mode": unknown("vector"), "image_size": {**counts(16, 1024), "7.5": 7.5},
         "render_mode": unknown("rgb_array"), "fixation_ms": {**counts(0, 10_000), "1e9": 1e9},
         "max_amplitude_deg": bounds(0.0, 60.0, lo_open=True), "remap_model": unknown("homography"),
@@ -770,6 +781,7 @@ EXEMPT = {
     "models.cyclopean_amplitude": "array geometry of the planners (as fixation_batch)",
     "models.plan_clipped": "Head.plan_saccade / plan_saccade_to (walked) in a bisection; the env decodes its arguments",
     "models.servo_setpoints": "the servo law, fed the command tables the planners compute (Head's and the batched env's)",
+    "models.OrbitalPlant.install": "installs the plant into the compiled model Head builds (addresses Head computes)",
     "models.OculomotorState": "a record Head.get_state returns (Head.set_state checks its type)",
     "envs.FixateTask.score_errors": "as envs.Task.score_errors",
     "envs.SearchTask.score_errors": "as envs.Task.score_errors",
@@ -799,6 +811,12 @@ UNVALIDATED = {
     "models.VergenceDynamics.rate": "as VergenceDynamics.fraction; a string offset reaches np.clip (UFuncTypeError)",
     "models.VergenceDynamics.settle_ms": "NaN, inf and bools accepted; strings and None reach arithmetic",
 }
+
+
+def _generator_file() -> str:
+    path = _tmp("generator_in.json")
+    models.BurstGenerator(burst_max_deg_s=650.0).to_file(path)
+    return path
 
 
 def _tmp(name: str) -> str:
