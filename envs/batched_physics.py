@@ -5,9 +5,10 @@ rendered by MJWarp's batch renderer (the physics and rendering half of
 One :class:`WarpHeads` holds ``mujoco_warp`` Model/Data for N worlds of one compiled head model
 (``models.Head.model``) and a render context for the two eye cameras. Per env step the host
 uploads, for each world, the commanded eye angles of its saccade at every millisecond from now
-(``models.SaccadePlan.angles``, the same command the CPU head's servo tracks); the position, velocity
-and inertial feed-forward set-points are computed from them on the device (``models.servo_setpoints``,
-the CPU head's servo law, on torch tensors) and a Warp kernel writes each world's row into its controls
+(``models.SaccadePlan.angles``, the same command the CPU head's eyes follow); the orbital plant's
+torques (``models.plant``: with the head's default ``eye_drive="plant"``) or the servo's position,
+velocity and inertial feed-forward set-points are computed from them on the device
+(``models.servo_setpoints``, the CPU head's law, on torch tensors) and a Warp kernel writes each world's row into its controls
 before every physics step, so a whole step is a fixed sequence of kernel launches: on CUDA it is
 captured once in a graph (``chunk_ms`` physics steps per graph) and replayed; on Warp's CPU backend
 the same launches run one by one.

@@ -1,7 +1,11 @@
-"""The eye servo: how the head's physics follows an eye command, in two timesteps.
+"""How the head's physics follows an eye command, in two timesteps: the orbital plant's torques
+(``Head(eye_drive="plant")``, the default: :mod:`models.plant`) or the eye servo (``"servo"``).
 
 Eye joints are driven by actuators (``models/head.xml``): a position servo plus a velocity
 set-point and a torque feed-forward per joint (natural frequency 2000 rad/s, critically damped).
+With the plant the servo's gains are zero and the feed-forward motor carries the pulse-step torque
+``I a + B v + K q`` of :func:`servo_setpoints` (its ``stiffness`` and ``damping``); the timesteps
+and the tabulation below are the same for both.
 
 * fixation (no saccade in flight, or before a plan's onset): the set-points are constant, so the
   physics runs in C, ``mj_step(nstep=...)``, at ``timestep_ms`` (default 1 ms; ~5 us per step,

@@ -21,6 +21,8 @@ import models  # noqa: F401  (first: it picks MuJoCo's off-screen GL backend bef
 #: parametrization), marked ``slow`` here so that files other work is editing need no change; a
 #: file or test may also carry ``@pytest.mark.slow`` itself. "file::name" covers every parametrization.
 SLOW = {
+    "test_boundaries.py::test_the_walk_finds_planted_violations",  # 3 s (each of 5 plants walks the source)
+    "test_recording.py::test_run_blueprint_views_point_at_the_recording",  # 4.5 s with its setup
     "test_adversarial_fit.py::test_a_folder_holding_another_fit_is_refused",  # 3 s
     "test_batched_planner.py::test_profiles_equal_the_generators",  # 3 s
     "test_batched_planner.py::test_profiles_of_other_generators",  # 6 s
