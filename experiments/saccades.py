@@ -175,12 +175,17 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
     from . import eyetracking as et
     from . import generator_fit as gf
 
+    def usage(message: str):
+        if parser is None:  # called from Python: the error itself
+            raise ValueError(message)
+        parser.error(message)
+
     screen, cm_only = (None, False)
     if args.screen is not None:
         try:
             screen, cm_only = _screen(args.screen)
         except argparse.ArgumentTypeError as e:
-            parser.error(f"argument --screen: {e}")
+            usage(f"argument --screen: {e}")
     path = Path(args.recording)
     try:
         if cm_only and (args.format or et._SUFFIX_FORMAT.get(path.suffix.lower())) == "csv":
@@ -198,7 +203,7 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
             raise et.RecordingError(f"{path}: only {len(rows)} measurable saccade(s); fitting "
                                     f"{len(args.fit_parameters)} parameters needs at least {need}")
     except et.RecordingError as e:
-        parser.error(f"argument --recording: {e}")
+        usage(f"argument --recording: {e}")
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     et.write_rows(rows, out / "main_sequence.csv")
