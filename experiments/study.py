@@ -179,6 +179,8 @@ def add_subcommand(subparsers) -> None:
     m.add_argument("--saccade-model", choices=("burst", "legacy"), default="burst",
                    help="saccade trajectories: the brainstem burst generator or the legacy main-sequence planner")
     m.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
+    m.add_argument("--eye-drive", choices=("plant", "servo"), default="plant",
+                   help="how the eyes move: torques through the orbital plant (default) or the exact-pointing servo")
     m.add_argument("--eye-position", choices=("signal", "true"), default="signal",
                    help="read-out from retina to head: the extraretinal eye-position signal (slow, from the "
                         "efference copy) or the true eye orientation (an oracle, for comparison)")
@@ -259,7 +261,7 @@ def _build(args: argparse.Namespace):
         config = TrialConfig(image_size=args.image_size, fovy_deg=args.fovy_deg, fovea_deg=args.fovea_deg,
                              timecourse=tc, threshold=args.threshold, endpoint_noise=args.endpoint_noise,
                              oversample=args.oversample, flash_radius_deg=args.flash_radius_deg,
-                             saccade_model=args.saccade_model, generator=args.generator,
+                             saccade_model=args.saccade_model, generator=args.generator, eye_drive=args.eye_drive,
                              eye_position=args.eye_position,
                              visual_latency_ms=args.visual_latency_ms, model=args.model, condition=args.condition,
                              paradigm=args.paradigm, feedback_gain=args.feedback_gain,

@@ -73,3 +73,24 @@ def test_the_generator_reaches_the_head_and_survives_the_run_record():
         TrialConfig(saccade_model="legacy", generator=GEN)
     with pytest.raises(TypeError, match="BurstGenerator"):
         TrialConfig(generator={"burst_max_deg_s": 600})
+
+
+def test_the_eye_drive_is_part_of_the_configuration():
+    """A run made with the servo and one with the orbital plant are different configurations: a folder
+    of one cannot be resumed as the other."""
+    from experiments.psychophysics import TrialRunner
+    from experiments.psychophysics.runner import config_hash
+
+    design = Design(amplitudes_deg=(10.0,), flash_offsets_deg=((0.0, 0.0),), flash_times_ms=(0,), repetitions=1, seed=0)
+    plant, servo = TrialConfig(image_size=64), TrialConfig(image_size=64, eye_drive="servo")
+    assert config_hash(design, plant) != config_hash(design, servo)
+    stored = json.loads(json.dumps(config_fingerprint(design, servo)))["config"]
+    assert config_from_fingerprint(stored) == servo
+    runner = TrialRunner(servo)
+    try:
+        assert runner.head.eye_drive == "servo"
+    finally:
+        runner.close()
+    with pytest.raises(ValueError, match="eye_drive"):
+        TrialConfig(eye_drive="muscle")
+    assert build_parser().parse_args(["run", "--eye-drive", "servo"]).eye_drive == "servo"

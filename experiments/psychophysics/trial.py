@@ -100,6 +100,9 @@ class TrialConfig:
     timecourse : the remapping gain time course. threshold : centroid threshold (fraction of peak).
     endpoint_noise : saccade endpoint noise (fraction of amplitude; 0 = none), seeded per trial.
     saccade_model : ``"burst"`` (the brainstem generator) or ``"legacy"`` (``models.Head``).
+    eye_drive : how the head's eyes move: ``"plant"`` (torques through the orbital plant, the default)
+        or ``"servo"`` (exact pointing); part of the configuration's fingerprint, so a resumed run
+        cannot mix the two (``models.Head``).
     generator : the burst generator's parameters (a ``models.BurstGenerator``, e.g. fitted to a person's
         recording by ``python -m experiments saccades --recording``; None: the defaults). Burst model only.
     eye_position : ``"signal"`` (the extraretinal eye-position signal, default) or ``"true"``
@@ -146,6 +149,7 @@ class TrialConfig:
     flash_radius_deg: float = 1.0
     saccade_model: str = "burst"
     generator: models.BurstGenerator | None = None
+    eye_drive: str = "plant"
     eye_position: str = "signal"
     visual_latency_ms: float = models.VISUAL_LATENCY_MS
     model: str = "mechanistic"
@@ -189,7 +193,8 @@ class TrialConfig:
             raise ValueError(f"disabled: unknown mechanism(s) {', '.join(map(repr, unknown))}; "
                              f"choose from {', '.join(MECHANISMS)}")
         object.__setattr__(self, "disabled", tuple(sorted(set(self.disabled))))
-        for name, options in (("saccade_model", models.SACCADE_MODELS), ("eye_position", ("signal", "true")),
+        for name, options in (("saccade_model", models.SACCADE_MODELS), ("eye_drive", models.EYE_DRIVES),
+                              ("eye_position", ("signal", "true")),
                               ("model", MODELS), ("condition", CONDITIONS), ("paradigm", PARADIGMS)):
             value = getattr(self, name)
             if not isinstance(value, str):
@@ -270,7 +275,7 @@ class TrialRunner:
         self.config = config
         self.head = models.Head("dots", int(config.image_size), fovy_deg=config.fovy_deg,
                                 endpoint_noise=config.endpoint_noise, saccade_model=config.saccade_model,
-                                generator=config.generator,
+                                generator=config.generator, eye_drive=config.eye_drive,
                                 eye_position=models.EyePositionSignal(config.eps_sigma_ms, config.eps_delay_ms))
         # each eye's nodal point relative to its rotation centre, in the eye's own frame (constant)
         states = self.head.eye_states()
