@@ -160,10 +160,7 @@ def _format_of(path: Path, fmt: str | None) -> str:
 
 
 def _read_text(path: Path) -> str:
-    if not path.exists():
-        raise RecordingError(f"{path}: no such file")
-    if path.is_dir():
-        raise RecordingError(f"{path} is a folder; give a recording file (.asc or .csv)")
+    """The file's text (``read_recording`` has checked that it exists and is not a folder)."""
     try:
         data = path.read_bytes()
     except OSError as e:

@@ -158,9 +158,13 @@ def predict(generator, amplitudes_deg, rate_hz: float, noise_deg: float = 0.0, p
     return dict(zip(("amplitude_deg", "peak_velocity_deg_s", "duration_ms", "skewness"), m.mean(axis=0)))
 
 
+def _grid(amp_lo: float, amp_hi: float, n: int = _GRID_N) -> np.ndarray:
+    """The amplitudes (deg) the forward model is simulated at for data spanning [amp_lo, amp_hi]."""
+    return np.geomspace(max(0.5, amp_lo * 0.9), amp_hi * 1.05 + 0.5, n)
+
+
 def _curves(generator, amp_lo: float, amp_hi: float, rate_hz: float, noise_deg: float = 0.0, n: int = _GRID_N):
-    grid = np.geomspace(max(0.5, amp_lo * 0.9), amp_hi * 1.05 + 0.5, n)
-    pr = predict(generator, grid, rate_hz, noise_deg)
+    pr = predict(generator, _grid(amp_lo, amp_hi, n), rate_hz, noise_deg)
     ok = np.isfinite(pr["amplitude_deg"]) & np.isfinite(pr["peak_velocity_deg_s"]) & np.isfinite(pr["duration_ms"])
     order = np.argsort(pr["amplitude_deg"][ok])
     return {key: v[ok][order] for key, v in pr.items()}
@@ -241,13 +245,11 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
         # Tracker noise: the measurement's bias (noisy minus clean prediction, many noise draws) at the
         # current estimate, held fixed while refitting the clean model (a smooth objective).
         g = gen_of(res.x)
-        clean = _curves(g, amp_lo, amp_hi, rate_hz)
-        grid = np.geomspace(max(0.5, amp_lo * 0.9), amp_hi * 1.05 + 0.5, _GRID_N)
+        grid = _grid(amp_lo, amp_hi)
         noisy = predict(g, grid, rate_hz, noise_deg, phases=_NOISE_DRAWS)
-        clean_all = predict(g, grid, rate_hz)
-        ok = np.all([np.isfinite(v) for v in (*noisy.values(), *clean_all.values()) if v is not noisy["skewness"]
-                     and v is not clean_all["skewness"]], axis=0)
-        if ok.sum() != len(clean["amplitude_deg"]) or not ok.all():
+        clean_all = predict(g, grid, rate_hz)  # the clean curves of ``raw`` before their NaN filter
+        if not all(np.isfinite(d[k]).all() for d in (noisy, clean_all)
+                   for k in ("amplitude_deg", "peak_velocity_deg_s", "duration_ms")):
             break
         order = np.argsort(clean_all["amplitude_deg"])
         bias = [(noisy["amplitude_deg"] - clean_all["amplitude_deg"])[order],
