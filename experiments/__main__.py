@@ -8,6 +8,7 @@ compare    fit several models to the same data and rank them (AIC, BIC, likeliho
 simulate   simulate a localization data set from a model
 recovery   model recovery: simulate from each theory, fit every theory (confusion matrix of delta AIC)
 visualize  record a run of the environment in Rerun (``--out FILE.rrd``, ``--spawn`` or ``--serve``)
+view       open .rrd recordings in Rerun's web viewer on 127.0.0.1 (Ctrl-C / SIGTERM leave nothing behind)
 train      train a saccade agent on a task
 evaluate   evaluate a saved, random or heuristic policy
 

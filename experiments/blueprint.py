@@ -34,86 +34,105 @@ def _image_view(origin: str, name: str) -> rrb.Spatial2DView:
     return rrb.Spatial2DView(origin=origin, contents="$origin/**", name=name)
 
 
-def _scene_view() -> rrb.Spatial3DView:
+def _scene_view(study: bool) -> rrb.Spatial3DView:
+    name = ("the head at the flash (3-D): each eye's frustum holds what it sees" if study
+            else "the head in its scene (3-D): each eye's frustum holds what it sees")
     return rrb.Spatial3DView(
-        origin="world", contents="$origin/**", name="head in its scene: eye frusta with their images",
+        origin="world", contents="$origin/**", name=name,
         eye_controls=rrb.EyeControls3D(position=SCENE_EYE_POSITION, look_target=SCENE_LOOK_TARGET,
                                        eye_up=(0.0, 0.0, 1.0)),
         line_grid=rrb.LineGrid3D(visible=False), background=[150, 158, 170],
     )
 
 
-def _top(target: bool) -> rrb.Horizontal:
+def _top(study: bool) -> rrb.Horizontal:
+    what = "at the flash" if study else "now"
     eyes = [
-        rrb.Spatial2DView(origin=f"eyes/{e}", name=f"{e} eye image + retina grid",
-                          contents=[f"eyes/{e}/image", f"eyes/{e}/grid"] + ([f"eyes/{e}/target"] if target else []))
+        rrb.Spatial2DView(origin=f"eyes/{e}", name=f"what the {e} eye sees {what}, with the retina grid",
+                          contents=[f"eyes/{e}/image", f"eyes/{e}/grid"] + ([] if study else [f"eyes/{e}/target"]))
         for e in EYE_NAMES
     ]
-    return rrb.Horizontal(_scene_view(), *eyes, column_shares=[2, 1, 1])
+    return rrb.Horizontal(_scene_view(study), *eyes, column_shares=[2, 1, 1])
 
 
-def _retina() -> rrb.Grid:
-    return rrb.Grid(
-        *[_image_view(f"retina/{e}/fovea", f"{e} fovea") for e in EYE_NAMES],
-        *[_image_view(f"retina/{e}/logpolar", f"{e} log-polar [ring, sector]") for e in EYE_NAMES],
-        *[_image_view(f"dpft/{e}/log_magnitude", f"{e} DPFT log|F|") for e in EYE_NAMES],
-        grid_columns=2,
-    )
+def _retina(study: bool) -> rrb.Grid:
+    views = [*[_image_view(f"retina/{e}/fovea", f"what the {e} retina samples: fovea") for e in EYE_NAMES],
+             *[_image_view(f"retina/{e}/logpolar", f"{e} retina: log-polar periphery [ring x sector]")
+               for e in EYE_NAMES]]
+    if study:
+        views += [_image_view(f"retina/{e}/flash_response", f"{e} retina: the flash's response (flash - no flash)")
+                  for e in EYE_NAMES]
+    of = "the flash's response" if study else "the periphery"
+    views += [_image_view(f"dpft/{e}/log_magnitude", f"the DPFT of {of}, {e} eye: log10|F| (3 decades)")
+              for e in EYE_NAMES]
+    return rrb.Grid(*views, grid_columns=2)
 
 
-def _cortex() -> rrb.Vertical:
-    return rrb.Vertical(
-        _image_view("cortex/right_hemisphere", "right hemisphere (left hemifield; L eye | R eye)"),
-        _image_view("cortex/left_hemisphere", "left hemisphere (right hemifield; L eye | R eye)"),
-    )
+def _cortex(study: bool) -> rrb.Spatial2DView:
+    of = "the flash's response" if study else "both eyes' samples"
+    return rrb.Spatial2DView(origin="cortex", contents="$origin/**",
+                             name=f"the cortex: {of} in both hemispheres (log-polar map)")
 
 
-def _eye_plots() -> list[rrb.TimeSeriesView]:
+def _eye_plots(study: bool) -> list[rrb.TimeSeriesView]:
+    if study:
+        return [rrb.TimeSeriesView(origin="eyes", contents=[f"eyes/{e}/{k}/**" for e in EYE_NAMES
+                                                            for k in ("angle", "signal")],
+                                   name="the example trial's eyes and eye-position signal (deg) re saccade onset")]
     return [
         rrb.TimeSeriesView(origin="eyes", contents=[f"eyes/{e}/{k}/**" for e in EYE_NAMES for k in ("angle", "signal")],
                            name="eye angles and the eye-position signal (deg)"),
         rrb.TimeSeriesView(origin="eyes", contents=[f"eyes/{e}/velocity/**" for e in EYE_NAMES],
-                           name="eye velocity (deg/s)"),
+                           name="how fast the eyes turn: eye velocity (deg/s)"),
     ]
 
 
-def _flash_view() -> rrb.Spatial2DView:
+def _flash_view(study: bool) -> rrb.Spatial2DView:
     """The flash in degrees of visual angle (x azimuth, y = -elevation), fixed to +-30 x +-18 deg
     so that every flash of a run is shown in the same frame."""
-    return rrb.Spatial2DView(origin="flash", name="flash: true (green) vs perceived (red), deg",
+    name = ("the percept of the example trial: flash true (green), perceived (red), target (deg)" if study
+            else "the percept: flash true (green) vs perceived (red), deg")
+    return rrb.Spatial2DView(origin="flash", name=name,
                              visual_bounds=rrb.VisualBounds2D(x_range=(-30.0, 30.0), y_range=(-18.0, 18.0)))
 
 
 def blueprint(layout: str = "run") -> rrb.Blueprint:
     """The layout of a recording (``"run"`` or ``"study"``, see the module docstring); the time
-    panel shows the ``sim_time`` timeline, following the latest data (so a finished recording
-    opens at its end)."""
+    panel shows ``sim_time`` (run) or ``flash_time`` (study), following the latest data (so a finished
+    recording opens at its end)."""
     if layout not in LAYOUTS:
         raise ValueError(f"layout must be one of {LAYOUTS}; got {layout!r}")
-    if layout == "run":
+    study = layout == "study"
+    if not study:
         remap = rrb.Grid(
-            *[_image_view(f"remap/{e}/{kind}", f"{e} {kind}")
-              for e in EYE_NAMES for kind in ("predicted", "actual", "difference")],
+            *[_image_view(f"remap/{e}/{kind}", f"remapping, {e} eye: {what}")
+              for e in EYE_NAMES for kind, what in (("predicted", "predicted from the efference copy"),
+                                                    ("actual", "actual after the saccade"),
+                                                    ("difference", "predicted - actual"))],
             grid_columns=3,
         )
-        middle = rrb.Horizontal(_retina(), _cortex(), remap, column_shares=[1, 1, 1.6])
+        middle = rrb.Horizontal(_retina(False), _cortex(False), remap, column_shares=[1, 1, 1.6])
         plots = rrb.Horizontal(
-            *_eye_plots(),
-            rrb.TimeSeriesView(origin="remap/error", name="remap error (normalized RMS)"),
-            _flash_view(),
+            *_eye_plots(False),
+            rrb.TimeSeriesView(origin="remap/error", name="remapping error of each model (normalized RMS)"),
+            _flash_view(False),
             rrb.TimeSeriesView(origin="saccades",
                                name="saccades: amplitude (deg), peak velocity (deg/s), duration (ms), endpoint error (deg)"),
         )
     else:
-        middle = rrb.Horizontal(_retina(), _cortex(), column_shares=[1, 1])
+        middle = rrb.Horizontal(_retina(True), _cortex(True), column_shares=[1, 1])
         plots = rrb.Horizontal(
             rrb.Spatial2DView(origin="study", contents=["study/true", "study/perceived", "study/error"],
-                              name="all trials at this flash time: true (green) vs perceived (red), deg"),
-            _flash_view(),
-            rrb.TimeSeriesView(origin="study/compression_index", name="compression index"),
-            rrb.TimeSeriesView(origin="study/gain", name="remapping gain"),
-            *_eye_plots(),
+                              name="the percept: true (green) vs perceived (red), deg, of every trial at this "
+                                   "flash time (or of one trial, on the 'trial' timeline)",
+                              visual_bounds=rrb.VisualBounds2D(x_range=(-30.0, 30.0), y_range=(-18.0, 18.0))),
+            _flash_view(True),
+            rrb.TimeSeriesView(origin="study/compression_index",
+                               name="compression index vs flash time re saccade onset, per saccade amplitude"),
+            rrb.TimeSeriesView(origin="study/gain", name="mean remapping gain vs flash time, per saccade amplitude"),
+            *_eye_plots(True),
         )
-    layout_ = rrb.Vertical(_top(layout == "run"), middle, plots, row_shares=[1.6, 1.2, 1])
-    time_panel = rrb.TimePanel(timeline="sim_time", play_state="following", state="collapsed")
+    layout_ = rrb.Vertical(_top(study), middle, plots, row_shares=[1.6, 1.2, 1])
+    time_panel = rrb.TimePanel(timeline="flash_time" if study else "sim_time", play_state="following",
+                               state="collapsed")
     return rrb.Blueprint(layout_, time_panel, collapse_panels=True)

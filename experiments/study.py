@@ -276,57 +276,95 @@ def _build(args: argparse.Namespace):
     return design, config, args.formats
 
 
-def record_study(path: Path, table: dict, config, amplitude_deg: float | None = None) -> Path:
-    """A Rerun recording of the study: per flash time (sim time = onset + t), all flashes' true and
-    perceived positions of one amplitude, the compression index and gain, and one example
-    trial's eye images, retina, DPFT and cortex (``experiments.recording.Recorder``)."""
+def record_study(out: Path, table: dict, design, config, path: Path | None = None) -> Path:
+    """The study's Rerun recording (default ``out/study.rrd``), made from what the study computed: the
+    trials table and the example trials' snapshots in ``out/examples`` (``psychophysics.snapshots``,
+    written as the trials ran). No trial is run again: the scene is only posed from each snapshot.
+
+    Timelines (``experiments.recording.TIMELINES``): ``trial`` (each trial's true and perceived flash
+    in ``study/true``, ``study/perceived``, ``study/error``), ``flash_time`` (ms re saccade onset: every trial of the example amplitude at that
+    flash time, the compression index and the mean remapping gain per amplitude, the example trial's eye
+    trace, and the example trial of that flash time in full) and ``sim_time`` (the example trials'
+    flash instants, for the 3-D replay). The recording is the same for a resumed and an uninterrupted
+    run of the same design (its recording id is the configuration hash; no wall-clock log time)."""
+    import types
+
     import rerun as rr
     from threadpoolctl import threadpool_limits
 
-    from .psychophysics import Trial, TrialRunner, compression_index
-    from .psychophysics.trial import FIXATION_MS
-    from .recording import Recorder
+    from .psychophysics import TrialRunner, compression_index, config_hash
+    from .psychophysics.snapshots import apply_scene_state, example_trials, read_snapshot
+    from .recording import STUDY_APP_ID, Recorder
 
-    amps = np.unique(table["saccade_amplitude_deg"])
-    a = float(amps[np.argmin(np.abs(amps - 20))]) if amplitude_deg is None else float(amplitude_deg)
-    ci = compression_index(table)
-    sel = table["saccade_amplitude_deg"] == a
-    times = np.unique(table["flash_time_ms"][sel])
-    dx0 = float(table["flash_dx_deg"][sel][np.argmin(np.abs(table["flash_dx_deg"][sel] + 8))])
-    dy0 = float(table["flash_dy_deg"][sel & (table["flash_dx_deg"] == dx0)][0])
+    out = Path(out)
+    path = out / "study.rrd" if path is None else Path(path)
+    chash = config_hash(design, config)
+    examples = example_trials(design)
+    snaps = [read_snapshot(out, t.trial_id, chash) for t in examples]
+    a = examples[0].amplitude_deg
+    flip = np.array([1.0, -1.0])
+    dot = rr.components.Radius.ui_points(4.0)
+    order = np.argsort(table["trial_id"], kind="stable")
+    col = {k: np.asarray(v)[order] for k, v in table.items()}
+    row_of = {int(i): k for k, i in enumerate(col["trial_id"])}
     with threadpool_limits(limits=1):
-        runner = TrialRunner(config)
-        flip = np.array([1.0, -1.0])
+        runner = TrialRunner(config)  # its head is only posed (apply_scene_state) and its retina samples images
         try:
-            with Recorder(path, app_id="conformal_head_study") as rec:
-                for i, t in enumerate(times):
-                    trial = Trial(10**6 + i, a, dx0, dy0, int(t), 0, 10**6 + i)
-                    row = runner.run(trial)
-                    rec.set_time_ms(row["flash_sim_ms"])
-                    last = runner.last
-                    runner.stage(trial)  # the 3-D scene at the flash's instant (run() looked on after the saccade)
-                    runner.head.flash("flash_00", 8)
+            with Recorder(path, app_id=STUDY_APP_ID, recording_id=f"{STUDY_APP_ID}-{chash}", log_time=False) as rec:
+                # ---- trial: every trial of the table
+                true = np.column_stack([col["true_x_deg"], col["true_y_deg"]]) * flip
+                seen = np.column_stack([col["perceived_x_deg"], col["perceived_y_deg"]]) * flip
+                for k, tid in enumerate(col["trial_id"]):
+                    rec.set_time("trial", int(tid))
+                    rec.log("study/true", rr.Points2D(true[k:k + 1], radii=dot, colors=[[40, 200, 40]]))
+                    rec.log("study/perceived", rr.Points2D(seen[k:k + 1], radii=dot, colors=[[230, 40, 40]]))
+                    rec.log("study/error", rr.Arrows2D(vectors=seen[k:k + 1] - true[k:k + 1], origins=true[k:k + 1],
+                                                       colors=[[200, 200, 200]]))
+                rec.reset_time()
+                # ---- flash_time: per flash time, all trials of the example amplitude; CI and gain per amplitude
+                sel = col["saccade_amplitude_deg"] == a
+                for t in np.unique(col["flash_time_ms"][sel]):
+                    m = sel & (col["flash_time_ms"] == t)
+                    rec.set_time("flash_time", float(t))
+                    rec.log("study/true", rr.Points2D(true[m], radii=dot, colors=[[40, 200, 40]]))
+                    rec.log("study/perceived", rr.Points2D(seen[m], radii=dot, colors=[[230, 40, 40]]))
+                    rec.log("study/error", rr.Arrows2D(vectors=seen[m] - true[m], origins=true[m], colors=[[200, 200, 200]]))
+                rec.reset_time()
+                for amp, (tt, vals) in compression_index(col).items():
+                    rec.send_scalars(f"study/compression_index/{amp:g}deg",
+                                     [rr.TimeColumn("flash_time", duration=np.asarray(tt, float) / 1000.0)], vals)
+                for amp in np.unique(col["saccade_amplitude_deg"]):
+                    ma = col["saccade_amplitude_deg"] == amp
+                    tt = np.unique(col["flash_time_ms"][ma])
+                    gain = [float(np.mean(col["gain"][ma & (col["flash_time_ms"] == t)])) for t in tt]
+                    rec.send_scalars(f"study/gain/{amp:g}deg",
+                                     [rr.TimeColumn("flash_time", duration=np.asarray(tt, float) / 1000.0)], gain)
+                ex = snaps[int(np.argmin([abs(int(s["flash_time_ms"])) for s in snaps]))]  # the trace nearest 0 ms
+                tcol = [rr.TimeColumn("flash_time", duration=np.asarray(ex["trace_ms"], float) / 1000.0)]
+                for e, eye in enumerate(("left", "right")):
+                    for j, ax in enumerate(("h", "v")):
+                        rec.send_scalars(f"eyes/{eye}/angle/{ax}", tcol, ex["angles"][:, e, j])
+                        rec.send_scalars(f"eyes/{eye}/signal/{ax}", tcol, ex["signal"][:, e, j])
+                # ---- each example trial in full, at its flash time and its flash's sim time (3-D replay)
+                grid = runner.retina_grid
+                for trial, snap in zip(examples, snaps):
+                    rec.set_time_ms(float(snap["flash_sim_ms"]))
+                    rec.set_time("flash_time", float(trial.flash_time_ms))
+                    apply_scene_state(runner.head, snap)
                     rec.log_head(runner.head)
-                    runner.head.hide_flashes()
-                    rec.log_frame(last["frame"], runner.retina_grid)
-                    rec.log_views([mp[0] for mp in last["maps"]], runner.retina_grid)
-                    rec.log_flash((row["true_x_deg"], row["true_y_deg"]),
-                                  (row["perceived_x_deg"], row["perceived_y_deg"]))
-                    plan = last["plan"]
-                    rec.log_eye_angles(plan.angles(row["flash_sim_ms"]), plan.velocities(row["flash_sim_ms"]) * 1000.0,
-                                       plan.eye_position_signal(row["flash_sim_ms"]))
-                    m = sel & (table["flash_time_ms"] == t)
-                    tr = np.column_stack([table["true_x_deg"][m], table["true_y_deg"][m]]) * flip
-                    pe = np.column_stack([table["perceived_x_deg"][m], table["perceived_y_deg"][m]]) * flip
-                    rec.log("study/true", rr.Points2D(tr, radii=0.3, colors=[[40, 200, 40]]))
-                    rec.log("study/perceived", rr.Points2D(pe, radii=0.3, colors=[[230, 40, 40]]))
-                    rec.log("study/error", rr.Arrows2D(vectors=pe - tr, origins=tr, colors=[[200, 200, 200]]))
-                    rec.log("study/gain", rr.Scalars(float(row["gain"])))  # the example trial's (either model)
-                    for amp, (tt, vals) in ci.items():
-                        k = np.nonzero(tt == t)[0]
-                        if k.size:
-                            rec.log(f"study/compression_index/{amp:g}deg", rr.Scalars(float(vals[k[0]])))
-                _ = FIXATION_MS
+                    rec.log("world/flashes", rr.Points3D([snap["flash_world"]], radii=0.015, colors=[[255, 255, 0]]))
+                    eyes = [types.SimpleNamespace(image=snap["image"][e], camera_position=snap["camera_position"][e],
+                                                  camera_xmat=snap["camera_xmat"][e],
+                                                  pixels_per_unit=float(snap["pixels_per_unit"])) for e in range(2)]
+                    rec.log_frame(types.SimpleNamespace(left=eyes[0], right=eyes[1]), grid)
+                    scene_views = [runner.vision.see(snap["image"][e]) for e in range(2)]
+                    flash_views = [types.SimpleNamespace(fovea=snap["fovea"][e], periphery=snap["periphery"][e],
+                                                         coeffs=snap["coeffs"][e]) for e in range(2)]
+                    rec.log_views(scene_views, grid, dpft=flash_views, cortex=flash_views)
+                    rec.log_flash_response(flash_views, grid)
+                    k = row_of[trial.trial_id]
+                    rec.log_flash((col["true_x_deg"][k], col["true_y_deg"][k]),
+                                  (col["perceived_x_deg"][k], col["perceived_y_deg"][k]), (a / 2, 0.0))
         finally:
             runner.close()
     return path
@@ -368,8 +406,11 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
     from .psychophysics import format_summary, read_table, run_trials, save_all, summary
     from .psychophysics.runner import folder_lock
 
+    from .psychophysics.snapshots import example_trials
+
+    keep = [t.trial_id for t in example_trials(design)] if recording and config.paradigm != "displacement" else []
     with folder_lock(out) as out:
-        csv_path = run_trials(design, config, out, workers=workers, progress=progress)
+        csv_path = run_trials(design, config, out, workers=workers, progress=progress, examples=keep)
         table = read_table(csv_path)
         _check_finite(table, csv_path)
         if config.paradigm == "displacement":
@@ -383,7 +424,7 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
             w.writerows(rows)
         # only the paper model has a set time course to draw; the others show their own results alone
         figures = save_all(table, out, config.timecourse if config.model == "paper" else None, formats)
-        rrd = record_study(out / "study.rrd", table, config) if recording else None
+        rrd = record_study(out, table, design, config) if recording else None
     return {"table": csv_path, "summary": text, "figures": figures, "recording": rrd}
 
 

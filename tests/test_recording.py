@@ -90,7 +90,7 @@ def grid():
 
 EXPECTED = (
     ["world/head/origin", "world/head/axes", "world/objects", "world/flashes", "flash/true", "flash/perceived",
-     "flash/shift", "cortex/left_hemisphere", "cortex/right_hemisphere",
+     "flash/shift", "cortex/map", "cortex/labels",
      "saccades/amplitude_deg", "saccades/peak_velocity_deg_s", "saccades/duration_ms", "saccades/endpoint_error_deg"]
     + [f"remap/error/{m}" for m in ("homography", "mobius", "shift")]
     + ["world/scene/world/screen", "world/scene/fixation/fixation", "world/scene/target/target",
@@ -118,11 +118,13 @@ def test_image_shapes(run, grid):
         assert image(data[f"/eyes/{e}/image"]).shape == (IMAGE_SIZE, IMAGE_SIZE, 3)
         assert image(data[f"/retina/{e}/logpolar"]).shape == (g.M, g.N, 3)
         assert image(data[f"/retina/{e}/fovea"]).shape == (p, p, 3)
-        assert image(data[f"/dpft/{e}/log_magnitude"]).shape == (g.M, g.N)
+        assert image(data[f"/dpft/{e}/log_magnitude"]).shape == (g.M, g.N, 3)  # viridis
         for kind in ("predicted", "actual", "difference"):
             assert image(data[f"/remap/{e}/{kind}"]).shape == (g.N // 2, 2 * g.M, 3)
-    for h in ("left", "right"):
-        assert image(data[f"/cortex/{h}_hemisphere"]).shape == (g.N // 2, 2 * g.M, 3)
+    # both hemispheres, one above the other with CORTEX_GAP black rows between them
+    from experiments.recording.recorder import CORTEX_GAP
+
+    assert image(data["/cortex/map"]).shape == (g.N + CORTEX_GAP, 2 * g.M, 3)
 
 
 def test_time_range_and_resolution(run):
@@ -150,7 +152,7 @@ def test_every_timed_entity_lies_in_the_run_and_3d_shapes(run):
         e = data["/" + p]
         if not e["static"]:
             assert len(e["times_ms"]) and start - 1e-9 <= e["times_ms"][0] and e["times_ms"][-1] <= end + 1e-9, p
-    for p in ("cortex/left_hemisphere", "dpft/left/log_magnitude", "retina/right/logpolar"):
+    for p in ("cortex/map", "dpft/left/log_magnitude", "retina/right/logpolar"):
         t = data["/" + p]["times_ms"]
         assert t[0] == pytest.approx(start) and t[-1] == pytest.approx(end), p  # reset and last fixation
     assert len(data["/remap/right/actual"]["times_ms"]) == 2  # one per saccade
@@ -197,17 +199,26 @@ def test_saccades_visible_in_velocity(run):
         assert math.hypot(sig_h[j1] - sig_h[j0], sig_v[j1] - sig_v[j0]) < 0.8 * moved
 
 
-def test_remap_difference_is_abs_of_predicted_minus_actual(run):
+def test_remap_difference_is_signed_predicted_minus_actual(run):
+    """predicted and actual share one gain (their larger maximum); the difference is predicted - actual
+    on RdBu_r over [-m, m]: red where the prediction is brighter, blue where it is darker."""
+    from experiments.recording.colour import colormap_lut
+
     data, _ = run
+    lut = colormap_lut("RdBu_r").astype(int)
     for e in ("left", "right"):
-        p = image(data[f"/remap/{e}/predicted"]).astype(int)
-        a = image(data[f"/remap/{e}/actual"]).astype(int)
+        p = image(data[f"/remap/{e}/predicted"]).astype(float).mean(-1)
+        a = image(data[f"/remap/{e}/actual"]).astype(float).mean(-1)
         d = image(data[f"/remap/{e}/difference"]).astype(int)
-        valid = p.sum(-1) > 0  # cells with a prediction (unknown ones are 0)
-        match = np.abs(d - np.abs(p - a)) <= 1
-        # the difference is abs(p - a) up to rounding, or 0 where either sample is invalid
-        assert np.all(match[valid] | (d[valid] == 0))
-        assert match[valid].mean() > 0.9 and valid.mean() > 0.5
+        # each difference pixel is a colour of the map: its index is 127.5 + 127.5 (p - a) / m
+        idx = np.argmin(((d[..., None, :] - lut[None, None]) ** 2).sum(-1), axis=-1)
+        assert np.all(((d - lut[idx]) ** 2).sum(-1) <= 12)
+        valid = (p > 0) & (a > 0)
+        x, y = (p - a)[valid], idx[valid] - 127.5  # both proportional to predicted - actual
+        assert valid.sum() > 20 and np.std(x) > 0
+        assert np.corrcoef(x, y)[0, 1] > 0.9
+        big = np.abs(x) > 8
+        assert big.sum() > 0 and np.all(np.sign(x[big]) == np.sign(y[big]))
     errs = [scalars(data[f"/remap/error/{m}"]) for m in ("homography", "mobius", "shift")]
     assert all(len(x) == 2 and np.all(np.isfinite(x)) and np.all(x >= 0) for x in errs)
 
@@ -229,15 +240,19 @@ def test_hemisphere_layout_against_hand_routing(tmp_path, grid):
         rec.set_time_ms(5)
         rec.log_views((View(left), View(right)), g)
     data = read(path)
-    lh = image(data["/cortex/left_hemisphere"]).astype(float) / 255
-    rh = image(data["/cortex/right_hemisphere"]).astype(float) / 255
+    from experiments.recording.recorder import CORTEX_GAP
+
+    cortex = image(data["/cortex/map"]).astype(float)
+    gain = max(left.max(), right.max()) / 255  # one gain: the picture's maximum
+    rh, lh = cortex[:g.N // 2] * gain, cortex[g.N // 2 + CORTEX_GAP:] * gain
+    assert np.all(cortex[g.N // 2:g.N // 2 + CORTEX_GAP] == 0)
     q = g.N // 4
     k = np.arange(g.M)
     assert lh[0, k] == pytest.approx(left[k, q - 1], abs=1 / 255)
     assert lh[0, g.M + k] == pytest.approx(right[k, q - 1], abs=1 / 255)
     assert lh[-1, k] == pytest.approx(left[k, 3 * q], abs=1 / 255)  # lower meridian, right side
     assert rh[0, k] == pytest.approx(left[k, q], abs=1 / 255)  # just left of the upper meridian
-    lp = image(data["/retina/left/logpolar"]).astype(float) / 255
+    lp = image(data["/retina/left/logpolar"]).astype(float) / 255 * left.max()  # gain: its own maximum
     assert lp == pytest.approx(left, abs=1 / 255)
     assert data["/retina/left/logpolar"]["times_ms"].tolist() == [5.0]
 
@@ -460,12 +475,18 @@ def test_dots_scene_in_the_env_recording(run):
         scr = data["/world/scene/world/screen"]["cols"]
         assert scr["Boxes3D:half_sizes"][0] == [pytest.approx(m.geom_size[m.geom("screen").id])]
         assert scr["Transform3D:translation"][0] == [pytest.approx(d.geom_xpos[m.geom("screen").id])]
-    # the task placed the target: its body is where the labelled object point says, at every instant
-    obj = data["/world/objects"]
-    for t, pos, labels in zip(obj["times_ms"], obj["cols"]["Points3D:positions"], obj["cols"]["Points3D:labels"]):
+    # the task placed the target: its body is where its label's point says (the label LABEL_OFFSET_M above
+    # or below it), at every instant
+    from experiments.recording.recorder import LABEL_OFFSET_M
+
+    lab = data["/world/labels"]
+    for t, pos, labels in zip(lab["times_ms"], lab["cols"]["Points3D:positions"], lab["cols"]["Points3D:labels"]):
         tgt = data["/world/scene/target"]
         i = np.flatnonzero(tgt["times_ms"] <= t)[-1]
-        assert tgt["cols"]["Transform3D:translation"][i][0] == pytest.approx(pos[labels.index("target")], abs=1e-6)
+        got = np.asarray(pos[labels.index("target")])
+        want = np.asarray(tgt["cols"]["Transform3D:translation"][i][0])
+        assert got[:2] == pytest.approx(want[:2], abs=1e-6)
+        assert abs(got[2] - want[2]) == pytest.approx(LABEL_OFFSET_M, abs=1e-6)
     flashes = [k for k in data if k.startswith("/world/scene/flash_") and k.count("/") == 4]
     assert len(flashes) == 24
     shown = [k for k in flashes if any(v for v in data[k]["cols"]["Ellipsoids3D:half_sizes"])]
@@ -517,7 +538,9 @@ def test_eye_cameras_pinholes_and_images(tmp_path):
         (fmt,) = latest(pin, "Image:format")
         assert (fmt["width"], fmt["height"]) == (w, h)
         img = np.asarray(latest(pin, "Image:buffer")[0], np.uint8).reshape(h, w, 3)
-        assert np.array_equal(img, getattr(frame, eye).image)
+        from experiments.recording.colour import gain_scaled
+
+        assert np.array_equal(img, gain_scaled(getattr(frame, eye).image)[0])  # the rendered image, gain-scaled
         # the target through the logged camera (RUB: looking along -z, image y down) and pinhole, in
         # Rerun's pixel coordinates (pixel centres at +0.5) = MuJoCo's (row, col) + 0.5
         x, y, z = R.T @ (p_target - tr)
@@ -612,7 +635,7 @@ def test_run_blueprint_views_point_at_the_recording(run_path):
     assert views["eye angles and the eye-position signal (deg)"]["queries"] == [
         "eyes/left/angle/**", "eyes/left/signal/**", "eyes/right/angle/**", "eyes/right/signal/**"]
     for e in ("left", "right"):
-        assert views[f"{e} eye image + retina grid"]["origin"] == f"eyes/{e}"
+        assert views[f"what the {e} eye sees now, with the retina grid"]["origin"] == f"eyes/{e}"
     assert {v["class"] for v in views.values()} == {"2D", "3D", "TimeSeries"}
     assert sum(v["origin"].startswith("remap/") for v in views.values()) == 7  # 6 maps + the errors
     assert bp["time_panel"]["TimePanelBlueprint:timeline"] == ["sim_time"]
@@ -623,32 +646,6 @@ def test_blueprint_layouts_build():
         assert isinstance(blueprint(layout), rrb.Blueprint)
     with pytest.raises(ValueError):
         blueprint("nope")
-
-
-def test_study_recording_and_its_blueprint(tmp_path):
-    """``study.rrd`` (``record_study``, the ``study`` layout): its timeline is the example trials'
-    sim time (flash time + 210 ms), and every entity it holds is in a view."""
-    from experiments.psychophysics import TrialConfig
-    from experiments.study import record_study
-
-    times = np.array([-50, 0, -50, 0])
-    table = {"saccade_amplitude_deg": np.full(4, 20.0), "flash_time_ms": times,
-             "flash_dx_deg": np.array([-8.0, -8.0, 4.0, 4.0]), "flash_dy_deg": np.zeros(4),
-             "true_x_deg": np.array([-8.0, -8.0, 4.0, 4.0]), "true_y_deg": np.zeros(4),
-             "perceived_x_deg": np.array([-6.0, -4.0, 3.0, 2.0]), "perceived_y_deg": np.zeros(4)}
-    path = record_study(tmp_path / "study.rrd", table, TrialConfig(image_size=128))
-    check_blueprint(path)
-    data = read(path)
-    assert data["/study/true"]["times_ms"].tolist() == [160.0, 210.0]  # onset (210 ms) + flash time
-    for e in ("/world/eyes/left/camera/image", "/world/scene/world/screen", "/study/compression_index/20deg"):
-        assert e in data, e
-    assert not any(k.startswith(("/remap", "/saccades")) for k in data)
-    # the 3-D scene is that of the flash's instant: the flash is visible in it, once per instant
-    flashes = data["/world/flashes"]
-    assert flashes["times_ms"].tolist() == [160.0, 210.0]
-    assert all(len(p) == 1 for p in flashes["cols"]["Points3D:positions"])
-    # the logged gain is the example trial's own (the mechanistic model's, not a set time course)
-    assert all(g[0] >= 0 for g in data["/study/gain"]["cols"]["Scalars:scalars"])
 
 
 # ---------------------------------------------------------------------- command line: hostile input

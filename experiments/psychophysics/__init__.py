@@ -32,6 +32,9 @@ _EXPORTS = {
     "fig11": "figures", "perceived_vs_time": "figures", "compression_vs_time": "figures", "save_all": "figures", "psychometric": "figures",
     "save_displacement": "figures",
     "LIMITS": "bounds", "MAX_TRIALS": "bounds",
+    "example_trials": "snapshots", "read_snapshot": "snapshots", "write_snapshot": "snapshots",
+    "take_snapshot": "snapshots", "snapshot_path": "snapshots", "scene_state": "snapshots",
+    "apply_scene_state": "snapshots", "SnapshotError": "snapshots", "SNAPSHOT_DIR": "snapshots",
 }
 
 __all__ = list(_EXPORTS)

@@ -41,13 +41,14 @@ import zlib
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Iterator
+from typing import Callable, Collection, Iterable, Iterator
 
 import numpy as np
 
 from .bounds import Limit, check_int
 from .design import Design, Trial
 from .trial import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner
+from .snapshots import write_snapshot
 
 __all__ = ["run_trials", "read_table", "write_parquet", "config_fingerprint", "config_hash", "TABLE_COLUMNS",
            "FolderBusyError", "OutputFolderError", "prepare_output_folder", "folder_lock"]
@@ -94,9 +95,19 @@ def _init_worker(config: TrialConfig, parent_pid: int | None = None) -> None:
     _limit_threads()  # after TrialRunner: every BLAS/OpenMP library it loads is limited
 
 
-def _run_batch(trials: list[Trial]) -> list[dict]:
+def _run_one(runner: TrialRunner, trial: Trial, snap: tuple | None) -> tuple[dict, dict | None]:
+    """A trial's row, and its snapshot when ``snap`` = (design, config hash, example ids) names it."""
+    row = runner.run(trial)
+    if snap is None or trial.trial_id not in snap[2]:
+        return row, None
+    from .snapshots import take_snapshot
+
+    return row, take_snapshot(runner, trial, row, snap[0], snap[1])
+
+
+def _run_batch(trials: list[Trial], snap: tuple | None = None) -> list[tuple[dict, dict | None]]:
     assert _WORKER is not None
-    return [_WORKER.run(t) for t in trials]
+    return [_run_one(_WORKER, t, snap) for t in trials]
 
 
 def _worker_status() -> dict:
@@ -372,6 +383,19 @@ def write_parquet(csv_path: str | os.PathLike, parquet_path: str | os.PathLike) 
     atomic_write_bytes(parquet_path, sink.getvalue().to_pybytes())
 
 
+def _lost_snapshots(out: Path, rows: dict, examples: frozenset, chash: str) -> list[int]:
+    """Finished example trials whose snapshot is missing, unreadable or of another run."""
+    from .snapshots import SnapshotError, read_snapshot
+
+    lost = []
+    for i in sorted(examples & set(rows)):
+        try:
+            read_snapshot(out, i, chash)
+        except SnapshotError:
+            lost.append(i)
+    return lost
+
+
 def _batches(trials: list[Trial], size: int) -> Iterable[list[Trial]]:
     for i in range(0, len(trials), size):
         yield trials[i:i + size]
@@ -407,6 +431,7 @@ def run_trials(
     batch_size: int = 8,
     limit: int | None = None,
     on_row: Callable[[dict], None] | None = None,
+    examples: Collection[int] = (),
 ) -> Path:
     """Run every trial of ``design`` not yet in ``out_dir/trials.csv``; returns the CSV path.
 
@@ -418,6 +443,10 @@ def run_trials(
     runs (``FolderBusyError`` if another run holds it); an unusable folder raises
     ``OutputFolderError``. On an interruption (KeyboardInterrupt) or an error the workers are
     stopped and the rows written so far stay, ready to be resumed.
+
+    examples : trial ids whose snapshot (``snapshots``: frames, retinal maps, scene, eye trace) is
+    written to ``out_dir/examples/`` before their row; a finished example whose snapshot is missing or
+    unreadable is run again (localization and separation paradigms).
     """
     if not isinstance(design, Design):
         raise TypeError(f"design must be a Design; got {design!r}")
@@ -427,12 +456,16 @@ def run_trials(
     batch_size = check_int("batch_size", batch_size, _BATCH)
     if limit is not None:
         limit = check_int("limit", limit, _LIMIT)
+    examples = frozenset(check_int("each of examples", i, _LIMIT) for i in examples)
+    if examples and config.paradigm == "displacement":
+        raise ValueError("examples (snapshots for the recording) exist for the localization and separation "
+                         "paradigms only")
     with folder_lock(out_dir) as out:
-        return _run_locked(design, config, out, workers, progress, batch_size, limit, on_row)
+        return _run_locked(design, config, out, workers, progress, batch_size, limit, on_row, examples)
 
 
 def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, progress: bool, batch_size: int,
-                limit: int | None, on_row: Callable[[dict], None] | None) -> Path:
+                limit: int | None, on_row: Callable[[dict], None] | None, examples: frozenset = frozenset()) -> Path:
     csv_path, meta_path = out / "trials.csv", out / "run.json"
     fp = config_fingerprint(design, config)
     chash = config_hash(design, config)
@@ -444,8 +477,13 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
     from ..folders import atomic_write_text
 
     atomic_write_text(meta_path, json.dumps({**fp, "config_hash": chash}, indent=1))
-    done = [scan.rows[k] for k in sorted(scan.rows)]
-    done_ids = set(scan.rows)
+    lost = _lost_snapshots(out, scan.rows, examples, chash)
+    if lost:
+        print(f"{out / 'examples'}: {len(lost)} example trial(s) without a readable snapshot (trial_id "
+              f"{', '.join(map(str, lost[:6]))}{', ...' if len(lost) > 6 else ''}); they are run again",
+              file=sys.stderr)
+    done = [scan.rows[k] for k in sorted(scan.rows) if k not in lost]
+    done_ids = set(scan.rows) - set(lost)
     todo = [t for t in design.trials() if t.trial_id not in done_ids]
     if limit is not None:
         todo = todo[:limit]
@@ -458,8 +496,13 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
     try:
         with csv_path.open("a", newline="") as fh:
 
-            def emit(rows: list[dict]) -> None:
-                for r in rows:
+            snap = (design, chash, examples) if examples else None
+
+            def emit(results: list[tuple[dict, dict | None]]) -> None:
+                rows = [r for r, _ in results]
+                for r, snapshot in results:
+                    if snapshot is not None:  # before its row: a row implies its snapshot
+                        write_snapshot(out, snapshot)
                     fh.write(_line(r, chash))
                     done.append(r)
                     if on_row is not None:
@@ -475,7 +518,7 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
                     runner = TrialRunner(config)
                     try:
                         for b in _batches(todo, batch_size):
-                            emit([runner.run(t) for t in b])
+                            emit([_run_one(runner, t, snap) for t in b])
                     finally:
                         runner.close()
             elif todo:
@@ -483,7 +526,7 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
                 pool = _make_pool(config, workers)
                 try:
                     with _sigint_ignored():  # the workers start while submitting; they inherit SIG_IGN
-                        futures = [pool.submit(_run_batch, b) for b in _batches(todo, size)]
+                        futures = [pool.submit(_run_batch, b, snap) for b in _batches(todo, size)]
                     for f in as_completed(futures):
                         emit(f.result())
                 except BaseException:

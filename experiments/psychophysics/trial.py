@@ -47,6 +47,7 @@ from .observer import ObserverParams, eye_estimate, posterior_mean, prior_precis
 from .population import (PopulationParams, cortical_offset, feedback_signal, from_cortical_offset,
                          population_estimate)
 from .targetmap import TargetCentredMap
+from .snapshots import scene_state
 from .timecourse import RemapTimeCourse
 
 __all__ = ["TrialConfig", "TrialRunner", "Observation", "head_angles_deg", "ROW_COLUMNS", "TEXT_COLUMNS",
@@ -254,6 +255,7 @@ class Observation:
     ref_on_ms: float = 0.0  #: how long they were on after saccade offset
     frame: object = None
     reference: object = None
+    scene: dict = None  #: the MuJoCo scene with the (first) flash shown, and its world position (recordings)
 
 
 def head_angles_deg(head: models.Head, points_world) -> np.ndarray:
@@ -444,9 +446,12 @@ class TrialRunner:
         exposure = FLASH_MS if mech_smear else 0
         ref = head.render(exposure_ms=exposure)
         frames = []
+        scene = None
         for name in ((_FLASH, _FLASH2) if two else (_FLASH,)):  # simultaneous flashes, read out one by one
             head.flash(name, FLASH_MS)
             frames.append(head.render(exposure_ms=exposure))
+            if scene is None:
+                scene = {**scene_state(head), "flash_world": np.asarray(fl_w, float)}
             head.hide_flashes()
         eye_h = np.degrees(head.eye_angles[:, 0])
         t_mid = t_abs + exposure / 2  # the middle of the flash's retinal image
@@ -468,7 +473,7 @@ class TrialRunner:
         return Observation(trial=trial, plan=plan, t_abs=t_abs, t_mid=t_mid, exposure=exposure, copy_pose=copy_pose,
                            flashes=flashes, target_deg=head_angles_deg(head, tgt_w)[0], eye_h=eye_h,
                            seen_z=seen_z, t_post=t_post, frame=frames[0], reference=ref, ref_z=ref_z,
-                           ref_activity=ref_act, ref_on_ms=float(min(cfg.reference_ms, 1000)))
+                           ref_activity=ref_act, ref_on_ms=float(min(cfg.reference_ms, 1000)), scene=scene)
 
     def readout(self, obs: Observation, config: TrialConfig | None = None) -> dict:
         """The perceived position(s) of an observed trial under ``config`` (default: the runner's;
@@ -508,7 +513,7 @@ class TrialRunner:
                 weight = cfg.reference_weight * float(np.all(np.isfinite(seen)))
             reads = [self._read(f, gain, weight, seen, obs.copy_pose, read_pose, true_pose, cfg) for f in obs.flashes]
         perceived, closed, maps = reads[0]
-        self.last = dict(frame=obs.frame, reference=obs.reference, maps=maps, plan=plan)
+        self.last = dict(frame=obs.frame, reference=obs.reference, maps=maps, plan=plan, scene=obs.scene)
 
         true, target = obs.flashes[0]["true_deg"], obs.target_deg
         p = _mean_of_eyes(perceived)

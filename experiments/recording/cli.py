@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 from .display import _no_display_message, display_available
@@ -53,7 +54,21 @@ def _rrd_path(text: str) -> str:
     return text
 
 
+def _stopped(e: KeyboardInterrupt) -> int:
+    """Exit status after Ctrl-C (SIGINT, 130) or SIGTERM (143)."""
+    from ..folders import Interrupted
+
+    return 128 + int(e.signum if isinstance(e, Interrupted) else signal.SIGINT)
+
+
 def _run_visualize(args: argparse.Namespace) -> int:
+    from ..folders import interruptible
+
+    with interruptible():  # SIGTERM as Ctrl-C: the finally below stops the server either way
+        return _visualize(args)
+
+
+def _visualize(args: argparse.Namespace) -> int:
     p = args.parser
     if args.spawn and args.serve:
         p.error("give --spawn or --serve, not both")
@@ -95,21 +110,88 @@ def _run_visualize(args: argparse.Namespace) -> int:
             try:
                 viewer.wait(args.serve_seconds)
             except KeyboardInterrupt:
-                print("stopped serving")
+                print("stopped serving", flush=True)
             except RuntimeError as e:
                 print(f"python -m experiments visualize: error: {e}", file=sys.stderr)
                 return 1
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
         print("interrupted", file=sys.stderr)
-        return 130
+        return _stopped(e)
     finally:
         if viewer is not None:
             viewer.close()
     return 0
 
 
+def _run_view(args: argparse.Namespace) -> int:
+    from ..folders import interruptible
+
+    p = args.parser
+    viewer = None
+    with interruptible():
+        try:
+            try:
+                viewer = WebViewer(args.web_port, args.grpc_port, recordings=tuple(args.recordings))
+            except (ValueError, FileNotFoundError) as e:
+                p.error(str(e))
+            except RuntimeError as e:
+                print(f"python -m experiments view: error: {e}", file=sys.stderr)
+                return 1
+            print(f"Rerun web viewer: {viewer.url}", flush=True)
+            print(f"(serving {', '.join(args.recordings)} on {viewer.HOST} only, web port {viewer.web_port}, gRPC port "
+                  f"{viewer.grpc_port}; " + ("Ctrl-C to stop)" if args.serve_seconds is None
+                                              else f"for {args.serve_seconds} s)"), flush=True)
+            try:
+                viewer.wait(args.serve_seconds)
+            except KeyboardInterrupt:  # serving until Ctrl-C (or SIGTERM) is the normal end
+                print("stopped serving", flush=True)
+            except RuntimeError as e:
+                print(f"python -m experiments view: error: {e}", file=sys.stderr)
+                return 1
+        except KeyboardInterrupt as e:
+            print("interrupted", file=sys.stderr)
+            return _stopped(e)
+        finally:
+            if viewer is not None:
+                viewer.close()
+    return 0
+
+
+def _rrd_file(text: str) -> str:
+    """argparse type for ``view``: an existing .rrd file."""
+    if not str(text).strip() or "\0" in text:
+        raise argparse.ArgumentTypeError(f"expected an .rrd file; got {text!r}")
+    if not os.path.isfile(text):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a file (write one with 'python -m experiments run' or "
+                                         "'visualize --out FILE.rrd')")
+    return text
+
+
+def _add_view(subparsers) -> None:
+    b = OPTION_BOUNDS
+    p = subparsers.add_parser(
+        "view", help="open .rrd recordings in Rerun's web viewer on 127.0.0.1 (no display needed)",
+        description="Serve .rrd recordings with Rerun's web viewer and gRPC proxy, bound to 127.0.0.1, and print "
+                    "the address to open in a browser. Ctrl-C or SIGTERM stops the server: no process or port is "
+                    "left behind (unlike stopping the 'rerun' Python wrapper, which leaves its server running).")
+    p.add_argument("recordings", nargs="+", type=_rrd_file, metavar="FILE.rrd", help="recording(s) to open")
+    p.add_argument("--web-port", type=_whole(*b["web_port"]), default=9090,
+                   help="port of the web viewer on 127.0.0.1 (default 9090)")
+    p.add_argument("--grpc-port", type=_whole(*b["grpc_port"]), default=9876,
+                   help="port of the gRPC proxy the viewer reads from, on 127.0.0.1 (default 9876)")
+    p.add_argument("--serve-seconds", type=_whole(*b["serve_seconds"]), default=None, metavar="S",
+                   help="stop after S seconds (default: serve until Ctrl-C)")
+    p.set_defaults(func=_run_view, parser=p)
+
+
 def add_subcommand(subparsers) -> None:
-    """Register ``visualize``: record a run of the environment in Rerun."""
+    """Register ``visualize`` (record a run of the environment in Rerun) and ``view`` (open
+    recordings in the web viewer)."""
+    _add_visualize(subparsers)
+    _add_view(subparsers)
+
+
+def _add_visualize(subparsers) -> None:
     b = OPTION_BOUNDS
     p = subparsers.add_parser(
         "visualize", help="record a run of the environment in Rerun (--out FILE.rrd, --serve or --spawn)",

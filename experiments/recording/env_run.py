@@ -40,7 +40,8 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
     flash ``flash_lead_ms`` before onset (images logged at that instant) and log its true and
     perceived position; then ``fixation_ms`` of fixation, render, and log images, retina, DPFT,
     cortex and the remapping (model ``remap_model``) with the models' errors. Images are logged
-    only at reset, the flash and the end of each fixation.
+    only at reset, the flash and the end of each fixation. Timelines: ``sim_time``, and ``episode``
+    (0) and ``env_step`` (0 at reset, k for everything logged during the k-th saccade and its fixation).
 
     The perceived flash is an illustration of §6.5's remapping by the log-radius shift, not a
     fitted model: the flash's pre-saccadic image point z in the left eye is compressed towards the
@@ -79,6 +80,8 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                 return frame, (vision.see(frame.left.image), vision.see(frame.right.image))
 
             summary["start_ms"] = float(head.time_ms)
+            rec.set_time("episode", 0)  # one episode; env_step k: what happened during the k-th saccade
+            rec.set_time("env_step", 0)
             rec.set_time_ms(head.time_ms)
             frame, views = look()
             rec.log_head(head)
@@ -91,6 +94,7 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
 
                 steps_iter = tqdm(steps_iter, unit="saccade", desc="recording")
             for step in steps_iter:
+                rec.set_time("env_step", step + 1)
                 # alternate object saccades with random ones of 3-20 deg (the main sequence's range)
                 name = _choose_target(head, rng, previous) if step % 2 == 0 else None
                 plan = None

@@ -1,19 +1,11 @@
-"""Image helpers of the recordings: intensities -> uint8 images, both eyes' hemisphere as one
-picture, the retina grid as 2-D line strips, and an eye image's pinhole matrix."""
+"""Image helpers of the recordings: both eyes' hemisphere as one picture, the retina grid as 2-D
+line strips, and an eye image's pinhole matrix (colour scales: :mod:`.colour`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 import conformal as C
-
-
-def _to_uint8(a: np.ndarray) -> np.ndarray:
-    """Intensities in [0, 1] -> uint8 image; a single channel becomes (H, W)."""
-    a = np.asarray(a, dtype=float)
-    if a.ndim == 3 and a.shape[-1] == 1:
-        a = a[..., 0]
-    return (np.clip(np.nan_to_num(a), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
 def hemisphere_image(hemisphere: np.ndarray) -> np.ndarray:

@@ -71,8 +71,10 @@ class WebViewer:
     127.0.0.1 only: open :attr:`url` in a browser on this machine (from another one, forward both
     ports, ``ssh -L 9090:127.0.0.1:9090 -L 9876:127.0.0.1:9876 HOST``); stream a recording to
     :attr:`grpc_url` (``Recorder(connect=...)``). The proxy keeps what it received for viewers that
-    connect later (up to ``server_memory_limit``). Stop it with :meth:`close` (or use it as a
-    context manager); on Linux it also stops when this process dies.
+    connect later (up to ``server_memory_limit``); ``recordings`` are ``.rrd`` files it loads and
+    serves. Stop it with :meth:`close` (or use it as a context manager); on Linux it also stops when
+    this process dies, however it dies (the server is the real ``rerun`` binary, not its Python
+    wrapper, and gets SIGTERM from the kernel when its parent is gone).
 
     Raises ``ValueError`` if a port is taken and ``RuntimeError`` if the server does not start.
     """
@@ -80,7 +82,7 @@ class WebViewer:
     HOST = "127.0.0.1"
 
     def __init__(self, web_port: int = 9090, grpc_port: int = 9876, *, server_memory_limit: str = "1GiB",
-                 start_timeout_s: float = 30.0) -> None:
+                 start_timeout_s: float = 30.0, recordings: tuple = ()) -> None:
         ports = {"web_port": web_port, "grpc_port": grpc_port}
         for name, port in ports.items():
             if isinstance(port, bool) or not isinstance(port, (int, np.integer)) or not 1 <= port <= 65535:
@@ -90,11 +92,16 @@ class WebViewer:
         for name, port in ports.items():
             if not _port_free(int(port), self.HOST):
                 raise ValueError(f"port {port} on {self.HOST} is in use; choose another ({name})")
+        files = [os.fspath(r) for r in recordings]
+        for f in files:
+            if not os.path.isfile(f):
+                raise FileNotFoundError(f"recording {f!r} does not exist (write one with 'python -m experiments "
+                                        f"run' or 'visualize --out FILE.rrd')")
         self.web_port, self.grpc_port = int(web_port), int(grpc_port)
         self.proc = None
         self._log = tempfile.TemporaryFile()
         cmd = [_rerun_executable(), "--serve-web", "--bind", self.HOST, "--port", str(self.grpc_port),
-               "--web-viewer-port", str(self.web_port), "--server-memory-limit", server_memory_limit]
+               "--web-viewer-port", str(self.web_port), "--server-memory-limit", server_memory_limit, *files]
         if sys.platform.startswith("linux"):
             cmd = [sys.executable, "-c", _EXEC_WITH_PARENT, str(os.getpid()), *cmd]
         self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=self._log, stderr=subprocess.STDOUT)
