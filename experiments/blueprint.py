@@ -1,17 +1,20 @@
 """The Rerun blueprints (view layouts) sent with the recordings of :mod:`experiments.recording`.
+Every panel is titled in words: what the eye sees, what the retina samples, the DPFT, the cortex,
+the percept.
 
 ``blueprint("run")`` (``visualize``), rows top to bottom: the head in its scene in 3-D (the
-scene's geoms, both eyes' cameras as frusta with their images in them, gaze rays) and both eyes'
-images with the retina grid; the retinas (foveal and log-polar samples) and the DPFT
-log-magnitudes; the cortex (both hemispheres) and the remapping (predicted, actual, |difference|)
-of each eye; time series of eye angles and velocities, remapping errors, the flash positions and
-each saccade's amplitude, peak velocity and duration (the main sequence).
+scene's geoms, both eyes' cameras as frusta with their images in them, gaze rays, the fixation point
+and target labelled) and what each eye sees with the retina grid; the retinas (foveal and log-polar
+samples) and the DPFT log-magnitudes; the cortex (both hemispheres, labelled) and the remapping
+(predicted, actual, predicted - actual) of each eye; time series of eye angles and velocities,
+remapping errors, the flash's percept and each saccade's amplitude, peak velocity and duration (the
+main sequence). The time panel shows ``sim_time``.
 
-``blueprint("study")`` (``study.rrd``): the same two first rows without the saccade target and the
-remapping; then every
-trial's true and perceived flash positions at the current flash time, the example trial's flash,
-the compression index and the remapping gain over time, and the example trial's eye angles and
-velocities.
+``blueprint("study")`` (``study.rrd``): the same first row at the flash (no saccade target); the
+retinas, the flash's response and its DPFT; the cortex's response to the flash; then the percept of
+every trial at the current flash time (or of one trial, on the ``trial`` timeline), the example
+trial's flash, the compression index and the mean remapping gain against flash time, and the example
+trial's eyes and eye-position signal. The time panel shows ``flash_time`` (ms re saccade onset).
 
 View contents are entity paths or ``path/**`` subtrees only: Rerun 0.41 supports no other ``*``.
 """
@@ -90,8 +93,9 @@ def _eye_plots(study: bool) -> list[rrb.TimeSeriesView]:
 def _flash_view(study: bool) -> rrb.Spatial2DView:
     """The flash in degrees of visual angle (x azimuth, y = -elevation), fixed to +-30 x +-18 deg
     so that every flash of a run is shown in the same frame."""
-    name = ("the percept of the example trial: flash true (green), perceived (red), target (deg)" if study
-            else "the percept: flash true (green) vs perceived (red), deg")
+    name = ("the percept of the example trial: flash true (green), perceived (red); fixation (gray), target "
+            "(orange); deg" if study else
+            "the percept: flash true (green) vs perceived (red); fixation (gray), target (orange); deg")
     return rrb.Spatial2DView(origin="flash", name=name,
                              visual_bounds=rrb.VisualBounds2D(x_range=(-30.0, 30.0), y_range=(-18.0, 18.0)))
 

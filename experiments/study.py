@@ -314,12 +314,14 @@ def record_study(out: Path, table: dict, design, config, path: Path | None = Non
                 # ---- trial: every trial of the table
                 true = np.column_stack([col["true_x_deg"], col["true_y_deg"]]) * flip
                 seen = np.column_stack([col["perceived_x_deg"], col["perceived_y_deg"]]) * flip
-                for k, tid in enumerate(col["trial_id"]):
-                    rec.set_time("trial", int(tid))
-                    rec.log("study/true", rr.Points2D(true[k:k + 1], radii=dot, colors=[[40, 200, 40]]))
-                    rec.log("study/perceived", rr.Points2D(seen[k:k + 1], radii=dot, colors=[[230, 40, 40]]))
-                    rec.log("study/error", rr.Arrows2D(vectors=seen[k:k + 1] - true[k:k + 1], origins=true[k:k + 1],
-                                                       colors=[[200, 200, 200]]))
+                n = len(col["trial_id"])
+                by_trial = [rr.TimeColumn("trial", sequence=col["trial_id"].astype(np.int64))]
+                ones = np.ones(n, int)  # one point per trial, sent as columns (a few chunks, not n rows)
+                for entity, pts, rgb in (("study/true", true, [40, 200, 40]), ("study/perceived", seen, [230, 40, 40])):
+                    rec.rec.send_columns(entity, indexes=by_trial, columns=rr.Points2D.columns(
+                        positions=pts, colors=np.tile(rgb, (n, 1)), radii=np.full(n, -4.0)).partition(ones))  # -4: 4 UI points
+                rec.rec.send_columns("study/error", indexes=by_trial, columns=rr.Arrows2D.columns(
+                    vectors=seen - true, origins=true, colors=np.tile([200, 200, 200], (n, 1))).partition(ones))
                 rec.reset_time()
                 # ---- flash_time: per flash time, all trials of the example amplitude; CI and gain per amplitude
                 sel = col["saccade_amplitude_deg"] == a
@@ -364,7 +366,7 @@ def record_study(out: Path, table: dict, design, config, path: Path | None = Non
                     rec.log_flash_response(flash_views, grid)
                     k = row_of[trial.trial_id]
                     rec.log_flash((col["true_x_deg"][k], col["true_y_deg"][k]),
-                                  (col["perceived_x_deg"][k], col["perceived_y_deg"][k]), (a / 2, 0.0))
+                                  (col["perceived_x_deg"][k], col["perceived_y_deg"][k]), (a / 2, 0.0), (-a / 2, 0.0))
         finally:
             runner.close()
     return path

@@ -272,16 +272,15 @@ def test_cli_small_study_writes_outputs(tmp_path):
 
     paths = RrdReader(str(out / "study.rrd")).store().schema().entity_paths()
     assert any("study/perceived" in p for p in paths) and any("flash/perceived" in p for p in paths)
-    # one frame per flash time on the sim_time line (offsets as the flash times), holding every trial's
-    # true and perceived position of that time
-    from test_recording import read  # tests/ is on sys.path under pytest's default import mode
+    # one frame per flash time on the flash_time timeline (ms re saccade onset), holding every trial's
+    # true and perceived position of that time; and one per trial on the trial timeline
+    from test_recording_readable import chunks  # tests/ is on sys.path under pytest's default import mode
 
-    rec = read(out / "study.rrd")
+    rec = chunks(out / "study.rrd")
     for name in ("/study/true", "/study/perceived"):
-        times = rec[name]["times_ms"]
-        assert np.allclose(np.diff(times), np.diff([-100, 0, 150])), times
-        assert [len(p) for p in rec[name]["cols"]["Points2D:positions"]] == [8, 8, 8]  # 24 trials / 3 times
-    assert np.asarray(rec["/study/true"]["cols"]["Points2D:positions"][0]).shape == (8, 2)
+        by_time = sorted((r["flash_time"], len(r["cols"]["Points2D:positions"])) for r in rec[name] if "flash_time" in r)
+        assert by_time == [(-100_000_000, 8), (0, 8), (150_000_000, 8)]  # ns; 24 trials / 3 times
+        assert sorted(r["trial"] for r in rec[name] if "trial" in r) == sorted(t["trial_id"].tolist())
 
 
 def test_quick_study_through_the_command_line(tmp_path):

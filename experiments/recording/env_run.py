@@ -16,6 +16,16 @@ def _angles_deg(z: complex) -> tuple[float, float]:
     return math.degrees(math.atan(z.real)), math.degrees(math.atan2(z.imag, math.hypot(1.0, z.real)))
 
 
+def _joined(traces: list) -> "models.EyeTrace":
+    """Consecutive ``EyeTrace`` pieces as one."""
+    import dataclasses
+
+    first = traces[0]
+    cat = {f.name: (None if getattr(first, f.name) is None else np.concatenate([getattr(t, f.name) for t in traces]))
+           for f in dataclasses.fields(first)}
+    return type(first)(**cat)
+
+
 def _choose_target(head, rng: np.random.Generator, previous: str | None) -> str | None:
     flashes = set(head.scene.flashes)
     names = [n for n in head.scene.objects if n not in flashes and n != previous]
@@ -115,6 +125,7 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                 preds = vision.predict_eyes(views, envs.REMAP_MODELS, R)
                 flash_ms = plan.onset_ms - int(flash_lead_ms) if head.scene.flashes else None
                 z_pre = head.eye_states()[0]
+                traces = []
                 head.start_saccade(plan)
                 rec.log_saccade(plan)
                 while head.time_ms < plan.end_ms:
@@ -129,12 +140,12 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                         zt = complex(z_pre.project(np.asarray(plan.intended_target)[None])[0])
                         zp = zt + math.exp(-shift_rings * grid.delta) * (zf - zt)
                         rec.log_flash(_angles_deg(zf), _angles_deg(zp), _angles_deg(zt))
-                    trace = head.step_ms(1, record=True)
-                    rec.log_eye_trace(trace)
+                    traces.append(head.step_ms(1, record=True))
                     rec.set_time_ms(head.time_ms)
                     rec.log_head(head)
-                trace = head.step_ms(int(fixation_ms), record=True)
-                rec.log_eye_trace(trace)
+                traces.append(head.step_ms(int(fixation_ms), record=True))
+                rec.log_eye_trace(_joined(traces))  # one batch per step: thousands of 1 ms batches load slowly
+                traces.clear()
                 rec.set_time_ms(head.time_ms)
                 rec.log_head(head)
                 frame, new_views = look()

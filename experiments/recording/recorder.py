@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import datetime
 import math
 import os
 import uuid
@@ -33,6 +34,8 @@ SCALAR_DECIMALS = 6
 #: The scene objects labelled in the 3-D view (the others -- markers, ruler, search items -- are drawn
 #: unlabelled: at the default camera their labels overlapped).
 LABELLED_OBJECTS = ("fixation", "target")
+#: How often a recording written to a file only is flushed into chunks (see ``Recorder``).
+FILE_FLUSH_TICK = datetime.timedelta(seconds=30)
 #: How far above (or below) its object a 3-D label is drawn (m).
 LABEL_OFFSET_M = 0.06
 #: Rows of black between the two hemispheres in ``cortex/map``.
@@ -89,11 +92,17 @@ class Recorder:
         self.gaze_length = float(gaze_length)
         self.image_plane_distance = float(image_plane_distance)
         rid = recording_id or str(uuid.uuid4())
-        self.rec = rr.RecordingStream(app_id, recording_id=rid)
+        streaming = spawn or connect is not None
+        # A file is read all at once: large chunks (a flush per 16 MiB or 30 s instead of Rerun's 2 MiB or
+        # 200 ms) make a recording of thousands of small logs open in seconds, not minutes. A viewer that
+        # is watching gets Rerun's default, low-latency batching.
+        batcher = None if streaming else rr.ChunkBatcherConfig(flush_tick=FILE_FLUSH_TICK, flush_num_bytes=16 * 2**20,
+                                                               flush_num_rows=2**20)
+        self.rec = rr.RecordingStream(app_id, recording_id=rid, batcher_config=batcher)
         if not log_time:  # no wall-clock timeline: the same data makes the same recording
             self.rec.set_log_time_enabled(False)
         self.rec.reset_time()  # Rerun keeps a thread's times per recording id: start from none
-        self._streaming = spawn or connect is not None
+        self._streaming = streaming
         if self.path is not None:
             os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
         if self._streaming:
@@ -348,21 +357,23 @@ class Recorder:
 
     # ------------------------------------------------------------------ flashes
     def log_flash(self, true_deg: Sequence[float], perceived_deg: Sequence[float],
-                  target_deg: Sequence[float] | None = None) -> None:
+                  target_deg: Sequence[float] | None = None, fixation_deg: Sequence[float] = (0.0, 0.0)) -> None:
         """A flash's true and perceived (azimuth_deg, elevation_deg), and optionally the saccade
-        target's, in one frame of visual angle (fixation at 0, 0); shown with up = up."""
-        pts = [np.asarray(x, float).reshape(2) for x in (true_deg, perceived_deg)]
+        target's, in one frame of visual angle with the fixation point at ``fixation_deg`` (static:
+        one per recording); shown with up = up."""
+        pts = [np.asarray(x, float).reshape(2) for x in (true_deg, perceived_deg, fixation_deg)]
         if target_deg is not None:
             pts.append(np.asarray(target_deg, float).reshape(2))
         if not all(np.all(np.isfinite(x)) for x in pts):
             raise ValueError("flash positions must be finite (azimuth_deg, elevation_deg)")
         flip = np.array([1.0, -1.0])
         t, p = pts[0], pts[1]
-        self.rec.log("flash/fixation", rr.Points2D([[0.0, 0.0]], radii=_DOT, colors=[[220, 220, 220]],
-                                                   labels=["fixation"]), static=True)
+        if "flash/fixation" not in self._grid_logged:
+            self.rec.log("flash/fixation", rr.Points2D([pts[2] * flip], radii=_DOT, colors=[[220, 220, 220]]),
+                         static=True)  # unlabelled (labels hid the flash): the panel's title names the colours
+            self._grid_logged.add("flash/fixation")
         if target_deg is not None:
-            self.rec.log("flash/target", rr.Points2D([pts[2] * flip], radii=_DOT, colors=[[255, 160, 0]],
-                                                     labels=["saccade target"]))
+            self.rec.log("flash/target", rr.Points2D([pts[3] * flip], radii=_DOT, colors=[[255, 160, 0]]))
         self.rec.log("flash/true", rr.Points2D([t * flip], radii=_DOT, colors=[[40, 200, 40]]))
         self.rec.log("flash/perceived", rr.Points2D([p * flip], radii=_DOT, colors=[[230, 40, 40]]))
         self.rec.log("flash/shift", rr.Arrows2D(vectors=[(p - t) * flip], origins=[t * flip],
