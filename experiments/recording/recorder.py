@@ -116,7 +116,7 @@ class Recorder:
             self.rec.save(self.path, default_blueprint=bp)
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.t_ms = 0.0
-        self._grid_logged: set[str] = set()
+        self._logged_once: set[str] = set()
         self._scenes: dict[int, tuple[Any, SceneGeometry]] = {}
         self._last: dict[str, np.ndarray] = {}
         self._closed = False
@@ -290,11 +290,11 @@ class Recorder:
             self.log_picture(f"eyes/{name}/image", pix, rng, "gain")
             self.log_eye_camera(name, eye.camera_position, eye.camera_xmat, img.shape[:2], eye.pixels_per_unit)
             self.log_picture(f"world/eyes/{name}/camera/image", pix, rng, "gain")
-            if name not in self._grid_logged:
+            if name not in self._logged_once:
                 strips = grid_strips(grid, img.shape[:2], eye.pixels_per_unit)
                 self.rec.log(f"eyes/{name}/grid", rr.LineStrips2D(strips, colors=[[0, 200, 200, 110]], radii=0.25),
                              static=True)
-                self._grid_logged.add(name)
+                self._logged_once.add(name)
             if tp is not None:
                 xy = np.stack([tp[i, :, 1] + 0.5, tp[i, :, 0] + 0.5], -1)
                 self.rec.log(f"eyes/{name}/target", rr.Points2D(xy, radii=2.5, colors=[[255, 40, 40]]))
@@ -318,9 +318,9 @@ class Recorder:
         gap = np.zeros((CORTEX_GAP,) + rh.shape[1:])
         pix, rng = gain_scaled(np.concatenate([rh, gap, lh]), "magma" if cortex is not None else "gray")
         self.log_picture("cortex/map", pix, rng, "gain")
-        if "cortex" not in self._grid_logged:
+        if "cortex" not in self._logged_once:
             self._log_cortex_labels(grid)
-            self._grid_logged.add("cortex")
+            self._logged_once.add("cortex")
 
     def log_flash_response(self, views, grid: C.RetinaGrid) -> None:
         """Each eye's log-polar response to a flash (flash minus no flash, >= 0), gain-scaled, magma."""
@@ -368,10 +368,10 @@ class Recorder:
             raise ValueError("flash positions must be finite (azimuth_deg, elevation_deg)")
         flip = np.array([1.0, -1.0])
         t, p = pts[0], pts[1]
-        if "flash/fixation" not in self._grid_logged:
+        if "flash/fixation" not in self._logged_once:
             self.rec.log("flash/fixation", rr.Points2D([pts[2] * flip], radii=_DOT, colors=[[220, 220, 220]]),
                          static=True)  # unlabelled (labels hid the flash): the panel's title names the colours
-            self._grid_logged.add("flash/fixation")
+            self._logged_once.add("flash/fixation")
         if target_deg is not None:
             self.rec.log("flash/target", rr.Points2D([pts[3] * flip], radii=_DOT, colors=[[255, 160, 0]]))
         self.rec.log("flash/true", rr.Points2D([t * flip], radii=_DOT, colors=[[40, 200, 40]]))
