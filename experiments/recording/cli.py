@@ -62,13 +62,75 @@ def _stopped(e: KeyboardInterrupt) -> int:
 
 
 def _run_visualize(args: argparse.Namespace) -> int:
+    _check_visualize(args)
+    return _with_viewer(args, "visualize", (), _visualize)
+
+
+def _run_view(args: argparse.Namespace) -> int:
+    return _with_viewer(args, "view", tuple(args.recordings), None)
+
+
+def _with_viewer(args: argparse.Namespace, name: str, recordings: tuple, work) -> int:
+    """Run a serving command: SIGTERM acts as Ctrl-C (``interruptible``), so that the ``finally``
+    stops the server however the command ends; serving until stopped is the normal end (exit 0)."""
     from ..folders import interruptible
 
-    with interruptible():  # SIGTERM as Ctrl-C: the finally below stops the server either way
-        return _visualize(args)
+    prog = f"python -m experiments {name}"
+    viewer = None
+    with interruptible():
+        try:
+            if name == "view" or args.serve:
+                try:
+                    viewer = WebViewer(args.web_port, args.grpc_port, recordings=recordings)
+                except (ValueError, FileNotFoundError) as e:
+                    args.parser.error(str(e))
+                except RuntimeError as e:
+                    print(f"{prog}: error: {e}", file=sys.stderr)
+                    return 1
+                until = ("Ctrl-C to stop)" if args.serve_seconds is None else
+                         f"for {args.serve_seconds} s{' after the run' if work else ''})")
+                print(f"Rerun web viewer: {viewer.url}", flush=True)
+                print(f"(serving {', '.join(recordings) + ' ' if recordings else ''}on {viewer.HOST} only, web port "
+                      f"{viewer.web_port}, gRPC port {viewer.grpc_port}; {until}", flush=True)
+            if work is not None:
+                work(args, viewer)
+            if viewer is not None:
+                try:
+                    viewer.wait(args.serve_seconds)
+                except KeyboardInterrupt:
+                    print("stopped serving", flush=True)
+                except RuntimeError as e:
+                    print(f"{prog}: error: {e}", file=sys.stderr)
+                    return 1
+        except KeyboardInterrupt as e:
+            print("interrupted", file=sys.stderr)
+            return _stopped(e)
+        finally:
+            if viewer is not None:
+                viewer.close()
+    return 0
 
 
-def _visualize(args: argparse.Namespace) -> int:
+def _visualize(args: argparse.Namespace, viewer: WebViewer | None) -> None:
+    """Record the run (to ``--out``, a native viewer and/or the web viewer) and print its summary."""
+    p = args.parser
+    try:
+        summary = record_env_run(args.out, steps=args.steps, seed=args.seed, task=args.task, scene=args.scene,
+                                 image_size=args.image_size, fixation_ms=args.fixation_ms, spawn=args.spawn,
+                                 connect=viewer.grpc_url if viewer is not None else None,
+                                 progress=not args.no_progress)
+    except (ValueError, FileNotFoundError, KeyError) as e:
+        p.error(str(e))
+    for i, s in enumerate(summary["saccades"]):
+        err = ", ".join(f"{m} {v:.3f}" for m, v in summary["remap_error"][i].items())
+        print(f"saccade {i + 1}: {s['amplitude_deg']:.1f} deg, peak {s['peak_velocity_deg_s']:.0f} deg/s, "
+              f"{s['duration_ms']:.0f} ms; remap error {err}")
+    where = " and ".join([w for w in (args.out, "the viewer" if args.spawn else None,
+                                      "the web viewer" if viewer is not None else None) if w])
+    print(f"recorded {summary['start_ms']:.0f}-{summary['end_ms']:.0f} ms of simulated time to {where}", flush=True)
+
+
+def _check_visualize(args: argparse.Namespace) -> None:
     p = args.parser
     if args.spawn and args.serve:
         p.error("give --spawn or --serve, not both")
@@ -78,83 +140,6 @@ def _visualize(args: argparse.Namespace) -> int:
         p.error(_no_display_message("--spawn"))
     if args.serve_seconds is not None and not args.serve:
         p.error("--serve-seconds needs --serve")
-    viewer = None
-    try:
-        if args.serve:
-            try:
-                viewer = WebViewer(args.web_port, args.grpc_port)
-            except (ValueError, FileNotFoundError) as e:
-                p.error(str(e))
-            except RuntimeError as e:
-                print(f"python -m experiments visualize: error: {e}", file=sys.stderr)
-                return 1
-            print(f"Rerun web viewer: {viewer.url}", flush=True)
-            print(f"(serving on {viewer.HOST} only, web port {viewer.web_port}, gRPC port {viewer.grpc_port}; "
-                  + ("Ctrl-C to stop)" if args.serve_seconds is None else f"for {args.serve_seconds} s after the run)"),
-                  flush=True)
-        try:
-            summary = record_env_run(args.out, steps=args.steps, seed=args.seed, task=args.task, scene=args.scene,
-                                     image_size=args.image_size, fixation_ms=args.fixation_ms, spawn=args.spawn,
-                                     connect=viewer.grpc_url if viewer is not None else None,
-                                     progress=not args.no_progress)
-        except (ValueError, FileNotFoundError, KeyError) as e:
-            p.error(str(e))
-        for i, s in enumerate(summary["saccades"]):
-            err = ", ".join(f"{m} {v:.3f}" for m, v in summary["remap_error"][i].items())
-            print(f"saccade {i + 1}: {s['amplitude_deg']:.1f} deg, peak {s['peak_velocity_deg_s']:.0f} deg/s, "
-                  f"{s['duration_ms']:.0f} ms; remap error {err}")
-        where = " and ".join([w for w in (args.out, "the viewer" if args.spawn else None,
-                                          "the web viewer" if viewer is not None else None) if w])
-        print(f"recorded {summary['start_ms']:.0f}-{summary['end_ms']:.0f} ms of simulated time to {where}", flush=True)
-        if viewer is not None:
-            try:
-                viewer.wait(args.serve_seconds)
-            except KeyboardInterrupt:
-                print("stopped serving", flush=True)
-            except RuntimeError as e:
-                print(f"python -m experiments visualize: error: {e}", file=sys.stderr)
-                return 1
-    except KeyboardInterrupt as e:
-        print("interrupted", file=sys.stderr)
-        return _stopped(e)
-    finally:
-        if viewer is not None:
-            viewer.close()
-    return 0
-
-
-def _run_view(args: argparse.Namespace) -> int:
-    from ..folders import interruptible
-
-    p = args.parser
-    viewer = None
-    with interruptible():
-        try:
-            try:
-                viewer = WebViewer(args.web_port, args.grpc_port, recordings=tuple(args.recordings))
-            except (ValueError, FileNotFoundError) as e:
-                p.error(str(e))
-            except RuntimeError as e:
-                print(f"python -m experiments view: error: {e}", file=sys.stderr)
-                return 1
-            print(f"Rerun web viewer: {viewer.url}", flush=True)
-            print(f"(serving {', '.join(args.recordings)} on {viewer.HOST} only, web port {viewer.web_port}, gRPC port "
-                  f"{viewer.grpc_port}; " + ("Ctrl-C to stop)" if args.serve_seconds is None
-                                              else f"for {args.serve_seconds} s)"), flush=True)
-            try:
-                viewer.wait(args.serve_seconds)
-            except KeyboardInterrupt:  # serving until Ctrl-C (or SIGTERM) is the normal end
-                print("stopped serving", flush=True)
-            except RuntimeError as e:
-                print(f"python -m experiments view: error: {e}", file=sys.stderr)
-                return 1
-        except KeyboardInterrupt as e:
-            print("interrupted", file=sys.stderr)
-            return _stopped(e)
-        finally:
-            if viewer is not None:
-                viewer.close()
-    return 0
 
 
 def _rrd_file(text: str) -> str:
@@ -168,20 +153,24 @@ def _rrd_file(text: str) -> str:
 
 
 def _add_view(subparsers) -> None:
-    b = OPTION_BOUNDS
     p = subparsers.add_parser(
         "view", help="open .rrd recordings in Rerun's web viewer on 127.0.0.1 (no display needed)",
         description="Serve .rrd recordings with Rerun's web viewer and gRPC proxy, bound to 127.0.0.1, and print "
                     "the address to open in a browser. Ctrl-C or SIGTERM stops the server: no process or port is "
                     "left behind (unlike stopping the 'rerun' Python wrapper, which leaves its server running).")
     p.add_argument("recordings", nargs="+", type=_rrd_file, metavar="FILE.rrd", help="recording(s) to open")
-    p.add_argument("--web-port", type=_whole(*b["web_port"]), default=9090,
-                   help="port of the web viewer on 127.0.0.1 (default 9090)")
-    p.add_argument("--grpc-port", type=_whole(*b["grpc_port"]), default=9876,
-                   help="port of the gRPC proxy the viewer reads from, on 127.0.0.1 (default 9876)")
-    p.add_argument("--serve-seconds", type=_whole(*b["serve_seconds"]), default=None, metavar="S",
-                   help="stop after S seconds (default: serve until Ctrl-C)")
+    _server_options(p, "", "stop after S seconds (default: serve until Ctrl-C)")
     p.set_defaults(func=_run_view, parser=p)
+
+
+def _server_options(p: argparse.ArgumentParser, prefix: str, seconds_help: str) -> None:
+    """``--serve-seconds``, ``--web-port``, ``--grpc-port`` (``prefix``: e.g. ``"with --serve: "``)."""
+    b = OPTION_BOUNDS
+    p.add_argument("--serve-seconds", type=_whole(*b["serve_seconds"]), default=None, metavar="S", help=seconds_help)
+    p.add_argument("--web-port", type=_whole(*b["web_port"]), default=9090,
+                   help=f"{prefix}port of the web viewer on 127.0.0.1 (default 9090)")
+    p.add_argument("--grpc-port", type=_whole(*b["grpc_port"]), default=9876,
+                   help=f"{prefix}port of the gRPC proxy the viewer reads from, on 127.0.0.1 (default 9876)")
 
 
 def add_subcommand(subparsers) -> None:
@@ -205,12 +194,8 @@ def _add_visualize(subparsers) -> None:
     p.add_argument("--serve", action="store_true",
                    help="host Rerun's web viewer on 127.0.0.1 (loopback only), stream the run to it, print the "
                         "address to open in a browser and keep serving until Ctrl-C (no display needed)")
-    p.add_argument("--serve-seconds", type=_whole(*b["serve_seconds"]), default=None, metavar="S",
-                   help="with --serve: stop S seconds after the run is recorded (default: serve until Ctrl-C)")
-    p.add_argument("--web-port", type=_whole(*b["web_port"]), default=9090,
-                   help="with --serve: port of the web viewer on 127.0.0.1 (default 9090)")
-    p.add_argument("--grpc-port", type=_whole(*b["grpc_port"]), default=9876,
-                   help="with --serve: port of the gRPC proxy the viewer reads from, on 127.0.0.1 (default 9876)")
+    _server_options(p, "with --serve: ",
+                    "with --serve: stop S seconds after the run is recorded (default: serve until Ctrl-C)")
     p.add_argument("--steps", type=_whole(*b["steps"]), default=4,
                    help=f"number of saccades (env steps) to record, {b['steps'][0]}..{b['steps'][1]} (default 4)")
     p.add_argument("--seed", type=_whole(*b["seed"]), default=0,
