@@ -13,13 +13,14 @@ import gymnasium as gym
 from .batched_env import BatchedBinocularSaccade
 from .display import compose_frame, grid_overlay
 from .saccade_env import BinocularSaccadeEnv
+from .shaping import PotentialShaping
 from .tasks import TASKS, FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors, gaze_errors_deg, make_task
 from .vision import REMAP_MODELS, EyeView, Vision, model_errors, normalized_error
 
 __all__ = [
     "BinocularSaccadeEnv", "BatchedBinocularSaccade", "Vision", "EyeView", "REMAP_MODELS", "normalized_error", "model_errors",
     "Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "make_task", "gaze_errors_deg", "gaze_errors",
-    "compose_frame", "grid_overlay", "ENV_IDS",
+    "compose_frame", "grid_overlay", "ENV_IDS", "PotentialShaping",
 ]
 
 ENV_IDS = ("BinocularSaccade-v0", "BinocularSaccadeSearch-v0")

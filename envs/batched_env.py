@@ -170,6 +170,7 @@ class BatchedBinocularSaccade(VectorEnv):
         self.device = self.physics.torch_device
         self.vision = TorchVision(env.vision, self.physics.torch_device)
         self.grid = env.vision.grid
+        self.max_amplitude = env.max_amplitude  #: radians: the saccade of a full-scale vector action (as the env's)
         m = env.head.model
         self._target_gid = m.geom("target").id if "target" in env.head.scene.objects else None
         self._cam_ids = torch.as_tensor(self.physics.cam_ids, device=self.device)

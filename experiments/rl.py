@@ -1,7 +1,11 @@
-"""``train`` and ``evaluate``: saccade agents on the cell-action ``BinocularSaccadeEnv``.
+"""``train`` and ``evaluate``: saccade agents on ``BinocularSaccadeEnv``.
 
-    python -m experiments train --task fixate --out DIR [--quick] [--seed S] [--iterations N ...]
-    python -m experiments evaluate --task fixate --policy DIR|random|heuristic --episodes N --seed S
+    python -m experiments train --algo cem|ppo|sac --task fixate|search --out DIR [--quick] [--seed S] ...
+    python -m experiments evaluate --task fixate --policy DIR|random|heuristic --episodes N --seed S [--stochastic]
+
+``--algo cem`` (default): the linear cell policy of :mod:`experiments.agents.cem`; ``ppo`` / ``sac``:
+Stable-Baselines3 with the hyper-parameters of ``experiments/hyperparams/<algo>.yml``
+(:mod:`experiments.agents.sb3`; needs the ``rl`` extra).
 """
 
 from __future__ import annotations
@@ -29,23 +33,32 @@ def add_subcommand(subparsers) -> None:
 
     d = CEMConfig()
     p = subparsers.add_parser(
-        "train", help="train a linear cell-map saccade policy with the cross-entropy method",
-        description="Train a linear softmax policy over the superior-colliculus cell map "
-                    "(action_mode='cell') with the noisy cross-entropy method. Writes policy.npz, "
+        "train", help="train a saccade agent: CEM linear cell policy (default), PPO or SAC",
+        description="--algo cem: a linear softmax policy over the superior-colliculus cell map "
+                    "(action_mode='cell') trained with the noisy cross-entropy method; writes policy.npz, "
                     "policy.json, training_log.csv (one row per iteration, written as it goes), "
-                    "baselines.json and learning_curve.png into --out.")
+                    "baselines.json and learning_curve.png into --out. --algo ppo|sac: Stable-Baselines3 "
+                    "with the wrap-around cortical convolution and the hyper-parameters of "
+                    "experiments/hyperparams/<algo>.yml; writes <algo>_<task>.zip, <algo>.json, "
+                    "training_log.csv (one row per evaluation, written as it goes) and learning_curve.png.")
+    p.add_argument("--algo", choices=("cem", "ppo", "sac"), default="cem", help="training algorithm (default: cem)")
     p.add_argument("--task", choices=TASKS, default="fixate", help="env task (default: fixate)")
     p.add_argument("--out", required=True, type=out_dir, help="output directory for the policy and logs")
     p.add_argument("--seed", type=_seed, default=0, help="random seed; the run is deterministic under it (default 0)")
     p.add_argument("--quick", action="store_true",
-                   help="a short run (5 iterations, 12 candidates x 4 episodes, 16 validation episodes; ~15 s)")
+                   help="a short run (cem: 5 iterations, 12 candidates x 4 episodes, 16 validation episodes, ~15 s; "
+                        "ppo/sac: 256 env steps, 4 validation episodes)")
+    p.add_argument("--timesteps", type=_positive, help="ppo/sac: env steps (default: the hyper-parameter file's n_timesteps)")
+    p.add_argument("--hyperparams", type=Path,
+                   help="ppo/sac: a YAML file of per-task hyper-parameters (default experiments/hyperparams/<algo>.yml)")
     p.add_argument("--iterations", type=_positive, help=f"CEM iterations (default {d.iterations})")
     p.add_argument("--population", type=_positive, help=f"candidates per iteration (default {d.population})")
     p.add_argument("--episodes", type=_positive, help=f"training episodes per candidate (default {d.episodes})")
     p.add_argument("--eval-episodes", type=_positive,
                    help=f"validation episodes per iteration and for the baselines (default {d.eval_episodes})")
-    p.add_argument("--image-size", type=_image_size, default=96,
-                   help="pixels per side of each eye's image (default 96; the ~1 deg target is often lost at 64)")
+    p.add_argument("--image-size", type=_image_size,
+                   help="pixels per side of each eye's image (default 96, or the hyper-parameter file's; the ~1 deg "
+                        "target is often lost at 64)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(func=train_command)
 
@@ -61,11 +74,15 @@ def add_subcommand(subparsers) -> None:
     e.add_argument("--seed", type=_seed, default=0, help="evaluation seed (default 0)")
     e.add_argument("--image-size", type=_image_size,
                    help="image size for random/heuristic (default 96); a saved policy uses its own")
+    e.add_argument("--stochastic", action="store_true",
+                   help="an SB3 policy samples its actions (seeded by --seed) instead of acting deterministically")
     e.add_argument("--no-progress", action="store_true", help="no progress bar (it goes to stderr; the JSON to stdout)")
     e.set_defaults(func=evaluate_command)
 
 
 def train_command(args: argparse.Namespace) -> int:
+    if args.algo != "cem":
+        return _train_sb3_command(args)
     from dataclasses import replace
 
     from .agents.cem import CEMConfig, train_cem
@@ -79,31 +96,82 @@ def train_command(args: argparse.Namespace) -> int:
     try:
         cfg.validate()
         policy, meta = train_cem(args.out, task=args.task, config=cfg, seed=args.seed,
-                                 env_kwargs={"image_size": args.image_size}, progress=not args.no_progress)
+                                 env_kwargs={"image_size": args.image_size or 96}, progress=not args.no_progress)
     except ValueError as err:
         print(f"train: error: {err}", file=sys.stderr)
         return 2
     png = plot_learning_curve(meta["curve"], meta["baselines"], Path(args.out) / "learning_curve.png",
-                              title=f"{args.task}: CEM, seed {args.seed}, {args.image_size} px")
+                              title=f"{args.task}: CEM, seed {args.seed}, {args.image_size or 96} px")
     last = meta["curve"][-1]
     print(json.dumps({"out": str(args.out), "iterations": last["iteration"], "success_rate": last["success_rate"],
                       "mean_reward": last["mean_reward"], "baselines": meta["baselines"], "figure": str(png)}))
     return 0
 
 
+def _train_sb3_command(args: argparse.Namespace) -> int:
+    """``train --algo ppo|sac``: :func:`experiments.agents.sb3.train_sb3` with the algorithm's YAML entry."""
+    cem_only = [o for o, a in (("--iterations", "iterations"), ("--population", "population"),
+                               ("--episodes", "episodes")) if getattr(args, a) is not None]
+    if cem_only:
+        print(f"train: error: {', '.join(cem_only)} apply to --algo cem only", file=sys.stderr)
+        return 2
+    try:
+        import stable_baselines3  # noqa: F401
+    except ImportError:
+        print("train: error: --algo ppo/sac needs the 'rl' extra: pip install -e '.[rl]' (CPU torch first)", file=sys.stderr)
+        return 2
+    from .agents.curve import plot_training_log
+    from .agents.hyperparams import load_hyperparams
+    from .agents.sb3 import train_sb3
+
+    try:
+        hp = load_hyperparams(args.algo, args.task, args.hyperparams)
+        if args.image_size:
+            hp["env_kwargs"] = {**hp.get("env_kwargs", {}), "image_size": args.image_size}
+        if args.eval_episodes:
+            hp["eval_episodes"] = args.eval_episodes
+        steps = args.timesteps
+        if args.quick:
+            steps = steps or 256
+            hp.update(eval_freq=128, eval_episodes=args.eval_episodes or 4)
+            if args.algo == "ppo":
+                hp.update(n_steps=64, batch_size=32)
+            else:
+                hp.update(learning_starts=64)
+        log = (lambda msg: None) if args.no_progress else (lambda msg: print(msg, file=sys.stderr, flush=True))
+        meta = train_sb3(args.out, args.algo, args.task, hp, seed=args.seed, timesteps=steps, log=log)
+    except (ValueError, FileNotFoundError) as err:
+        print(f"train: error: {err}", file=sys.stderr)
+        return 2
+    png = plot_training_log(Path(args.out) / "training_log.csv", Path(args.out) / "learning_curve.png",
+                            title=f"{args.task}: {args.algo.upper()} ({meta['policy']}), seed {args.seed}")
+    import csv
+
+    with open(Path(args.out) / "training_log.csv", newline="") as f:
+        last = list(csv.DictReader(f))[-1]
+    print(json.dumps({"out": str(args.out), "algo": args.algo, "env_steps": int(last["env_steps"]),
+                      "success_rate": float(last["success_rate"]), "mean_reward": float(last["mean_return"]),
+                      "wall_s": meta["wall_s"], "figure": str(png)}))
+    return 0
+
+
 def evaluate_command(args: argparse.Namespace) -> int:
     from .agents.policies import BrightestCellPolicy, RandomPolicy, load_policy
     from .agents.rollout import EVAL_STREAM, episode_seeds, evaluate, make_env
-    from .sb3_recipe import PPO_META
 
     env_kwargs: dict = {"image_size": args.image_size or 96}
     try:
+        sb3_folder = any((Path(args.policy) / f"{a}.json").exists() for a in ("ppo", "sac"))
+        if args.stochastic and not sb3_folder:
+            raise ValueError("--stochastic applies to a Stable-Baselines3 policy folder (train --algo ppo|sac); "
+                             "the random, heuristic and CEM policies have one behaviour")
         if args.policy in ("random", "heuristic"):
             policy = None
-        elif (Path(args.policy) / PPO_META).exists():  # a folder written by the SB3 recipe
-            from .sb3_recipe import load_sb3_policy
+        elif sb3_folder:
+            from .agents.sb3 import load_agent
 
-            policy = load_sb3_policy(args.policy)
+            policy = load_agent(args.policy, deterministic=not args.stochastic)
+            policy.seed(args.seed)
         else:
             policy = load_policy(args.policy)
         if policy is not None:
@@ -130,5 +198,6 @@ def evaluate_command(args: argparse.Namespace) -> int:
             return 2
     finally:
         env.close()
-    print(json.dumps({**res.as_dict(), "seed": args.seed, "policy": args.policy, "task": args.task}))
+    print(json.dumps({**res.as_dict(), "seed": args.seed, "policy": args.policy, "task": args.task,
+                      **({"deterministic": not args.stochastic} if sb3_folder else {})}))
     return 0

@@ -1,5 +1,9 @@
 """Stable-Baselines3 recipe: PPO with ``MultiInputPolicy`` on the cell-action saccade env.
 
+The flat-MLP baseline of the README's ablation: it does not learn ``fixate`` at these budgets. The
+agents that do are ``python -m experiments train --algo ppo|sac`` (:mod:`experiments.agents.sb3`: the
+wrap-around cortical convolution, the continuous saccade and potential-based shaping).
+
 Needs the optional ``rl`` extra (``stable-baselines3``, which needs torch; on Linux a plain
 ``pip install torch`` brings the CUDA build, several GB: on a CPU-only machine install PyTorch's
 CPU wheel first)::

@@ -18,10 +18,13 @@ a terminal step is the next episode's first; a truncation is reported to skrl as
 the saccade budget is not observed and the next observation belongs to the next episode). Observations ``cortical``, ``remapped``, ``fovea`` and
 ``eyes`` are flattened and concatenated on the device; the policy is a Gaussian MLP on the vector
 action (the saccade, scaled by ``max_amplitude_deg``), the value an MLP; both standardised by skrl's
-running scaler. PPO: Schulman et al. 2017.
+running scaler (``--policy mlp``, default); or ``--policy cortical``: the wrap-around convolution over the
+cortical map (:mod:`experiments.agents.extractors`), whose cell-logit map is the categorical over cells
+(``--action-mode cell``) or, through its soft-argmax, the mean saccade (``--action-mode vector``).
+PPO: Schulman et al. 2017.
 
 Writes ``learning_curve.csv`` (per rollout: env steps, finished episodes, their mean return and
-success rate), ``learning_curve.png``, ``agent.pt`` (skrl's checkpoint) and ``ppo.json`` (the run's
+success rate; a row appended after every rollout), ``learning_curve.png``, ``agent.pt`` (skrl's checkpoint) and ``ppo.json`` (the run's
 arguments).
 """
 
@@ -76,6 +79,8 @@ def DeviceVectorWrapper(env):
             self._returns = np.zeros(env.num_envs)
             self.env_steps = 0
             self.episodes: list[tuple[int, float, bool]] = []
+            self.curve_path: Path | None = None  # set (with per_rollout) to append a curve row per rollout
+            self.per_rollout = 1
 
         @property
         def observation_space(self):
@@ -102,7 +107,11 @@ def DeviceVectorWrapper(env):
             return self._flat(obs), info
 
         def step(self, actions):
-            obs, reward, terminated, truncated, info = self._env.step(actions.clamp(-1.0, 1.0))
+            if isinstance(self.action_space, gymnasium.spaces.Discrete):  # skrl's (N, 1) cell indices
+                actions = actions.view(-1).long()
+            else:
+                actions = actions.clamp(-1.0, 1.0)
+            obs, reward, terminated, truncated, info = self._env.step(actions)
             dev = self.device
             done = np.asarray(terminated) | np.asarray(truncated)
             self.env_steps += self._unwrapped.num_envs
@@ -110,6 +119,10 @@ def DeviceVectorWrapper(env):
             for i in np.flatnonzero(done):
                 self.episodes.append((self.env_steps, float(self._returns[i]), bool(info["final_info"]["success"][i])))
             self._returns[done] = 0.0
+            if self.curve_path is not None and self.env_steps % self.per_rollout == 0:  # a rollout ended: its row
+                rows = _curve(self.episodes, self.per_rollout, self.env_steps, start=self.env_steps - self.per_rollout)
+                with open(self.curve_path, "a", newline="") as f:
+                    csv.writer(f).writerows(rows)
             # The saccade budget is not in the observation, so a truncated episode is reported as terminated:
             # skrl would otherwise bootstrap its value from the next observation, which under the same-step
             # autoreset is already the next episode's first (a different, unrelated state).
@@ -127,6 +140,66 @@ def DeviceVectorWrapper(env):
             self._env.close()
 
     return _Wrapper(env)
+
+
+def _cortical_models(obs_space, act_space, device, single_obs_space, vectors, channels: tuple[int, ...]):
+    """Policy and value over the wrap-around cortical convolution (:class:`experiments.agents.extractors.
+    CorticalEncoder`): the policy's per-cell logit map is the categorical over cells (``Discrete``) or, through
+    its soft-argmax, the Gaussian's mean saccade (``Box``); the value reads the pooled features."""
+    import gymnasium
+    import torch
+    from torch import nn
+    from skrl.models.torch import CategoricalMixin, DeterministicMixin, GaussianMixin, Model
+
+    from experiments.agents.extractors import CorticalEncoder, SoftArgmaxSaccade
+
+    shapes = {k: tuple(single_obs_space[k].shape) for k in OBS_KEYS}
+    sizes = [int(np.prod(shapes[k])) for k in OBS_KEYS]
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+
+    def unflatten(x: torch.Tensor) -> dict[str, torch.Tensor]:
+        return {k: x[:, offsets[i]:offsets[i + 1]].reshape(-1, *shapes[k]) for i, k in enumerate(OBS_KEYS)}
+
+    def encoder() -> CorticalEncoder:
+        return CorticalEncoder(shapes["cortical"], shapes["fovea"], sizes[OBS_KEYS.index("eyes")], channels)
+
+    discrete = isinstance(act_space, gymnasium.spaces.Discrete)
+
+    class CellPolicy(CategoricalMixin, Model):
+        def __init__(self):
+            Model.__init__(self, observation_space=obs_space, action_space=act_space, device=device)
+            CategoricalMixin.__init__(self, unnormalized_log_prob=True)
+            self.enc = encoder()
+            with torch.no_grad():
+                self.enc.logit.weight.mul_(0.01)
+
+        def compute(self, inputs, role=""):
+            return self.enc(unflatten(inputs["observations"]))[0], {}
+
+    class SaccadePolicy(GaussianMixin, Model):
+        def __init__(self):
+            Model.__init__(self, observation_space=obs_space, action_space=act_space, device=device)
+            GaussianMixin.__init__(self, clip_actions=True, clip_log_std=True, min_log_std=-5, max_log_std=1)
+            self.enc = encoder()
+            self.saccade = SoftArgmaxSaccade(vectors)
+            self.log_std = nn.Parameter(torch.full((act_space.shape[0],), -1.0))
+            with torch.no_grad():
+                self.enc.logit.weight.mul_(0.01)
+
+        def compute(self, inputs, role=""):
+            return self.saccade(self.enc(unflatten(inputs["observations"]))[0]), {"log_std": self.log_std}
+
+    class Value(DeterministicMixin, Model):
+        def __init__(self):
+            Model.__init__(self, observation_space=obs_space, action_space=act_space, device=device)
+            DeterministicMixin.__init__(self)
+            self.enc = encoder()
+            self.net = nn.Sequential(nn.Linear(self.enc.global_dim, 64), nn.Tanh(), nn.Linear(64, 1))
+
+        def compute(self, inputs, role=""):
+            return self.net(self.enc(unflatten(inputs["observations"]))[1]), {}
+
+    return (CellPolicy() if discrete else SaccadePolicy()), Value()
 
 
 def _models(obs_space, act_space, device, hidden: int):
@@ -161,8 +234,19 @@ def _models(obs_space, act_space, device, hidden: int):
 
 
 def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps: int, image_size: int,
-          rollouts: int, hidden: int, seed: int, log=print) -> dict[str, Any]:
-    """Train PPO for ``timesteps`` batched steps (each ``num_envs`` env steps); returns the summary."""
+          rollouts: int, hidden: int, seed: int, policy: str = "mlp", action_mode: str = "vector",
+          channels: tuple[int, ...] = (16, 16), log=print) -> dict[str, Any]:
+    """Train PPO for ``timesteps`` batched steps (each ``num_envs`` env steps); returns the summary.
+    ``policy="mlp"``: MLPs on the flattened, standardised observation (``action_mode`` must be
+    "vector"); ``"cortical"``: the wrap-around cortical convolution (:func:`_cortical_models`), with
+    ``action_mode`` "cell" or "vector". The curve CSV is appended after every rollout as it goes."""
+    if policy not in ("mlp", "cortical"):
+        raise ValueError(f"policy must be 'mlp' or 'cortical'; got {policy!r}")
+    if action_mode not in ("vector", "cell"):
+        raise ValueError(f"action_mode must be 'vector' or 'cell'; got {action_mode!r}")
+    if policy == "mlp" and action_mode != "vector":
+        raise ValueError("the mlp policy is a Gaussian over the vector saccade: use action_mode='vector' "
+                         "or policy='cortical' for cell actions")
     _require()
     import torch
     from skrl.agents.torch.ppo import PPO, PPO_CFG
@@ -175,37 +259,46 @@ def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps:
 
     set_seed(seed)
     env = envs.BatchedBinocularSaccade(num_envs, device=device, task=task, image_size=image_size,
-                                       autoreset_mode="same_step", output="torch")
+                                       autoreset_mode="same_step", output="torch", action_mode=action_mode)
     env.reset(seed=seed)
     wrapped = DeviceVectorWrapper(env)
     dev = wrapped.device
-    policy, value = _models(wrapped.observation_space, wrapped.action_space, dev, hidden)
+    if policy == "cortical":
+        from experiments.agents.extractors import cell_saccade_vectors
+
+        vectors = cell_saccade_vectors(env.grid.points, env.max_amplitude)
+        policy_m, value = _cortical_models(wrapped.observation_space, wrapped.action_space, dev,
+                                           env.single_observation_space, vectors, tuple(channels))
+        pre = {}  # the convolution reads the intensities in [0, 1] as they are
+    else:
+        policy_m, value = _models(wrapped.observation_space, wrapped.action_space, dev, hidden)
+        pre = {"observation_preprocessor": RunningStandardScaler,
+               "observation_preprocessor_kwargs": {"size": wrapped.observation_space, "device": dev}}
     cfg = PPO_CFG(rollouts=rollouts, learning_epochs=4, mini_batches=max(1, min(4, rollouts * num_envs // 64)),
-                  learning_rate=3e-4, discount_factor=0.95, entropy_loss_scale=0.0,
-                  observation_preprocessor=RunningStandardScaler,
-                  observation_preprocessor_kwargs={"size": wrapped.observation_space, "device": dev},
+                  learning_rate=3e-4 if policy == "mlp" else 1e-3, discount_factor=0.95,
+                  entropy_loss_scale=0.0 if policy == "mlp" else 0.01, **pre,
                   value_preprocessor=RunningStandardScaler, value_preprocessor_kwargs={"size": 1, "device": dev})
     cfg.experiment.directory = str(out)
     cfg.experiment.experiment_name = "skrl"
     cfg.experiment.write_interval = 0
     cfg.experiment.checkpoint_interval = 0
     memory = RandomMemory(memory_size=rollouts, num_envs=num_envs, device=dev)
-    agent = PPO(models={"policy": policy, "value": value}, memory=memory, observation_space=wrapped.observation_space,
+    agent = PPO(models={"policy": policy_m, "value": value}, memory=memory, observation_space=wrapped.observation_space,
                 action_space=wrapped.action_space, device=dev, cfg=cfg)
     trainer = SequentialTrainer(env=wrapped, agents=agent,
                                 cfg={"timesteps": timesteps, "headless": True, "disable_progressbar": True,
                                      "close_environment_at_exit": False})
+    with open(out / "learning_curve.csv", "w", newline="") as f:
+        csv.writer(f).writerow(["env_steps", "episodes", "mean_return", "success_rate"])
+    wrapped.curve_path, wrapped.per_rollout = out / "learning_curve.csv", rollouts * num_envs
     t0 = time.perf_counter()
     trainer.train()
     wall = time.perf_counter() - t0
     rows = _curve(wrapped.episodes, rollouts * num_envs, timesteps * num_envs)
-    with open(out / "learning_curve.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["env_steps", "episodes", "mean_return", "success_rate"])
-        w.writerows(rows)
     _plot(rows, out / "learning_curve.png", f"PPO (skrl) on {task}, {num_envs} worlds, {env.device}")
     agent.save(str(out / "agent.pt"))
-    summary = {"device": str(env.device), "num_envs": num_envs, "task": task, "timesteps": timesteps,
+    summary = {"device": str(env.device), "num_envs": num_envs, "task": task, "policy": policy,
+               "action_mode": action_mode, "timesteps": timesteps,
                "env_steps": timesteps * num_envs, "image_size": image_size, "rollouts": rollouts, "hidden": hidden,
                "seed": seed, "wall_s": round(wall, 1), "env_steps_per_s": round(timesteps * num_envs / wall, 1),
                "episodes": len(wrapped.episodes)}
@@ -216,10 +309,10 @@ def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps:
     return summary
 
 
-def _curve(episodes, per_rollout: int, total: int) -> list[tuple[int, int, float, float]]:
+def _curve(episodes, per_rollout: int, total: int, start: int = 0) -> list[tuple[int, int, float, float]]:
     """Per rollout: (env steps at its end, episodes finished in it, their mean return, success rate)."""
     rows = []
-    for end in range(per_rollout, total + 1, per_rollout):
+    for end in range(start + per_rollout, total + 1, per_rollout):
         eps = [e for e in episodes if end - per_rollout < e[0] <= end]
         if eps:
             rows.append((end, len(eps), float(np.mean([e[1] for e in eps])), float(np.mean([e[2] for e in eps]))))
@@ -256,12 +349,19 @@ def main(argv=None) -> int:
     ap.add_argument("--rollouts", type=int_in(1, 4096), default=8, help="batched steps per PPO update")
     ap.add_argument("--hidden", type=int_in(8, 4096), default=256)
     ap.add_argument("--seed", type=int_in(0, 2**31 - 1), default=0)
+    ap.add_argument("--policy", choices=("mlp", "cortical"), default="mlp",
+                    help="mlp: MLPs on the flattened observation; cortical: the wrap-around cortical convolution")
+    ap.add_argument("--action-mode", choices=("vector", "cell"), default="vector",
+                    help="vector: the Box saccade; cell: a retina cell index (needs --policy cortical)")
     args = ap.parse_args(argv)
     if args.timesteps < args.rollouts:
         ap.error(f"--timesteps ({args.timesteps}) must be at least --rollouts ({args.rollouts}): PPO updates once per rollout")
+    if args.policy == "mlp" and args.action_mode == "cell":
+        ap.error("--action-mode cell needs --policy cortical (the mlp policy is a Gaussian over the vector saccade)")
     args.out.mkdir(parents=True, exist_ok=True)
     s = train(out=args.out, device=args.device, num_envs=args.num_envs, task=args.task, timesteps=args.timesteps,
-              image_size=args.image_size, rollouts=args.rollouts, hidden=args.hidden, seed=args.seed)
+              image_size=args.image_size, rollouts=args.rollouts, hidden=args.hidden, seed=args.seed,
+              policy=args.policy, action_mode=args.action_mode)
     print(f"{s['env_steps']} env steps in {s['wall_s']} s ({s['env_steps_per_s']} env-steps/s) on {s['device']}; "
           f"wrote {args.out}/learning_curve.csv, learning_curve.png, agent.pt, ppo.json")
     return 0

@@ -59,6 +59,15 @@ SLOW = {
     "test_rl.py::test_cli_bad_options_fail_clearly",  # 4 s
     "test_rl.py::test_sb3_recipe_prints_progress_and_evaluate_loads_it",  # 42 s
     "test_rl.py::test_sb3_recipe_runs",  # 2 s
+    "test_rl.py::test_train_recipe_runs_a_few_hundred_steps_and_evaluates",  # PPO and SAC, 256 steps each
+    "test_rl.py::test_wrap_conv_is_equivariant_to_sector_rolls_and_wraps",  # torch's first import
+    "test_rl.py::test_iqm_and_bootstrap_match_a_direct_computation",  # scipy's first import
+    "test_rl.py::test_potential_shaping_telescopes",  # two envs
+    "test_rl.py::test_train_sb3_cli_refuses_bad_combinations",  # 4 s
+    "test_rl.py::test_cell_head_policy_is_the_cell_map",  # SB3's first import
+    "test_rl.py::test_gymnasium_wrappers_compose_with_shaping",
+    "test_rl.py::test_aggregate_runs_writes_the_iqm_table_and_curves",  # matplotlib
+    "test_rl.py::test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu",  # ~25 s: Warp on the CPU backend
     "test_rl.py::test_short_training_beats_random_by_a_clear_margin",  # 15 s
     "test_rl.py::test_train_and_evaluate_commands_end_to_end",  # 3 s
     # the users of module fixtures that simulate for 5-20 s (a trained policy, study tables, a recorded run)

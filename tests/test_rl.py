@@ -297,3 +297,285 @@ def test_sb3_recipe_prints_progress_and_evaluate_loads_it(tmp_path):
     e = subprocess.run([sys.executable, "-m", "experiments", "evaluate", "--task", "search", "--policy", str(out),
                         "--episodes", "1"], capture_output=True, text=True, timeout=300)
     assert e.returncode == 2 and "trained on task 'fixate'" in e.stderr
+
+
+# -- issue 26: shaping, wrappers, the wrap-around cortical convolution, IQM/bootstrap, PPO/SAC recipes -------
+def _small_env(**kw):
+    import envs
+
+    return envs.BinocularSaccadeEnv(image_size=32, fixation_ms=10, remap_models=("homography",), **kw)
+
+
+@pytest.mark.parametrize("tolerance", [2.0, 45.0])
+def test_potential_shaping_telescopes(tolerance):
+    """Sum_t gamma^t r'_t = sum_t gamma^t r_t + gamma^T Phi(s_T) - Phi(s_0), with Phi(s_T) = 0 on a
+    termination (Ng et al. 1999); the task's reward and success are unchanged. tolerance 2 deg:
+    random saccades truncate after 5; 45 deg: the first saccade terminates."""
+    import envs
+
+    gamma = 0.9
+    env = envs.PotentialShaping(_small_env(task_kwargs={"tolerance_deg": tolerance}), gamma=gamma, scale_deg=10.0)
+    try:
+        env.reset(seed=3)
+        phi0 = env.potential()
+        assert phi0 < 0
+        rng = np.random.default_rng(0)
+        shaped = unshaped = 0.0
+        t, done = 0, False
+        while not done:
+            _, r, term, trunc, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+            assert r == pytest.approx(info["reward_task"] + info["reward_shaping"])
+            assert info["reward_task"] == pytest.approx(info["reward_target"] + info["reward_saccade"])
+            shaped += gamma ** t * r
+            unshaped += gamma ** t * info["reward_task"]
+            t += 1
+            done = term or trunc
+        phi_T = 0.0 if term else -info["target_error_deg"] / 10.0
+        assert term == (tolerance == 45.0) and t == (1 if term else 5)
+        assert shaped == pytest.approx(unshaped + gamma ** t * phi_T - phi0, abs=1e-9)
+    finally:
+        env.close()
+
+
+def test_potential_shaping_rejects_bad_arguments():
+    import envs
+
+    env = _small_env()
+    try:
+        for kw, msg in (({"gamma": 0.0}, "gamma"), ({"gamma": float("nan")}, "gamma"), ({"scale_deg": -1.0}, "scale_deg")):
+            with pytest.raises(ValueError, match=msg):
+                envs.PotentialShaping(env, **kw)
+        with pytest.raises(RuntimeError, match="reset"):
+            envs.PotentialShaping(env).step(np.zeros(2, np.float32))
+    finally:
+        env.close()
+    with pytest.raises(TypeError, match="env"):
+        envs.PotentialShaping(object())
+    free = _small_env(task="free", scene="dots")
+    try:
+        with pytest.raises(ValueError, match="free"):
+            envs.PotentialShaping(free)
+    finally:
+        free.close()
+
+
+def test_gymnasium_wrappers_compose_with_shaping():
+    """gymnasium.make (TimeLimit) + PotentialShaping + FilterObservation + FlattenObservation +
+    NormalizeObservation + FrameStackObservation: one truncation at the budget, shapes as stacked."""
+    import gymnasium as gym
+    from gymnasium.wrappers import (FilterObservation, FlattenObservation, FrameStackObservation,
+                                    NormalizeObservation)
+
+    import envs
+
+    env = gym.make("BinocularSaccade-v0", image_size=32, fixation_ms=10, remap_models=("homography",))
+    env = FrameStackObservation(NormalizeObservation(FlattenObservation(FilterObservation(
+        envs.PotentialShaping(env, gamma=0.95), ["cortical", "eyes"]))), 2)
+    try:
+        obs, _ = env.reset(seed=1)
+        d = env.observation_space.shape
+        assert obs.shape == d and d[0] == 2 and np.all(np.isfinite(obs))
+        steps, trunc, term = 0, False, False
+        while not (trunc or term):
+            obs, r, term, trunc, info = env.step(np.array([0.01, 0.0], np.float32))
+            steps += 1
+            assert "reward_shaping" in info and obs.shape == d
+        assert trunc and steps == 5
+    finally:
+        env.close()
+
+
+def test_wrap_conv_is_equivariant_to_sector_rolls_and_wraps():
+    import torch
+
+    from experiments.agents.extractors import CorticalEncoder, WrapConv2d
+
+    torch.manual_seed(0)
+    conv = WrapConv2d(3, 4, 3)
+    x = torch.rand(2, 3, 5, 9)
+    for s in (1, 4, -2):
+        torch.testing.assert_close(conv(torch.roll(x, s, dims=3)), torch.roll(conv(x), s, dims=3))
+    # it wraps: an impulse in sector 0 reaches sector N-1 (a zero-padded conv would not see it there)
+    imp = torch.zeros(1, 3, 5, 9)
+    imp[0, :, 2, 0] = 1.0
+    bias = conv.conv.bias.view(1, -1, 1, 1)
+    resp = (conv(imp) - bias).abs().sum(dim=(0, 1))
+    assert resp[2, 8] > 0 and resp[2, 1] > 0 and resp[2, 4] == 0
+    assert resp[0, 0] == 0  # rings do not wrap
+    with pytest.raises(ValueError, match="kernel_size"):
+        WrapConv2d(3, 4, 2)
+    # the whole encoder (raw + ring-contrast input, convolutions, logit map) is equivariant too
+    enc = CorticalEncoder((2, 5, 9, 3), (2, 7, 3), 6, (8, 8))
+    obs = {"cortical": torch.rand(3, 2, 5, 9, 3), "fovea": torch.rand(3, 2, 7, 3), "eyes": torch.rand(3, 2, 3)}
+    logits, glob = enc(obs)
+    rolled = {**obs, "cortical": torch.roll(obs["cortical"], 3, dims=3)}
+    l2, g2 = enc(rolled)
+    torch.testing.assert_close(l2.view(3, 5, 9), torch.roll(logits.view(3, 5, 9), 3, dims=2))
+    torch.testing.assert_close(g2, glob)  # pooled features: invariant
+
+
+def test_soft_argmax_saccade_reaches_the_cell():
+    import torch
+
+    from experiments.agents.extractors import SoftArgmaxSaccade, cell_saccade_vectors
+
+    pts = np.array([[0.3 + 0j, 0.5j], [-0.2 + 0.1j, 3.0 + 0j]])
+    v = cell_saccade_vectors(pts, np.radians(30))
+    assert v.shape == (4, 2) and np.abs(v).max() <= 1.0
+    np.testing.assert_allclose(v[0], [np.arctan(0.3) / np.radians(30), 0.0], rtol=1e-6)
+    assert v[3, 0] == 1.0  # arctan(3) = 71.6 deg: clipped to the action range
+    logits = torch.full((1, 4), -50.0)
+    logits[0, 2] = 50.0
+    torch.testing.assert_close(SoftArgmaxSaccade(v)(logits)[0], torch.as_tensor(v[2]))
+    torch.testing.assert_close(SoftArgmaxSaccade(v, atanh=True)(logits)[0], torch.atanh(torch.as_tensor(v[2])))
+    torch.testing.assert_close(SoftArgmaxSaccade(v)(torch.zeros(1, 4))[0], torch.as_tensor(v.mean(axis=0)))
+
+
+def test_iqm_and_bootstrap_match_a_direct_computation():
+    from experiments.agents.stats import bootstrap_ci, iqm, summarize_runs
+
+    x = np.array([0.9, 0.1, 0.5, 0.7, 0.3, 0.8, 0.2, 0.6])
+    assert iqm(x) == pytest.approx(np.mean(np.sort(x)[2:6]))  # the middle 50 %
+    assert iqm([0.2, 0.4, 0.9]) == pytest.approx(0.5)  # 3 runs: nothing trimmed
+    lo, hi = bootstrap_ci(x, iqm, reps=500, seed=7)
+    rng = np.random.default_rng(7)
+    idx = rng.integers(0, x.size, size=(500, x.size))
+    direct = np.quantile([np.mean(np.sort(x[i])[2:6]) for i in idx], [0.025, 0.975])
+    assert (lo, hi) == pytest.approx(tuple(direct))
+    assert lo <= iqm(x) <= hi
+    assert bootstrap_ci([0.7, 0.7, 0.7]) == pytest.approx((0.7, 0.7))
+    s = summarize_runs([0.8, 0.9, 1.0], reps=200)
+    assert s["runs"] == 3 and s["iqm"] == pytest.approx(0.9) and s["ci_low"] <= 0.9 <= s["ci_high"]
+    for bad in ([], [np.nan, 1.0]):
+        with pytest.raises(ValueError, match="scores"):
+            iqm(bad)
+    with pytest.raises(ValueError, match="confidence"):
+        bootstrap_ci(x, confidence=1.5)
+
+
+def test_hyperparameter_files_hold_every_task():
+    from experiments.agents.hyperparams import load_hyperparams
+
+    for algo in ("ppo", "sac"):
+        for task in ("fixate", "search"):
+            hp = load_hyperparams(algo, task)
+            assert hp["n_timesteps"] > 0 and hp["policy"].startswith("cortical")
+            assert hp["env_kwargs"]["action_mode"] == "vector"  # the Box saccade (README ablation)
+            assert hp["shaping"]["enabled"] is True
+    with pytest.raises(ValueError, match="no entry for task"):
+        load_hyperparams("ppo", "dance")
+    with pytest.raises(FileNotFoundError, match="algo"):
+        load_hyperparams("dqn", "fixate")
+
+
+_needs_sb3 = pytest.mark.skipif(importlib.util.find_spec("stable_baselines3") is None,
+                                reason="needs the optional 'rl' extra (stable-baselines3 + CPU torch)")
+
+
+@_needs_sb3
+def test_cell_head_policy_is_the_cell_map():
+    """PPO's cell head: the action distribution's logits are the encoder's logit map, so rolling the
+    cortical input along the sectors rolls the action probabilities over the cells."""
+    import torch
+    from gymnasium import spaces
+
+    from experiments.agents.sb3 import CorticalActorCritic
+
+    M, N = 4, 8
+    obs_space = spaces.Dict({"cortical": spaces.Box(0, 1, (2, M, N, 3), np.float32),
+                             "eyes": spaces.Box(-np.pi, np.pi, (2, 3), np.float32)})
+    pol = CorticalActorCritic(obs_space, spaces.Discrete(M * N), lambda _: 1e-3, channels=(8,))
+    with torch.no_grad():
+        pol.features_extractor.encoder.logit.weight.mul_(300.0)  # undo the near-uniform initialisation
+        obs = {"cortical": torch.rand(1, 2, M, N, 3), "eyes": torch.zeros(1, 2, 3)}
+        p = pol.get_distribution(obs).distribution.probs.view(M, N)
+        p2 = pol.get_distribution({**obs, "cortical": torch.roll(obs["cortical"], 2, dims=3)}).distribution.probs.view(M, N)
+    torch.testing.assert_close(p2, torch.roll(p, 2, dims=1))
+    assert p.max() > 2.0 / (M * N)  # not uniform
+    with pytest.raises(ValueError, match="head"):
+        CorticalActorCritic(obs_space, spaces.Discrete(M * N), lambda _: 1e-3, head="wide")
+    with pytest.raises(ValueError, match="saccade_vectors"):
+        CorticalActorCritic(obs_space, spaces.Box(-1, 1, (2,)), lambda _: 1e-3)
+
+
+@_needs_sb3
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_train_recipe_runs_a_few_hundred_steps_and_evaluates(algo, tmp_path, capsys):
+    """``train --algo ppo|sac --quick`` (256 env steps at 48 px) writes the model, the metadata and a log
+    row per evaluation (appended as it goes); ``evaluate`` reloads it and gives the same numbers twice,
+    deterministic and (seeded) stochastic."""
+    from experiments.__main__ import main
+
+    out = tmp_path / algo
+    assert main(["train", "--algo", algo, "--task", "fixate", "--out", str(out), "--quick", "--image-size", "48",
+                 "--seed", "3", "--no-progress"]) == 0
+    line = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert line["algo"] == algo and line["env_steps"] >= 256
+    rows = (out / "training_log.csv").read_text().strip().splitlines()
+    steps = [int(r.split(",")[0]) for r in rows[1:]]
+    assert steps[0] == 0 and steps == sorted(steps) and steps[-1] >= 256 and len(steps) >= 3
+    meta = json.loads((out / f"{algo}.json").read_text())
+    assert meta["env_kwargs"]["action_mode"] == "vector" and meta["shaping"]["enabled"] is True
+    res = []
+    for flags in ([], [], ["--stochastic"], ["--stochastic"]):
+        assert main(["evaluate", "--task", "fixate", "--policy", str(out), "--episodes", "3", "--seed", "2",
+                     "--no-progress", *flags]) == 0
+        res.append(json.loads(capsys.readouterr().out.strip()))
+    assert res[0] == res[1] and res[2] == res[3]
+    assert res[0]["deterministic"] is True and res[2]["deterministic"] is False
+    assert 0.0 <= res[0]["success_rate"] <= 1.0 and res[0]["episodes"] == 3
+
+
+@_needs_sb3
+def test_train_sb3_cli_refuses_bad_combinations(tmp_path, capsys):
+    from experiments.__main__ import main
+
+    assert main(["train", "--algo", "ppo", "--out", str(tmp_path / "a"), "--iterations", "3"]) == 2
+    assert "--iterations apply to --algo cem only" in capsys.readouterr().err
+    bad = tmp_path / "hp.yml"
+    bad.write_text("fixate: [1, 2\n")
+    assert main(["train", "--algo", "ppo", "--out", str(tmp_path / "b"), "--hyperparams", str(bad)]) == 2
+    assert "not valid YAML" in capsys.readouterr().err
+    bad.write_text("fixate: {policy: transformer}\n")
+    assert main(["train", "--algo", "ppo", "--out", str(tmp_path / "c"), "--hyperparams", str(bad), "--quick"]) == 2
+    assert "policy must be one of" in capsys.readouterr().err
+    assert main(["evaluate", "--policy", "heuristic", "--episodes", "1", "--stochastic"]) == 2
+    assert "--stochastic applies to a Stable-Baselines3" in capsys.readouterr().err
+
+
+def test_aggregate_runs_writes_the_iqm_table_and_curves(tmp_path):
+    from experiments.agents.report import aggregate_runs
+    from experiments.agents.stats import iqm
+
+    dirs = []
+    for i, final in enumerate((0.6, 0.8, 0.9)):
+        d = tmp_path / f"s{i}"
+        d.mkdir()
+        (d / "training_log.csv").write_text("env_steps,success_rate,mean_return\n0,0.0,-0.2\n"
+                                            f"100,{final / 2},0.1\n200,{final},0.5\n")
+        dirs.append(d)
+    rows = aggregate_runs({"ppo": dirs}, {"ppo": [0.6, 0.8, 0.9]}, {"heuristic": {"success_rate": 0.88}}, tmp_path / "t.csv",
+                          tmp_path / "f.png", title="t")
+    assert rows[0]["agent"] == "ppo" and rows[0]["iqm"] == pytest.approx(iqm([0.6, 0.8, 0.9]), abs=1e-4)
+    assert rows[0]["ci_low"] <= rows[0]["iqm"] <= rows[0]["ci_high"] and rows[1]["agent"] == "heuristic"
+    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "t.csv").read_text().splitlines()[0].startswith("agent,iqm,ci_low,ci_high")
+
+
+@pytest.mark.skipif(any(importlib.util.find_spec(m) is None for m in ("skrl", "mujoco_warp", "warp")),
+                    reason="needs the gpu extra (skrl, mujoco-warp) for the batched engine's learner")
+def test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu(tmp_path):
+    """The batched engine's learner with the wrap-around cortical encoder and cell actions: two PPO
+    updates on 2 worlds (CPU backend), its summary names the policy, and the curve CSV is written
+    (a header at the start, rows appended per rollout)."""
+    from experiments import skrl_recipe
+
+    out = tmp_path / "skrl"
+    assert skrl_recipe.main(["--out", str(out), "--device", "cpu", "--num-envs", "2", "--timesteps", "4",
+                             "--rollouts", "2", "--image-size", "32", "--policy", "cortical",
+                             "--action-mode", "cell"]) == 0
+    summary = json.loads((out / "ppo.json").read_text())
+    assert summary["policy"] == "cortical" and summary["action_mode"] == "cell" and summary["env_steps"] == 8
+    assert (out / "learning_curve.csv").read_text().splitlines()[0] == "env_steps,episodes,mean_return,success_rate"
+    with pytest.raises(SystemExit):  # cell actions need the cortical policy
+        skrl_recipe.main(["--out", str(tmp_path / "x"), "--action-mode", "cell", "--timesteps", "8"])

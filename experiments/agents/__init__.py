@@ -1,20 +1,28 @@
-"""Saccade agents over the superior-colliculus cell map, without deep-learning dependencies.
+"""Saccade agents over the superior-colliculus cell map and the cortical map.
 
 - ``policies``: :class:`RandomPolicy`, :class:`BrightestCellPolicy` (heuristic),
   :class:`LinearCellPolicy` (softmax over cells, logits w . phi(obs, cell)), :func:`load_policy`.
 - ``rollout``: :func:`make_env`, :func:`evaluate`, :func:`episode_seeds`.
 - ``cem``: :func:`train_cem` (noisy cross-entropy method) with :class:`CEMConfig`.
-- ``curve``: :func:`plot_learning_curve`.
+- ``curve``: :func:`plot_learning_curve`, :func:`plot_training_log`, :func:`plot_runs`.
+- ``stats``: :func:`iqm`, :func:`bootstrap_ci`, :func:`summarize_runs` (Agarwal et al. 2021).
+- ``extractors`` (torch): :class:`WrapConv2d`, :class:`CorticalEncoder`, :class:`SoftArgmaxSaccade`.
+- ``sb3`` (the ``rl`` extra): PPO / SAC policies over the cortical map and :func:`train_sb3`;
+  ``hyperparams``: :func:`load_hyperparams` (``experiments/hyperparams/*.yml``); ``report``:
+  :func:`aggregate_runs`.
 
-The Stable-Baselines3 recipe is ``experiments.sb3_recipe`` (optional ``rl`` extra).
+The torch and Stable-Baselines3 modules are imported on use (``from experiments.agents.sb3 import ...``),
+so the numpy agents need neither.
 """
 
 from .cem import CEMConfig, train_cem
-from .curve import plot_learning_curve
+from .curve import plot_learning_curve, plot_runs, plot_training_log, read_training_log
 from .policies import (BrightestCellPolicy, LinearCellPolicy, RandomPolicy, cell_features,
                        feature_names, load_policy)
 from .rollout import DEFAULT_ENV_KWARGS, Evaluation, episode_seeds, evaluate, make_env
+from .stats import bootstrap_ci, iqm, summarize_runs
 
 __all__ = ["BrightestCellPolicy", "CEMConfig", "DEFAULT_ENV_KWARGS", "Evaluation", "LinearCellPolicy",
-           "RandomPolicy", "cell_features", "episode_seeds", "evaluate", "feature_names", "load_policy",
-           "make_env", "plot_learning_curve", "train_cem"]
+           "RandomPolicy", "bootstrap_ci", "cell_features", "episode_seeds", "evaluate", "feature_names", "iqm",
+           "load_policy", "make_env", "plot_learning_curve", "plot_runs", "plot_training_log", "read_training_log",
+           "summarize_runs", "train_cem"]

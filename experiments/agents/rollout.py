@@ -25,12 +25,14 @@ EVAL_STREAM, TRAIN_STREAM = 0, 1
 
 
 def make_env(task: str = "fixate", **overrides: Any):
-    """A cell-action ``BinocularSaccadeEnv`` for ``task`` with :data:`DEFAULT_ENV_KWARGS`."""
+    """A ``BinocularSaccadeEnv`` for ``task`` with :data:`DEFAULT_ENV_KWARGS` (cell actions unless
+    ``action_mode="vector"``: the continuous saccade of the SB3 agents)."""
     import envs
 
     kwargs = {**DEFAULT_ENV_KWARGS, **overrides}
-    if kwargs["action_mode"] != "cell" or kwargs["cortex"] != "eyes" or kwargs["grayscale"]:
-        raise ValueError("the cell-map agents need action_mode='cell', cortex='eyes', grayscale=False")
+    if kwargs["action_mode"] not in ("cell", "vector") or kwargs["cortex"] != "eyes" or kwargs["grayscale"]:
+        raise ValueError("the agents need action_mode 'cell' (or 'vector' for the SB3 agents), cortex='eyes', "
+                         "grayscale=False")
     kwargs["remap_models"] = tuple(kwargs["remap_models"])
     return envs.BinocularSaccadeEnv(task=task, **kwargs)
 
