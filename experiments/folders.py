@@ -101,6 +101,20 @@ def write_csv(path: os.PathLike | str, fieldnames: list[str], rows: list[dict]) 
     atomic_write_text(path, buf.getvalue())
 
 
+def append_csv_row(path: os.PathLike | str, fieldnames, row: dict) -> None:
+    """Append one row to a CSV log (its header first when the file is new): a log written as it goes,
+    so that an interrupted run keeps the rows it finished."""
+    import csv
+
+    path = Path(path)
+    new = not path.exists()
+    with path.open("a", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(fieldnames))
+        if new:
+            w.writeheader()
+        w.writerow(row)
+
+
 def os_error_text(e: OSError) -> str:
     """One line for a command's error message: what failed, and on which file."""
     name = getattr(e, "filename", None)

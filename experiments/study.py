@@ -318,9 +318,9 @@ def record_study(out: Path, table: dict, design, config, path: Path | None = Non
                 by_trial = [rr.TimeColumn("trial", sequence=col["trial_id"].astype(np.int64))]
                 ones = np.ones(n, int)  # one point per trial, sent as columns (a few chunks, not n rows)
                 for entity, pts, rgb in (("study/true", true, [40, 200, 40]), ("study/perceived", seen, [230, 40, 40])):
-                    rec.rec.send_columns(entity, indexes=by_trial, columns=rr.Points2D.columns(
+                    rec.send_columns(entity, by_trial, rr.Points2D.columns(
                         positions=pts, colors=np.tile(rgb, (n, 1)), radii=np.full(n, -4.0)).partition(ones))  # -4: 4 UI points
-                rec.rec.send_columns("study/error", indexes=by_trial, columns=rr.Arrows2D.columns(
+                rec.send_columns("study/error", by_trial, rr.Arrows2D.columns(
                     vectors=seen - true, origins=true, colors=np.tile([200, 200, 200], (n, 1))).partition(ones))
                 rec.reset_time()
                 # ---- flash_time: per flash time, all trials of the example amplitude; CI and gain per amplitude

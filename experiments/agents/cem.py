@@ -9,7 +9,6 @@ to ``training_log.csv`` and the policy is saved, so an interrupted run loses not
 
 from __future__ import annotations
 
-import csv
 import json
 import time
 from dataclasses import asdict, dataclass
@@ -17,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..folders import append_csv_row
 from .policies import BrightestCellPolicy, LinearCellPolicy, RandomPolicy, feature_names
 from .rollout import DEFAULT_ENV_KWARGS, TRAIN_STREAM, episode_seeds, evaluate, make_env
 
@@ -52,15 +52,6 @@ class CEMConfig:
             raise ValueError(f"elite_frac must be in (0, 1] and leave >= 1 elite; got {self.elite_frac!r}")
         if not (self.init_std > 0 and self.ring_std > 0 and self.extra_std >= 0):
             raise ValueError("init_std and ring_std must be > 0 and extra_std >= 0")
-
-
-def _write_csv_row(path: Path, row: dict) -> None:
-    new = not path.exists()
-    with path.open("a", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=LOG_COLUMNS)
-        if new:
-            w.writeheader()
-        w.writerow(row)
 
 
 def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = None, seed: int = 0,
@@ -109,7 +100,7 @@ def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = 
                    "population_return": float(scores.mean()), **ev.as_dict(),
                    "sigma": float(sigma.mean()), "elapsed_s": round(time.perf_counter() - t0, 2)}
             row.pop("episodes")
-            _write_csv_row(log_path, row)
+            append_csv_row(log_path, LOG_COLUMNS, row)
             meta["curve"].append(row)
             policy.save(out)
             bar.set_postfix(success=f"{ev.success_rate:.2f}", reward=f"{ev.mean_reward:.3f}")

@@ -7,6 +7,18 @@ from pathlib import Path
 __all__ = ["plot_learning_curve", "plot_runs", "plot_training_log", "read_training_log"]
 
 
+def _save(fig, path: str | Path, title: str, fontsize: float | None = None) -> Path:
+    """Give ``fig`` its title, write it to ``path`` (110 dpi) and close it."""
+    import matplotlib.pyplot as plt
+
+    if title:
+        fig.suptitle(title, fontsize=fontsize)
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def plot_learning_curve(curve: list[dict], baselines: dict[str, dict], path: str | Path, title: str = "") -> Path:
     """Success rate and mean episode return of the mean policy vs CEM iteration, with the random
     and brightest-cell heuristic baselines (same validation episodes) as horizontal lines."""
@@ -30,12 +42,7 @@ def plot_learning_curve(curve: list[dict], baselines: dict[str, dict], path: str
         ax.grid(alpha=0.3)
     axes[0].set_ylim(-0.03, 1.03)
     axes[0].legend(loc="lower right", fontsize=8)
-    if title:
-        fig.suptitle(title)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, title)
 
 
 def read_training_log(path: str | Path) -> dict[str, list[float]]:
@@ -64,12 +71,7 @@ def plot_training_log(csv_path: str | Path, path: str | Path, title: str = "") -
         ax.set_ylabel(f"validation {label}")
         ax.grid(alpha=0.3)
     axes[0].set_ylim(-0.03, 1.03)
-    if title:
-        fig.suptitle(title)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, title)
 
 
 def plot_runs(curves: dict[str, list[dict[str, list[float]]]], baselines: dict[str, dict[str, float]], path: str | Path,
@@ -110,9 +112,4 @@ def plot_runs(curves: dict[str, list[dict[str, list[float]]]], baselines: dict[s
             ax.set_ylim(-0.03, 1.03)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="best")
-    if title:
-        fig.suptitle(title, fontsize=9)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, title, fontsize=9)

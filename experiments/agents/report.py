@@ -3,9 +3,9 @@ aggregated as interquartile mean with a percentile-bootstrap 95 % CI (Agarwal et
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
+from ..folders import write_csv
 from .curve import plot_runs, read_training_log
 from .stats import summarize_runs
 
@@ -27,10 +27,7 @@ def aggregate_runs(runs: dict[str, list[str | Path]], held_out: dict[str, list[f
     for name, b in baselines.items():
         v = b["success_rate"]
         rows.append({"agent": name, "iqm": v, "ci_low": v, "ci_high": v, "mean": v, "runs": 1, "scores": f"{v:.2f}"})
-    with open(csv_path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(csv_path, list(rows[0]), rows)
     curves = {name: [read_training_log(Path(d) / "training_log.csv") for d in dirs] for name, dirs in runs.items()}
     plot_runs(curves, baselines, png_path, keys=keys, title=title)
     return rows

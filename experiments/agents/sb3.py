@@ -20,7 +20,6 @@ on held-out validation episodes (so an interrupted run keeps its curve) and savi
 
 from __future__ import annotations
 
-import csv
 import json
 import time
 from pathlib import Path
@@ -31,6 +30,7 @@ import torch
 from gymnasium import spaces
 from torch import nn
 
+from ..folders import append_csv_row
 from .extractors import CorticalEncoder, SoftArgmaxSaccade, cell_saccade_vectors
 from .rollout import episode_seeds, evaluate, make_env
 
@@ -249,15 +249,6 @@ def load_agent(directory: str | Path, deterministic: bool = True) -> SB3Agent:
 
 
 # ---------------------------------------------------------------------------------------------- training
-def _append(path: Path, row: dict) -> None:
-    new = not path.exists()
-    with path.open("a", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=CURVE_COLUMNS)
-        if new:
-            w.writeheader()
-        w.writerow(row)
-
-
 def _callback(eval_env, agent_meta: dict, out: Path, algo: str, task: str, eval_freq: int, eval_seeds: np.ndarray,
               seed: int, log):
     from stable_baselines3.common.callbacks import BaseCallback
@@ -286,7 +277,7 @@ def _callback(eval_env, agent_meta: dict, out: Path, algo: str, task: str, eval_
                    "mean_saccades": ev.mean_saccades, "train_episodes": k,
                    "train_success_rate": round(sum(s for _, s in self.train) / k, 4) if k else "",
                    "train_return": round(sum(r for r, _ in self.train) / k, 5) if k else ""}
-            _append(out / "training_log.csv", row)
+            append_csv_row(out / "training_log.csv", CURVE_COLUMNS, row)
             log(f"{algo} {task}: {row['env_steps']} steps, {row['elapsed_s']:.0f} s: validation success "
                 f"{ev.success_rate:.2f}, return {ev.mean_reward:+.3f}; training episodes {k}")
             self.train = []

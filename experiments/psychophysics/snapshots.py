@@ -101,8 +101,8 @@ def take_snapshot(runner, trial: Trial, row: dict, design: Design, config_hash: 
         "coeffs": np.stack([v.coeffs for v in views]).astype(np.complex64),
         **{k: np.asarray(v) for k, v in scene.items()},
         "trace_ms": t_ms,
-        "angles": np.degrees(np.stack([plan.angles(t) for t in abs_ms])),
-        "signal": np.degrees(np.stack([plan.eye_position_signal(t) for t in abs_ms])),
+        "angles": np.degrees(plan.angles(abs_ms)),
+        "signal": np.degrees(plan.eye_position_signal(abs_ms)),
     }
 
 

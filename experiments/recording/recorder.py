@@ -163,9 +163,14 @@ class Recorder:
         self._forget()
         self.t_ms = 0.0
 
+    def send_columns(self, entity: str, indexes: list, columns) -> None:
+        """Many rows at once (``rr.TimeColumn`` indexes, an archetype's ``.columns(...)``): one chunk,
+        not one per row (escape hatch, as :meth:`log`)."""
+        self.rec.send_columns(entity, indexes=indexes, columns=columns)
+
     def send_scalars(self, entity: str, indexes: list, values) -> None:
         """A whole series at once (``rr.TimeColumn`` indexes), rounded as every scalar here."""
-        self.rec.send_columns(entity, indexes=indexes, columns=rr.Scalars.columns(scalars=_round(values)))
+        self.send_columns(entity, indexes, rr.Scalars.columns(scalars=_round(values)))
 
     def clear_time(self, timeline: str) -> None:
         """What is logged next is not on ``timeline`` (until it is set again)."""
@@ -405,8 +410,7 @@ class Recorder:
         for e, name in enumerate(EYE_NAMES):
             for j, ax in enumerate(AXIS_NAMES):
                 for kind, data in series:
-                    self.rec.send_columns(f"eyes/{name}/{kind}/{ax}", indexes=[times],
-                                          columns=rr.Scalars.columns(scalars=_round(data[:, e, j])))
+                    self.send_scalars(f"eyes/{name}/{kind}/{ax}", [times], data[:, e, j])
 
     def log_saccade(self, plan) -> None:
         """A saccade's amplitude, peak velocity and duration at its onset (the main sequence)."""
