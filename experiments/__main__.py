@@ -11,6 +11,7 @@ visualize  record a run of the environment in Rerun (``--out FILE.rrd``, ``--spa
 view       open .rrd recordings in Rerun's web viewer on 127.0.0.1 (Ctrl-C / SIGTERM leave nothing behind)
 train      train a saccade agent on a task
 evaluate   evaluate a saved, random or heuristic policy
+baselines  train and evaluate agents x seeds on a task: held-out IQM table with bootstrap CIs, curves
 
 Each command is defined in its own module by ``add_subcommand(subparsers)``, which registers
 its arguments and sets ``func`` to the function that runs it.

@@ -2,6 +2,7 @@
 
     python -m experiments train --algo cem|ppo|sac --task fixate|search --out DIR [--quick] [--seed S] ...
     python -m experiments evaluate --task fixate --policy DIR|random|heuristic --episodes N --seed S [--stochastic]
+    python -m experiments baselines --task fixate --agents ppo sac cem --seeds 0 1 2 --out DIR
 
 ``--algo cem`` (default): the linear cell policy of :mod:`experiments.agents.cem`; ``ppo`` / ``sac``:
 Stable-Baselines3 with the hyper-parameters of ``experiments/hyperparams/<algo>.yml``
@@ -17,7 +18,7 @@ from pathlib import Path
 
 from .cli import int_in, out_dir
 
-__all__ = ["add_subcommand", "evaluate_command", "train_command"]
+__all__ = ["add_subcommand", "baselines_command", "evaluate_command", "train_command"]
 
 TASKS = ("fixate", "search")
 
@@ -79,6 +80,27 @@ def add_subcommand(subparsers) -> None:
     e.add_argument("--no-progress", action="store_true", help="no progress bar (it goes to stderr; the JSON to stdout)")
     e.set_defaults(func=evaluate_command)
 
+    b = subparsers.add_parser(
+        "baselines", help="train and evaluate agents x seeds on a task: IQM table with bootstrap CIs and curves",
+        description="Train each agent with each seed (the runs of 'train --algo AGENT'), evaluate every run on "
+                    "the same held-out episodes (as 'evaluate --episodes N --seed S', deterministic and, for "
+                    "PPO/SAC, sampled actions) beside the heuristic and random cells, and write table.csv, "
+                    "table.md and curves.png (IQM over seeds, percentile-bootstrap 95%% CI; Agarwal et al. "
+                    "2021). Runs already evaluated are kept: run the same command again to resume.")
+    b.add_argument("--task", choices=TASKS, default="fixate", help="env task (default: fixate)")
+    b.add_argument("--agents", nargs="+", choices=("ppo", "sac", "cem"), default=["ppo", "sac", "cem"],
+                   help="agents to train (default: ppo sac cem)")
+    b.add_argument("--seeds", nargs="+", type=_seed, default=[0, 1, 2], help="training seeds (default: 0 1 2)")
+    b.add_argument("--out", required=True, type=out_dir, help="output directory (resumed if it holds the same study)")
+    b.add_argument("--episodes", type=_positive, default=100, help="held-out episodes per run (default 100)")
+    b.add_argument("--eval-seed", type=_seed, default=1, help="seed of the held-out episodes (default 1)")
+    b.add_argument("--timesteps", type=_positive, help="ppo/sac: env steps (default: the hyper-parameter files')")
+    b.add_argument("--quick", action="store_true", help="tiny runs (ppo/sac 256 steps, cem --quick): a smoke test")
+    b.add_argument("--image-size", type=_image_size, help="pixels per side of each eye's image (default 96)")
+    b.add_argument("--ppo-hyperparams", type=Path, help="a YAML file instead of experiments/hyperparams/ppo.yml")
+    b.add_argument("--sac-hyperparams", type=Path, help="a YAML file instead of experiments/hyperparams/sac.yml")
+    b.set_defaults(func=baselines_command)
+
 
 def train_command(args: argparse.Namespace) -> int:
     if args.algo != "cem":
@@ -93,11 +115,15 @@ def train_command(args: argparse.Namespace) -> int:
                                              ("episodes", "episodes"), ("eval_episodes", "eval_episodes"))
             if getattr(args, a) is not None}
     cfg = replace(cfg, **over)
+    from .folders import LockBusyError, path_lock
+
     try:
         cfg.validate()
-        policy, meta = train_cem(args.out, task=args.task, config=cfg, seed=args.seed,
-                                 env_kwargs={"image_size": args.image_size or 96}, progress=not args.no_progress)
-    except ValueError as err:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        with path_lock(Path(args.out) / ".lock", f"the training folder {args.out}"):
+            policy, meta = train_cem(args.out, task=args.task, config=cfg, seed=args.seed,
+                                     env_kwargs={"image_size": args.image_size or 96}, progress=not args.no_progress)
+    except (ValueError, LockBusyError) as err:
         print(f"train: error: {err}", file=sys.stderr)
         return 2
     png = plot_learning_curve(meta["curve"], meta["baselines"], Path(args.out) / "learning_curve.png",
@@ -120,9 +146,11 @@ def _train_sb3_command(args: argparse.Namespace) -> int:
     except ImportError:
         print("train: error: --algo ppo/sac needs the 'rl' extra: pip install -e '.[rl]' (CPU torch first)", file=sys.stderr)
         return 2
+    from .agents.baselines import quick_hyperparams
     from .agents.curve import plot_training_log
     from .agents.hyperparams import load_hyperparams
     from .agents.sb3 import train_sb3
+    from .folders import LockBusyError, path_lock
 
     try:
         hp = load_hyperparams(args.algo, args.task, args.hyperparams)
@@ -133,14 +161,12 @@ def _train_sb3_command(args: argparse.Namespace) -> int:
         steps = args.timesteps
         if args.quick:
             steps = steps or 256
-            hp.update(eval_freq=128, eval_episodes=args.eval_episodes or 4)
-            if args.algo == "ppo":
-                hp.update(n_steps=64, batch_size=32)
-            else:
-                hp.update(learning_starts=64)
+            hp = quick_hyperparams(args.algo, hp, args.eval_episodes)
         log = (lambda msg: None) if args.no_progress else (lambda msg: print(msg, file=sys.stderr, flush=True))
-        meta = train_sb3(args.out, args.algo, args.task, hp, seed=args.seed, timesteps=steps, log=log)
-    except (ValueError, FileNotFoundError) as err:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        with path_lock(Path(args.out) / ".lock", f"the training folder {args.out}"):
+            meta = train_sb3(args.out, args.algo, args.task, hp, seed=args.seed, timesteps=steps, log=log)
+    except (ValueError, FileNotFoundError, LockBusyError) as err:
         print(f"train: error: {err}", file=sys.stderr)
         return 2
     png = plot_training_log(Path(args.out) / "training_log.csv", Path(args.out) / "learning_curve.png",
@@ -201,3 +227,23 @@ def evaluate_command(args: argparse.Namespace) -> int:
     print(json.dumps({**res.as_dict(), "seed": args.seed, "policy": args.policy, "task": args.task,
                       **({"deterministic": not args.stochastic} if sb3_folder else {})}))
     return 0
+
+
+def baselines_command(args: argparse.Namespace) -> int:
+    """``baselines``: :func:`experiments.agents.baselines.run_baselines`; prints the Markdown table."""
+    from .agents.baselines import run_baselines
+    from .cli import guarded
+    from .folders import LockBusyError
+
+    hyper = {k: v for k, v in (("ppo", args.ppo_hyperparams), ("sac", args.sac_hyperparams)) if v is not None}
+
+    def work() -> int:
+        run_baselines(args.out, args.task, tuple(args.agents), tuple(args.seeds), episodes=args.episodes,
+                      eval_seed=args.eval_seed, timesteps=args.timesteps, quick=args.quick,
+                      image_size=args.image_size, hyperparams=hyper,
+                      log=lambda msg: print(msg, file=sys.stderr, flush=True))
+        print((Path(args.out) / "table.md").read_text(), end="")
+        return 0
+
+    return guarded("baselines", work, resume_hint="finished runs are kept: run the same command again to resume",
+                   errors={ValueError: 2, FileNotFoundError: 2, LockBusyError: 1})

@@ -21,7 +21,7 @@ import numba as nb
 
 from conformal.kernels import DISK_CACHE
 
-__all__ = ["angles", "rates", "signals", "profile_marks", "profile_values", "listing_torsion", "vergence_fraction", "vergence_rate",
+__all__ = ["angles", "burst_loop", "rates", "signals", "profile_marks", "profile_values", "listing_torsion", "vergence_fraction", "vergence_rate",
            "legacy_position", "legacy_rate"]
 
 _inline = nb.njit(cache=DISK_CACHE, nogil=True, inline="always")
@@ -38,17 +38,24 @@ def _listing_torsion(h, v):
     return 2.0 * math.atan(math.tan(h / 2) * math.tan(v / 2))
 
 
+def _vergence_time(t, offset, speedup, tau, latency):
+    """The internal time ``s`` of the vergence response ``t`` ms after burst onset: it runs ``speedup``
+    times faster from burst onset to the saccade's ``offset`` (saccadic facilitation) and at ``1 / tau``
+    after it; without a saccade (``offset <= 0``) it starts ``latency`` ms after onset."""
+    if offset <= 0.0:
+        t = t - latency
+    off = max(offset, 0.0)
+    return (min(max(t, 0.0), off) * speedup + max(t - off, 0.0)) / tau
+
+
+_vtime = _inline(_vergence_time)
+
+
 def _vergence_fraction(t, offset, speedup, tau, latency):
     """Fraction of a vergence change done ``t`` ms after burst onset (``models.VergenceDynamics``): a
     critically damped response ``1 - (1 + s) e^-s`` (bell-shaped velocity, zero at its start) of the
-    internal time ``s``, which runs ``speedup`` times faster from burst onset to the saccade's
-    ``offset`` (saccadic facilitation) and at ``1 / tau`` after it. Without a saccade (``offset <= 0``)
-    the response starts ``latency`` ms after onset (disparity vergence's own latency)."""
-    if offset <= 0.0:
-        t = t - latency
-    fast = min(max(t, 0.0), offset) * speedup
-    slow = max(t - max(offset, 0.0), 0.0)
-    s = (fast + slow) / tau
+    internal time ``s`` (:func:`_vergence_time`)."""
+    s = _vtime(t, offset, speedup, tau, latency)
     return -math.expm1(-s) - s * math.exp(-s)
 
 
@@ -56,15 +63,59 @@ _vfrac = _inline(_vergence_fraction)
 
 
 def _vergence_rate(t, offset, speedup, tau, latency):
-    """d(fraction)/dt (1/ms) of :func:`_vergence_fraction` (0 before its start)."""
-    if offset <= 0.0:
-        t = t - latency
-    if t <= 0:
+    """d(fraction)/dt (1/ms) of :func:`_vergence_fraction` (0 before its start): ``ds/dt s e^-s``."""
+    start = latency if offset <= 0.0 else 0.0
+    if t - start <= 0:
         return 0.0
-    k = (speedup if t < offset else 1.0) / tau
-    fast = min(t, max(offset, 0.0)) * speedup
-    s = (fast + max(t - max(offset, 0.0), 0.0)) / tau
+    k = (speedup if t - start < offset else 1.0) / tau
+    s = _vtime(t, offset, speedup, tau, latency)
     return k * s * math.exp(-s)
+
+
+def _burst_loop(A, n, dt_ms, every, kb, ka, t2, k2, bm, scale, gain, pos, burst):
+    """The burst generator's loop (``models.saccade_generator``) for every amplitude ``A[j]``, step by step:
+    motor error -> saturating burst drive minus adaptation -> lagged burst -> omnipause latch at zero
+    motor error -> displacement integrator -> each plant's ``T2`` (exact for the integrator's ramp
+    over a step: ``E(t) = D(t) - T2 slope + (E0 - D0 + T2 slope) e^{-t/T2}``)."""
+    for j in range(A.shape[0]):
+        a_j = A[j]
+        on = a_j > 0
+        D = 0.0
+        B = 0.0
+        ad = 0.0
+        E0 = 0.0
+        E1 = 0.0
+        E2 = 0.0
+        for p in range(3):
+            pos[p, 0, j] = 0.0
+        burst[0, j] = 0.0
+        for i in range(1, n + 1):
+            if on:
+                drive = max(bm * -math.expm1(-max(a_j - D, 0.0) / scale) - gain * ad, 0.0)
+                B = drive + (B - drive) * kb
+            else:
+                B = 0.0
+            ad = B + (ad - B) * ka
+            D_new = D + B * dt_ms
+            if on and D_new >= a_j:  # omnipause latch: the burst stops when the motor error reaches 0
+                D_new = a_j
+                B = 0.0
+                on = False
+            slope = (D_new - D) / dt_ms
+            E0 = D_new - t2[0] * slope + (E0 - D + t2[0] * slope) * k2[0]
+            E1 = D_new - t2[1] * slope + (E1 - D + t2[1] * slope) * k2[1]
+            E2 = D_new - t2[2] * slope + (E2 - D + t2[2] * slope) * k2[2]
+            D = D_new
+            if i % every == 0:
+                k = i // every
+                pos[0, k, j] = E0
+                pos[1, k, j] = E1
+                pos[2, k, j] = E2
+                burst[k, j] = B
+
+
+#: compiled on first use (``models.saccade_generator.simulate``)
+burst_loop = nb.njit(cache=DISK_CACHE, nogil=True)(_burst_loop)
 
 
 def _legacy_position(t, amp, m0, vpk):

@@ -133,8 +133,8 @@ class SaccadeProfile:
 
 def simulate(generator: "BurstGenerator", amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS,
              dt_ms: float = _SIM_DT_MS, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """Run the loop for each amplitude (compiled, ``_loop``). Returns eye positions (3, K, n_amp) in
-    degrees (plants in ``PLANTS`` order) and burst rates (K, n_amp) in deg/ms, sampled every ``every``
+    """Run the loop for each amplitude (compiled: ``models._plan_kernels.burst_loop``). Returns eye
+    positions (3, K, n_amp) in degrees (plants in ``PLANTS`` order) and burst rates (K, n_amp) in deg/ms, sampled every ``every``
     steps from burst onset. The linear stages are integrated exactly for an input held over each step."""
     g = generator
     A = np.ascontiguousarray(np.asarray(amplitudes_deg, float).ravel())
@@ -142,75 +142,13 @@ def simulate(generator: "BurstGenerator", amplitudes_deg: np.ndarray, span_ms: f
     t2 = np.array([g.plant_t2_ms, g.abducting_t2_ms, g.adducting_t2_ms])
     pos = np.empty((3, n // every + 1, len(A)))
     burst = np.empty((n // every + 1, len(A)))
-    _loop(A, n, float(dt_ms), int(every), float(np.exp(-dt_ms / g.burst_lag_ms)), float(np.exp(-dt_ms / g.adaptation_ms)),
-          t2, np.exp(-dt_ms / t2), g.burst_max_deg_s / 1000.0, float(g.burst_scale_deg), float(g.adaptation_gain),
-          pos, burst)
+    from ._plan_kernels import burst_loop
+
+    burst_loop(A, n, float(dt_ms), int(every), float(np.exp(-dt_ms / g.burst_lag_ms)),
+               float(np.exp(-dt_ms / g.adaptation_ms)), t2, np.exp(-dt_ms / t2), g.burst_max_deg_s / 1000.0,
+               float(g.burst_scale_deg), float(g.adaptation_gain), pos, burst)
     shape = np.shape(amplitudes_deg)
     return pos.reshape((3, pos.shape[1]) + shape), burst.reshape((burst.shape[0],) + shape)
-
-
-def _loop_py(A, n, dt_ms, every, kb, ka, t2, k2, bm, scale, gain, pos, burst):  # pragma: no cover - compiled
-    """The loop of every amplitude ``A[j]``, step by step (see the module docstring):
-    motor error -> saturating burst drive minus adaptation -> lagged burst -> omnipause latch at zero
-    motor error -> displacement integrator -> each plant's ``T2`` (exact for the integrator's ramp
-    over a step: ``E(t) = D(t) - T2 slope + (E0 - D0 + T2 slope) e^{-t/T2}``)."""
-    for j in range(A.shape[0]):
-        a_j = A[j]
-        on = a_j > 0
-        D = 0.0
-        B = 0.0
-        ad = 0.0
-        E0 = 0.0
-        E1 = 0.0
-        E2 = 0.0
-        for p in range(3):
-            pos[p, 0, j] = 0.0
-        burst[0, j] = 0.0
-        for i in range(1, n + 1):
-            if on:
-                drive = max(bm * -math.expm1(-max(a_j - D, 0.0) / scale) - gain * ad, 0.0)
-                B = drive + (B - drive) * kb
-            else:
-                B = 0.0
-            ad = B + (ad - B) * ka
-            D_new = D + B * dt_ms
-            if on and D_new >= a_j:  # omnipause latch: the burst stops when the motor error reaches 0
-                D_new = a_j
-                B = 0.0
-                on = False
-            slope = (D_new - D) / dt_ms
-            E0 = D_new - t2[0] * slope + (E0 - D + t2[0] * slope) * k2[0]
-            E1 = D_new - t2[1] * slope + (E1 - D + t2[1] * slope) * k2[1]
-            E2 = D_new - t2[2] * slope + (E2 - D + t2[2] * slope) * k2[2]
-            D = D_new
-            if i % every == 0:
-                k = i // every
-                pos[0, k, j] = E0
-                pos[1, k, j] = E1
-                pos[2, k, j] = E2
-                burst[k, j] = B
-
-
-def _compiled():
-    import numba as nb
-
-    from conformal.kernels import DISK_CACHE
-
-    return nb.njit(cache=DISK_CACHE, nogil=True)(_loop_py)
-
-
-class _Lazy:
-    """Compiles ``_loop_py`` with numba on first use."""
-
-    fn = None
-
-    def __call__(self, *args):
-        if _Lazy.fn is None:
-            _Lazy.fn = _compiled()
-        return _Lazy.fn(*args)
-
-
-_loop = _Lazy()
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ settled end with the burst generator) + 250 ms of fixation ~2.2 ms (``benchmarks
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Iterator, Sequence
 
 import numpy as np
@@ -74,6 +74,21 @@ class EyeTrace:
     planned: np.ndarray  #: (K, 2, 3) executed (noisy) command at the same instants
     intended: np.ndarray | None = None  #: (K, 2, 3) intended command (noise-free)
     eye_position_signal: np.ndarray | None = None  #: (K, 2, 3) the brain's estimate of eye orientation
+
+    @classmethod
+    def concatenate(cls, traces: "list[EyeTrace]") -> "EyeTrace":
+        """Consecutive pieces (e.g. one per :meth:`Head.step_ms` call) as one trace; a field that the
+        first piece lacks (``None``) stays ``None``."""
+        traces = list(traces)
+        if not traces or not all(isinstance(t, EyeTrace) for t in traces):
+            raise ValueError("concatenate needs a non-empty list of EyeTrace pieces")
+        names = [f.name for f in fields(cls)]
+        have = {n: [getattr(t, n) is not None for t in traces] for n in names}
+        mixed = [n for n in names if any(have[n]) and not all(have[n])]
+        if mixed:
+            raise ValueError(f"the pieces disagree on which fields they hold ({', '.join(mixed)}): "
+                             "concatenate traces of one simulation")
+        return cls(**{n: np.concatenate([getattr(t, n) for t in traces]) if have[n][0] else None for n in names})
 
 
 def _world_points(points) -> np.ndarray:

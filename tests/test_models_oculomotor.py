@@ -190,3 +190,21 @@ def test_bad_targets_raise_clear_errors(head):
     with pytest.raises(RuntimeError, match="in flight"):
         head.plan_saccade(0.1, 0.0)
     head.step_ms(plan.end_ms - head.time_ms)
+
+
+def test_eye_trace_pieces_concatenate_to_the_trace_of_one_call():
+    """Recording 30 ms in three calls and joining the pieces gives the trace of one 30 ms call from the
+    same state (the recorder joins a step's pieces this way); mixed pieces are refused."""
+    a, b = Head("dots", image_size=32, seed=0), Head("dots", image_size=32, seed=0)
+    for h in (a, b):
+        h.reset()
+        h.start_saccade(h.plan_saccade(np.deg2rad(10), 0.0))
+    whole = a.step_ms(30, record=True)
+    joined = models.EyeTrace.concatenate([b.step_ms(n, record=True) for n in (10, 15, 5)])
+    for f in ("times_ms", "angles", "velocities", "planned", "intended", "eye_position_signal"):
+        assert np.array_equal(getattr(joined, f), getattr(whole, f)), f
+    lacking = models.EyeTrace(whole.times_ms, whole.angles, whole.velocities, whole.planned)
+    with pytest.raises(ValueError, match="disagree"):
+        models.EyeTrace.concatenate([whole, lacking])
+    with pytest.raises(ValueError, match="non-empty"):
+        models.EyeTrace.concatenate([])

@@ -460,7 +460,9 @@ def test_hyperparameter_files_hold_every_task():
         for task in ("fixate", "search"):
             hp = load_hyperparams(algo, task)
             assert hp["n_timesteps"] > 0 and hp["policy"].startswith("cortical")
-            assert hp["env_kwargs"]["action_mode"] == "vector"  # the Box saccade (README ablation)
+            # the Box saccade, but PPO's search reads its cell off the map (README ablation)
+            want = "cell" if (algo, task) == ("ppo", "search") else "vector"
+            assert hp["env_kwargs"]["action_mode"] == want
             assert hp["shaping"]["enabled"] is True
     with pytest.raises(ValueError, match="no entry for task"):
         load_hyperparams("ppo", "dance")
@@ -579,3 +581,70 @@ def test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu(tmp_path):
     assert (out / "learning_curve.csv").read_text().splitlines()[0] == "env_steps,episodes,mean_return,success_rate"
     with pytest.raises(SystemExit):  # cell actions need the cortical policy
         skrl_recipe.main(["--out", str(tmp_path / "x"), "--action-mode", "cell", "--timesteps", "8"])
+
+
+@_needs_sb3
+def test_baselines_command_trains_evaluates_aggregates_and_resumes(tmp_path, capsys):
+    """``baselines --quick`` (PPO and CEM x 2 seeds, 48 px, 3 held-out episodes): every run's held-out
+    numbers equal ``evaluate`` on the same episodes; the table's IQM and CI are those of
+    :func:`summarize_runs` on them; a second call trains nothing; a corrupt ``heldout.json`` re-runs
+    that run alone to the same numbers; another study in the folder is refused."""
+    import csv
+
+    from experiments.__main__ import main
+    from experiments.agents.stats import summarize_runs
+
+    out = tmp_path / "b"
+    args = ["baselines", "--task", "fixate", "--agents", "ppo", "cem", "--seeds", "0", "1", "--out", str(out),
+            "--quick", "--image-size", "48", "--episodes", "3", "--eval-seed", "2"]
+    assert main(args) == 0
+    table = capsys.readouterr().out
+    assert table.startswith("| agent |") and "PPO" in table and "CEM" in table and "heuristic" in table
+    held = {(a, s): json.loads((out / f"{a}_s{s}" / "heldout.json").read_text()) for a in ("ppo", "cem") for s in (0, 1)}
+    assert all(h["env_steps"] > 0 for h in held.values()) and "stochastic" in held[("ppo", 0)]
+    assert "stochastic" not in held[("cem", 0)]
+    # the same episodes as `evaluate --episodes 3 --seed 2`
+    assert main(["evaluate", "--task", "fixate", "--policy", str(out / "ppo_s1"), "--episodes", "3", "--seed", "2",
+                 "--no-progress"]) == 0
+    ev = json.loads(capsys.readouterr().out)
+    assert ev["success_rate"] == held[("ppo", 1)]["deterministic"]["success_rate"]
+    assert ev["mean_reward"] == pytest.approx(held[("ppo", 1)]["deterministic"]["mean_reward"], abs=1e-12)
+    with open(out / "table.csv", newline="") as f:
+        rows = {(r["agent"], r["actions"]): r for r in csv.DictReader(f)}
+    ppo = rows[("PPO (cortical conv, Box saccade)", "deterministic")]
+    s = summarize_runs([held[("ppo", k)]["deterministic"]["success_rate"] for k in (0, 1)])
+    assert float(ppo["iqm"]) == pytest.approx(s["iqm"], abs=1e-4)
+    assert float(ppo["ci_low"]) == pytest.approx(s["ci_low"], abs=1e-4)
+    assert (out / "curves.png").stat().st_size > 1000 and not (out / ".lock").exists()
+    # resume: nothing is trained again
+    stamps = {p: p.stat().st_mtime_ns for p in out.glob("*_s*/*")}
+    assert main(args) == 0
+    assert capsys.readouterr().out == table
+    assert {p: p.stat().st_mtime_ns for p in out.glob("*_s*/*")} == stamps
+    # a torn result: that run alone is trained and evaluated again, to the same numbers
+    (out / "cem_s1" / "heldout.json").write_text('{"deterministic": {"success_rate": 0.')
+    assert main(args) == 0
+    capsys.readouterr()
+    again = json.loads((out / "cem_s1" / "heldout.json").read_text())
+    assert again["deterministic"] == held[("cem", 1)]["deterministic"]
+    assert (out / "ppo_s0" / "heldout.json").stat().st_mtime_ns == stamps[out / "ppo_s0" / "heldout.json"]
+    # another study in the same folder is refused, and so is a run made with other hyper-parameters
+    assert main([*args[:-2], "--eval-seed", "5"]) == 2
+    assert "another baselines study" in capsys.readouterr().err
+    hp = tmp_path / "ppo.yml"
+    hp.write_text("fixate: {policy: cortical-cell, env_kwargs: {action_mode: vector}, gamma: 0.8}\n")
+    assert main([*args, "--ppo-hyperparams", str(hp)]) == 2
+    assert "other ppo hyper-parameters" in capsys.readouterr().err
+
+
+def test_train_refuses_a_folder_another_run_holds(tmp_path, capsys):
+    """Two ``train`` runs into one folder would interleave their logs: the second stops at once."""
+    from experiments.__main__ import main
+    from experiments.folders import path_lock
+
+    out = tmp_path / "run"
+    out.mkdir()
+    with path_lock(out / ".lock"):
+        assert main(["train", "--task", "fixate", "--out", str(out), "--quick", "--no-progress"]) == 2
+    assert "in use by another run" in capsys.readouterr().err
+    assert not (out / "training_log.csv").exists()

@@ -24,7 +24,7 @@ __all__ = ["CEMConfig", "LOG_COLUMNS", "VALIDATION_STREAM", "train_cem"]
 
 VALIDATION_STREAM = 2
 LOG_COLUMNS = ("iteration", "elite_return", "population_return", "success_rate", "mean_reward",
-               "mean_saccades", "sigma", "elapsed_s")
+               "mean_saccades", "sigma", "elapsed_s", "env_steps")
 
 
 @dataclass
@@ -82,14 +82,15 @@ def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = 
         n_elite = max(1, round(cfg.elite_frac * cfg.population))
         meta = {"task": task, "env_kwargs": env_kwargs, "seed": int(seed), "trainer": "cem",
                 "config": asdict(cfg), "grid": {"M": M, "N": N}, "baselines": baselines, "curve": []}
-        t0 = time.perf_counter()
+        t0, steps = time.perf_counter(), 0  # steps: training env steps (saccades) so far, validation excluded
         policy = LinearCellPolicy(mu.copy(), metadata=meta)
         bar = tqdm(range(cfg.iterations), desc=f"CEM {task}", unit="it", disable=not progress)
         for it in bar:
             seeds = episode_seeds(seed, cfg.episodes, TRAIN_STREAM, start=it * cfg.episodes)
             cands = mu + sigma * rng.standard_normal((cfg.population, dim))
-            scores = np.array([evaluate(env, LinearCellPolicy(w), seeds, rng_seed=seed).mean_reward
-                               for w in cands])
+            evs = [evaluate(env, LinearCellPolicy(w), seeds, rng_seed=seed) for w in cands]
+            scores = np.array([e.mean_reward for e in evs])
+            steps += sum(round(e.mean_saccades * e.episodes) for e in evs)
             elite = cands[np.argsort(-scores, kind="stable")[:n_elite]]
             extra = cfg.extra_std * max(0.0, 1.0 - it / max(1.0, cfg.iterations / 2))
             extra = extra * sigma0 / sigma0.max()  # keep the ring/colour scale ratio
@@ -98,7 +99,8 @@ def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = 
             ev = evaluate(env, policy, val_seeds, rng_seed=seed)
             row = {"iteration": it + 1, "elite_return": float(np.sort(scores)[-n_elite:].mean()),
                    "population_return": float(scores.mean()), **ev.as_dict(),
-                   "sigma": float(sigma.mean()), "elapsed_s": round(time.perf_counter() - t0, 2)}
+                   "sigma": float(sigma.mean()), "elapsed_s": round(time.perf_counter() - t0, 2),
+                   "env_steps": steps}
             row.pop("episodes")
             append_csv_row(log_path, LOG_COLUMNS, row)
             meta["curve"].append(row)

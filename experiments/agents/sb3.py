@@ -76,23 +76,28 @@ def _sb3():
 class CorticalFeatures(_sb3()):
     """SB3 features extractor: ``[per-cell logits (M*N), global features]`` of a
     :class:`~experiments.agents.extractors.CorticalEncoder` over ``cortical`` (and ``fovea``,
-    ``eyes`` when the observation has them)."""
+    ``eyes`` when the observation has them). With ``saccade_vectors`` the global part starts with
+    the map's soft-argmax saccade (2 numbers), so that a head can compare an action with where the
+    map points (SAC's critics: Q(s, a) is then a function of a minus that saccade, which an MLP
+    learns quickly, rather than of 336 logits)."""
 
     def __init__(self, observation_space: spaces.Dict, channels: tuple[int, ...] = (32, 32),
-                 logit_gain: float = 1.0) -> None:
+                 logit_gain: float = 1.0, saccade_vectors: list | None = None) -> None:
         if not isinstance(observation_space, spaces.Dict) or "cortical" not in observation_space.spaces:
             raise ValueError("CorticalFeatures needs a Dict observation with a 'cortical' (2, M, N, C) entry")
         sp = observation_space.spaces
         enc = CorticalEncoder(sp["cortical"].shape, sp["fovea"].shape if "fovea" in sp else None,
                               int(np.prod(sp["eyes"].shape)) if "eyes" in sp else 0, tuple(channels),
                               logit_gain=logit_gain)
-        super().__init__(observation_space, features_dim=enc.n_cells + enc.global_dim)
+        super().__init__(observation_space, features_dim=enc.n_cells + enc.global_dim + (0 if saccade_vectors is None else 2))
+        self.pointer = None if saccade_vectors is None else SoftArgmaxSaccade(np.asarray(saccade_vectors, np.float32))
         self.encoder = enc
         self.n_cells = enc.n_cells
 
     def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
         logits, g = self.encoder(observations)
-        return torch.cat([logits, g], dim=1)
+        parts = [logits] + ([self.pointer(logits)] if self.pointer is not None else []) + [g]
+        return torch.cat(parts, dim=1)
 
 
 class _CellSplit(nn.Module):
@@ -173,15 +178,20 @@ def _sac_policy():
 class CorticalSAC(_sac_policy()):
     """SAC policy over :class:`CorticalFeatures`: the actor's mean is atanh of the soft-argmax
     saccade of the logit map (SAC squashes with tanh), its log-std a linear map of the global
-    features; the critics are MLPs (``net_arch['qf']``) of the features and the action."""
+    features starting at ``log_std_init``; the critics are MLPs (``net_arch['qf']``) of the features
+    (with ``pointer``, their own map's soft-argmax saccade among them) and the action."""
 
     def __init__(self, observation_space, action_space, lr_schedule, saccade_vectors: list | None = None,
-                 channels: tuple[int, ...] = (32, 32), logit_gain: float = 1.0, **kwargs: Any) -> None:
+                 channels: tuple[int, ...] = (32, 32), logit_gain: float = 1.0, pointer: bool = True,
+                 log_std_init: float = -1.5, **kwargs: Any) -> None:
         if saccade_vectors is None:
             raise ValueError("CorticalSAC needs saccade_vectors (experiments.agents.sb3.saccade_vectors(env))")
-        self.saccade_vectors = saccade_vectors
+        if not np.isfinite(log_std_init):
+            raise ValueError(f"log_std_init must be a finite number; got {log_std_init!r}")
+        self.saccade_vectors, self.std_init = saccade_vectors, float(log_std_init)
         kwargs.setdefault("features_extractor_class", CorticalFeatures)
-        kwargs.setdefault("features_extractor_kwargs", {"channels": tuple(channels), "logit_gain": logit_gain})
+        kwargs.setdefault("features_extractor_kwargs", {"channels": tuple(channels), "logit_gain": logit_gain,
+                                                        "saccade_vectors": saccade_vectors if pointer else None})
         kwargs.setdefault("net_arch", {"pi": [], "qf": [256, 256]})
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
 
@@ -193,6 +203,8 @@ class CorticalSAC(_sac_policy()):
         actor.log_std = nn.Sequential(_Slice(n, None), nn.Linear(actor.features_dim - n, dim))
         with torch.no_grad():
             actor.features_extractor.encoder.logit.weight.mul_(0.01)
+            actor.log_std[1].weight.mul_(0.01)
+            actor.log_std[1].bias.fill_(self.std_init)
         return actor.to(self.device)
 
 

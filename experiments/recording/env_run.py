@@ -16,16 +16,6 @@ def _angles_deg(z: complex) -> tuple[float, float]:
     return math.degrees(math.atan(z.real)), math.degrees(math.atan2(z.imag, math.hypot(1.0, z.real)))
 
 
-def _joined(traces: list) -> "models.EyeTrace":
-    """Consecutive ``EyeTrace`` pieces as one."""
-    import dataclasses
-
-    first = traces[0]
-    cat = {f.name: (None if getattr(first, f.name) is None else np.concatenate([getattr(t, f.name) for t in traces]))
-           for f in dataclasses.fields(first)}
-    return type(first)(**cat)
-
-
 def _choose_target(head, rng: np.random.Generator, previous: str | None) -> str | None:
     flashes = set(head.scene.flashes)
     names = [n for n in head.scene.objects if n not in flashes and n != previous]
@@ -144,7 +134,7 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                     rec.set_time_ms(head.time_ms)
                     rec.log_head(head)
                 traces.append(head.step_ms(int(fixation_ms), record=True))
-                rec.log_eye_trace(_joined(traces))  # one batch per step: thousands of 1 ms batches load slowly
+                rec.log_eye_trace(models.EyeTrace.concatenate(traces))  # one batch per step: thousands of 1 ms batches load slowly
                 traces.clear()
                 rec.set_time_ms(head.time_ms)
                 rec.log_head(head)
