@@ -164,8 +164,7 @@ class WarpHeads:
     # ------------------------------------------------------------------ physics
     def setpoints(self, commands: np.ndarray, lengths: np.ndarray, out=None):
         """The servo's set-points (N, T, 18) of the command tables (N, T, 6) (``models.servo_setpoints``
-        at 1 ms, the rows from ``lengths[w] - 1`` on holding the endpoint: no velocity, no feed-forward;
-        with the orbital plant the torques, from the last step ``lengths[w] - 2`` on the step ``K q`` alone),
+        at 1 ms, with each world's endpoint at its row ``lengths[w] - 1``: its hold rule, the CPU head's),
         computed on this device in float64 (the host's numbers): a new float64 tensor, or written into
         ``out`` (N, T, 18) in its dtype. Only the commanded angles travel to the device, a third of the table."""
         torch, dev = self._torch, self.torch_device
@@ -177,20 +176,9 @@ class WarpHeads:
         if out is None:
             out = torch.empty((q.shape[0], T, 18), dtype=torch.float64, device=dev)
         if self._plant is None:
-            u = servo_setpoints(ext, dt, self._inertia * torch.eye(6, dtype=torch.float64, device=dev), out)
-            held = torch.arange(T, device=dev)[None, :] >= ends[:, None] - 1
-            u[:, :, 6:].masked_fill_(held[:, :, None], 0.0)
-            return u
+            return servo_setpoints(ext, dt, self._inertia * torch.eye(6, dtype=torch.float64, device=dev), out, end=ends)
         I, K, B = (torch.as_tensor(a, dtype=torch.float64, device=dev) for a in self._plant)
-        u = servo_setpoints(ext, dt, I, out, stiffness=K, damping=B)
-        # from the plan's snap onto its endpoint (its last step) on, the plant gets the step alone: K q
-        # (the CPU head's rule, ``models.servo.EyeServo.table``)
-        held = torch.arange(T, device=dev)[None, :] >= ends[:, None] - 2
-        u[:, :, 6:12].masked_fill_(held[:, :, None], 0.0)
-        last = q[torch.arange(q.shape[0], device=dev), (ends - 1).clamp(min=0)]
-        tonic = (last @ K.T).to(u.dtype)[:, None, :]
-        u[:, :, 12:] = torch.where(held[:, :, None], tonic, u[:, :, 12:])
-        return u
+        return servo_setpoints(ext, dt, I, out, stiffness=K, damping=B, end=ends)  # ext[ends] = q[ends - 1]
 
     def run(self, commands: np.ndarray, lengths: np.ndarray, n_ms: int) -> int:
         """Step every world ``n_ms`` ms (rounded up to whole ``chunk_ms`` on CUDA) following ``commands``

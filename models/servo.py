@@ -62,7 +62,7 @@ def _substeps(timestep_ms, name: str) -> int:
     return k
 
 
-def servo_setpoints(q, dt_s, inertia, out=None, stiffness=None, damping=None):
+def servo_setpoints(q, dt_s, inertia, out=None, stiffness=None, damping=None, end=None):
     """The eye servo's set-points for the physics steps j = 0..T-1 of commanded trajectories.
 
     ``q`` (n, T + 2, 6): the commanded joint angles at the step boundaries t_(-1), t_0, ..., t_T
@@ -77,21 +77,47 @@ def servo_setpoints(q, dt_s, inertia, out=None, stiffness=None, damping=None):
     :mod:`models.plant`; ``v_j`` the velocity after the step, as MuJoCo integrates joint damping
     implicitly): with the servos off it is the only drive, the position and velocity set-points unused.
 
+    ``end`` (n,) integers, optional: the boundary ``q[:, end]`` where each command reaches its endpoint
+    (the plan's snap onto it; ``q[:, end:]`` all hold it; default ``T + 1``, the last). The steps from
+    there on hold the endpoint: it is their position set-point, with no velocity and no feed-forward. With the plant the snap
+    step itself (the step ending at ``end``) is held too: the plant gets the step ``K q_end`` alone, no
+    pulse, and settles by itself. Both engines' rule, written here once.
+
     The arrays are numpy arrays (``models.Head``) or torch tensors on one device (the batched env
     computes its worlds' set-points where its physics runs): the same operations on either. ``out``
     (n, T, 18), optional: written in place (and returned), in its own dtype; by default a new float64
     numpy array."""
     v = (q[:, 1:] - q[:, :-1]) / dt_s[:, None]
     a = (v[:, 1:] - v[:, :-1]) / dt_s[1:, None]
-    k = q.shape[2]
+    n, k, T = q.shape[0], q.shape[2], q.shape[1] - 2
     if out is None:
-        out = np.empty((q.shape[0], q.shape[1] - 2, 3 * k))
+        out = np.empty((n, T, 3 * k))
     out[:, :, :k] = q[:, 1:-1]
     out[:, :, k:2 * k] = v[:, 1:]
     out[:, :, 2 * k:] = a @ inertia.T
     if stiffness is not None:
         out[:, :, 2 * k:] += q[:, 1:-1] @ stiffness.T + v[:, 1:] @ damping.T
+    if end is None:
+        if stiffness is None:
+            return out
+        end = (np.arange(T + 1, T + 2) if isinstance(q, np.ndarray) else _torch_arange(q, T + 2)[T + 1:]).repeat(n)
+    # step j ends at boundary j + 1 of q[:, 1:] (index j + 2 of q): held from end - 1 on, from end - 2 with the plant
+    steps = (np.arange(T) if isinstance(q, np.ndarray) else _torch_arange(q, T))[None, :]
+    first = end[:, None] - (2 if stiffness is not None else 1)
+    held = steps >= first  # (n, T) booleans, numpy or torch
+    out[:, :, k:] *= ~held[:, :, None]
+    rows = np.arange(n) if isinstance(q, np.ndarray) else _torch_arange(q, n)
+    q_end = q[rows, end][:, None, :]  # (n, 1, k)
+    out[:, :, :k] = out[:, :, :k] * ~held[:, :, None] + held[:, :, None] * q_end
+    if stiffness is not None:
+        out[:, :, 2 * k:] += held[:, :, None] * (q_end @ stiffness.T)  # the step that holds the endpoint
     return out
+
+
+def _torch_arange(q, n: int):
+    import torch
+
+    return torch.arange(n, device=q.device)
 
 
 class EyeServo:
@@ -164,10 +190,8 @@ class EyeServo:
             u = servo_setpoints(q[None], np.diff(t) * 1e-3, self._M[np.ix_(self.vadr, self.vadr)])[0]
         else:
             I, K, B = self.plant
+            # the last step is the plan's snap onto its endpoint (the last settle_deg): held (servo_setpoints)
             u = servo_setpoints(q[None], np.diff(t) * 1e-3, I, stiffness=K, damping=B)[0]
-            # the last step is the plan's snap onto its endpoint (the last settle_deg): the plant gets the
-            # step alone there, no pulse, and settles by itself (the batched physics does the same)
-            u[-1] = self.hold_controls(q[-1])
         return {"plan": plan, "u": u, "t": plan.onset_ms + t[2:], "q": q[2:], "fine_steps": fine_ms * k_sac,
                 "fine_ms": fine_ms}
 

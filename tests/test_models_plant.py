@@ -157,3 +157,37 @@ def test_bad_drive_arguments_are_refused():
     for bad in ({"t1_ms": 5.0}, {"t2_ms": 0.0}, {"pulse_gain": float("nan")}, {"pulse_gain": 10.0}):
         with pytest.raises(ValueError):
             OrbitalPlant(**bad)
+
+
+@pytest.mark.parametrize("plant", [False, True])
+def test_setpoints_hold_the_endpoint_from_the_snap_on_in_numpy_and_torch(plant):
+    """``servo_setpoints(..., end=e)``: the steps after the endpoint (and, with the plant, the snap step
+    that ends on it) hold it: position set-point the endpoint, no velocity, feed-forward 0 (servo) or the
+    step ``K q_end`` alone (plant); the other steps are the law's own. The same numbers from torch
+    tensors (the batched engine) as from numpy (the CPU head), to rounding."""
+    rng = np.random.default_rng(1)
+    n, T = 3, 12
+    q = np.cumsum(rng.normal(size=(n, T + 2, 6)) * 0.01, axis=1)
+    end = np.array([T + 1, 5, 1])
+    for w, e in enumerate(end):
+        q[w, e:] = q[w, e]
+    dt = np.full(T + 1, 1e-3)
+    I, K, B = np.eye(6) * 3e-5, np.eye(6) * 0.02 + 1e-3, np.eye(6) * 4e-4
+    kw = {"stiffness": K, "damping": B} if plant else {}
+    free = models.servo_setpoints(q, dt, I, **kw)
+    u = models.servo_setpoints(q, dt, I, end=end, **kw)
+    for w, e in enumerate(end):
+        first = e - (2 if plant else 1)
+        for j in range(T):
+            if j >= first:
+                assert np.array_equal(u[w, j, :6], q[w, e]) and not u[w, j, 6:12].any()
+                assert np.allclose(u[w, j, 12:], K @ q[w, e] if plant else 0.0, rtol=0, atol=1e-15)
+            else:
+                assert np.array_equal(u[w, j], free[w, j])
+    if plant:  # the default end is the last boundary: the last step is the snap, held
+        assert np.allclose(free[:, -1, 12:], q[:, -1] @ K.T, rtol=0, atol=1e-15) and not free[:, -1, 6:12].any()
+    torch = pytest.importorskip("torch")
+    kt = {k: torch.as_tensor(v) for k, v in kw.items()}
+    ut = models.servo_setpoints(torch.as_tensor(q), torch.as_tensor(dt), torch.as_tensor(I),
+                                torch.empty((n, T, 18), dtype=torch.float64), end=torch.as_tensor(end), **kt)
+    assert np.allclose(ut.numpy(), u, rtol=1e-12, atol=1e-15)  # BLAS sums in its own order
