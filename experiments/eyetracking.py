@@ -193,6 +193,16 @@ def _geometry_hint(kind: str) -> str:
             "or write the gaze in degrees (columns x_deg, y_deg)")
 
 
+def _positions(gaze) -> np.ndarray:
+    """pymovements' ``position`` column (x, y in degrees; a lost sample null) as an (n, 2) float array
+    with NaN for what is missing, in one vectorised polars select."""
+    import polars as pl
+
+    col = pl.col("position")
+    return gaze.samples.select(col.list.get(0, null_on_oob=True).cast(pl.Float64).alias("x"),
+                               col.list.get(1, null_on_oob=True).cast(pl.Float64).alias("y")).to_numpy()
+
+
 def _read_asc(path: Path, text: str, screen: Screen | None, screen_cm_only: bool) -> Recording:
     lines = text.splitlines()
     n_samples = sum(1 for ln in lines[:5000] if ln[:1].isdigit())
@@ -237,8 +247,7 @@ def _read_asc(path: Path, text: str, screen: Screen | None, screen_cm_only: bool
         warnings.simplefilter("ignore")
         gaze.pix2deg()
     times = samples["time"].cast(float).to_numpy()
-    pos = np.array([[np.nan if v is None else v for v in row[:2]] if row is not None else [np.nan, np.nan]
-                    for row in gaze.samples["position"].to_list()], float)
+    pos = _positions(gaze)
     x, y = pos[:, 0], -pos[:, 1]  # pymovements' y grows downward (screen rows); ours grows upward
     blinks, sacc = [], []
     if gaze.events is not None and gaze.events.frame.height:
@@ -301,8 +310,7 @@ def _read_csv(path: Path, text: str, screen: Screen | None) -> Recording:
         else:
             gaze = pm.Gaze(df, experiment=_pm_experiment(None, rate), time_column="time_ms", time_unit="ms",
                            position_columns=cols)
-    pos = np.array([[np.nan if v is None else v for v in row] if row is not None else [np.nan, np.nan]
-                    for row in gaze.samples["position"].to_list()], float)
+    pos = _positions(gaze)
     x, y = pos[:, 0], (-pos[:, 1] if units == "px" else pos[:, 1])
     return _finish(Recording(path, "csv", times, x, y, rate, [], None, screen, units, gaze))
 
@@ -495,16 +503,16 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
     t = np.asarray(times_ms, float)
     x, y = np.asarray(x_deg, float), np.asarray(y_deg, float)
     if fmt == "csv":
+        if units not in ("px", "deg"):
+            raise ValueError(f"units must be 'px' or 'deg'; got {units!r}")
+        a, b, digits = (x, y, 4) if units == "deg" else (*screen.deg2px(x, y), 2)
+
+        def cell(v: float) -> str:
+            return f"{v:.{digits}f}" if math.isfinite(v) else ""  # empty: a lost sample
+
         with open(path, "w") as f:
-            if units == "deg":
-                f.write("time_ms,x_deg,y_deg\n")
-                for ti, xi, yi in zip(t, x, y):
-                    f.write(f"{ti:.2f},{'' if not math.isfinite(xi) else f'{xi:.4f}'},{'' if not math.isfinite(yi) else f'{yi:.4f}'}\n")
-            else:
-                px, py = screen.deg2px(x, y)
-                f.write("time_ms,x_px,y_px\n")
-                for ti, xi, yi in zip(t, px, py):
-                    f.write(f"{ti:.2f},{'' if not math.isfinite(xi) else f'{xi:.2f}'},{'' if not math.isfinite(yi) else f'{yi:.2f}'}\n")
+            f.write(f"time_ms,x_{units},y_{units}\n")
+            f.writelines(f"{ti:.2f},{cell(ai)},{cell(bi)}\n" for ti, ai, bi in zip(t, a, b))
         return path
     if fmt != "asc":
         raise ValueError(f"fmt must be 'asc' or 'csv'; got {fmt!r}")
