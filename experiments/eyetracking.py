@@ -56,9 +56,7 @@ not rest before or after them (fewer than 2 samples in a window).
 
 from __future__ import annotations
 
-import csv
 import math
-import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -482,10 +480,10 @@ def main_sequence_rows(rec: Recording, saccades: list[tuple[int, int]] | None = 
 
 
 def write_rows(rows: list[dict], path) -> None:
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(ROW_FIELDS))
-        w.writeheader()
-        w.writerows(rows)
+    """The main-sequence rows as a CSV (columns ``ROW_FIELDS``), written atomically."""
+    from .folders import write_csv
+
+    write_csv(path, list(ROW_FIELDS), rows)
 
 
 # ---------------------------------------------------------------------------------------- writing

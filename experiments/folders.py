@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 from typing import Any, Iterator
 
-__all__ = ["Interrupted", "interruptible", "LockBusyError", "path_lock", "atomic_write_text", "atomic_write_bytes",
+__all__ = ["Interrupted", "interruptible", "LockBusyError", "path_lock", "atomic_write_text", "atomic_write_bytes", "save_figure",
            "write_json", "write_csv", "json_safe", "die_with_parent", "die_with", "check_path_length", "os_error_text"]
 
 
@@ -87,6 +87,23 @@ def atomic_write_bytes(path: os.PathLike | str, data: bytes) -> None:
 def atomic_write_text(path: os.PathLike | str, text: str) -> None:
     """``atomic_write_bytes`` of UTF-8 text."""
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def save_figure(fig, path: os.PathLike | str, dpi: int = 110, close: bool = True, **savefig: Any) -> Path:
+    """A matplotlib figure written atomically (rendered in memory in the format of ``path``'s suffix,
+    then :func:`atomic_write_bytes`: an interrupted run leaves the old figure or none, never a torn
+    one); closed afterwards unless ``close=False``. Returns the path."""
+    import io
+
+    path = Path(path)
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=dpi, format=path.suffix.lstrip(".").lower() or "png", **savefig)
+    atomic_write_bytes(path, buf.getvalue())
+    if close:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return path
 
 
 def write_csv(path: os.PathLike | str, fieldnames: list[str], rows: list[dict]) -> None:

@@ -33,11 +33,11 @@ the optimiser would make the objective rough (threshold crossings jump with each
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
+
+from .folders import save_figure
 
 __all__ = ["FitResult", "fit_generator", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
 
@@ -328,5 +328,4 @@ def plot_main_sequence(rows, generator, path, *, rate_hz: float, noise_deg: floa
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)

@@ -399,12 +399,10 @@ def plot(tables: dict, out: Path) -> list[Path]:
 
 
 def _save(fig, path: Path) -> Path:
-    import matplotlib.pyplot as plt
+    from .folders import save_figure
 
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:

@@ -28,7 +28,6 @@ file) or ``--screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM``.
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 from pathlib import Path
@@ -36,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .cli import out_dir
+from .folders import LockBusyError, path_lock, save_figure, write_csv
 
 __all__ = ["add_subcommand", "measure", "main_sequence_rows", "plot"]
 
@@ -137,8 +137,7 @@ def plot(results: dict[str, dict], path: Path) -> None:
               title="eye-position signal, 20° saccade")
     ax[3].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
 
 
 def _screen(values: list[str]):
@@ -173,7 +172,6 @@ def _fit_parameters(text: str) -> tuple[str, ...]:
 def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | None = None) -> int:
     """``saccades --recording FILE``: main sequence, fitted generator and figure of a recording."""
     from . import eyetracking as et
-    from . import generator_fit as gf
 
     def usage(message: str):
         if parser is None:  # called from Python: the error itself
@@ -206,6 +204,15 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
         usage(f"argument --recording: {e}")
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
+    with path_lock(out / ".lock", f"the folder {out}"):
+        return _write_recording_results(args, path, rec, rows, out)
+
+
+def _write_recording_results(args, path: Path, rec, rows: list[dict], out: Path) -> int:
+    """Fit the generator to a recording's ``rows`` and write table, parameters and figure into ``out``."""
+    from . import eyetracking as et
+    from . import generator_fit as gf
+
     et.write_rows(rows, out / "main_sequence.csv")
     noise = rec.noise_deg
     fit = gf.fit_generator(rows, fit=args.fit_parameters, rate_hz=rec.rate_hz, noise_deg=noise,
@@ -225,17 +232,28 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
 
 
 def run(args: argparse.Namespace) -> int:
-    if getattr(args, "recording", None) is not None:
-        return run_recording(args, getattr(args, "parser", None))
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
+    """``saccades``: the model's kinematics, or a person's with ``--recording``; one writer per ``--out``
+    folder, every file written atomically, SIGINT/SIGTERM ending it with one line."""
+    from .cli import guarded
+
+    def work() -> int:
+        if getattr(args, "recording", None) is not None:
+            return run_recording(args, getattr(args, "parser", None))
+        out: Path = args.out
+        out.mkdir(parents=True, exist_ok=True)
+        with path_lock(out / ".lock", f"the folder {out}"):
+            return _run_models(args, out)
+
+    return guarded("python -m experiments saccades", work,
+                   resume_hint="files already written are complete; run the command again for the rest",
+                   errors={LockBusyError: 1})
+
+
+def _run_models(args: argparse.Namespace, out: Path) -> int:
     models_ = ("burst", "legacy") if args.model == "both" else (args.model,)
     results = {m: measure(m, progress=not getattr(args, "no_progress", True)) for m in models_}
     rows = main_sequence_rows(results)
-    with open(out / "main_sequence.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out / "main_sequence.csv", list(rows[0]), rows)
     if "burst" in results:
         plot(results, out / "saccades.png")
     print(f"{'model':7s} {'amp':>4s}  {'peak (deg/s) abd/add':>21s}  {'duration (ms) abd/add':>22s}  {'skewness abd/add':>17s}")

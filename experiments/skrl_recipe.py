@@ -40,6 +40,8 @@ from typing import Any
 
 import numpy as np
 
+from .folders import save_figure
+
 from experiments.cli import int_in, out_dir
 
 __all__ = ["DeviceVectorWrapper", "OBS_KEYS", "train", "main"]
@@ -334,8 +336,7 @@ def _plot(rows, path: Path, title: str) -> None:
     ax[1].set(xlabel="env steps", ylabel="success rate", ylim=(-0.02, 1.02))
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path, dpi=120)
 
 
 def main(argv=None) -> int:

@@ -58,7 +58,7 @@ simulation of the amplitude, checked in the tests).
 from __future__ import annotations
 
 import functools
-import math
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -212,9 +212,12 @@ class BurstGenerator:
             text = json.dumps(doc, indent=2) + "\n"
         except (TypeError, ValueError) as exc:
             raise ValueError(f"the extra entries of a burst-generator file must be JSON values: {exc}") from None
-        try:
-            path.write_text(text)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:  # atomically: a reader sees the old file or the new one, never a torn one
+            tmp.write_text(text)
+            os.replace(tmp, path)
         except OSError as exc:
+            tmp.unlink(missing_ok=True)
             raise ValueError(f"path {path}: cannot write the burst generator there ({exc.strerror or exc})") from None
 
     @classmethod

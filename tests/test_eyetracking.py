@@ -197,6 +197,7 @@ def test_cli_writes_the_three_files_and_generator_is_usable(tmp_path, capsys):
     est = doc["parameters"]["burst_max_deg_s"]
     assert lo <= est <= hi and (lo <= TRUE["burst_max_deg_s"] <= hi or est == pytest.approx(TRUE["burst_max_deg_s"],
                                                                                              rel=0.04))
+    assert not (out / ".lock").exists() and not list(out.glob(".*.tmp"))  # released; no temporary file left
     gen = models.BurstGenerator.from_file(out / "generator.json")
     assert gen.burst_scale_deg == pytest.approx(TRUE["burst_scale_deg"], rel=0.05)
     # missing geometry through the CLI: exit 2 naming the option
@@ -215,3 +216,16 @@ def test_cli_bad_file_is_usage_error(tmp_path, capsys):
             main(["saccades", "--recording", *argv, "--out", str(tmp_path / "o")])
         assert e.value.code == 2
         assert msg in capsys.readouterr().err
+
+
+def test_saccades_refuses_a_folder_another_run_holds(tmp_path, capsys):
+    """Two ``saccades`` runs into one folder would overwrite each other's files: the second stops at
+    once (exit 1) with a message, before any simulation."""
+    from experiments.__main__ import main
+    from experiments.folders import path_lock
+
+    out = tmp_path / "o"
+    out.mkdir()
+    with path_lock(out / ".lock"):
+        assert main(["saccades", "--out", str(out), "--model", "legacy", "--no-progress"]) == 1
+    assert "in use by another run" in capsys.readouterr().err and not (out / "main_sequence.csv").exists()

@@ -431,6 +431,36 @@ def test_soft_argmax_saccade_reaches_the_cell():
     torch.testing.assert_close(SoftArgmaxSaccade(v)(torch.zeros(1, 4))[0], torch.as_tensor(v.mean(axis=0)))
 
 
+def test_spatial_critic_is_a_bump_map_over_cell_saccades():
+    """``SpatialQ``: with all of the map on cell c, Q(s, v_c) - V = gain exactly, Q falls off as a
+    Gaussian of the distance to v_c with that cell's width (half the nearest-neighbour distance),
+    and dQ/da at a nearby action points at v_c."""
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("stable_baselines3")
+    from experiments.agents.sb3 import SpatialQ
+
+    v = np.array([[0.0, 0.0], [0.4, 0.0], [0.0, 0.6], [-0.5, -0.5]], np.float32)
+    q = SpatialQ(4, 3, v, hidden=8)
+    logits = torch.full((1, 4), -60.0)
+    logits[0, 1] = 60.0
+    g = torch.zeros(1, 3)
+    base = q.value(g).item()
+
+    def Q(a):
+        return q(torch.cat([logits, g, torch.as_tensor([a], dtype=torch.float32)], dim=1))
+
+    assert Q([0.4, 0.0]).item() - base == pytest.approx(1.0, abs=1e-6)
+    s = 0.5 * 0.4  # cell 1's nearest neighbour is cell 0 at 0.4
+    assert Q([0.4, 0.1]).item() - base == pytest.approx(np.exp(-0.1 ** 2 / (2 * s ** 2)), abs=1e-6)
+    a = torch.tensor([[0.3, 0.05]], requires_grad=True)
+    out = q(torch.cat([logits, g, a], dim=1))
+    out.sum().backward()
+    step = a.grad[0].numpy()
+    assert step[0] > 0 and step[1] < 0  # towards (0.4, 0.0)
+    with pytest.raises(ValueError, match="vectors"):
+        SpatialQ(5, 3, v)
+
+
 def test_iqm_and_bootstrap_match_a_direct_computation():
     from experiments.agents.stats import bootstrap_ci, iqm, summarize_runs
 

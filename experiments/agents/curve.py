@@ -9,14 +9,11 @@ __all__ = ["plot_learning_curve", "plot_runs", "plot_training_log", "read_traini
 
 def _save(fig, path: str | Path, title: str, fontsize: float | None = None) -> Path:
     """Give ``fig`` its title, write it to ``path`` (110 dpi) and close it."""
-    import matplotlib.pyplot as plt
+    from ..folders import save_figure
 
     if title:
         fig.suptitle(title, fontsize=fontsize)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def plot_learning_curve(curve: list[dict], baselines: dict[str, dict], path: str | Path, title: str = "") -> Path:

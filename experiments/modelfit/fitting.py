@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..folders import save_figure
 from .data import LocalizationData
 from .forward import ForwardModel, forward_model
 from .likelihood import FIT_MODELS, NESTED, Evaluator, FitModel
@@ -400,14 +401,6 @@ def _write_fit(result: dict, data: LocalizationData, out: Path, fwd: ForwardMode
     return result
 
 
-def _save_figure(fig, path: Path) -> None:
-    from ..folders import atomic_write_bytes
-
-    buf = io.BytesIO()
-    fig.savefig(buf, dpi=100, format="png")
-    atomic_write_bytes(path, buf.getvalue())
-
-
 def _plot_fit(data: LocalizationData, pred: np.ndarray, result: dict, path: Path) -> None:
     import matplotlib
 
@@ -431,8 +424,7 @@ def _plot_fit(data: LocalizationData, pred: np.ndarray, result: dict, path: Path
         c.legend(fontsize=7)
     fig.suptitle(f"{result['model']}: log L = {result['log_likelihood']:.1f}, AIC {result['aic']:.1f}")
     fig.tight_layout()
-    _save_figure(fig, path)
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)
 
 
 def fit(data: LocalizationData, model: str, out, *, backend: str = "local", workers: int = 1,
@@ -518,8 +510,7 @@ def _plot_comparison(rows: list[dict], path: Path) -> None:
     ax.barh([r["model"] for r in rows][::-1], [r["delta_aic"] for r in rows][::-1], color="C0")
     ax.set(xlabel="AIC - best AIC", title="model comparison (lower is better)")
     fig.tight_layout()
-    _save_figure(fig, path)
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)
 
 
 SIMULATED_COLUMNS = ("saccade_amplitude_deg", "flash_time_ms", "true_x_deg", "true_y_deg", "perceived_x_deg",

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..folders import save_figure
+
 __all__ = ["add_subcommand", "recover", "GENERATING"]
 
 #: The models that generate data and are fitted.
@@ -97,8 +99,7 @@ def _plot(rows: list[dict], models: list[str], path: Path) -> None:
     ax.set(xlabel="fitted model", ylabel="generating model", title="model recovery: AIC - best AIC (0 = chosen)")
     fig.colorbar(im, ax=ax, label="log10(1 + delta AIC)")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..folders import save_figure
 from .analysis import compression_index
 from .timecourse import RemapTimeCourse
 
@@ -33,7 +34,7 @@ def _save(fig, out: Path, name: str, formats: tuple[str, ...]) -> list[Path]:
     paths = []
     for ext in formats:
         p = out / f"{name}.{ext}"
-        fig.savefig(p, dpi=120, bbox_inches="tight")
+        save_figure(fig, p, dpi=120, close=False, bbox_inches="tight")
         paths.append(p)
     _plt().close(fig)
     return paths
