@@ -67,7 +67,6 @@ SLOW = {
     "test_rl.py::test_train_sb3_cli_refuses_bad_combinations",  # 4 s
     "test_rl.py::test_cell_head_policy_is_the_cell_map",  # SB3's first import
     "test_rl.py::test_gymnasium_wrappers_compose_with_shaping",
-    "test_rl.py::test_aggregate_runs_writes_the_iqm_table_and_curves",  # matplotlib
     "test_rl.py::test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu",  # ~25 s: Warp on the CPU backend
     "test_rl.py::test_short_training_beats_random_by_a_clear_margin",  # 15 s
     "test_rl.py::test_train_and_evaluate_commands_end_to_end",  # 3 s

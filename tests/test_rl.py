@@ -431,36 +431,6 @@ def test_soft_argmax_saccade_reaches_the_cell():
     torch.testing.assert_close(SoftArgmaxSaccade(v)(torch.zeros(1, 4))[0], torch.as_tensor(v.mean(axis=0)))
 
 
-def test_spatial_critic_is_a_bump_map_over_cell_saccades():
-    """``SpatialQ``: with all of the map on cell c, Q(s, v_c) - V = gain exactly, Q falls off as a
-    Gaussian of the distance to v_c with that cell's width (half the nearest-neighbour distance),
-    and dQ/da at a nearby action points at v_c."""
-    torch = pytest.importorskip("torch")
-    pytest.importorskip("stable_baselines3")
-    from experiments.agents.sb3 import SpatialQ
-
-    v = np.array([[0.0, 0.0], [0.4, 0.0], [0.0, 0.6], [-0.5, -0.5]], np.float32)
-    q = SpatialQ(4, 3, v, hidden=8)
-    logits = torch.full((1, 4), -60.0)
-    logits[0, 1] = 60.0
-    g = torch.zeros(1, 3)
-    base = q.value(g).item()
-
-    def Q(a):
-        return q(torch.cat([logits, g, torch.as_tensor([a], dtype=torch.float32)], dim=1))
-
-    assert Q([0.4, 0.0]).item() - base == pytest.approx(1.0, abs=1e-6)
-    s = 0.5 * 0.4  # cell 1's nearest neighbour is cell 0 at 0.4
-    assert Q([0.4, 0.1]).item() - base == pytest.approx(np.exp(-0.1 ** 2 / (2 * s ** 2)), abs=1e-6)
-    a = torch.tensor([[0.3, 0.05]], requires_grad=True)
-    out = q(torch.cat([logits, g, a], dim=1))
-    out.sum().backward()
-    step = a.grad[0].numpy()
-    assert step[0] > 0 and step[1] < 0  # towards (0.4, 0.0)
-    with pytest.raises(ValueError, match="vectors"):
-        SpatialQ(5, 3, v)
-
-
 def test_iqm_and_bootstrap_match_a_direct_computation():
     from experiments.agents.stats import bootstrap_ci, iqm, summarize_runs
 
@@ -573,25 +543,6 @@ def test_train_sb3_cli_refuses_bad_combinations(tmp_path, capsys):
     assert "policy must be one of" in capsys.readouterr().err
     assert main(["evaluate", "--policy", "heuristic", "--episodes", "1", "--stochastic"]) == 2
     assert "--stochastic applies to a Stable-Baselines3" in capsys.readouterr().err
-
-
-def test_aggregate_runs_writes_the_iqm_table_and_curves(tmp_path):
-    from experiments.agents.report import aggregate_runs
-    from experiments.agents.stats import iqm
-
-    dirs = []
-    for i, final in enumerate((0.6, 0.8, 0.9)):
-        d = tmp_path / f"s{i}"
-        d.mkdir()
-        (d / "training_log.csv").write_text("env_steps,success_rate,mean_return\n0,0.0,-0.2\n"
-                                            f"100,{final / 2},0.1\n200,{final},0.5\n")
-        dirs.append(d)
-    rows = aggregate_runs({"ppo": dirs}, {"ppo": [0.6, 0.8, 0.9]}, {"heuristic": {"success_rate": 0.88}}, tmp_path / "t.csv",
-                          tmp_path / "f.png", title="t")
-    assert rows[0]["agent"] == "ppo" and rows[0]["iqm"] == pytest.approx(iqm([0.6, 0.8, 0.9]), abs=1e-4)
-    assert rows[0]["ci_low"] <= rows[0]["iqm"] <= rows[0]["ci_high"] and rows[1]["agent"] == "heuristic"
-    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
-    assert (tmp_path / "t.csv").read_text().splitlines()[0].startswith("agent,iqm,ci_low,ci_high")
 
 
 @pytest.mark.skipif(any(importlib.util.find_spec(m) is None for m in ("skrl", "mujoco_warp", "warp")),

@@ -8,9 +8,9 @@
 - ``stats``: :func:`iqm`, :func:`bootstrap_ci`, :func:`summarize_runs` (Agarwal et al. 2021).
 - ``extractors`` (torch): :class:`WrapConv2d`, :class:`CorticalEncoder`, :class:`SoftArgmaxSaccade`.
 - ``sb3`` (the ``rl`` extra): PPO / SAC policies over the cortical map and :func:`train_sb3`;
-  ``hyperparams``: :func:`load_hyperparams` (``experiments/hyperparams/*.yml``); ``report``:
-  :func:`aggregate_runs`; ``baselines``: :func:`~experiments.agents.baselines.run_baselines` (agents x
-  seeds on one task, held-out IQM table and curves; ``python -m experiments baselines``).
+  ``hyperparams``: :func:`load_hyperparams` (``experiments/hyperparams/*.yml``); ``baselines``:
+  :func:`~experiments.agents.baselines.run_baselines` (agents x seeds on one task, held-out IQM table
+  and curves; ``python -m experiments baselines``).
 
 The torch and Stable-Baselines3 modules are imported on use (``from experiments.agents.sb3 import ...``),
 so the numpy agents need neither.

@@ -12,8 +12,10 @@ episodes, aggregated as IQM with a percentile-bootstrap 95 % CI (Agarwal et al. 
   ``heldout.json`` is done and skipped when the command is run again; any other is trained again from
   the start (each run is deterministic under its seed, so a re-run gives the same numbers).
 - ``table.csv`` / ``table.md``: per agent, IQM [95 % CI], mean and the per-seed held-out success rates,
-  training env steps and wall time; ``curves.png``: IQM validation curves of PPO/SAC over env steps
-  with their bootstrap band, and CEM, the heuristic and random as lines at their held-out values.
+  training env steps and wall time; ``curves.png``: PPO's and SAC's curves over env steps (validation
+  success and return of the deterministic policy, success of the training episodes with sampled
+  actions), IQM over seeds with a bootstrap band, and CEM, the heuristic and random as lines at their
+  held-out values.
 
 One writer per folder (a lock); SIGINT/SIGTERM stop it between or inside runs and lose only the run
 in progress.
@@ -251,6 +253,7 @@ def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict
     for k, v in reference.items():
         lines[f"{NAMES[k]}, held-out"] = {"success_rate": v["success_rate"], "mean_return": v["mean_reward"]}
     if curves:
-        plot_runs(curves, lines, out / "curves.png", keys=("success_rate", "mean_return"),
-                  title=f"{task}: validation curves, IQM over seeds with a bootstrap 95 % band; lines: held-out")
+        plot_runs(curves, lines, out / "curves.png", keys=("success_rate", "mean_return", "train_success_rate"),
+                  title=f"{task}: IQM over seeds with a bootstrap 95 % band (validation: deterministic policy; "
+                        "training episodes: sampled actions); lines: held-out")
     return rows

@@ -35,7 +35,7 @@ from .extractors import CorticalEncoder, SoftArgmaxSaccade, cell_saccade_vectors
 from .rollout import episode_seeds, evaluate, make_env
 
 __all__ = ["CURVE_COLUMNS", "VALIDATION_STREAM", "CorticalActorCritic", "CorticalFeatures", "CorticalSAC",
-           "SB3Agent", "SpatialQ", "load_agent", "make_rl_env", "saccade_vectors", "train_sb3"]
+           "SB3Agent", "load_agent", "make_rl_env", "saccade_vectors", "train_sb3"]
 
 VALIDATION_STREAM = 2  # the CEM trainer's validation episodes: neither the training nor the held-out ones
 CURVE_COLUMNS = ("env_steps", "elapsed_s", "success_rate", "mean_return", "mean_saccades", "train_episodes",
@@ -169,33 +169,6 @@ class CorticalActorCritic(_actor_critic()):
             self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
 
 
-class SpatialQ(nn.Module):
-    """A SAC critic head that reads the action against the critic's own cell map: for the input
-    ``[logits (M*N), global features, action (2)]``, ``Q(s, a) = V(g) + gain * sum_c softmax(logits)_c
-    k_c(a)`` with ``k_c(a) = exp(-|a - v_c|^2 / (2 s_c^2))`` a bump around cell c's saccade ``v_c``, its
-    width ``s_c`` half the distance to the nearest other cell's saccade (at least 0.01). The map learns
-    where saccades pay from the TD error, and ``dQ/da`` points the actor at it; an MLP on 336 logits
-    and the action has to learn that comparison first."""
-
-    def __init__(self, n_cells: int, global_dim: int, vectors: np.ndarray, hidden: int = 64) -> None:
-        super().__init__()
-        v = torch.as_tensor(np.asarray(vectors, np.float32))
-        if v.shape != (n_cells, 2):
-            raise ValueError(f"vectors must have shape ({n_cells}, 2); got {tuple(v.shape)}")
-        d = torch.cdist(v, v) + torch.eye(n_cells) * 1e9
-        self.register_buffer("vectors", v)
-        self.register_buffer("inv_two_var", 1.0 / (2.0 * (0.5 * d.min(dim=1).values).clamp(min=0.01) ** 2))
-        self.n_cells = n_cells
-        self.value = nn.Sequential(nn.Linear(global_dim, hidden), nn.ReLU(), nn.Linear(hidden, 1))
-        self.gain = nn.Parameter(torch.ones(1))
-
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        n = self.n_cells
-        logits, g, a = x[:, :n], x[:, n:-2], x[:, -2:]
-        k = torch.exp(-((a[:, None, :] - self.vectors[None]) ** 2).sum(-1) * self.inv_two_var)  # (B, n)
-        return self.value(g) + self.gain * (torch.softmax(logits, dim=1) * k).sum(1, keepdim=True)
-
-
 def _sac_policy():
     from stable_baselines3.sac.policies import SACPolicy
 
@@ -210,12 +183,9 @@ class CorticalSAC(_sac_policy()):
 
     def __init__(self, observation_space, action_space, lr_schedule, saccade_vectors: list | None = None,
                  channels: tuple[int, ...] = (32, 32), logit_gain: float = 1.0, pointer: bool = True,
-                 log_std_init: float = -1.5, critic: str = "mlp", **kwargs: Any) -> None:
+                 log_std_init: float = -1.5, **kwargs: Any) -> None:
         if saccade_vectors is None:
             raise ValueError("CorticalSAC needs saccade_vectors (experiments.agents.sb3.saccade_vectors(env))")
-        if critic not in ("mlp", "spatial"):
-            raise ValueError(f"critic must be 'mlp' or 'spatial'; got {critic!r}")
-        self.critic_head = critic
         if not np.isfinite(log_std_init):
             raise ValueError(f"log_std_init must be a finite number; got {log_std_init!r}")
         self.saccade_vectors, self.std_init = saccade_vectors, float(log_std_init)
@@ -224,19 +194,6 @@ class CorticalSAC(_sac_policy()):
                                                         "saccade_vectors": saccade_vectors if pointer else None})
         kwargs.setdefault("net_arch", {"pi": [], "qf": [256, 256]})
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
-
-    def make_critic(self, features_extractor=None):
-        critic = super().make_critic(features_extractor)
-        if self.critic_head == "mlp":
-            return critic
-        fe = critic.features_extractor
-        v = np.asarray(self.saccade_vectors, np.float32)
-        hidden = (self.net_arch.get("qf") if isinstance(self.net_arch, dict) else self.net_arch) or [64]
-        for i in range(critic.n_critics):
-            q = SpatialQ(fe.n_cells, fe.features_dim - fe.n_cells, v, int(hidden[0])).to(self.device)
-            critic.add_module(f"qf{i}", q)  # replaces SB3's MLP of the same name
-            critic.q_networks[i] = q
-        return critic
 
     def make_actor(self, features_extractor=None):
         actor = super().make_actor(features_extractor)
