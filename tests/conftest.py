@@ -61,6 +61,7 @@ SLOW = {
     "test_rl.py::test_sb3_recipe_runs",  # 2 s
     "test_rl.py::test_train_recipe_runs_a_few_hundred_steps_and_evaluates",  # PPO and SAC, 256 steps each
     "test_rl.py::test_baselines_command_trains_evaluates_aggregates_and_resumes",  # 4 quick runs
+    "test_rl.py::test_training_keeps_one_torch_thread_whatever_ran_before",  # two training subprocesses
     "test_rl.py::test_wrap_conv_is_equivariant_to_sector_rolls_and_wraps",  # torch's first import
     "test_rl.py::test_iqm_and_bootstrap_match_a_direct_computation",  # scipy's first import
     "test_rl.py::test_potential_shaping_telescopes",  # two envs

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
 import subprocess
 import sys
 
@@ -629,3 +630,29 @@ def test_train_refuses_a_folder_another_run_holds(tmp_path, capsys):
         assert main(["train", "--task", "fixate", "--out", str(out), "--quick", "--no-progress"]) == 2
     assert "in use by another run" in capsys.readouterr().err
     assert not (out / "training_log.csv").exists()
+
+
+@_needs_sb3
+def test_training_keeps_one_torch_thread_whatever_ran_before(tmp_path):
+    """numba's OpenMP layer, started by the env's first step, used to reset torch to 2 threads: a fresh
+    process and one that had run the env before trained different weights. Both now train on one torch
+    thread, to the same weights."""
+    code = ("import sys, hashlib, torch\n"
+            "from experiments.agents.hyperparams import load_hyperparams\n"
+            "from experiments.agents.baselines import quick_hyperparams\n"
+            "from experiments.agents.sb3 import train_sb3\n"
+            "if sys.argv[1] == 'env-first':\n"
+            "    from experiments.agents.rollout import make_env\n"
+            "    e = make_env('search', image_size=48); e.reset(seed=1); e.step(3); e.close()\n"
+            "hp = load_hyperparams('ppo', 'search'); hp['env_kwargs']['image_size'] = 48\n"
+            "train_sb3(sys.argv[2], 'ppo', 'search', quick_hyperparams('ppo', hp), seed=0, timesteps=192, log=lambda m: None)\n"
+            "import zipfile\n"
+            "w = zipfile.ZipFile(sys.argv[2] + '/ppo_search.zip').read('policy.pth')\n"
+            "print(torch.get_num_threads(), hashlib.md5(w).hexdigest())\n")
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    runs = [subprocess.run([sys.executable, "-c", code, mode, str(tmp_path / mode)], capture_output=True, text=True,
+                           env=env) for mode in ("fresh", "env-first")]
+    assert all(r.returncode == 0 for r in runs), [r.stderr[-2000:] for r in runs]
+    outs = [r.stdout.split() for r in runs]
+    assert outs[0][0] == outs[1][0] == "1", outs
+    assert outs[0][1] == outs[1][1], outs

@@ -311,6 +311,18 @@ def _callback(eval_env, agent_meta: dict, out: Path, algo: str, task: str, eval_
     return Curve()
 
 
+def _one_torch_thread() -> None:
+    """One torch thread for the whole run. numba's parallel kernels (the env's) start their OpenMP
+    threading layer on first use, and that start resets the process's OpenMP thread count, torch's
+    included: started after ``torch.set_num_threads(1)``, torch ran on 2 threads from the first env
+    step on, and the trained weights depended on whether anything had run numba's kernels before
+    (the cell-action policy on ``search``). So numba's layer is started first."""
+    import numba
+
+    numba.get_num_threads()  # launches numba's threading layer now
+    torch.set_num_threads(1)
+
+
 def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0,
               timesteps: int | None = None, log=print) -> dict[str, Any]:
     """Train ``algo`` ("ppo" or "sac") on ``task`` with ``hyperparams`` (one entry of a file in
@@ -343,7 +355,7 @@ def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any]
     out.mkdir(parents=True, exist_ok=True)
     for stale in ("training_log.csv",):
         (out / stale).unlink(missing_ok=True)
-    torch.set_num_threads(1)
+    _one_torch_thread()
     torch.manual_seed(seed)
 
     def factory(rank: int):
