@@ -206,8 +206,16 @@ def _reference(path: Path, task: str, image_size: int, seeds: np.ndarray, eval_s
     return ref
 
 
-NAMES = {"ppo": "PPO (cortical conv, Box saccade)", "sac": "SAC (cortical conv, Box saccade)",
-         "cem": "CEM linear cell policy", "heuristic": "heuristic (brightest cell)", "random": "random (uniform cell)"}
+NAMES = {"ppo": "PPO", "sac": "SAC", "cem": "CEM linear cell policy", "heuristic": "heuristic (brightest cell)",
+         "random": "random (uniform cell)"}
+
+
+def _name(agent: str, runs: list[dict]) -> str:
+    """The table's name of an agent: PPO/SAC with the action their hyper-parameters chose."""
+    if agent not in ("ppo", "sac"):
+        return NAMES[agent]
+    mode = ((runs[0].get("hyperparams") or {}).get("env_kwargs") or {}).get("action_mode", "cell")
+    return f"{NAMES[agent]} (cortical conv, {'Box saccade' if mode == 'vector' else 'cell action'})"
 
 
 def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict[str, dict]) -> list[dict]:
@@ -227,9 +235,9 @@ def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict
                 "wall_s": " ".join(f"{r['wall_s']:.0f}" for r in runs)}
 
     for a, runs in results.items():
-        rows.append(row(NAMES[a], runs, "deterministic"))
+        rows.append(row(_name(a, runs), runs, "deterministic"))
         if all("stochastic" in r for r in runs):
-            rows.append(row(NAMES[a], runs, "stochastic"))
+            rows.append(row(_name(a, runs), runs, "stochastic"))
     for k, v in reference.items():
         rows.append({"agent": NAMES[k], "actions": "-", "seeds": "-", "iqm": v["success_rate"], "ci_low": "",
                      "ci_high": "", "mean": v["success_rate"], "per_seed": "", "mean_return": round(v["mean_reward"], 4),
@@ -242,7 +250,7 @@ def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict
         md.append(f"| {r['agent']} | {r['actions']} | {r['seeds']} | {r['iqm']:.2f}{ci} | {r['per_seed']} | "
                   f"{r['mean_return']:+.3f} | {r['env_steps']} | {r['wall_s']} |")
     atomic_write_text(out / "table.md", "\n".join(md) + "\n")
-    curves = {NAMES[a]: [read_training_log(_run_dir(out, a, r["seed"]) / "training_log.csv") for r in runs]
+    curves = {_name(a, runs): [read_training_log(_run_dir(out, a, r["seed"]) / "training_log.csv") for r in runs]
               for a, runs in results.items() if a != "cem"}
     lines = {}
     if "cem" in results:
@@ -254,6 +262,5 @@ def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict
         lines[f"{NAMES[k]}, held-out"] = {"success_rate": v["success_rate"], "mean_return": v["mean_reward"]}
     if curves:
         plot_runs(curves, lines, out / "curves.png", keys=("success_rate", "mean_return", "train_success_rate"),
-                  title=f"{task}: IQM over seeds with a bootstrap 95 % band (validation: deterministic policy; "
-                        "training episodes: sampled actions); lines: held-out")
+                  title=f"{task}: IQM over seeds with a bootstrap 95 % band; lines: held-out")
     return rows
