@@ -100,11 +100,12 @@ def servo_setpoints(q, dt_s, inertia, out=None, stiffness=None, damping=None, en
     if end is None:
         if stiffness is None:
             return out
-        end = (np.arange(T + 1, T + 2) if isinstance(q, np.ndarray) else _torch_arange(q, T + 2)[T + 1:]).repeat(n)
+        end = last = T + 1  # every command ends at the last boundary: the plant's last step is held
+    else:
+        last = end[:, None]
     # step j ends at boundary j + 1 of q[:, 1:] (index j + 2 of q): held from end - 1 on, from end - 2 with the plant
     steps = (np.arange(T) if isinstance(q, np.ndarray) else _torch_arange(q, T))[None, :]
-    first = end[:, None] - (2 if stiffness is not None else 1)
-    held = steps >= first  # (n, T) booleans, numpy or torch
+    held = steps >= last - (2 if stiffness is not None else 1)  # (n or 1, T) booleans, numpy or torch
     out[:, :, k:] *= ~held[:, :, None]
     rows = np.arange(n) if isinstance(q, np.ndarray) else _torch_arange(q, n)
     q_end = q[rows, end][:, None, :]  # (n, 1, k)

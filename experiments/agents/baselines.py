@@ -176,8 +176,9 @@ def _check_study(path: Path, study: dict) -> None:
         except (ValueError, UnicodeDecodeError) as err:
             raise ValueError(f"{path} is not valid JSON ({err}): this folder's study cannot be read; "
                              "use another --out") from None
-        if old != json.loads(json.dumps(study)):
-            diff = sorted(k for k in set(old) | set(study) if old.get(k) != json.loads(json.dumps(study)).get(k))
+        new = json.loads(json.dumps(study))  # as it reads back (tuples as lists)
+        if old != new:
+            diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
             raise ValueError(f"{path.parent} holds another baselines study (differs in: {', '.join(diff)}); "
                              "use another --out, or the same options to resume it")
     else:
