@@ -232,6 +232,14 @@ class BatchedBinocularSaccade(VectorEnv):
             if len(act):
                 plans, clipped[act] = self.planner.plan(act, hv[act], factor[act])
                 rot_eye[act] = plans.efference_copy_eye
+        # The host's work overlaps the device's (on CUDA, where torch's and Warp's launches return at
+        # once): the command tables are built while the remapping predictions run, and the worlds'
+        # clocks and eye-position signals advance while the physics steps.
+        with part("remap"):
+            values, valid = self.vision.predict(self._frame, torch.as_tensor(rot_eye, dtype=torch.float32,
+                                                                             device=self.device), self.remap_models)
+        with part("host"):
+            if plans is not None:
                 table, lengths[act] = self.planner.commands(plans)
                 spans[act] = plans.end_ms - plans.onset_ms
             # the command tables: each world's commanded angles at every ms from now to its saccade's end
@@ -240,16 +248,15 @@ class BatchedBinocularSaccade(VectorEnv):
             if plans is not None:
                 commands[act] = table
             advance = np.where(active, spans + self._template.fixation_ms, 0)
-        with part("remap"):
-            values, valid = self.vision.predict(self._frame, torch.as_tensor(rot_eye, dtype=torch.float32,
-                                                                             device=self.device), self.remap_models)
         with part("physics"):
             if resetting.any():
                 self._load(np.flatnonzero(resetting))
-            self.physics.run(commands, lengths, int(min(advance.max(), spans.max() + self.settle_ms)))
+            self.physics.run(commands, lengths, int(min(advance.max(), spans.max() + self.settle_ms)), wait=False)
         with part("host"):
             if plans is not None:
                 self.planner.start(act, plans, advance[act])
+        with part("physics"):
+            self.physics.wait()
         with part("host sync"):
             eye_q = self.physics.eye_qpos().double().cpu().numpy()
         self._see()
