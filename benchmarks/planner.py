@@ -75,11 +75,9 @@ def batched(task, n: int, steps: int, resets: float, parts: dict | None = None) 
     rngs = [np.random.default_rng(i) for i in range(n)]
     rng = np.random.default_rng(0)
 
-    def reset(idx):
-        for i in idx:
-            settled.apply(head, int(rngs[i].integers(2**31 - 1)))
-            task.initialize_episode(head, rngs[i])
-            planner.take_reset(i)
+    def reset(idx):  # as the batched env resets: all at once (BatchedPlanner.take_settled)
+        seeds = [int(rngs[i].integers(2**31 - 1)) for i in idx]
+        planner.take_settled(idx, settled, seeds, [task.placements(rngs[i]) for i in idx])
 
     reset(range(n))
     worlds = np.arange(n)

@@ -358,14 +358,24 @@ class BatchedBinocularSaccade(VectorEnv):
         self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - t0
 
     def _reset_worlds(self, idx: np.ndarray) -> None:
-        """Reset worlds ``idx`` on the host as ``BinocularSaccadeEnv.reset`` does (their rngs continue)."""
+        """Reset worlds ``idx`` on the host as ``BinocularSaccadeEnv.reset`` does (their rngs continue):
+        all at once where the scene's settled reset serves (``BatchedPlanner.take_settled``), else one by
+        one through the scratch head."""
+        seeds, places = [], []
         for i in idx:
             rng = self._rngs[i]
             if rng is None:
                 self._rngs[i] = rng = seeding.np_random(None)[0]
-            self._settled.apply(self.head, int(rng.integers(2**31 - 1)))  # as a world's head.reset(seed=...)
+            seed = int(rng.integers(2**31 - 1))  # as a world's head.reset(seed=...)
+            if self._settled.usable:
+                seeds.append(seed)
+                places.append(self.task.placements(rng))
+                continue
+            self._settled.apply(self.head, seed)
             self.task.initialize_episode(self.head, rng)
             self.planner.take_reset(i)
+        if self._settled.usable and len(idx):
+            self.planner.take_settled(idx, self._settled, seeds, places)
         self._saccades[idx] = 0
 
     def _load(self, idx: np.ndarray) -> None:
