@@ -243,10 +243,13 @@ class BatchedBinocularSaccade(VectorEnv):
                 table, lengths[act] = self.planner.commands(plans)
                 spans[act] = plans.end_ms - plans.onset_ms
             # the command tables: each world's commanded angles at every ms from now to its saccade's end
-            commands = np.empty((n, table.shape[1] if plans is not None else 1, 6))
-            commands[:] = self.planner.hold.reshape(n, 1, 6)  # the worlds being reset hold their fixation
-            if plans is not None:
-                commands[act] = table
+            if len(act) == n:  # every world saccades: the planner's tables as they are (no copy)
+                commands = table
+            else:
+                commands = np.empty((n, table.shape[1] if plans is not None else 1, 6))
+                commands[:] = self.planner.hold.reshape(n, 1, 6)  # the worlds being reset hold their fixation
+                if plans is not None:
+                    commands[act] = table
             advance = np.where(active, spans + self._template.fixation_ms, 0)
         with part("physics"):
             if resetting.any():
