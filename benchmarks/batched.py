@@ -96,6 +96,8 @@ def main(argv=None) -> None:
     ap.add_argument("--image-size", type=int, default=128)
     ap.add_argument("--steps", type=int, default=None, help="timed steps per configuration (default 20 CUDA, 3 CPU)")
     ap.add_argument("--single-steps", type=int, default=20)
+    ap.add_argument("--csv", default=None, help="also write the table to this CSV file (one row per number of "
+                    "worlds, the device named in each row)")
     ap.add_argument("--retina-rays", type=int, default=None,
                     help="render the retina along s x s rays per receptive field (envs.retina_rays) instead of "
                          "pinhole pictures (default: pictures)")
@@ -128,6 +130,16 @@ def main(argv=None) -> None:
         cells = [str(n), f"{r['steps/s']:.0f}", f"{r['steps/s'] / single:.2f}", f"{r['ms/step']:.1f}"]
         cells += [f"{r['parts'].get(p, 0.0):.2f}" for p in PARTS] + [r["memory"]]
         print("| " + " | ".join(cells) + " |")
+    if args.csv:
+        from experiments.folders import write_csv
+
+        fields = ["device", "eyes", "worlds", "env_steps_per_s", "single_env_steps_per_s", "ms_per_step"]
+        fields += [f"{p.replace(' ', '_')}_ms" for p in PARTS] + ["memory"]
+        write_csv(args.csv, fields, [
+            {"device": device_name, "eyes": seen, "worlds": n, "env_steps_per_s": round(r["steps/s"], 1),
+             "single_env_steps_per_s": round(single, 1), "ms_per_step": round(r["ms/step"], 3),
+             **{f"{p.replace(' ', '_')}_ms": round(r["parts"].get(p, 0.0), 3) for p in PARTS}, "memory": r["memory"]}
+            for n, r in rows])
 
 
 if __name__ == "__main__":

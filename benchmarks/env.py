@@ -9,8 +9,11 @@ remapping models and score the step. The bare loop does the same saccades and re
 2. Contention: the default env in one spawned process alone, then in two spawned processes at
    once (on a 2-core machine: one per core, each competing with the other for memory bandwidth
    and for any extra threads either starts). Each process's steps/s over its solo steps/s is the
-   share of its speed it keeps. Run once as the env runs (BLAS limited to one thread around its
-   per-step product, ``conformal.blas_threads``) and once with that limit lifted, as before it.
+   share of its speed it keeps. Run as the env runs (BLAS limited to one thread around its per-step
+   product, ``conformal.blas_threads``; numba's parallel loops of the saccade model on one thread per
+   64 saccades, ``models._plan_kernels.kernel_threads``: one thread for one head), then with each
+   limit lifted in turn, as before it. The load average is printed: other jobs on the machine lower
+   the ratios.
 
     python benchmarks/env.py [--steps 200] [--image-size 128] [--repeats 5] [--skip-contention]
 """
@@ -20,6 +23,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import multiprocessing as mp
+import os
 import time
 
 import numpy as np
@@ -69,13 +73,23 @@ def solo(args, actions) -> list[tuple[str, np.ndarray, np.ndarray]]:
     return rows
 
 
-def _worker(image_size: int, steps: int, repeats: int, limited: bool, barrier, results) -> None:
+#: the contention runs: (label, limit lifted)
+LIMITS = (("as the env runs (both limits)", None), ("numba unlimited", "numba"), ("BLAS unlimited", "blas"))
+
+
+def _worker(image_size: int, steps: int, repeats: int, lifted: str | None, barrier, results) -> None:
     """A spawned process: the default env, timed ``repeats`` times over ``steps`` steps, started
-    together with the other workers at each barrier."""
-    if not limited:  # the env as it was before the limit: BLAS on as many threads as it likes
+    together with the other workers at each barrier; ``lifted``: the thread limit taken off."""
+    if lifted == "blas":  # the env as it was before the limit: BLAS on as many threads as it likes
         import conformal.remap_plan
 
         conformal.remap_plan.blas_threads = lambda n=1: contextlib.nullcontext()
+    elif lifted == "numba":  # numba's default: every parallel loop on one thread per core
+        import numba
+
+        import models._plan_kernels as K
+
+        K.kernel_threads = lambda n: contextlib.nullcontext(numba.get_num_threads())
     env = envs.BinocularSaccadeEnv(image_size=image_size)
     actions = np.tile(SACCADE, (steps // 2, 1))
     env.reset(seed=0)
@@ -89,11 +103,11 @@ def _worker(image_size: int, steps: int, repeats: int, limited: bool, barrier, r
     results.put(1.0 / best)
 
 
-def contention(args, n_procs: int, limited: bool) -> list[float]:
+def contention(args, n_procs: int, lifted: str | None) -> list[float]:
     """Best steps/s of each of ``n_procs`` env processes running at once."""
     ctx = mp.get_context("spawn")
     barrier, results = ctx.Barrier(n_procs), ctx.Queue()
-    procs = [ctx.Process(target=_worker, args=(args.image_size, args.steps, args.repeats, limited, barrier, results))
+    procs = [ctx.Process(target=_worker, args=(args.image_size, args.steps, args.repeats, lifted, barrier, results))
              for _ in range(n_procs)]
     for p in procs:
         p.start()
@@ -132,16 +146,16 @@ def main() -> None:
     if args.skip_contention:
         return
 
-    print(f"\ncontention: the default env in spawned processes, best of {args.repeats} runs of {len(actions)} steps each")
-    print(f"{'BLAS per-step product':32s} {'1 process':>10s} {'2 at once (each)':>18s} {'kept (each)':>14s}")
+    print(f"\ncontention: the default env in spawned processes, best of {args.repeats} runs of {len(actions)} steps each; "
+          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} before")
+    print(f"{'threads':32s} {'1 process':>10s} {'2 at once (each)':>18s} {'kept (each)':>14s}")
     kept_limited = None
-    for limited in (True, False):
-        alone = contention(args, 1, limited)[0]
-        pair = contention(args, 2, limited)
+    for label, lifted in LIMITS:
+        alone = contention(args, 1, lifted)[0]
+        pair = contention(args, 2, lifted)
         kept = [p / alone for p in pair]
-        if limited:
+        if lifted is None:
             kept_limited = kept
-        label = "1 thread (the env's default)" if limited else "unlimited (before the limit)"
         print(f"{label:32s} {alone:8.0f}/s {pair[0]:8.0f} {pair[1]:7.0f}/s {kept[0]:7.0%} {kept[1]:5.0%}")
     ok = min(kept_limited) >= 0.8
     print(f"target: each of two envs at once keeps >= 80% of its solo speed: {min(kept_limited):.0%} -> "

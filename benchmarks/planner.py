@@ -14,6 +14,8 @@ extra needed: this is numpy and numba on the host.
 from __future__ import annotations
 
 import argparse
+import os
+import platform
 import time
 
 import numba
@@ -53,31 +55,59 @@ def baseline(task, n: int, steps: int, resets: float) -> float:
     return (time.perf_counter() - t0) / (n * steps)
 
 
-def batched(task, n: int, steps: int, resets: float) -> float:
-    """Seconds per world and step with the vectorised planner (one scratch head)."""
+def cpu_name() -> str:
+    """The host's processor, as /proc/cpuinfo names it (or the platform's word for it)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def batched(task, n: int, steps: int, resets: float, parts: dict | None = None) -> float:
+    """Seconds per world and step with the vectorised planner (one scratch head); with ``parts``, each
+    part's seconds per world and step added into it (resets, plan, commands, start)."""
     head = models.Head(task.scene, 32, seed=0)
     settled, planner = SettledReset(head), BatchedPlanner(head, n)
     rngs = [np.random.default_rng(i) for i in range(n)]
     rng = np.random.default_rng(0)
 
-    def reset(idx):
-        for i in idx:
-            settled.apply(head, int(rngs[i].integers(2**31 - 1)))
-            task.initialize_episode(head, rngs[i])
-            planner.take_reset(i)
+    def reset(idx):  # as the batched env resets: all at once (BatchedPlanner.take_settled)
+        seeds = [int(rngs[i].integers(2**31 - 1)) for i in idx]
+        planner.take_settled(idx, settled, seeds, [task.placements(rngs[i]) for i in idx])
 
     reset(range(n))
     worlds = np.arange(n)
+    spent = dict.fromkeys(PARTS, 0.0)
+
+    def timed(name, f, *a):
+        t = time.perf_counter()
+        out = f(*a)
+        spent[name] += time.perf_counter() - t
+        return out
+
     for k in range(steps + 1):  # the first step loads numba's compiled kernels
         if k == 1:
             t0 = time.perf_counter()
+            spent = dict.fromkeys(PARTS, 0.0)
         hv, done = random_actions(rng, n), rng.random(n) < resets
-        reset(np.flatnonzero(done))
-        plans, _ = planner.plan(worlds, hv, np.ones(n))
-        planner.commands(plans)
-        planner.start(worlds, plans, plans.end_ms - plans.onset_ms + FIXATION_MS)
+        timed("resets", reset, np.flatnonzero(done))
+        plans, _ = timed("plan", planner.plan, worlds, hv, np.ones(n))
+        timed("commands", planner.commands, plans)
+        timed("start", planner.start, worlds, plans, plans.end_ms - plans.onset_ms + FIXATION_MS)
         planner.eye_position_signal()
+    if parts is not None:
+        for name, v in spent.items():
+            parts[name] = v / (n * steps)
     return (time.perf_counter() - t0) / (n * steps)
+
+
+#: the host's parts of a step: resets (layout, task, hand-over), plans (SaccadePlans: profiles, settle
+#: times, rotations), command tables (the executed angles every ms), start (clocks, eye-position signals)
+PARTS = ("resets", "plan", "commands", "start")
 
 
 def main(argv=None) -> None:
@@ -90,13 +120,18 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     task = TASKS[args.task]()
     base = baseline(task, args.baseline_envs, args.steps, args.resets)
-    print(f"host side, task {args.task}, {args.resets:.0%} of worlds reset per step, numba threads "
-          f"{numba.get_num_threads()}; baseline: {args.baseline_envs} worlds of models.Head + SaccadePlan")
-    print("\n| worlds | per-world objects us/world | batched planner us/world | speed-up | host ms per step |")
-    print("|---|---|---|---|---|")
+    print(f"host side on {cpu_name()} ({os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}), task "
+          f"{args.task}, {args.resets:.0%} of worlds reset per step, numba threads {numba.get_num_threads()}; "
+          f"baseline: {args.baseline_envs} worlds of models.Head + SaccadePlan")
+    print("\n| worlds | per-world objects us/world | batched planner us/world | speed-up | host ms per step | "
+          + " | ".join(f"{p} us/world" for p in PARTS) + " |")
+    print("|---|---|---|---|---|" + "---|" * len(PARTS))
     for n in args.num_envs:
-        b = batched(task, n, args.steps, args.resets)
-        print(f"| {n} | {base * 1e6:.0f} | {b * 1e6:.1f} | {base / b:.0f}x | {b * n * 1e3:.1f} |", flush=True)
+        parts: dict = {}
+        b = batched(task, n, args.steps, args.resets, parts)
+        print(f"| {n} | {base * 1e6:.0f} | {b * 1e6:.1f} | {base / b:.0f}x | {b * n * 1e3:.1f} | "
+              + " | ".join(f"{parts[p] * 1e6:.1f}" for p in PARTS) + " |", flush=True)
+    print("target: <= 5 us per world and step (issue 38); parts timed separately: they add up to the total")
 
 
 if __name__ == "__main__":

@@ -232,24 +232,34 @@ class BatchedBinocularSaccade(VectorEnv):
             if len(act):
                 plans, clipped[act] = self.planner.plan(act, hv[act], factor[act])
                 rot_eye[act] = plans.efference_copy_eye
-                table, lengths[act] = self.planner.commands(plans)
-                spans[act] = plans.end_ms - plans.onset_ms
-            # the command tables: each world's commanded angles at every ms from now to its saccade's end
-            commands = np.empty((n, table.shape[1] if plans is not None else 1, 6))
-            commands[:] = self.planner.hold.reshape(n, 1, 6)  # the worlds being reset hold their fixation
-            if plans is not None:
-                commands[act] = table
-            advance = np.where(active, spans + self._template.fixation_ms, 0)
+        # The host's work overlaps the device's (on CUDA, where torch's and Warp's launches return at
+        # once): the command tables are built while the remapping predictions run, and the worlds'
+        # clocks and eye-position signals advance while the physics steps.
         with part("remap"):
             values, valid = self.vision.predict(self._frame, torch.as_tensor(rot_eye, dtype=torch.float32,
                                                                              device=self.device), self.remap_models)
+        with part("host"):
+            if plans is not None:
+                table, lengths[act] = self.planner.commands(plans)
+                spans[act] = plans.end_ms - plans.onset_ms
+            # the command tables: each world's commanded angles at every ms from now to its saccade's end
+            if len(act) == n:  # every world saccades: the planner's tables as they are (no copy)
+                commands = table
+            else:
+                commands = np.empty((n, table.shape[1] if plans is not None else 1, 6))
+                commands[:] = self.planner.hold.reshape(n, 1, 6)  # the worlds being reset hold their fixation
+                if plans is not None:
+                    commands[act] = table
+            advance = np.where(active, spans + self._template.fixation_ms, 0)
         with part("physics"):
             if resetting.any():
                 self._load(np.flatnonzero(resetting))
-            self.physics.run(commands, lengths, int(min(advance.max(), spans.max() + self.settle_ms)))
+            self.physics.run(commands, lengths, int(min(advance.max(), spans.max() + self.settle_ms)), wait=False)
         with part("host"):
             if plans is not None:
                 self.planner.start(act, plans, advance[act])
+        with part("physics"):
+            self.physics.wait()
         with part("host sync"):
             eye_q = self.physics.eye_qpos().double().cpu().numpy()
         self._see()
@@ -351,14 +361,24 @@ class BatchedBinocularSaccade(VectorEnv):
         self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - t0
 
     def _reset_worlds(self, idx: np.ndarray) -> None:
-        """Reset worlds ``idx`` on the host as ``BinocularSaccadeEnv.reset`` does (their rngs continue)."""
+        """Reset worlds ``idx`` on the host as ``BinocularSaccadeEnv.reset`` does (their rngs continue):
+        all at once where the scene's settled reset serves (``BatchedPlanner.take_settled``), else one by
+        one through the scratch head."""
+        seeds, places = [], []
         for i in idx:
             rng = self._rngs[i]
             if rng is None:
                 self._rngs[i] = rng = seeding.np_random(None)[0]
-            self._settled.apply(self.head, int(rng.integers(2**31 - 1)))  # as a world's head.reset(seed=...)
+            seed = int(rng.integers(2**31 - 1))  # as a world's head.reset(seed=...)
+            if self._settled.usable:
+                seeds.append(seed)
+                places.append(self.task.placements(rng))
+                continue
+            self._settled.apply(self.head, seed)
             self.task.initialize_episode(self.head, rng)
             self.planner.take_reset(i)
+        if self._settled.usable and len(idx):
+            self.planner.take_settled(idx, self._settled, seeds, places)
         self._saccades[idx] = 0
 
     def _load(self, idx: np.ndarray) -> None:

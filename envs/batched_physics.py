@@ -180,11 +180,16 @@ class WarpHeads:
         I, K, B = (torch.as_tensor(a, dtype=torch.float64, device=dev) for a in self._plant)
         return servo_setpoints(ext, dt, I, out, stiffness=K, damping=B, end=ends)  # ext[ends] = q[ends - 1]
 
-    def run(self, commands: np.ndarray, lengths: np.ndarray, n_ms: int) -> int:
+    def run(self, commands: np.ndarray, lengths: np.ndarray, n_ms: int, *, wait: bool = True) -> int:
         """Step every world ``n_ms`` ms (rounded up to whole ``chunk_ms`` on CUDA) following ``commands``
         (N, T, 6): world w's commanded angles at 0, 1, ... ``lengths[w] - 1`` ms from now, then held at
         the last (the command at rest before them). The set-points are ``models.servo_setpoints``'
-        (the CPU head's servo law) at 1 ms steps with one inertia per joint. Returns the ms stepped."""
+        (the CPU head's servo law) at 1 ms steps with one inertia per joint. Returns the ms stepped.
+
+        ``wait=False``: return once the steps are launched (the host's arrays ``commands`` and
+        ``lengths`` are on the device by then and may be reused); the host can work meanwhile, and
+        :meth:`wait` must be called before torch reads the device's state. On Warp's CPU backend every
+        launch runs to its end before it returns: the same either way."""
         wp, mjw = self._wp, self._mjw
         n, T = commands.shape[:2]
         with wp.ScopedDevice(self.device):
@@ -218,8 +223,13 @@ class WarpHeads:
                 self._physics_step()
             stepped = max(stepped, n_ms)
             mjw.forward(self.model, self.data)
-        self._handoff_to_torch()
+        if wait:
+            self._handoff_to_torch()
         return stepped
+
+    def wait(self) -> None:
+        """Wait for the physics launched by ``run(..., wait=False)`` before torch reads its state."""
+        self._handoff_to_torch()
 
     def _capture(self):
         """Capture ``chunk_ms`` physics steps in a CUDA graph, or return False (and warn once) where the

@@ -111,10 +111,19 @@ class Task:
                              f"(use scene 'dots' or 'search', or task 'free')")
 
     def initialize_episode(self, head: "models.Head", rng: np.random.Generator) -> None:
-        """Place the task's objects (the head has just been reset; ``rng`` a ``numpy.random.Generator``)."""
+        """Place the task's objects (the head has just been reset; ``rng`` a ``numpy.random.Generator``):
+        each of :meth:`placements` with ``Head.set_object_position``."""
         _check_head(head)
+        for name, pos in self.placements(rng).items():
+            head.set_object_position(name, pos)
+
+    def placements(self, rng: np.random.Generator) -> dict[str, np.ndarray]:
+        """The world positions of the task's objects for a new episode, drawn from ``rng`` (a
+        ``numpy.random.Generator``): movable object name -> position (none by default). The batched env
+        places them in many worlds at once (``models.BatchedPlanner.take_settled``)."""
         if not isinstance(rng, np.random.Generator):
             raise checks.InputTypeError(f"rng must be a numpy.random.Generator; got {type(rng).__name__}")
+        return {}
 
     def target_position(self, head: "models.Head") -> np.ndarray:
         _check_head(head)
@@ -170,12 +179,12 @@ class FixateTask(Task):
         if "target" not in head.scene.movable:
             raise ValueError(f"task 'fixate' moves the target; in scene {head.scene.name!r} it is fixed")
 
-    def initialize_episode(self, head, rng) -> None:
-        super().initialize_episode(head, rng)
+    def placements(self, rng) -> dict[str, np.ndarray]:
+        super().placements(rng)
         ecc = math.radians(rng.uniform(self.min_ecc_deg, self.max_ecc_deg))
         ang = rng.uniform(0, 2 * math.pi)
         az, el = math.atan(math.tan(ecc) * math.cos(ang)), math.atan(math.tan(ecc) * math.sin(ang))
-        head.set_object_position("target", models.screen_point(az, el, 1.0))
+        return {"target": models.screen_point(az, el, 1.0)}
 
     def score_errors(self, err_deg):
         success = np.all(err_deg <= self.tolerance_deg, axis=1)

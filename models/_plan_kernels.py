@@ -10,22 +10,59 @@ the vergence fraction and its rate, the legacy main sequence) are written once, 
 compiled here both inline for the kernels and as numpy ufuncs (``numba.vectorize``).
 
 No fast-math: results are reproducible to the last bit between calls. Cached on disk as
-``conformal.kernels``' kernels are. Saccades run in parallel over numba's threads.
+``conformal.kernels``' kernels are. Saccades run in parallel over numba's threads, one thread per
+``SACCADES_PER_THREAD`` saccades at most (:func:`kernel_threads`): one head's plan (the single env,
+one Gymnasium env per process) runs on one thread, so that several env processes on as many cores do
+not fight over each other's cores (two on two cores kept a fifth of their solo speed with numba's
+default of one thread per core in every process); thousands of worlds use every thread.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import math
+from collections.abc import Iterator
 
 import numba as nb
 
 from conformal.kernels import DISK_CACHE
 
-__all__ = ["angles", "burst_loop", "rates", "signals", "profile_marks", "profile_values", "listing_torsion", "vergence_fraction", "vergence_rate",
+__all__ = ["SACCADES_PER_THREAD", "kernel_threads", "angles", "burst_loop", "rates", "signals", "profile_marks", "profile_values", "listing_torsion", "vergence_fraction", "vergence_rate",
            "legacy_position", "legacy_rate"]
 
 _inline = nb.njit(cache=DISK_CACHE, nogil=True, inline="always")
-_par = nb.njit(cache=DISK_CACHE, nogil=True, parallel=True)
+#: Saccades per numba thread of the parallel loops: below 2 x this, one thread (measured in
+#: ``benchmarks/env.py``'s contention part and ``benchmarks/planner.py``).
+SACCADES_PER_THREAD = 64
+
+
+@contextlib.contextmanager
+def kernel_threads(n: int) -> Iterator[int]:
+    """numba's threads limited, in this thread, to one per :data:`SACCADES_PER_THREAD` of ``n`` saccades
+    (at least 1, at most the current setting) while the block runs; the setting is restored on exit.
+    Yields the number in force."""
+    prev = nb.get_num_threads()
+    k = max(1, min(prev, int(n) // SACCADES_PER_THREAD))
+    if k == prev:
+        yield k
+        return
+    nb.set_num_threads(k)
+    try:
+        yield k
+    finally:
+        nb.set_num_threads(prev)
+
+
+def _par(f):
+    """A parallel loop over the rows of its last argument (``out``), run under :func:`kernel_threads`."""
+    @functools.wraps(f)
+    def call(*args):
+        with kernel_threads(args[-1].shape[0]):
+            return call.kernel(*args)
+
+    call.kernel = nb.njit(cache=DISK_CACHE, nogil=True, parallel=True)(f)  # the compiled loop itself
+    return call
 
 
 def _ufunc(f):

@@ -115,6 +115,43 @@ class BatchedPlanner:
         self.qpos[i], self.qvel[i], self.ctrl[i] = d.qpos, d.qvel, d.ctrl
         self._last[i] = None
 
+    def take_settled(self, worlds, settled: "SettledReset", seeds, placements=None) -> None:
+        """:meth:`take_reset` of many worlds at once, without the scratch head: world ``worlds[k]`` as if
+        ``settled.apply(head, seeds[k])`` had reset the head (then each ``placements[k]``, a dict of
+        movable object name -> world position, had been set with ``Head.set_object_position``, as a
+        task's ``initialize_episode`` does). Every world gets the settled joints, set-points, clock and
+        oculomotor state (the same in every world); the scene's layout is drawn from each world's own
+        generator, ``numpy.random.default_rng(seed)``, which then serves its endpoint noise. Needs
+        ``settled.usable`` (else reset the worlds one by one through the head)."""
+        if not settled.usable:
+            raise ValueError("this scene's layout moves the fixation point: reset its worlds through the head "
+                             "(SettledReset.apply, then take_reset)")
+        w = np.asarray(worlds, np.intp)
+        if len(seeds) != len(w) or (placements is not None and len(placements) != len(w)):
+            raise ValueError(f"one seed (and placement) per world: {len(w)} worlds, {len(seeds)} seeds")
+        st, data = settled._state, settled._data
+        self.time_ms[w] = st.time_ms
+        self.hold[w] = st.hold
+        self.signal_hold[w] = st.signal_hold
+        self.signal_now[w] = st.signal_hold
+        self.fix_head[w] = st.fixation_head
+        self.qpos[w], self.qvel[w], self.ctrl[w] = data["qpos"], data["qvel"], data["ctrl"]
+        self.mocap_pos[w], self.mocap_quat[w] = settled._mocap
+        layout = self.head.scene.layout
+        for k, i in enumerate(w):
+            rng = np.random.default_rng(int(seeds[k]))
+            if layout is not None:
+                for name, pos in layout(rng).items():
+                    self.mocap_pos[i, settled._mocap_id[name]] = pos
+            if placements is not None:
+                for name, pos in placements[k].items():
+                    pos = np.asarray(pos, float).reshape(3)
+                    if not np.isfinite(pos).all():
+                        raise ValueError(f"the position of {name!r} must be finite; got {pos}")
+                    self.mocap_pos[i, settled.mocap_index(name)] = pos
+            self.rngs[i] = rng
+            self._last[i] = None
+
     def eye_position_signal(self) -> np.ndarray:
         """Every world's eye-position signal now (N, 2, 3) (``models.Head.eye_position_signal``)."""
         return self.signal_now.copy()
@@ -307,7 +344,8 @@ class SettledReset:
         moved = scene.layout(np.random.default_rng(0)).keys() if scene.layout is not None else ()
         self.usable = not (isinstance(fix, str) and fix in moved)
         m = head.model
-        self._mocap_id = {name: int(m.body_mocapid[m.body(name).id]) for name in moved}
+        self._mocap_rows = {m.body(b).name: int(m.body_mocapid[b]) for b in range(m.nbody) if m.body_mocapid[b] >= 0}
+        self._mocap_id = {name: self._mocap_rows[name] for name in moved}
         blank = mujoco.MjData(head.model)  # as made: reset
         self._mocap = blank.mocap_pos.copy(), blank.mocap_quat.copy()
         head.reset(seed=0)
@@ -315,6 +353,12 @@ class SettledReset:
         self._data = {k: getattr(d, k).copy() for k in ("qpos", "qvel", "ctrl", "act")}
         self._time = float(d.time)
         self._state = head.get_state()
+
+    def mocap_index(self, name: str) -> int:
+        """The mocap row of the scene's movable object ``name`` (KeyError if it is not one)."""
+        if name not in self._mocap_rows:
+            raise KeyError(f"{name!r} is not a movable object of this scene; movable: {', '.join(self._mocap_rows)}")
+        return self._mocap_rows[name]
 
     def apply(self, head: Head, seed: int) -> None:
         """Reset ``head`` as ``head.reset(seed=seed)`` would (same joints, set-points, clock, layout,

@@ -24,6 +24,12 @@ undershoots and drifts on (post-saccadic drift, glissades: Bahill, Clark & Stark
 26:303; Kapoula, Robinson & Hain 1986, Vision Res 26:735). Nothing closes a loop on the measured
 eye: a torque applied to the globe moves it, and only the orbit's elasticity brings it back.
 
+After the burst the eye approaches its step as ``exp(-t / T2)``: from the saccade's detected offset
+(the 30 deg/s crossing) it has ``v T2`` still to go, 30 deg/s x 7.4 ms = 0.22 deg (0.19-0.25 deg over
+amplitudes, both drives alike: it is the command's, not the drive's). That tail lies inside the plan,
+which ends (``end_ms``) once every component is within ``settle_deg`` (0.01 deg) of the endpoint; from
+there the step ``K q_end`` holds the eye, which moves less than ``settle_deg`` after it.
+
 ``T1 = 150 ms`` is Robinson's (1964) long time constant; ``T2`` defaults to the burst generator's
 nominal plant (``BurstGenerator.plant_t2_ms``, fitted with it to the main sequence).
 """

@@ -217,3 +217,40 @@ def test_settled_reset_equals_head_reset(scene):
         for k in ("_hold", "_signal_hold", "_fix_head"):
             np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
         assert a._rng.bit_generator.state == b._rng.bit_generator.state
+
+
+@pytest.mark.parametrize("scene", models.SCENES)
+def test_take_settled_equals_one_by_one_resets(scene):
+    """BatchedPlanner.take_settled (the batched env's resets, all at once) leaves each world as
+    SettledReset.apply + the task's initialize_episode + take_reset leave it, world by world: clock,
+    holds, fixation, signal, joints, set-points, every movable object, and the generator's state."""
+    from models import SettledReset
+
+    task = envs.TASKS[{"dots": "fixate", "search": "search"}.get(scene, "free")]()
+    head = models.Head(scene, 16, seed=0)
+    settled = SettledReset(head)
+    n = 5
+    one, many = BatchedPlanner(head, n), BatchedPlanner(head, n)
+    worlds = np.array([3, 0, 4])
+    seeds = [7, 123456, 2**31 - 2]
+    env_rngs = [np.random.default_rng(100 + k) for k in range(3)]
+    for k, i in enumerate(worlds):
+        settled.apply(head, seeds[k])
+        task.initialize_episode(head, np.random.default_rng(100 + k))
+        one.take_reset(i)
+    many.take_settled(worlds, settled, seeds, [task.placements(r) for r in env_rngs])
+    for k in ("time_ms", "hold", "signal_hold", "signal_now", "fix_head", "qpos", "qvel", "ctrl", "mocap_pos",
+              "mocap_quat"):
+        np.testing.assert_array_equal(getattr(many, k)[worlds], getattr(one, k)[worlds], err_msg=k)
+    for i in worlds:
+        assert many.rngs[i].bit_generator.state == one.rngs[i].bit_generator.state
+    assert many.rngs[1] is None and not many.qpos[1].any()  # worlds not reset are not touched
+    if scene == "dots":  # the task's target moved: the placements arrived
+        assert len({tuple(p) for p in many.mocap_pos[worlds, settled.mocap_index("target")]}) == 3
+    with pytest.raises(KeyError, match="not a movable object"):
+        many.take_settled([0], settled, [1], [{"no_such_body": np.zeros(3)}])
+    for name in list(settled._mocap_rows)[:1]:  # (the bar scene has no movable object)
+        with pytest.raises(ValueError, match="finite"):
+            many.take_settled([0], settled, [1], [{name: np.full(3, np.nan)}])
+    with pytest.raises(ValueError, match="one seed"):
+        many.take_settled([0, 1], settled, [1])

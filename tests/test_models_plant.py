@@ -147,6 +147,44 @@ def test_noisy_saccades_keep_the_main_sequence():
         assert max(peaks) < 1.02 * _abducting_peak(gen, 60.0)  # none beyond the saturation
 
 
+def _vertical_saccade(head, amp_deg, after_ms=300):
+    """A vertical saccade (the nominal plant moves every vertical component) of ``amp_deg``, recorded."""
+    head.reset(fixate=models.screen_point(0.0, math.radians(-amp_deg / 2), 1.0))
+    plan = head.plan_saccade_to(models.screen_point(0.0, math.radians(amp_deg / 2), 1.0), latency_ms=20)
+    head.start_saccade(plan)
+    return plan, head.step_ms(plan.end_ms - head.time_ms + after_ms, record=True)
+
+
+@pytest.mark.parametrize("amp", [5.0, 20.0])
+def test_the_move_after_the_offset_is_the_plants_T2_tail_and_the_eye_holds_after_the_plan(amp):
+    """The 0.19-0.25 deg each saccade moves after its offset (the 30 deg/s crossing) is not a move after
+    the plan: it is Robinson's (1964) fast time constant. The burst has stopped; the eye approaches its
+    step as ``exp(-t / T2)`` (the plant's equation with the step alone), so from the threshold speed v
+    it has ``v T2`` (30 deg/s x 7.4 ms = 0.22 deg) to go. The plan ends (``end_ms``) once it is within
+    ``settle_deg``; after that the eye moves less than ``settle_deg``. The servo drive, tracking the
+    same command, makes the same tail: it is in the command, not in the plant's hold rule."""
+    gen = BurstGenerator()
+    t2 = gen.plant_t2_ms
+    tails = {}
+    for drive in ("plant", "servo"):
+        with Head("dots", image_size=16, eye_drive=drive) as head:
+            plan, tr = _vertical_saccade(head, amp)
+            t, v = tr.times_ms, np.degrees(tr.angles[:, :, 1])  # (K, 2) both eyes' vertical angles
+            left = np.degrees(plan.end_angles[:, 1])[None, :] - v  # still to go (positive: an upward saccade)
+            tail = (t >= plan.offset_ms) & (t <= plan.offset_ms + 3 * t2)
+            for e in range(2):  # a single exponential of time constant T2: log-linear, slope -1/T2
+                slope, _ = np.polyfit(t[tail], np.log(left[tail, e]), 1)
+                assert -1.0 / slope == pytest.approx(t2, rel=0.01)
+            at_offset = left[np.searchsorted(t, plan.offset_ms)]
+            # the threshold's speed times T2 (the offset is the first table step below 30 deg/s)
+            assert np.all((0.8 * 30.0 * t2 * 1e-3 < at_offset) & (at_offset < 1.05 * 30.0 * t2 * 1e-3)), at_offset
+            assert np.all((0.19 <= at_offset) & (at_offset <= 0.25))  # the audit's 0.19-0.25 deg
+            k = np.searchsorted(t, plan.end_ms)
+            assert np.abs(v[k:] - v[k]).max() < gen.settle_deg  # after the plan: no extra move
+            tails[drive] = at_offset
+    np.testing.assert_allclose(tails["plant"], tails["servo"], atol=1e-3)
+
+
 def test_bad_drive_arguments_are_refused():
     with pytest.raises(ValueError, match="eye_drive"):
         Head("dots", image_size=16, eye_drive="muscle")
