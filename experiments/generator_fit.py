@@ -37,9 +37,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from models.saccade_generator import PARAMETER_BOUNDS
+
 from .folders import save_figure
 
-__all__ = ["FitResult", "fit_generator", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
+__all__ = ["FitResult", "fit_generator", "identifiability", "BOUND_TOLERANCE", "PARAMETER_BOUNDS", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
 
 DEFAULT_FIT = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms")
 FITTABLE = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms", "adaptation_gain", "adaptation_ms", "plant_t2_ms")
@@ -72,10 +74,16 @@ class FitResult:
     success: bool
     message: str
     extra: dict = field(default_factory=dict)
+    at_bounds: list = field(default_factory=list)  #: fitted parameters whose estimate is on a bound
+    problems: list = field(default_factory=list)  #: why the fit is not identified (empty: it is)
 
     def to_file(self, path, **source) -> None:
         """Write ``generator.json`` (``BurstGenerator.to_file``) with the fit's CIs and provenance."""
-        self.generator.to_file(path, fitted=list(self.fitted), kept_default=self.kept_default,
+        from .folders import json_safe
+
+        if self.problems:
+            raise ValueError(f"this fit is not identified ({'; '.join(self.problems)}): no generator file is written")
+        extra = json_safe(dict(fitted=list(self.fitted), kept_default=self.kept_default, at_bounds=list(self.at_bounds),
                                ci95={k: [float(v[0]), float(v[1])] for k, v in self.ci95.items()},
                                estimates={k: float(v) for k, v in self.estimates.items()},
                                n_saccades=self.n_saccades, sampling_rate_hz=self.rate_hz,
@@ -87,7 +95,9 @@ class FitResult:
                                method="least squares on log peak velocity and log duration vs amplitude; "
                                       "95% CIs from a bootstrap over saccades (percentile, log scale; "
                                       "ci95_asymptotic: from the Jacobian)",
-                               source=source)
+                               bounds={k: list(PARAMETER_BOUNDS[k]) for k in self.fitted},
+                               source=source))
+        self.generator.to_file(path, **extra)
 
 
 def _grid_dt(rate_hz: float) -> tuple[float, int]:
@@ -201,16 +211,23 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
     if len(A) < need:
         raise ValueError(f"{len(A)} measurable saccades; fitting {len(fit)} parameters needs at least {need}")
     base = start or models.BurstGenerator()
-    x0 = np.log([getattr(base, f) for f in fit])
-    lims = {"burst_max_deg_s": (50.0, 1500.0), "burst_scale_deg": (0.2, 30.0), "burst_lag_ms": (0.5, 40.0),
-            "adaptation_gain": (0.01, 3.0), "adaptation_ms": (1.0, 300.0), "plant_t2_ms": (1.0, 30.0)}
-    lo = np.log([lims[f][0] for f in fit])
-    hi = np.log([lims[f][1] for f in fit])
-    x0 = np.clip(x0, lo + 1e-6, hi - 1e-6)
+    logs = np.array([PARAMETER_BOUNDS[f][0] > 0 for f in fit])  # log scale where the range is positive
+
+    def to_x(v):
+        v = np.asarray(v, float)
+        return np.where(logs, np.log(np.where(logs, v, 1.0)), v)
+
+    def from_x(x):
+        x = np.asarray(x, float)
+        return np.where(logs, np.exp(np.where(logs, x, 0.0)), x)
+
+    lo = to_x([PARAMETER_BOUNDS[f][0] for f in fit])
+    hi = to_x([PARAMETER_BOUNDS[f][1] for f in fit])
+    x0 = np.clip(to_x([getattr(base, f) for f in fit]), lo + 1e-6, hi - 1e-6)
     amp_lo, amp_hi = float(A.min()), float(A.max())
 
     def gen_of(x):
-        return dataclasses.replace(base, **{f: float(v) for f, v in zip(fit, np.exp(x))})
+        return dataclasses.replace(base, **{f: float(v) for f, v in zip(fit, from_x(x))})
 
     w = np.ones(2)
     bias = [np.zeros(1), np.zeros(1), np.zeros(1)]  # measured amplitude, log pv, log duration corrections
@@ -270,7 +287,8 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
         se = np.sqrt(np.clip(np.diag(np.linalg.inv(J.T @ J) * s2), 0, None))
     except np.linalg.LinAlgError:
         se = np.full(len(fit), np.inf)
-    asym = {f: (float(np.exp(res.x[i] - 1.96 * se[i])), float(np.exp(res.x[i] + 1.96 * se[i]))) for i, f in enumerate(fit)}
+    with np.errstate(over="ignore", invalid="ignore"):
+        asym = {f: (float(from_x(res.x - 1.96 * se)[i]), float(from_x(res.x + 1.96 * se)[i])) for i, f in enumerate(fit)}
     ci, boot_x = asym, None
     if bootstrap:
         # bootstrap over saccades: the recorded saccades resampled with replacement, each resample fitted
@@ -287,22 +305,49 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
         boot_x = np.array(xs)
         if len(boot_x) >= 20:
             q_lo, q_hi = np.percentile(boot_x, [2.5, 97.5], axis=0)
-            ci = {f: (float(np.exp(q_lo[i])), float(np.exp(q_hi[i]))) for i, f in enumerate(fit)}
-    est = np.exp(res.x)
+            ci = {f: (float(from_x(q_lo)[i]), float(from_x(q_hi)[i])) for i, f in enumerate(fit)}
+    est = from_x(res.x)
     r = raw(res.x, (A, pv, du))
     gen = gen_of(res.x)
     kept = {f.name: getattr(gen, f.name) for f in dataclasses.fields(gen) if f.name not in fit}
     extra = {"noise_deg": float(noise_deg), "ci95_asymptotic": asym,
              "bootstrap": 0 if boot_x is None else int(len(boot_x))}
+    at_bounds, problems = identifiability(fit, res.x, lo, hi, ci, from_x)
+    try:
+        gen.profile(1.0)  # builds the table: the peak-velocity ceiling is a joint bound of the parameters
+    except ValueError as exc:
+        problems.append(f"the fitted generator exceeds the peak-velocity ceiling ({str(exc).split(';')[0]})")
     return FitResult(gen, fit, {f: float(v) for f, v in zip(fit, est)}, ci, kept, n, float(rate_hz),
                      {"peak_velocity_rel": float(np.std(r[:n])), "duration_rel": float(np.std(r[n:]))},
-                     bool(res.success), str(res.message), extra)
+                     bool(res.success), str(res.message), extra, at_bounds, problems)
+
+
+#: An estimate this close to a bound (share of the parameter's range on the fit's scale) is on it.
+BOUND_TOLERANCE = 1e-3
+
+
+def identifiability(fit, x, lo, hi, ci, from_x) -> tuple[list[str], list[str]]:
+    """The fitted parameters on a bound, and the reasons the fit is not identified: an estimate on a
+    bound (``BOUND_TOLERANCE``), a 95 % CI that is not finite or wider than the parameter's whole
+    range (``models.saccade_generator.PARAMETER_BOUNDS``)."""
+    at, problems = [], []
+    for i, f in enumerate(fit):
+        span = hi[i] - lo[i]
+        b_lo, b_hi = PARAMETER_BOUNDS[f]
+        if x[i] - lo[i] <= BOUND_TOLERANCE * span or hi[i] - x[i] <= BOUND_TOLERANCE * span:
+            at.append(f)
+            side = "lower" if x[i] - lo[i] <= BOUND_TOLERANCE * span else "upper"
+            problems.append(f"{f} = {float(from_x(x)[i]):.4g} is on its {side} bound ({b_lo if side == 'lower' else b_hi:g})")
+        c_lo, c_hi = ci[f]
+        if not (np.isfinite(c_lo) and np.isfinite(c_hi)) or (c_hi - c_lo) >= (b_hi - b_lo):
+            problems.append(f"the 95% CI of {f} [{c_lo:.4g}, {c_hi:.4g}] is as wide as its whole range [{b_lo:g}, {b_hi:g}]")
+    return at, problems
 
 
 def plot_main_sequence(rows, generator, path, *, rate_hz: float, noise_deg: float = 0.0, title: str = "") -> None:
     """``main_sequence.png``: peak velocity and duration against amplitude -- the recorded saccades
-    (points), the fitted generator (line) and the default generator (dashed), both measured as the
-    data were at ``rate_hz``."""
+    (points), the fitted generator (line; ``generator`` None: none) and the default generator
+    (dashed), both measured as the data were at ``rate_hz``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -314,8 +359,10 @@ def plot_main_sequence(rows, generator, path, *, rate_hz: float, noise_deg: floa
     fig, ax = plt.subplots(1, 2, figsize=(10, 4.2))
     hi = float(A.max()) if len(A) else 30.0
     lo = float(A.min()) if len(A) else 1.0
-    for gen, style, label in ((generator, dict(color="C3", lw=1.8), "fitted generator"),
-                              (models.BurstGenerator(), dict(color="0.3", lw=1.2, ls="--"), "default generator")):
+    curves = [(models.BurstGenerator(), dict(color="0.3", lw=1.2, ls="--"), "default generator")]
+    if generator is not None:  # None: the fit was not identified, the data and the default only
+        curves.insert(0, (generator, dict(color="C3", lw=1.8), "fitted generator"))
+    for gen, style, label in curves:
         c = _curves(gen, lo, hi, rate_hz, noise_deg, n=30)
         ax[0].plot(c["amplitude_deg"], c["peak_velocity_deg_s"], label=label, **style)
         ax[1].plot(c["amplitude_deg"], c["duration_ms"], label=label, **style)

@@ -67,9 +67,9 @@ def test_wrong_format(tmp_path):
     csvp.write_text("time_ms,x_deg,y_deg\n" + "".join(f"{i},0.0,0.0\n" for i in range(50)))
     _err(csvp, "not an EyeLink ASC file", fmt="asc")
     (tmp_path / "h.csv").write_text("t,a,b\n1,2,3\n")
-    _err(tmp_path / "h.csv", "no time_ms column")
+    _err(tmp_path / "h.csv", "no known columns .* --columns time=NAME,x=NAME,y=NAME")
     (tmp_path / "g.csv").write_text("time_ms,gx,gy\n1,2,3\n")
-    _err(tmp_path / "g.csv", "x_deg, y_deg .* or x_px, y_px")
+    _err(tmp_path / "g.csv", "time_ms and x_deg, y_deg or x_px, y_px")
 
 
 def test_missing_geometry_names_the_options(tmp_path):
