@@ -338,3 +338,95 @@ def test_cli_both_eyes_unidentified_fits_and_folder_of_another_recording(tmp_pat
     assert not (target / "generator.json").exists()  # bino.asc's is gone with the rest
     assert (target / "main_sequence.csv").stat().st_size > 50 and (target / "main_sequence.png").stat().st_size > 1000
     assert _strict(target / "recording.json")["file"] == "small.csv"
+
+
+# ------------------------------------------------------------------ tables of any tracker
+def _export(path, header, rows, sep, comments=()):
+    with open(path, "w", encoding="utf-8") as f:
+        f.writelines(c + "\n" for c in comments)
+        f.write(sep.join(header) + "\n")
+        f.writelines(sep.join(r) + "\n" for r in rows)
+    return path
+
+
+def _cell(v, fmt="{:.2f}"):
+    return fmt.format(v) if math.isfinite(v) else ""
+
+
+@pytest.mark.parametrize("layout", ["smi", "tobii", "gazepoint", "judo1000", "gazebase", "columns-long"])
+def test_documented_exports_are_read_by_their_preset(tmp_path, sessions, layout):
+    """Each documented layout (``oculomotor.tables.PRESETS``), written from a simulated session:
+    recognised from its header alone, time unit and gaze unit from the preset, the eye chosen, the
+    saccades found where they were simulated."""
+    s = sessions(500, n=10)
+    t, x, y = s["times_ms"], s["x_deg"], s["y_deg"]
+    px, py = SCREEN.deg2px(x, y)
+    p = tmp_path / f"{layout}.txt"
+    kw = {"screen": SCREEN}
+    if layout == "smi":  # BeGaze: '##' header, Time in us, only SMP rows are samples, right eye only
+        rows = [[f"{ti * 1000:.0f}", "SMP", "1", _cell(a), _cell(b)] for ti, a, b in zip(t, px, py)]
+        rows.insert(40, [f"{t[40] * 1000 + 1:.0f}", "MSG", "1", "# Message: trial 1", ""])
+        _export(p, ["Time", "Type", "Trial", "R POR X [px]", "R POR Y [px]"], rows, "\t",
+                ["## [BeGaze]", "## Sample Rate:\t500"])
+        eye = "right"
+    elif layout == "tobii":  # Pro Lab: tab-separated, µs, both eyes, decimal comma
+        rows = [[f"{ti * 1000:.0f}", _cell(a).replace(".", ","), _cell(b).replace(".", ","),
+                 _cell(a + 4).replace(".", ","), _cell(b).replace(".", ",")] for ti, a, b in zip(t, px, py)]
+        _export(p, ["Recording timestamp", "Gaze point left X", "Gaze point left Y", "Gaze point right X",
+                    "Gaze point right Y"], rows, "\t")
+        eye = "left"
+    elif layout == "gazepoint":  # Open Gaze API: TIME in s, POG as a fraction of the screen
+        rows = [[f"{ti / 1000:.4f}", _cell(a / 1920, "{:.6f}"), _cell(b / 1080, "{:.6f}")] for ti, a, b in zip(t, px, py)]
+        _export(p, ["TIME", "LPOGX", "LPOGY"], rows, ",")
+        eye = "left"
+    elif layout == "judo1000":
+        rows = [[f"{ti:.1f}", _cell(a), _cell(b), _cell(a), _cell(b)] for ti, a, b in zip(t, px, py)]
+        _export(p, ["time", "x_left", "y_left", "x_right", "y_right"], rows, "\t")
+        eye = "left"
+    elif layout == "gazebase":
+        rows = [[f"{ti:.1f}", _cell(a, "{:.4f}"), _cell(b, "{:.4f}"), "0"] for ti, a, b in zip(t, x, y)]
+        _export(p, ["n", "x", "y", "val"], rows, ",")
+        eye = "unnamed"
+        kw = {}
+    else:  # a long table: one row per eye and sample, named with --columns
+        rows = []
+        for ti, a, b in zip(t, px, py):
+            rows += [[f"{ti:.1f}", "L", _cell(a), _cell(b)], [f"{ti:.1f}", "R", _cell(a + 3), _cell(b)]]
+        _export(p, ["ts", "eye", "gx", "gy"], rows, ",")
+        from experiments.oculomotor.tables import parse_columns
+
+        kw["columns"] = parse_columns("time=ts,x=gx,y=gy,eye=eye")
+        kw["units"] = "px"
+        eye = "left"
+    rec = et.read_recording(p, **kw)
+    assert rec.eye == eye and rec.rate_hz == pytest.approx(500, rel=1e-3)
+    np.testing.assert_allclose(rec.x_deg, x, atol=0.01, equal_nan=True)
+    np.testing.assert_allclose(rec.y_deg, y, atol=0.01, equal_nan=True)
+    rows_ = et.main_sequence_rows(rec, et.detect_saccades(rec, "engbert"))
+    assert len(rows_) >= len(s["amplitudes"]) - 2
+    _matches(rows_, s, 500)
+
+
+def test_columns_option_errors(tmp_path):
+    from experiments.oculomotor.tables import TableError, parse_columns
+
+    with pytest.raises(TableError, match="needs y=NAME too"):
+        parse_columns("time=t,x=a")
+    with pytest.raises(TableError, match="time=NAME,x=NAME,y=NAME"):
+        parse_columns("time=t,x=a,y=b,z=c")
+    p = _export(tmp_path / "c.csv", ["T", "X", "Y"], [[str(i), "1", "2"] for i in range(20)], ",")
+    with pytest.raises(et.RecordingError, match="no column 't' in the header \\(did you mean 'T'\\?\\)"):
+        et.read_recording(p, columns=parse_columns("time=t,x=X,y=Y"), units="deg")
+    with pytest.raises(et.RecordingError, match="give --units px or --units deg"):
+        et.read_recording(p, columns=parse_columns("time=T,x=X,y=Y"))
+
+
+def test_a_unit_in_brackets_after_a_preset_name_sets_the_time_unit():
+    """Newer Tobii Pro Lab exports write the unit into the name (``Recording timestamp [ms]``): the
+    preset still matches, and the bracket's unit wins over the preset's default (µs)."""
+    from experiments.oculomotor.tables import read_table
+
+    text = "Recording timestamp [ms]\tGaze point left X\tGaze point left Y\n" + "".join(
+        f"{2 * i}\t{i}\t{i}\n" for i in range(30))
+    tab = read_table(text, "t.tsv")
+    assert tab.columns.source == "Tobii Pro Lab" and tab.time_unit == "ms" and list(tab.x) == ["left"]

@@ -151,8 +151,32 @@ def _lines(text: str) -> list[tuple[int, str]]:
     return [(n, ln) for n, ln in enumerate(text.splitlines(), 1) if ln.strip() and not ln.lstrip().startswith("#")]
 
 
+def _bare(name: str) -> str:
+    """A column name without a trailing unit in brackets (``Recording timestamp [μs]``)."""
+    return re.sub(r"\s*[\[(][^\])]*[\])]\s*$", "", name)
+
+
+def _resolve(columns: Columns, header: list[str]) -> Columns:
+    """``columns`` with its names as the header spells them: exact, else the same name with a unit in
+    brackets after it (whose time unit then overrides the preset's)."""
+    bare = {}
+    for h in header:
+        bare.setdefault(_bare(h), h)
+
+    def real(n: str) -> str:
+        return n if n in header or n not in bare else bare[n]
+
+    t = real(columns.time)
+    unit = _unit_from_name(t, "time") if t != columns.time else None
+    xs = columns.x if "{eye}" in columns.x else real(columns.x)
+    ys = columns.y if "{eye}" in columns.y else real(columns.y)
+    import dataclasses
+
+    return dataclasses.replace(columns, time=t, x=xs, y=ys, time_unit=unit or columns.time_unit)
+
+
 def _match_preset(header: list[str]) -> Columns | None:
-    hs = set(header)
+    hs = set(header) | {_bare(h) for h in header}
     for col in PRESETS.values():
         if col.time not in hs:
             continue
@@ -200,9 +224,11 @@ def read_table(text: str, name: str, columns: Columns | None = None, preset: str
     if preset is not None:
         if preset not in PRESETS:
             raise TableError(f"unknown --preset {preset!r}; choose one of {', '.join(PRESETS)}")
-        columns = PRESETS[preset]
+        columns = _resolve(PRESETS[preset], header)
     if columns is None:
         columns = _match_preset(header)
+        if columns is not None:
+            columns = _resolve(columns, header)
         if columns is None:
             raise TableError(f"{name}: no known columns in its header {first[:100]!r}: name them with --columns "
                              "time=NAME,x=NAME,y=NAME (or a --preset: " + ", ".join(PRESETS) +
