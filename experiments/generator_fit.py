@@ -4,23 +4,27 @@
 saccade: amplitude, duration, peak velocity) and finds the ``models.BurstGenerator`` parameters
 named in ``fit`` (by default the burst's saturation ``burst_max_deg_s``, its scale
 ``burst_scale_deg`` and its lag ``burst_lag_ms``; the others keep their defaults and the result
-says so) by nonlinear least squares (``scipy.optimize.least_squares``, parameters on a log scale).
+says so) by nonlinear least squares (``scipy.optimize.least_squares``, parameters on a log scale
+where their range is positive), within the generator's own accepted ranges
+(``models.saccade_generator.PARAMETER_BOUNDS``: one table, so every fitted file loads).
 
 The model side is a forward model of the measurement, not the generator's ideal kinematics: for
 a grid of amplitudes the loop is simulated (``models.saccade_generator.simulate``, vectorised over
 amplitudes, nominal plant), the traces are sampled at the recording's rate (at several sampling
-phases, averaged) and measured exactly as the recording was (``eyetracking.measure_saccade``: the
-five-point speed, 30 deg/s crossings, resting-gaze amplitude). So the smoothing of a 250 Hz
+phases, averaged) and measured exactly as the recording was (``experiments.oculomotor.kinematics``:
+the Savitzky--Golay speed, 30 deg/s crossings; resting-gaze amplitude). So the smoothing of a 250 Hz
 recording, the threshold's cut of the slow tail and the amplitude measured on a still-settling
 eye bias data and model alike. Predictions at each saccade's measured amplitude are interpolated
 on that grid.
 
 Residuals, per saccade: ``log(peak_obs / peak_model)`` and ``log(duration_obs / duration_model)``
 (relative errors), each divided by its own scatter (estimated from a first, unweighted fit; the
-fit is then repeated with those weights). 95 % CIs are asymptotic: ``(J'J)^-1`` scaled by the
-residual variance at the optimum, on the log scale (so they are asymmetric and positive). Not a
-bootstrap: each objective evaluation simulates the grid (~30 ms), and a bootstrap of a few hundred
-refits would take minutes. Tracker noise raises observed peak velocities (the maximum of a
+fit is then repeated with those weights). 95 % CIs: percentile intervals of a bootstrap over the
+saccades (``bootstrap`` refits), and the asymptotic ones (``(J'J)^-1`` scaled by the residual
+variance at the optimum, on the fit's scale) beside them. :func:`identifiability` lists the
+parameters on a bound (``at_bounds``) and the reasons a fit is not identified (an estimate on a
+bound, a CI wider than the parameter's range); :func:`coverage` measures how often the CIs hold
+the generating values over simulated sessions. Tracker noise raises observed peak velocities (the maximum of a
 noisy speed) and shifts the threshold crossings; the forward model adds Gaussian noise of the
 recording's own level (``Recording.noise_deg``, estimated from sample-to-sample differences) to
 the simulated traces (48 draws) to get the measurement's bias at the current estimate, and
@@ -41,7 +45,7 @@ from models.saccade_generator import PARAMETER_BOUNDS
 
 from .folders import save_figure
 
-__all__ = ["FitResult", "fit_generator", "identifiability", "BOUND_TOLERANCE", "PARAMETER_BOUNDS", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
+__all__ = ["FitResult", "fit_generator", "identifiability", "coverage", "BOUND_TOLERANCE", "PARAMETER_BOUNDS", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
 
 DEFAULT_FIT = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms")
 FITTABLE = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms", "adaptation_gain", "adaptation_ms", "plant_t2_ms")
@@ -342,6 +346,36 @@ def identifiability(fit, x, lo, hi, ci, from_x) -> tuple[list[str], list[str]]:
         if not (np.isfinite(c_lo) and np.isfinite(c_hi)) or (c_hi - c_lo) >= (b_hi - b_lo):
             problems.append(f"the 95% CI of {f} [{c_lo:.4g}, {c_hi:.4g}] is as wide as its whole range [{b_lo:g}, {b_hi:g}]")
     return at, problems
+
+
+def coverage(truth: dict, *, n_sessions: int = 20, n_saccades: int = 60, rate_hz: float = 500.0,
+             noise_deg: float = 0.02, bootstrap: int = 40, seed: int = 0, progress=None) -> dict:
+    """How often the 95 % CIs hold the generating values: ``n_sessions`` recordings simulated from
+    ``BurstGenerator(**truth)`` (``eyetracking.synthetic_session``: random amplitudes 2-30 deg,
+    directions, blinks, Gaussian tracker noise; seeds ``seed``, ``seed + 1``, ...), each measured and
+    fitted as a recording is. Returns ``{"coverage": {name: share}, "estimates": {name: [...]},
+    "ci95": {name: [[lo, hi], ...]}, "n_sessions": n}``; ``progress(i, fit)`` is called per session."""
+    import models
+
+    from . import eyetracking as et
+
+    gen = models.BurstGenerator(**truth)
+    fit_names = tuple(k for k in truth if k in FITTABLE)
+    est = {k: [] for k in fit_names}
+    cis = {k: [] for k in fit_names}
+    for i in range(n_sessions):
+        s = et.synthetic_session(gen, n_saccades=n_saccades, rate_hz=rate_hz, noise_deg=noise_deg, seed=seed + i)
+        rec = et.Recording(et.Path(f"session{i}"), "csv", s["times_ms"], s["x_deg"], s["y_deg"], rate_hz)
+        rows = et.main_sequence_rows(rec)
+        f = fit_generator(rows, fit=fit_names, rate_hz=rate_hz, noise_deg=rec.noise_deg, bootstrap=bootstrap,
+                          seed=seed + i)
+        for k in fit_names:
+            est[k].append(f.estimates[k])
+            cis[k].append(list(f.ci95[k]))
+        if progress is not None:
+            progress(i, f)
+    cov = {k: float(np.mean([lo <= truth[k] <= hi for lo, hi in cis[k]])) for k in fit_names}
+    return {"coverage": cov, "estimates": est, "ci95": cis, "n_sessions": n_sessions}
 
 
 def plot_main_sequence(rows, generator, path, *, rate_hz: float, noise_deg: float = 0.0, title: str = "") -> None:

@@ -215,9 +215,13 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
             sacc = et.detect_saccades(rec, args.detect)
             rows = et.main_sequence_rows(rec, sacc)
             if not rows:
+                broken = float(np.mean(~rec.ok_steps)) if len(rec.times_ms) > 1 else 0.0
+                why = (f"; {100 * broken:.0f} % of the sample intervals differ from the median by more than 25 %: "
+                       "irregular time stamps leave no unbroken stretch long enough to measure a saccade"
+                       if broken > 0.05 else "")
                 raise et.RecordingError(f"{path}: no measurable saccades found in the {rec.eye} eye ({len(sacc)} candidate(s) "
                                         f"from {'the file events' if rec.file_saccades_ms and args.detect != 'engbert' else 'Engbert-Kliegl detection'}, "
-                                        f"{len(rec.times_ms)} samples at {rec.rate_hz:g} Hz in {rec.n_blocks} unbroken stretch(es))")
+                                        f"{len(rec.times_ms)} samples at {rec.rate_hz:g} Hz in {rec.n_blocks} unbroken stretch(es)){why}")
             rows, bad = et.check_plausible(rec, rows)
             measured.append((rec, rows, bad))
     except et.RecordingError as e:

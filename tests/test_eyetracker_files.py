@@ -8,6 +8,7 @@ directions and onsets: ``eyetracking.synthetic_session``), in each layout."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -430,3 +431,32 @@ def test_a_unit_in_brackets_after_a_preset_name_sets_the_time_unit():
         f"{2 * i}\t{i}\t{i}\n" for i in range(30))
     tab = read_table(text, "t.tsv")
     assert tab.columns.source == "Tobii Pro Lab" and tab.time_unit == "ms" and list(tab.x) == ["left"]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--columns", "time=t,x=a"], "argument --columns: --columns needs y=NAME too"),
+    (["--screen", "60", "33.75", "1e-300"], r"argument --screen: screen distance_cm must be a number in \[5, 2000\]"),
+    (["--screen", "1920.5", "1080", "60", "33.75", "57"], "WIDTH_PX HEIGHT_PX must be whole numbers"),
+    (["--eye", "middle"], "argument --eye: invalid choice"),
+    (["--time-unit", "min"], "argument --time-unit: invalid choice"),
+])
+def test_cli_option_errors_are_one_line(tmp_path, capsys, argv, message):
+    from experiments.__main__ import main
+
+    p = tmp_path / "r.csv"
+    p.write_text(_rows_text())
+    with pytest.raises(SystemExit) as e:
+        main(["saccades", "--recording", str(p), "--out", str(tmp_path / "o"), *argv])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert re.search(message, err[-1]) and not (tmp_path / "o").exists()
+
+
+def test_cli_deeply_nested_generator_file_is_a_usage_error(tmp_path, capsys):
+    from experiments.__main__ import build_parser
+
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(SystemExit) as e:
+        build_parser().parse_args(["run", "--generator", str(deep)])
+    assert e.value.code == 2 and "nested too deeply" in capsys.readouterr().err
