@@ -105,6 +105,33 @@ def _spread_times(t: np.ndarray, rate_hz: float, n_line: int) -> np.ndarray:
     return t + rep * period
 
 
+def _value(v: str) -> float:
+    return math.nan if v == "." else float(v)
+
+
+def _sample_values(lines: list[str], rows: list[int], need: int, eyes, name: str, block_line: int) -> np.ndarray:
+    """The first ``need`` fields of the sample lines ``rows`` as floats (NaN for ``.``), (n, need)."""
+    try:
+        flat = np.fromiter((_value(v) for i in rows for v in lines[i].split(None, need)[:need]), float)
+        if flat.size == len(rows) * need:
+            return flat.reshape(len(rows), need)
+    except ValueError:
+        pass
+    for i in rows:  # locate the first bad line (only on the error path)
+        f = lines[i].split(None, need)[:need]
+        if len(f) < need:
+            raise AscError(f"line {i + 1}: a sample with {len(lines[i].split())} fields where {'/'.join(eyes)} samples "
+                           f"have at least {need} (time, then x, y, pupil per eye): corrupt file, or a SAMPLES line "
+                           "naming the wrong eyes")
+        for v in f:
+            try:
+                _value(v)
+            except ValueError:
+                raise AscError(f"line {i + 1}: a sample holds {v[:20]!r}, not a number or '.' (block starting on line "
+                               f"{block_line})") from None
+    raise AscError(f"{name}: cannot read the samples of the block starting on line {block_line}")  # pragma: no cover
+
+
 def parse_asc(text: str, name: str = "the file") -> AscData:
     """Parse the text of an ASC file (see the module docstring). :class:`AscError` for what cannot
     be read: no sampling rate, a sample line with too few fields, time going backwards, a block
@@ -120,8 +147,7 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
         if c.isdigit():
             if cur is None:
                 continue  # samples outside START/END: edf2asc never writes them; ignore
-            cur["rows"].append(ln.split())
-            cur["line_of_row"].append(n)
+            cur["rows"].append(n - 1)  # the line's index: parsed per block, once its layout is known
             continue
         if not c.isalpha():
             continue
@@ -130,8 +156,7 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
             if cur is not None:
                 raise AscError(f"line {n}: START inside the block that starts on line {cur['line']} (no END "
                                "before it): corrupt or concatenated file")
-            cur = {"line": n, "eyes": _eyes_of(ln.split()[2:]), "rate": None, "remote": False, "rows": [],
-                   "line_of_row": []}
+            cur = {"line": n, "eyes": _eyes_of(ln.split()[2:]), "rate": None, "remote": False, "rows": []}
         elif head == "SAMPLES":
             tok = ln.split()
             if cur is None:
@@ -192,21 +217,7 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
         rates.add(rate)
         remote |= blk["remote"]
         need = 1 + 3 * len(eyes)
-        rows = blk["rows"]
-        short = [i for i, r in enumerate(rows) if len(r) < need]
-        if short:
-            i = short[0]
-            raise AscError(f"line {blk['line_of_row'][i]}: a sample with {len(rows[i])} fields where "
-                           f"{'/'.join(eyes)} samples have at least {need} (time, then x, y, pupil per eye): "
-                           "corrupt file, or a SAMPLES line naming the wrong eyes")
-        arr = np.array([r[:need] for r in rows])
-        arr[arr == "."] = "nan"
-        try:
-            vals = arr.astype(float)
-        except ValueError as e:
-            bad = str(e).split(":", 1)[-1].strip()
-            raise AscError(f"{name}: a sample in the block starting on line {blk['line']} has the value {bad}, "
-                           "not a number or '.'") from None
+        vals = _sample_values(lines, blk["rows"], need, eyes, name, blk["line"])
         t = _spread_times(vals[:, 0], rate, blk["line"])
         times.append(t)
         block_ix.append(np.full(len(t), b))
