@@ -269,7 +269,7 @@ def _claim_folder(out: Path, ident: dict) -> str | None:
         same = isinstance(doc, dict) and all(doc.get(k) == ident[k] for k in ("sha256", "eye", "detection"))
         if not same:
             previous = (doc.get("file") if isinstance(doc, dict) else None) or "an unknown recording"
-            for f in RECORDING_FILES[::-1]:  # the manifest last: until then the folder still says whose files remain
+            for f in ("saccades.png",) + RECORDING_FILES[::-1]:  # the manifest last: until then it says whose files remain
                 (out / f).unlink(missing_ok=True)
     write_json(out / "recording.json", ident)
     return previous
@@ -335,6 +335,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_models(args: argparse.Namespace, out: Path) -> int:
+    if (out / "recording.json").exists():  # a recording's results: replaced whole, never mixed with the model's
+        print(f"{out}: replaced the results of a recording with the model's")
+        for f in RECORDING_FILES[::-1]:
+            (out / f).unlink(missing_ok=True)
     models_ = ("burst", "legacy") if args.model == "both" else (args.model,)
     results = {m: measure(m, progress=not getattr(args, "no_progress", True)) for m in models_}
     rows = main_sequence_rows(results)

@@ -460,3 +460,20 @@ def test_cli_deeply_nested_generator_file_is_a_usage_error(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         build_parser().parse_args(["run", "--generator", str(deep)])
     assert e.value.code == 2 and "nested too deeply" in capsys.readouterr().err
+
+
+@pytest.mark.slow  # runs the head's legacy saccades
+def test_model_run_into_a_recordings_folder_replaces_it_whole(tmp_path, capsys):
+    import json
+
+    from experiments.__main__ import main
+
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "recording.json").write_text(json.dumps({"file": "subject1.asc"}))
+    (out / "generator.json").write_text("{}")
+    (out / "main_sequence.csv").write_text("saccade,onset_ms\n1,2\n")
+    assert main(["saccades", "--out", str(out), "--model", "legacy", "--no-progress"]) == 0
+    assert not (out / "recording.json").exists() and not (out / "generator.json").exists()
+    assert (out / "main_sequence.csv").read_text().startswith("model,")
+    assert "replaced the results of a recording" in capsys.readouterr().out
