@@ -227,8 +227,8 @@ class BurstGenerator:
     def from_file(cls, path) -> "BurstGenerator":
         """Parameters from a JSON file written by :meth:`to_file` (e.g. the ``generator.json`` of
         ``python -m experiments saccades --recording``); parameters it omits keep their defaults.
-        An unreadable file, another model or an unknown or out-of-range parameter is a ``ValueError``
-        naming the file and the problem."""
+        An unreadable file, another model, an unknown or out-of-range parameter or a parameter set
+        above the peak-velocity ceiling is a ``ValueError`` naming the file and the problem."""
         import dataclasses
         import json
 
@@ -254,7 +254,9 @@ class BurstGenerator:
             raise ValueError(f"{path}: unknown burst-generator parameter(s) {', '.join(unknown)}; "
                              f"known: {', '.join(sorted(known))}")
         try:
-            return cls(**params)
+            gen = cls(**params)
+            gen._table()  # the joint bound (the peak-velocity ceiling): refused here, not after a run has started
+            return gen
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{path}: {exc}") from None
 
