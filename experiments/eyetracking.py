@@ -215,6 +215,9 @@ def _choose_eye(path: Path, have: dict, eye: str | None) -> tuple[str, str]:
     names = [e for e in ("left", "right") if e in have] or list(have)
     if eye is not None and eye != "both":
         if eye not in have:
+            if names == ["gaze"]:
+                raise RecordingError(f"{path}: its gaze columns do not say which eye they are; leave out --eye "
+                                     "(or name a column of L/R with --columns ...,eye=NAME)")
             raise RecordingError(f"{path}: no {eye} eye in this recording (it has {' and '.join(names)}); "
                                  f"give --eye {names[0]}")
         return eye, "chosen with --eye"

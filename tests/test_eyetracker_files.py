@@ -477,3 +477,11 @@ def test_model_run_into_a_recordings_folder_replaces_it_whole(tmp_path, capsys):
     assert not (out / "recording.json").exists() and not (out / "generator.json").exists()
     assert (out / "main_sequence.csv").read_text().startswith("model,")
     assert "replaced the results of a recording" in capsys.readouterr().out
+
+
+def test_eye_option_on_a_table_without_eyes(tmp_path):
+    p = tmp_path / "r.csv"
+    p.write_text(_rows_text())
+    with pytest.raises(et.RecordingError, match="do not say which eye they are; leave out --eye"):
+        et.read_recording(p, eye="left")
+    assert et.read_recording(p).eye_reason == "one gaze column"
