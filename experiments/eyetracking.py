@@ -2,80 +2,77 @@
 
 ``python -m experiments saccades --recording FILE --out DIR`` reads a recording with
 :func:`read_recording`, finds its saccades with :func:`detect_saccades`, measures them with
-:func:`main_sequence_rows` (``main_sequence.csv``) and fits the burst generator to them
-(``experiments.generator_fit``: ``generator.json``, ``main_sequence.png``).
+:func:`main_sequence_rows` (``main_sequence.csv``), checks that they are plausible
+(:func:`check_plausible`) and fits the burst generator to them (``experiments.generator_fit``).
 
 Formats
 -------
-* **EyeLink ASC** (``edf2asc`` output; ``.asc``): parsed by ``pymovements.gaze.from_asc``, which
-  takes the screen resolution from ``GAZE_COORDS`` and the sampling rate from ``SAMPLES ... RATE``.
-  ASC files carry no physical screen size or viewing distance: give them with
-  ``--screen WIDTH_CM HEIGHT_CM DISTANCE_CM`` (or all five numbers, see below). The first eye of a
-  binocular file is used. Blinks are the file's ``SBLINK/EBLINK`` events and its missing (``.``)
-  samples; saccades are the file's own ``SSACC/ESACC`` events when it has them (``--detect file``,
-  the default ``auto``), else detected (``--detect engbert``).
-* **CSV/TSV of samples** (``.csv``, ``.tsv``, ``.txt``; comma or tab separated, one header line):
-  a column ``time_ms`` (sample time in ms, increasing, uniformly sampled) and either
-  ``x_deg, y_deg`` (gaze in degrees of visual angle, y up; no geometry needed) or ``x_px, y_px``
-  (screen pixels, origin upper left, y down; needs ``--screen WIDTH_PX HEIGHT_PX WIDTH_CM
-  HEIGHT_CM DISTANCE_CM``). Blinks / track loss are empty or ``nan`` cells. Other columns are
-  ignored. The sampling rate is the median sample interval's inverse.
+* **EyeLink ASC** (``edf2asc`` output; ``.asc``; ``experiments.oculomotor.asc``): monocular or
+  binocular, remote mode (``HTARGET``), 250-2000 Hz (whole-ms stamps written twice at 2000 Hz),
+  any number of START/END blocks. The resolution comes from ``GAZE_COORDS``, else
+  ``DISPLAY_COORDS`` (EyeLink I/II), else ``--screen`` with five numbers; the physical size and
+  distance always from ``--screen``. One eye is measured: ``eye='left'|'right'``, or by default the
+  only one recorded, or in a binocular file the one with fewer lost samples (the reason is in
+  ``Recording.eye_reason``); only that eye's ``SSACC/ESACC`` and ``SBLINK/EBLINK`` events are used.
+* **CSV/TSV of samples** (``.csv``, ``.tsv``, ``.txt``; ``experiments.oculomotor.tables``): any
+  tracker's export, columns named by ``columns`` (``--columns time=NAME,x=NAME,y=NAME[,eye=NAME]``)
+  or a preset (SMI BeGaze, Tobii Pro Lab, Gazepoint, pymovements' GazeBase / JuDo1000 / PoTeC, the
+  project's own ``time_ms, x_deg, y_deg`` or ``x_px, y_px``), time in ms, µs or s, gaze in degrees
+  (y up) or pixels (origin upper left, y down; needs the screen). Blinks / track loss are empty or
+  ``nan`` cells.
 
-Screen geometry: ``Screen(width_px, height_px, width_cm, height_cm, distance_cm)``; pixels are
-converted to degrees by ``pymovements`` (``Gaze.pix2deg``: per axis, ``atan`` of the centred
-pixel distance over the viewing distance in pixels).
+Missing data split the trace: no velocity is computed across a block boundary, a pause (a step
+longer than 1.25 sampling periods) or a lost sample (``experiments.oculomotor.kinematics``), so
+no saccade is measured across one; saccades within ``BLINK_MARGIN_MS`` of missing data are dropped.
 
-What pymovements does and what is written here
-----------------------------------------------
-* pymovements: ASC and CSV parsing (``from_asc`` with events, ``from_csv``), the pixel-to-degree
-  conversion, the detection velocity (``pos2vel``, five-point differentiator) and the Engbert &
-  Kliegl (2003) saccade detection (``detect('microsaccades')``: the noise-adaptive elliptic
-  velocity threshold, 6 median-based SDs; it serves for saccades of any size).
-* numpy, here: the checks that make bad files usage errors (pymovements warns and goes on, or
-  raises polars errors that do not name the problem); blink masking and the rule that drops
-  saccades near blinks; and the kinematic measures of each saccade, because the fit
-  (``experiments.generator_fit``) must apply *the same* measurement to the model's noise-free
-  traces sampled at the recording's rate (a forward model of the measurement, so the filtering
-  of a 250 Hz recording biases data and model alike) -- that needs a numpy function it can call
-  on simulated arrays, not a ``Gaze``.
+Screen geometry: ``Screen(width_px, height_px, width_cm, height_cm, distance_cm)`` (``width_px``
+None: from the file); pixels are converted to degrees per axis as pymovements' ``pix2deg`` does:
+``atan`` of the centred pixel distance over the viewing distance in pixels.
 
-Measures (:func:`measure_saccade`), as the rest of the project measures saccades: eye speed from
-the five-point differentiator (``(x[n+2] + x[n+1] - x[n-1] - x[n-2]) / (6 dt)``); duration
-between the 30 deg/s crossings around the peak (linearly interpolated between samples); peak
-velocity the largest speed between them; amplitude the distance between the median gaze
-4-20 ms before the onset crossing and 20-40 ms after the offset crossing (the eye at rest;
-clipped to the neighbouring saccades); direction ``atan2(dy, dx)`` in degrees, 0 rightward,
-90 upward; skewness the time of peak velocity as a fraction of the duration, reported only at
-sampling rates of 250 Hz or more (``SKEWNESS_MIN_RATE_HZ``: below it the peak's time is
-uncertain by more than ~15 % of a 25 ms saccade), else NaN.
-
-Saccades are dropped when a blink or a missing sample lies within 20 ms of them
-(``BLINK_MARGIN_MS``), when a crossing cannot be found inside the recording, or when the eye does
-not rest before or after them (fewer than 2 samples in a window).
+Measures (:func:`main_sequence_rows`; the velocity and the crossings are
+``experiments.oculomotor.kinematics``, the one measure that the generator fit also applies to the
+model's traces): duration between the 30 deg/s crossings of the Savitzky--Golay speed around its
+peak; peak velocity the largest speed between them; amplitude the distance between the median
+gaze 4-20 ms before the onset crossing and 20-40 ms after the offset crossing (clipped to the
+neighbouring saccades and to the trace's unbroken stretch); direction ``atan2(dy, dx)`` in
+degrees, 0 rightward, 90 upward; skewness the time of peak velocity as a fraction of the duration
+(NaN below ``SKEWNESS_MIN_RATE_HZ``).
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Screen", "Recording", "RecordingError", "read_recording", "detect_saccades", "measure_saccade",
-           "main_sequence_rows", "write_recording", "speed_deg_s", "synthetic_session", "FORMATS",
-           "SKEWNESS_MIN_RATE_HZ", "BLINK_MARGIN_MS", "ROW_FIELDS"]
+from .oculomotor.asc import AscError, parse_asc
+from .oculomotor.kinematics import (SKEWNESS_MIN_RATE_HZ, THRESHOLD_DEG_S, engbert_kliegl, measure_saccade,
+                                    speed_deg_s, steps_ok)
+from .oculomotor.tables import PRESETS, TIME_UNITS, Columns, TableError, decode, read_table
+
+__all__ = ["Screen", "Recording", "RecordingError", "read_recording", "read_recordings", "detect_saccades",
+           "measure_saccade", "main_sequence_rows", "check_plausible", "write_recording", "speed_deg_s",
+           "synthetic_session", "FORMATS", "SKEWNESS_MIN_RATE_HZ", "BLINK_MARGIN_MS", "ROW_FIELDS", "EYE_CHOICES",
+           "MAX_PLAUSIBLE_VELOCITY_DEG_S", "PRESETS"]
 
 FORMATS = ("asc", "csv")
-THRESHOLD_DEG_S = 30.0  # = models.saccade_generator.DETECTION_THRESHOLD_DEG_S (not imported: no MuJoCo here)
-SKEWNESS_MIN_RATE_HZ = 250.0
+EYE_CHOICES = ("left", "right", "both")
 BLINK_MARGIN_MS = 20.0
 PRE_WINDOW_MS = (20.0, 4.0)  # median gaze this long before the onset crossing (from, to)
 POST_WINDOW_MS = (20.0, 40.0)  # ... and after the offset crossing
+#: No human saccade is faster (the fastest reported, ~700-800 deg/s for 40-60 deg saccades:
+#: Collewijn, Erkelens & Steinman 1988, Fig. 6; Boghen et al. 1974); a faster one is an artefact.
+MAX_PLAUSIBLE_VELOCITY_DEG_S = 1000.0
+#: Share of implausible saccades above which the recording itself is refused (below: they are dropped).
+MAX_IMPLAUSIBLE_SHARE = 0.1
+PAUSE_PERIODS = 1.25
 ROW_FIELDS = ("saccade", "onset_ms", "amplitude_deg", "duration_ms", "peak_velocity_deg_s", "direction_deg",
               "skewness")
 _SUFFIX_FORMAT = {".asc": "asc", ".csv": "csv", ".tsv": "csv", ".txt": "csv"}
+_SCREEN_RANGES = {"width_px": (16, 100_000), "height_px": (16, 100_000), "width_cm": (1.0, 2000.0),
+                  "height_cm": (1.0, 2000.0), "distance_cm": (5.0, 2000.0)}
 
 
 class RecordingError(ValueError):
@@ -84,36 +81,60 @@ class RecordingError(ValueError):
 
 @dataclass(frozen=True)
 class Screen:
-    """Screen geometry: resolution (px), visible size (cm) and viewing distance (cm)."""
+    """Screen geometry: resolution (px; None: from the recording), visible size (cm) and viewing
+    distance (cm). Values outside ``_SCREEN_RANGES`` (a 5 cm viewing distance, a 1e-300 one) are
+    refused: they are typing errors, and would give degrees that mean nothing."""
 
-    width_px: int
-    height_px: int
+    width_px: int | None
+    height_px: int | None
     width_cm: float
     height_cm: float
     distance_cm: float
 
     def __post_init__(self):
-        for name in ("width_px", "height_px", "width_cm", "height_cm", "distance_cm"):
+        for name, (lo, hi) in _SCREEN_RANGES.items():
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise RecordingError(f"screen {name} must be a positive number; got {v!r}")
+            if v is None and name.endswith("_px"):
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
+                raise RecordingError(f"screen {name} must be a number in [{lo:g}, {hi:g}]; got {v!r}")
+            if name.endswith("_px") and v != int(v):
+                raise RecordingError(f"screen {name} must be a whole number of pixels; got {v!r}")
+        if (self.width_px is None) != (self.height_px is None):
+            raise RecordingError("screen width_px and height_px go together (both given, or both from the file)")
+
+    def with_resolution(self, width_px: int, height_px: int) -> "Screen":
+        return Screen(int(width_px), int(height_px), self.width_cm, self.height_cm, self.distance_cm)
 
     def px_per_cm(self) -> tuple[float, float]:
         return self.width_px / self.width_cm, self.height_px / self.height_cm
 
+    def px2deg(self, x_px, y_px) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels (origin upper left, y down) to degrees (y up), per axis, as pymovements' ``pix2deg``."""
+        kx, ky = self.px_per_cm()
+        x = np.degrees(np.arctan2(np.asarray(x_px, float) - (self.width_px - 1) / 2, self.distance_cm * kx))
+        y = -np.degrees(np.arctan2(np.asarray(y_px, float) - (self.height_px - 1) / 2, self.distance_cm * ky))
+        return x, y
+
     def deg2px(self, x_deg, y_deg) -> tuple[np.ndarray, np.ndarray]:
-        """Inverse of pymovements' pix2deg (origin upper left, y down; ``y_deg`` positive up)."""
+        """Inverse of :meth:`px2deg`."""
         kx, ky = self.px_per_cm()
         x = (self.width_px - 1) / 2 + np.tan(np.radians(x_deg)) * self.distance_cm * kx
         y = (self.height_px - 1) / 2 - np.tan(np.radians(y_deg)) * self.distance_cm * ky
         return x, y
 
+    def extent_deg(self) -> tuple[float, float]:
+        """Width and height of the screen in degrees (edge to edge, from its centre)."""
+        return (2 * math.degrees(math.atan2(self.width_cm / 2, self.distance_cm)),
+                2 * math.degrees(math.atan2(self.height_cm / 2, self.distance_cm)))
+
 
 @dataclass
 class Recording:
     """One eye's gaze: ``times_ms``, ``x_deg``, ``y_deg`` (NaN in blinks / track loss; y up),
-    ``rate_hz``; ``blinks_ms`` (start, end) pairs; ``file_saccades_ms``: the file's own saccade events
-    (start, end) or ``None`` where it had none."""
+    ``rate_hz``; ``block``: each sample's recording block (START/END block of an ASC file, stretch
+    between pauses of a table); ``blinks_ms`` (start, end) pairs; ``file_saccades_ms``: the file's own
+    saccade events of this eye or ``None``; ``eye`` and why it was chosen."""
 
     path: Path
     fmt: str
@@ -125,18 +146,38 @@ class Recording:
     file_saccades_ms: list | None = None
     screen: Screen | None = None
     units: str = "deg"
-    gaze: object = None  #: the pymovements ``Gaze`` (positions in degrees)
+    eye: str = "left"
+    eye_reason: str = ""
+    block: np.ndarray | None = None
+    notes: list = field(default_factory=list)
 
     @property
     def name(self) -> str:
         return self.path.name
 
     @property
+    def dt_ms(self) -> float:
+        return 1000.0 / self.rate_hz
+
+    @property
+    def ok_steps(self) -> np.ndarray:
+        """(n - 1,) steps a velocity may span (``kinematics.steps_ok``)."""
+        return steps_ok(self.times_ms, self.dt_ms, self.block)
+
+    @property
+    def n_blocks(self) -> int:
+        """Unbroken stretches of samples (blocks and pauses; lost samples not counted)."""
+        return int(1 + np.count_nonzero(~self.ok_steps))
+
+    def speed(self) -> np.ndarray:
+        return speed_deg_s(self.x_deg, self.y_deg, self.dt_ms, self.ok_steps)
+
+    @property
     def noise_deg(self) -> float:
         """Tracker noise (deg, per axis): robust SD (1.4826 MAD) of the sample-to-sample differences
-        between samples slower than 30 deg/s, / sqrt(2)."""
-        still = speed_deg_s(self.x_deg, self.y_deg, 1000.0 / self.rate_hz) < THRESHOLD_DEG_S
-        still = still[1:] & still[:-1]  # both samples of a difference at fixation, not in a saccade
+        between samples slower than 30 deg/s (inside unbroken stretches), / sqrt(2)."""
+        still = self.speed() < THRESHOLD_DEG_S
+        still = still[1:] & still[:-1] & self.ok_steps
         d = np.concatenate([np.diff(self.x_deg)[still], np.diff(self.y_deg)[still]])
         d = d[np.isfinite(d)]
         if not len(d):
@@ -158,177 +199,156 @@ def _format_of(path: Path, fmt: str | None) -> str:
 
 
 def _read_text(path: Path) -> str:
-    """The file's text (``read_recording`` has checked that it exists and is not a folder)."""
+    """The file's text, decoded (``oculomotor.tables.decode``: BOM, UTF-16, latin-1)."""
     try:
         data = path.read_bytes()
     except OSError as e:
         raise RecordingError(f"cannot read {path}: {e.strerror or e}") from None
-    if b"\x00" in data[:4096]:
-        raise RecordingError(f"{path} is a binary file, not a text recording; convert an EyeLink .edf with "
-                             "edf2asc first, or export samples as CSV")
     try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        return data.decode("latin-1")
+        return decode(data, str(path))
+    except TableError as e:
+        raise RecordingError(str(e)) from None
 
 
-def _pm_experiment(screen: Screen | None, rate_hz: float | None = None, resolution_from_file: bool = False):
-    import pymovements as pm
-
-    if screen is None:
-        return pm.Experiment(sampling_rate=rate_hz)
-    px = (None, None) if resolution_from_file else (screen.width_px, screen.height_px)
-    return pm.Experiment(screen_width_px=px[0], screen_height_px=px[1], screen_width_cm=screen.width_cm,
-                         screen_height_cm=screen.height_cm, distance_cm=screen.distance_cm, origin="upper left",
-                         sampling_rate=rate_hz)
-
-
-def _geometry_hint(kind: str) -> str:
-    if kind == "asc":
-        return ("give the screen's size and viewing distance: --screen WIDTH_CM HEIGHT_CM DISTANCE_CM "
-                "(the resolution comes from the file's GAZE_COORDS)")
-    return ("give the screen geometry: --screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM, "
-            "or write the gaze in degrees (columns x_deg, y_deg)")
-
-
-def _positions(gaze) -> np.ndarray:
-    """pymovements' ``position`` column (x, y in degrees; a lost sample null) as an (n, 2) float array
-    with NaN for what is missing, in one vectorised polars select."""
-    import polars as pl
-
-    col = pl.col("position")
-    return gaze.samples.select(col.list.get(0, null_on_oob=True).cast(pl.Float64).alias("x"),
-                               col.list.get(1, null_on_oob=True).cast(pl.Float64).alias("y")).to_numpy()
+def _choose_eye(path: Path, have: dict, eye: str | None) -> tuple[str, str]:
+    """The eye to measure among ``have`` ({eye: x array}) and why."""
+    names = [e for e in ("left", "right") if e in have] or list(have)
+    if eye is not None and eye != "both":
+        if eye not in have:
+            if names == ["gaze"]:
+                raise RecordingError(f"{path}: its gaze columns do not say which eye they are; leave out --eye "
+                                     "(or name a column of L/R with --columns ...,eye=NAME)")
+            raise RecordingError(f"{path}: no {eye} eye in this recording (it has {' and '.join(names)}); "
+                                 f"give --eye {names[0]}")
+        return eye, "chosen with --eye"
+    if len(names) == 1:
+        return names[0], ("the only eye recorded" if names[0] != "gaze" else "one gaze column")
+    lost = {e: float(np.mean(~np.isfinite(have[e]))) for e in names}
+    best = min(names, key=lambda e: (lost[e], e != "left"))
+    other = [e for e in names if e != best][0]
+    return best, (f"binocular file: the eye with fewer lost samples ({100 * lost[best]:.1f} % vs "
+                  f"{100 * lost[other]:.1f} % for the {other}; --eye both measures each)")
 
 
-def _read_asc(path: Path, text: str, screen: Screen | None, screen_cm_only: bool) -> Recording:
-    lines = text.splitlines()
-    n_samples = sum(1 for ln in lines[:5000] if ln[:1].isdigit())
-    if not any(ln.startswith("**") or ln.startswith("MSG") or ln.startswith("START") for ln in lines[:2000]) \
-            or (n_samples == 0 and not any(ln.startswith("SAMPLES") for ln in lines)):
-        raise RecordingError(f"{path} is not an EyeLink ASC file (no '**' header, MSG or START lines, or no samples); "
+def _asc_recordings(path: Path, text: str, screen: Screen | None, eye: str | None) -> list[Recording]:
+    if not any(ln.startswith(("**", "MSG", "START")) for ln in text.splitlines()[:5000]):
+        raise RecordingError(f"{path} is not an EyeLink ASC file (no '**' header, MSG or START lines); "
                              "give the edf2asc output, or --format csv for a CSV of samples")
-    starts = [i for i, ln in enumerate(lines) if ln.startswith("START")]
-    ends = [i for i, ln in enumerate(lines) if ln.startswith("END")]
-    if not starts:
-        raise RecordingError(f"{path}: no START line: not a recording block of an EyeLink ASC file")
-    if not ends or ends[-1] < starts[-1]:
-        raise RecordingError(f"{path} looks truncated: the recording block that starts on line {starts[-1] + 1} "
-                             "has no END line (was the file cut short while copying or converting?)")
     if not text.endswith("\n"):
         raise RecordingError(f"{path} looks truncated: its last line is incomplete")
-    if screen is None and any(ln.startswith("MSG") and "GAZE_COORDS" in ln for ln in lines[:5000]):
-        raise RecordingError(f"{path}: the gaze is in pixels but the recording has no screen size or viewing "
-                             f"distance; {_geometry_hint('asc')}")
-    import pymovements as pm  # after the cheap checks: importing it takes seconds
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            gaze = pm.gaze.from_asc(path, events=True, encoding="latin-1",
-                                    experiment=_pm_experiment(screen, resolution_from_file=screen_cm_only))
-        except Exception as e:  # noqa: BLE001 -- pymovements/polars raise many kinds; name the file
-            raise RecordingError(f"cannot parse {path} as EyeLink ASC: {str(e).splitlines()[0] if str(e) else type(e).__name__}") from None
-    samples = gaze.samples
-    if samples.height < 10 or "pixel" not in samples.columns:
-        raise RecordingError(f"{path}: fewer than 10 gaze samples parsed; is it an ASC file with samples "
-                             "(edf2asc without -e)?")
-    meta = getattr(gaze, "_metadata", {}) or {}
-    rate = gaze.experiment.eyetracker.sampling_rate or meta.get("sampling_rate")
-    res = (gaze.experiment.screen.width_px, gaze.experiment.screen.height_px)
-    if screen is None or None in res:
-        what = "no GAZE_COORDS line (screen resolution)" if None in res else "no screen size or viewing distance"
-        raise RecordingError(f"{path}: the gaze is in pixels but the recording has {what}; {_geometry_hint('asc' if None not in res else 'csv')}")
-    if screen_cm_only:
-        screen = Screen(int(res[0]), int(res[1]), screen.width_cm, screen.height_cm, screen.distance_cm)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        gaze.pix2deg()
-    times = samples["time"].cast(float).to_numpy()
-    pos = _positions(gaze)
-    x, y = pos[:, 0], -pos[:, 1]  # pymovements' y grows downward (screen rows); ours grows upward
-    blinks, sacc = [], []
-    if gaze.events is not None and gaze.events.frame.height:
-        ev = gaze.events.frame
-        for name, on, off in zip(ev["name"].to_list(), ev["onset"].to_list(), ev["offset"].to_list()):
-            if name.startswith("blink"):
-                blinks.append((float(on), float(off)))
-            elif name.startswith("saccade"):
-                sacc.append((float(on), float(off)))
-    if not rate:
-        rate = 1000.0 / float(np.median(np.diff(times)))
-    return _finish(Recording(path, "asc", times, x, y, float(rate), blinks, sacc or None, screen, "px", gaze))
-
-
-def _read_csv(path: Path, text: str, screen: Screen | None) -> Recording:
-    first = text.split("\n", 1)[0]
-    sep = "\t" if ("\t" in first and "," not in first) else ","
-    header = [h.strip() for h in first.split(sep)]
-    if "time_ms" not in header:
-        raise RecordingError(f"{path} is not a CSV of samples: its header {first[:80]!r} has no time_ms column "
-                             "(expected columns time_ms and x_deg, y_deg or x_px, y_px; an EyeLink file needs "
-                             "--format asc)")
-    if {"x_deg", "y_deg"} <= set(header):
-        units, cols = "deg", ["x_deg", "y_deg"]
-    elif {"x_px", "y_px"} <= set(header):
-        units, cols = "px", ["x_px", "y_px"]
-    else:
-        raise RecordingError(f"{path}: the header {first[:80]!r} needs gaze columns x_deg, y_deg (degrees) or "
-                             "x_px, y_px (pixels)")
-    if units == "px" and screen is None:
-        raise RecordingError(f"{path}: the gaze is in pixels (x_px, y_px) but no screen geometry was given; "
-                             + _geometry_hint("csv"))
-    if units == "px" and screen is not None and screen.width_px is None:
-        raise RecordingError(f"{path}: a CSV in pixels needs the resolution too; " + _geometry_hint("csv"))
-    rows = text.rstrip("\n").split("\n")
-    if len(rows) > 1 and len(rows[-1].split(sep)) < len(header):
-        raise RecordingError(f"{path} looks truncated: its last line ({len(rows)}) has {len(rows[-1].split(sep))} of "
-                             f"{len(header)} fields")
-    import polars as pl
-    import pymovements as pm  # after the cheap checks: importing it takes seconds
-
     try:
-        df = pl.read_csv(path, separator=sep, columns=["time_ms"] + cols, null_values=["", "nan", "NaN", "."],
-                         schema_overrides={c: pl.Float64 for c in ["time_ms"] + cols}, comment_prefix="#")
-    except Exception as e:  # noqa: BLE001 -- polars errors; name the file and the problem
-        raise RecordingError(f"cannot parse {path} as a CSV of samples: {str(e).splitlines()[0]}") from None
-    times = df["time_ms"].to_numpy().astype(float)
-    if len(times) < 10:
-        raise RecordingError(f"{path}: fewer than 10 samples")
-    if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
-        raise RecordingError(f"{path}: time_ms must be finite and strictly increasing (sample {int(np.argmax(np.diff(times) <= 0)) + 2} is not)")
-    rate = 1000.0 / float(np.median(np.diff(times)))
-    df = df.with_columns(pl.col(c).fill_nan(None) for c in cols)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        if units == "px":
-            gaze = pm.Gaze(df, experiment=_pm_experiment(screen, rate), time_column="time_ms", time_unit="ms",
-                           pixel_columns=cols)
-            gaze.pix2deg()
-        else:
-            gaze = pm.Gaze(df, experiment=_pm_experiment(None, rate), time_column="time_ms", time_unit="ms",
-                           position_columns=cols)
-    pos = _positions(gaze)
-    x, y = pos[:, 0], (-pos[:, 1] if units == "px" else pos[:, 1])
-    return _finish(Recording(path, "csv", times, x, y, rate, [], None, screen, units, gaze))
+        data = parse_asc(text, str(path))
+    except AscError as e:
+        msg = str(e)
+        raise RecordingError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
+    res = data.resolution
+    if screen is None:
+        need = "WIDTH_CM HEIGHT_CM DISTANCE_CM" if res else "WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM"
+        why = f"(the resolution comes from the file's {data.resolution_source})" if res else \
+            "(the file has no GAZE_COORDS or DISPLAY_COORDS line, so the resolution too)"
+        raise RecordingError(f"{path}: the gaze is in pixels but the recording has no screen size or viewing "
+                             f"distance; give them: --screen {need} {why}")
+    if res is None and screen.width_px is None:
+        raise RecordingError(f"{path}: no GAZE_COORDS or DISPLAY_COORDS line, so the screen's resolution is unknown; "
+                             "give all five numbers: --screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM")
+    if res is not None and screen.width_px is not None and (screen.width_px, screen.height_px) != tuple(res):
+        raise RecordingError(f"{path}: --screen gives {screen.width_px} x {screen.height_px} px but the file's "
+                             f"{data.resolution_source} says {res[0]} x {res[1]}; give the three numbers "
+                             "WIDTH_CM HEIGHT_CM DISTANCE_CM to use the file's")
+    scr = screen.with_resolution(*res) if res is not None else screen
+    notes = [f"resolution {scr.width_px} x {scr.height_px} px from "
+             f"{data.resolution_source if res is not None else '--screen'}"]
+    if data.remote:
+        notes.append("remote mode (HTARGET)")
+    eyes = list(data.eyes) if eye == "both" else [_choose_eye(path, data.x_px, eye)[0]]
+    out = []
+    for e in eyes:
+        reason = "--eye both" if eye == "both" else _choose_eye(path, data.x_px, eye)[1]
+        x, y = scr.px2deg(data.x_px[e], data.y_px[e])
+        ev = [(k, a, b) for k, ee, a, b in data.events if ee == e]
+        blinks = [(a, b) for k, a, b in ev if k == "blink"]
+        sacc = [(a, b) for k, a, b in ev if k == "saccade"]
+        rec = Recording(path, "asc", data.times_ms, x, y, data.rate_hz, blinks, sacc or None, scr, "px", e, reason,
+                        data.block, list(notes))
+        out.append(_finish(rec))
+    return out
+
+
+def _table_recordings(path: Path, text: str, screen: Screen | None, eye: str | None, columns: Columns | None,
+                      preset: str | None, time_unit: str | None, units: str | None) -> list[Recording]:
+    try:
+        tab = read_table(text, str(path), columns, preset)
+    except TableError as e:
+        msg = str(e)
+        raise RecordingError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
+    tu = time_unit or tab.time_unit
+    un = units or tab.units
+    col = tab.columns
+    if tu is None:
+        tu = "ms"
+    if tu not in TIME_UNITS:
+        raise RecordingError(f"unknown time unit {tu!r}; choose one of {', '.join(TIME_UNITS)}")
+    if un is None:
+        raise RecordingError(f"{path}: cannot tell whether {col.x!r} is in pixels or degrees; give --units px or "
+                             "--units deg")
+    if un not in ("px", "deg"):
+        raise RecordingError(f"unknown gaze unit {un!r}; choose px or deg")
+    if un == "px" and (screen is None or screen.width_px is None):
+        raise RecordingError(f"{path}: the gaze is in pixels ({col.x}, {col.y}) but no screen geometry was given; give "
+                             "the screen geometry: --screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM, or "
+                             "write the gaze in degrees (columns x_deg, y_deg)")
+    have = tab.x
+    chosen = list(have) if eye == "both" else [_choose_eye(path, have, eye)[0]]
+    out = []
+    for e in chosen:
+        reason = "--eye both" if eye == "both" else _choose_eye(path, have, eye)[1]
+        t = tab.time[e] * TIME_UNITS[tu]
+        x, y = tab.x[e], tab.y[e]
+        if len(t) < 10:
+            raise RecordingError(f"{path}: fewer than 10 samples")
+        if not np.all(np.isfinite(t)):
+            raise RecordingError(f"{path}: the time column {col.time!r} has a missing value (sample "
+                                 f"{int(np.argmax(~np.isfinite(t))) + 1})")
+        d = np.diff(t)
+        if np.any(d <= 0):
+            i = int(np.argmax(d <= 0)) + 1
+            raise RecordingError(f"{path}: the time column {col.time!r} must increase strictly; sample {i + 1} "
+                                 f"({tab.time[e][i]:g}) does not: corrupt or concatenated file")
+        period = float(np.median(d))
+        rate = 1000.0 / period
+        if not 20.0 <= rate <= 10_000.0:
+            guess = {r: u for u, r in (("us", rate * 1000.0), ("s", rate / 1000.0), ("ms", rate * TIME_UNITS[tu]))
+                     if 20.0 <= r <= 10_000.0}
+            hint = (f"; is the time in {', '.join(sorted(set(guess.values())))}? give --time-unit "
+                    f"{next(iter(guess.values()))}") if guess else ""
+            raise RecordingError(f"{path}: the median sample interval is {period:g} ms ({rate:.3g} Hz) with the time in "
+                                 f"{tu}: no eye tracker samples at that rate{hint}")
+        if col.fraction:
+            x, y = x * screen.width_px, y * screen.height_px
+        if un == "px":
+            x, y = screen.px2deg(x, y)
+        block = np.concatenate([[0], np.cumsum(d > PAUSE_PERIODS * period)])
+        rec = Recording(path, "csv", t, x, y, rate, [], None, screen, un, e if e != "gaze" else "unnamed", reason,
+                        block, [f"columns {col.time}, {col.x}, {col.y} ({col.source or 'named'}); time in {tu}"])
+        out.append(_finish(rec))
+    return out
 
 
 def _finish(rec: Recording) -> Recording:
-    dt = np.diff(rec.times_ms)
-    if np.any(dt <= 0):
-        raise RecordingError(f"{rec.path}: sample times go backwards or repeat (at {rec.times_ms[int(np.argmax(dt <= 0)) + 1]:g} ms): corrupt or concatenated file")
-    if not np.any(np.isfinite(rec.x_deg)):
-        raise RecordingError(f"{rec.path}: no valid gaze samples (all missing)")
+    if not np.any(np.isfinite(rec.x_deg) & np.isfinite(rec.y_deg)):
+        raise RecordingError(f"{rec.path}: no valid gaze samples of the {rec.eye} eye (all missing)")
     return rec
 
 
-def read_recording(path, *, screen: Screen | None = None, fmt: str | None = None) -> Recording:
-    """Read an EyeLink ASC file or a CSV/TSV of samples (see the module docstring) into degrees.
-
-    ``screen`` gives the geometry for data in pixels; for an ASC file only its size and distance
-    are used (the resolution is the file's ``GAZE_COORDS``). Raises :class:`RecordingError` naming
-    the problem for anything unusable."""
+def read_recordings(path, *, screen: Screen | None = None, fmt: str | None = None, eye: str | None = None,
+                    columns: Columns | None = None, preset: str | None = None, time_unit: str | None = None,
+                    units: str | None = None) -> list[Recording]:
+    """Read an EyeLink ASC file or a CSV/TSV of samples (module docstring) into degrees: one
+    :class:`Recording` per eye measured (``eye='both'``: each eye recorded; else one). Raises
+    :class:`RecordingError` naming the problem for anything unusable."""
     path = Path(path)
+    if eye is not None and eye not in EYE_CHOICES:
+        raise RecordingError(f"unknown eye {eye!r}; choose left, right or both")
     if not path.exists():
         raise RecordingError(f"{path}: no such file")
     if path.is_dir():
@@ -338,76 +358,47 @@ def read_recording(path, *, screen: Screen | None = None, fmt: str | None = None
     if not text.strip():
         raise RecordingError(f"{path} is empty")
     if kind == "asc":
-        return _read_asc(path, text, screen, screen_cm_only=True)
-    return _read_csv(path, text, screen)
+        if columns is not None or preset is not None or time_unit is not None or units is not None:
+            raise RecordingError(f"{path}: --columns, --preset, --time-unit and --units are for CSV/TSV files; an ASC "
+                                 "file says its own layout")
+        return _asc_recordings(path, text, screen, eye)
+    first = next((ln for ln in text.splitlines() if ln.strip() and not ln.startswith("#")), "")
+    if first.startswith("**") or first.startswith("MSG"):
+        raise RecordingError(f"{path} is not a CSV of samples: it looks like an EyeLink ASC file; give --format asc")
+    return _table_recordings(path, text, screen, eye, columns, preset, time_unit, units)
+
+
+def read_recording(path, **kw) -> Recording:
+    """:func:`read_recordings` of one eye (``eye`` left, right or None for the default choice)."""
+    if kw.get("eye") == "both":
+        raise RecordingError("read_recording reads one eye; use read_recordings for eye='both'")
+    return read_recordings(path, **kw)[0]
 
 
 # ---------------------------------------------------------------------------------------- measuring
-def speed_deg_s(x: np.ndarray, y: np.ndarray | None, dt_ms: float) -> np.ndarray:
-    """Eye speed (deg/s) by the five-point differentiator (pymovements' ``fivepoint``); NaN at the two
-    samples of each end. ``y`` None: a one-dimensional trace."""
-    def d(a):
-        v = np.full(a.shape, np.nan)
-        v[2:-2] = (a[4:] + a[3:-1] - a[1:-3] - a[:-4]) / (6.0 * dt_ms / 1000.0)
-        return v
-
-    return np.abs(d(x)) if y is None else np.hypot(d(x), d(y))
-
-
-def _crossing(t, s, i, step) -> float | None:
-    """Walk from the peak index ``i`` by ``step`` to the first sample below threshold; the crossing
-    time interpolated linearly; None if the walk leaves the data or meets a NaN."""
-    n = len(s)
-    j = i
-    while 0 <= j + step < n:
-        k = j + step
-        if not np.isfinite(s[k]):
-            return None
-        if s[k] < THRESHOLD_DEG_S:
-            return float(t[j] + (t[k] - t[j]) * (s[j] - THRESHOLD_DEG_S) / (s[j] - s[k]))
-        j = k
-    return None
-
-
-def measure_saccade(t: np.ndarray, s: np.ndarray, i_peak: int, rate_hz: float) -> tuple[float, float, float, float, float] | None:
-    """Onset and offset (30 deg/s crossings), peak velocity, peak time and skewness of the saccade
-    whose speed trace ``s`` (at times ``t``) peaks at sample ``i_peak``; None where a crossing is
-    missing. The peak time is refined by a parabola through the top three samples."""
-    on = _crossing(t, s, i_peak, -1)
-    off = _crossing(t, s, i_peak, +1)
-    if on is None or off is None or off <= on:
-        return None
-    pk = float(s[i_peak])
-    tp = float(t[i_peak])
-    if 0 < i_peak < len(s) - 1 and np.all(np.isfinite(s[i_peak - 1:i_peak + 2])):
-        a, b, c = s[i_peak - 1], s[i_peak], s[i_peak + 1]
-        den = a - 2 * b + c
-        if den < 0:
-            tp += 0.5 * (a - c) / den * (t[i_peak + 1] - t[i_peak])
-    skew = (tp - on) / (off - on) if rate_hz >= SKEWNESS_MIN_RATE_HZ else math.nan
-    return on, off, pk, tp, skew
-
-
 def detect_saccades(rec: Recording, method: str = "auto", *, min_amplitude_deg: float = 1.0) -> list[tuple[int, int]]:
-    """Candidate saccades as (first, last) sample indices: the file's own saccade events (``file``;
-    ``auto`` uses them where the file has them) or pymovements' Engbert & Kliegl detection
-    (``engbert``). Candidates within ``BLINK_MARGIN_MS`` of a blink or a missing sample are dropped.
-    ``min_amplitude_deg`` drops microsaccades (by the span of gaze within the event)."""
+    """Candidate saccades as (first, last) sample indices: the file's own saccade events of the eye
+    (``file``; ``auto`` uses them where the file has them) or Engbert & Kliegl detection
+    (``engbert``, ``oculomotor.kinematics.engbert_kliegl``). Candidates within ``BLINK_MARGIN_MS`` of
+    a blink, a missing sample or a gap (block boundary, pause) are dropped, as are those spanning a
+    gap. ``min_amplitude_deg`` drops microsaccades (by the span of gaze within the event)."""
     if method not in ("auto", "file", "engbert"):
         raise RecordingError(f"unknown detection method {method!r}; choose auto, file or engbert")
     t = rec.times_ms
     if method == "file" and rec.file_saccades_ms is None:
-        raise RecordingError(f"{rec.path} has no saccade events of its own (ESACC); use --detect engbert")
+        raise RecordingError(f"{rec.path} has no saccade events of its own (ESACC) for the {rec.eye} eye; use --detect engbert")
     if method in ("file", "auto") and rec.file_saccades_ms:
         events = rec.file_saccades_ms
     else:
-        events = _engbert(rec)
+        events = engbert_kliegl(t, rec.x_deg, rec.y_deg, rec.dt_ms, rec.ok_steps)
     bad = ~(np.isfinite(rec.x_deg) & np.isfinite(rec.y_deg))
-    blink_iv = [(t[a], t[b]) for a, b in _runs(bad)] + list(rec.blinks_ms)
+    gaps = np.flatnonzero(~rec.ok_steps)
+    blink_iv = [(t[a], t[b]) for a, b in _runs(bad)] + list(rec.blinks_ms) + [(t[i], t[i + 1]) for i in gaps]
+    iv = np.array(blink_iv, float).reshape(-1, 2)
     out = []
     for on, off in events:
         lo, hi = on - BLINK_MARGIN_MS, off + BLINK_MARGIN_MS
-        if any(b0 <= hi and b1 >= lo for b0, b1 in blink_iv):
+        if len(iv) and np.any((iv[:, 0] <= hi) & (iv[:, 1] >= lo)):
             continue
         i0, i1 = int(np.searchsorted(t, on)), int(np.searchsorted(t, off, side="right")) - 1
         if i1 - i0 < 1:
@@ -426,57 +417,85 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
 
 
-def _engbert(rec: Recording) -> list[tuple[float, float]]:
-    """pymovements' Engbert & Kliegl (2003) detection on its five-point velocity; (onset, offset) ms."""
-    gaze = rec.gaze
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        if "velocity" not in gaze.samples.columns:
-            gaze.pos2vel(method="fivepoint")
-        # minimum_duration is in the time column's unit (ms): 8 ms keeps 2-sample events out at 250 Hz
-        try:
-            gaze.detect("microsaccades", minimum_duration=8, clear=True)
-        except ValueError:  # a noise-free trace: the median-based threshold is 0; use a fixed 5 deg/s per axis
-            gaze.detect("microsaccades", minimum_duration=8, clear=True, threshold=(5.0, 5.0))
-    ev = gaze.events.frame
-    return [(float(a), float(b)) for a, b in zip(ev["onset"].to_list(), ev["offset"].to_list())]
-
-
 def main_sequence_rows(rec: Recording, saccades: list[tuple[int, int]] | None = None) -> list[dict]:
     """One row per measurable saccade (``ROW_FIELDS``): amplitude, duration, peak velocity, direction,
     skewness (module docstring). ``saccades`` defaults to :func:`detect_saccades`."""
     if saccades is None:
         saccades = detect_saccades(rec)
     t, x, y = rec.times_ms, rec.x_deg, rec.y_deg
-    dt = 1000.0 / rec.rate_hz
-    s = speed_deg_s(x, y, dt)
-    rows = []
+    dt = rec.dt_ms
+    ok = rec.ok_steps
+    s = speed_deg_s(x, y, dt, ok)
+    stretch = np.concatenate([[0], np.cumsum(~ok)])  # unbroken stretch of each sample
+    rows, peaks = [], set()
     bounds = [(t[a], t[b]) for a, b in saccades]
     for k, (i0, i1) in enumerate(saccades):
         pad = int(math.ceil(10.0 / dt)) + 2
         lo, hi = max(i0 - pad, 0), min(i1 + pad, len(t) - 1)
+        lo = max(lo, int(np.searchsorted(stretch, stretch[i0])))  # the search stays in the saccade's stretch
+        hi = min(hi, int(np.searchsorted(stretch, stretch[i0], side="right")) - 1)
         seg = s[lo:hi + 1]
-        if not np.any(np.isfinite(seg)):
+        if hi < lo or not np.any(np.isfinite(seg)):
             continue
         ip = lo + int(np.nanargmax(seg))
+        if ip in peaks:  # two events of one movement
+            continue
         m = measure_saccade(t, s, ip, rec.rate_hz)
         if m is None:
             continue
         on, off, pk, tp, skew = m
         prev_end = bounds[k - 1][1] if k else -np.inf
         next_start = bounds[k + 1][0] if k + 1 < len(bounds) else np.inf
-        pre = (t >= max(on - PRE_WINDOW_MS[0], prev_end)) & (t <= on - PRE_WINDOW_MS[1])
-        post = (t >= off + POST_WINDOW_MS[0]) & (t <= min(off + POST_WINDOW_MS[1], next_start))
+        same = stretch == stretch[ip]
+        pre = same & (t >= max(on - PRE_WINDOW_MS[0], prev_end)) & (t <= on - PRE_WINDOW_MS[1])
+        post = same & (t >= off + POST_WINDOW_MS[0]) & (t <= min(off + POST_WINDOW_MS[1], next_start))
         if pre.sum() < 2 or post.sum() < 2:
             continue
-        x0, y0, x1, y1 = (float(np.nanmedian(v[w])) for v, w in ((x, pre), (y, pre), (x, post), (y, post)))
+        x0, y0, x1, y1 = (float(np.nanmedian(v[w])) if np.isfinite(v[w]).any() else math.nan
+                          for v, w in ((x, pre), (y, pre), (x, post), (y, post)))
         if not all(map(math.isfinite, (x0, y0, x1, y1))):
             continue
+        peaks.add(ip)
         rows.append({"saccade": len(rows) + 1, "onset_ms": round(on, 2), "amplitude_deg": round(math.hypot(x1 - x0, y1 - y0), 4),
                      "duration_ms": round(off - on, 3), "peak_velocity_deg_s": round(pk, 2),
                      "direction_deg": round(math.degrees(math.atan2(y1 - y0, x1 - x0)), 2),
                      "skewness": round(skew, 4) if math.isfinite(skew) else math.nan})
     return rows
+
+
+def check_plausible(rec: Recording, rows: list[dict]) -> tuple[list[dict], list[dict]]:
+    """Split ``rows`` into plausible saccades and implausible ones (peak velocity above
+    ``MAX_PLAUSIBLE_VELOCITY_DEG_S``, or an amplitude larger than the screen's diagonal -- 100 deg
+    when no screen is known). When more than ``MAX_IMPLAUSIBLE_SHARE`` of them are implausible the
+    recording is refused (:class:`RecordingError`) with the probable cause: pixels in degree columns,
+    wrong screen geometry, or a wrong time unit."""
+    if rec.screen is not None and rec.screen.width_px is not None:
+        w, h = rec.screen.extent_deg()
+        limit = math.hypot(w, h)
+        where = f"the screen's diagonal ({limit:.0f} deg)"
+    else:
+        limit, where = 100.0, "100 deg"
+    bad = [r for r in rows if r["peak_velocity_deg_s"] > MAX_PLAUSIBLE_VELOCITY_DEG_S or r["amplitude_deg"] > limit]
+    good = [r for r in rows if r not in bad]
+    if not rows or len(bad) <= MAX_IMPLAUSIBLE_SHARE * len(rows):
+        return good, bad
+    amp = float(np.median([r["amplitude_deg"] for r in bad]))
+    pv = float(np.median([r["peak_velocity_deg_s"] for r in bad]))
+    dur = float(np.median([r["duration_ms"] for r in bad]))
+    span = float(np.nanmax(np.abs(np.concatenate([rec.x_deg, rec.y_deg]))))
+    if rec.units == "deg" and span > 90.0:
+        cause = (f"gaze reaches {span:.0f} deg from the centre: pixels in degree columns? give --units px and "
+                 "--screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM")
+    elif amp > limit or (rec.units == "px" and amp > 0.6 * limit):
+        cause = "saccades as large as the screen: wrong screen geometry? check --screen (sizes in cm, distance in cm)"
+    elif dur < 8.0 or dur > 400.0:
+        cause = (f"median duration {dur:.1f} ms: wrong time unit? check --time-unit (ms, us or s)")
+    else:
+        cause = ("wrong screen geometry (distance or size in cm) or a wrong time unit (--time-unit); or a very noisy "
+                 "recording")
+    raise RecordingError(f"{rec.path}: {len(bad)} of {len(rows)} saccades are implausible (above "
+                         f"{MAX_PLAUSIBLE_VELOCITY_DEG_S:.0f} deg/s or larger than {where}; median {amp:.1f} deg at "
+                         f"{pv:.0f} deg/s); probable cause: {cause}")
 
 
 def write_rows(rows: list[dict], path) -> None:
@@ -488,14 +507,21 @@ def write_rows(rows: list[dict], path) -> None:
 
 # ---------------------------------------------------------------------------------------- writing
 def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: float, screen: Screen | None = None,
-                    blinks=(), saccades=(), units: str = "px", seed: int = 0) -> Path:
+                    blinks=(), saccades=(), units: str = "px", seed: int = 0, eyes: str = "left", right=None,
+                    coords: str = "gaze", remote: bool = False, blocks=None, whole_ms: bool = False) -> Path:
     """Write gaze (degrees, y up; NaN = track loss) as an EyeLink ASC file or a CSV of samples.
 
-    ASC: an ``edf2asc``-like file (header, ``GAZE_COORDS``, ``SAMPLES GAZE LEFT RATE``, monocular
-    left-eye samples ``time x y pupil ...``, ``.`` for lost samples, ``SBLINK/EBLINK`` for
-    ``blinks`` and ``SSACC/ESACC`` for ``saccades``, (start, end) ms pairs). CSV: columns
-    ``time_ms,x_px,y_px`` (``units='px'``) or ``time_ms,x_deg,y_deg`` (``units='deg'``), empty cells
-    for lost samples. ``screen`` defaults to 1920 x 1080 px, 60 x 33.75 cm at 57 cm."""
+    ASC: an ``edf2asc``-like file: header, ``GAZE_COORDS`` (``coords='gaze'``; ``'display'``: only
+    ``DISPLAY_COORDS``, as EyeLink I/II; ``'none'``: neither), ``SAMPLES GAZE LEFT [RIGHT] [HTARGET]
+    RATE``, samples ``time x y pupil [x y pupil] flags [target fields]`` (``.`` for lost samples),
+    ``SBLINK/EBLINK`` for ``blinks`` and ``SSACC/ESACC`` for ``saccades`` ((start, end) ms pairs; a
+    dict ``{eye: pairs}`` gives each eye its own). ``eyes``: ``left``, ``right`` or ``both`` (the
+    right eye's gaze ``right = (x_deg, y_deg)``, default the left's); ``remote``: remote mode's
+    target fields; ``blocks``: (start, end) ms of the START/END blocks (samples outside them are not
+    written); ``whole_ms``: time stamps truncated to whole ms (``edf2asc`` without ``-ftime``: written
+    twice at 2000 Hz). CSV: columns ``time_ms,x_px,y_px`` (``units='px'``) or ``time_ms,x_deg,y_deg``
+    (``units='deg'``), empty cells for lost samples. ``screen`` defaults to 1920 x 1080 px,
+    60 x 33.75 cm at 57 cm."""
     path = Path(path)
     screen = screen or Screen(1920, 1080, 60.0, 33.75, 57.0)
     t = np.asarray(times_ms, float)
@@ -514,24 +540,36 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
         return path
     if fmt != "asc":
         raise ValueError(f"fmt must be 'asc' or 'csv'; got {fmt!r}")
-    px, py = screen.deg2px(x, y)
+    if eyes not in ("left", "right", "both"):
+        raise ValueError(f"eyes must be 'left', 'right' or 'both'; got {eyes!r}")
+    which = ("left", "right") if eyes == "both" else (eyes,)
+    gaze = {"left": (x, y), "right": (x, y) if right is None else tuple(np.asarray(v, float) for v in right)}
+    if eyes == "right" and right is None:
+        gaze["right"] = (x, y)
+    pix = {e: screen.deg2px(*gaze[e]) for e in which}
     rng = np.random.default_rng(seed)
-    integral = np.allclose(t, np.round(t))
-    tf = (lambda v: f"{int(round(v))}") if integral else (lambda v: f"{v:.1f}")
+    integral = whole_ms or np.allclose(t, np.round(t))
+    tf = (lambda v: f"{int(math.floor(v + 1e-9))}") if integral else (lambda v: f"{v:.1f}")
+    sacc_of = saccades if isinstance(saccades, dict) else {e: saccades for e in which}
     events = []  # (time, order, line)
-    for b0, b1 in blinks:
-        events.append((b0, 0, f"SBLINK L {tf(b0)}"))
-        events.append((b1, 2, f"EBLINK L {tf(b0)}\t{tf(b1)}\t{int(round(b1 - b0 + 1000 / rate_hz))}"))
-    for s0, s1 in saccades:
-        i0, i1 = int(np.searchsorted(t, s0)), min(int(np.searchsorted(t, s1)), len(t) - 1)
-        amp = math.hypot(x[i1] - x[i0], y[i1] - y[i0])
-        sp = speed_deg_s(x[max(i0 - 3, 0):i1 + 4], y[max(i0 - 3, 0):i1 + 4], 1000.0 / rate_hz)
-        events.append((s0, 1, f"SSACC L  {tf(s0)}"))
-        events.append((s1, 3, f"ESACC L  {tf(s0)}\t{tf(s1)}\t{int(round(s1 - s0 + 1000 / rate_hz))}\t{px[i0]:7.1f}\t"
-                              f"{py[i0]:7.1f}\t{px[i1]:7.1f}\t{py[i1]:7.1f}\t{amp:6.2f}\t{np.nanmax(sp):7.0f}"))
-    events.sort(key=lambda e: (e[0], e[1]))
+    for e in which:
+        L = e[0].upper()
+        px, py = pix[e]
+        ex, ey = gaze[e]
+        for b0, b1 in blinks:
+            events.append((b0, 0, f"SBLINK {L} {tf(b0)}"))
+            events.append((b1, 2, f"EBLINK {L} {tf(b0)}\t{tf(b1)}\t{int(round(b1 - b0 + 1000 / rate_hz))}"))
+        for s0, s1 in sacc_of.get(e, ()):
+            i0, i1 = int(np.searchsorted(t, s0)), min(int(np.searchsorted(t, s1)), len(t) - 1)
+            amp = math.hypot(ex[i1] - ex[i0], ey[i1] - ey[i0])
+            sp = speed_deg_s(ex[max(i0 - 3, 0):i1 + 4], ey[max(i0 - 3, 0):i1 + 4], 1000.0 / rate_hz)
+            events.append((s0, 1, f"SSACC {L}  {tf(s0)}"))
+            events.append((s1, 3, f"ESACC {L}  {tf(s0)}\t{tf(s1)}\t{int(round(s1 - s0 + 1000 / rate_hz))}\t{px[i0]:7.1f}\t"
+                                  f"{py[i0]:7.1f}\t{px[i1]:7.1f}\t{py[i1]:7.1f}\t{amp:6.2f}\t{np.nanmax(sp):7.0f}"))
+    events.sort(key=lambda ev: (ev[0], ev[1]))
     w, h = screen.width_px, screen.height_px
     t0 = t[0]
+    eye_words = "\t".join(e.upper() for e in which)
     head = [
         f"** CONVERTED FROM {path.with_suffix('.edf').name} using edfapi 4.2.1 Apr  2 2020",
         "** DATE: Wed Mar  8 09:25:20 2023",
@@ -539,39 +577,47 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
         "** VERSION: EYELINK II 1",
         "** SOURCE: EYELINK CL",
         "** EYELINK II CL v6.12 Feb  1 2018 (EyeLink Portable Duo)",
-        "** CAMERA: EyeLink USBCAM Version 1.01",
-        "** SERIAL NUMBER: CLU-DAB50",
-        "** CAMERA_CONFIG: DAB50200.SCD",
         "** RECORDED BY conformal-head experiments.eyetracking.write_recording",
         "**",
         "",
-        f"MSG\t{tf(t0 - 10)} DISPLAY_COORDS 0 0 {w - 1} {h - 1}",
-        f"MSG\t{tf(t0 - 10)} RECCFG CR {int(round(rate_hz))} 2 1 L",
-        f"MSG\t{tf(t0 - 10)} ELCLCFG BTABLER",
-        f"MSG\t{tf(t0 - 10)} GAZE_COORDS 0.00 0.00 {w - 1:.2f} {h - 1:.2f}",
-        f"START\t{tf(t0)} \tLEFT\tSAMPLES\tEVENTS",
-        "PRESCALER\t1",
-        "VPRESCALER\t1",
-        "PUPIL\tAREA",
-        f"EVENTS\tGAZE\tLEFT\tRATE\t{rate_hz:7.2f}\tTRACKING\tCR\tFILTER\t2",
-        f"SAMPLES\tGAZE\tLEFT\tRATE\t{rate_hz:7.2f}\tTRACKING\tCR\tFILTER\t2",
     ]
+    if coords in ("gaze", "display"):
+        head.append(f"MSG\t{tf(t0 - 10)} DISPLAY_COORDS 0 0 {w - 1} {h - 1}")
+    head.append(f"MSG\t{tf(t0 - 10)} RECCFG CR {int(round(rate_hz))} 2 1 {'LR' if eyes == 'both' else which[0][0].upper()}")
+    if coords == "gaze":
+        head.append(f"MSG\t{tf(t0 - 10)} GAZE_COORDS 0.00 0.00 {w - 1:.2f} {h - 1:.2f}")
+    elif coords != "display" and coords != "none":
+        raise ValueError(f"coords must be 'gaze', 'display' or 'none'; got {coords!r}")
+    samples_line = (f"SAMPLES\tGAZE\t{eye_words}{chr(9) + 'HTARGET' if remote else ''}\tRATE\t{rate_hz:7.2f}"
+                    "\tTRACKING\tCR\tFILTER\t2")
+    spans = [(t[0], t[-1])] if blocks is None else list(blocks)
     pupil = 800.0 + rng.normal(0, 5, len(t))
     out = head
-    e = 0
-    for i in range(len(t)):
-        while e < len(events) and events[e][0] <= t[i] and events[e][1] in (0, 1):
-            out.append(events[e][2])
-            e += 1
-        if math.isfinite(px[i]) and math.isfinite(py[i]):
-            out.append(f"{tf(t[i])}\t{px[i]:7.1f}\t{py[i]:7.1f}\t{pupil[i]:7.1f}\t...")
-        else:
-            out.append(f"{tf(t[i])}\t   .\t   .\t    0.0\t...")
-        while e < len(events) and events[e][0] <= t[i]:
-            out.append(events[e][2])
-            e += 1
-    out += [ev[2] for ev in events[e:]]
-    out.append(f"END\t{tf(t[-1] + 1)} \tSAMPLES\tEVENTS\tRES\t  38.54\t  31.12")
+    e_i = 0
+    flags = "....." if remote else "..."
+    tail = "\t5012\t4988\t612.0\t............." if remote else ""
+    for b0, b1 in spans:
+        idx = np.flatnonzero((t >= b0) & (t <= b1))
+        if not len(idx):
+            continue
+        out += [f"START\t{tf(t[idx[0]])} \t{eye_words}\tSAMPLES\tEVENTS", "PRESCALER\t1", "VPRESCALER\t1", "PUPIL\tAREA",
+                samples_line.replace("SAMPLES", "EVENTS", 1), samples_line]
+        for i in idx:
+            while e_i < len(events) and events[e_i][0] <= t[i] and events[e_i][1] in (0, 1):
+                out.append(events[e_i][2])
+                e_i += 1
+            fields = [tf(t[i])]
+            for e in which:
+                px, py = pix[e]
+                if math.isfinite(px[i]) and math.isfinite(py[i]):
+                    fields += [f"{px[i]:7.1f}", f"{py[i]:7.1f}", f"{pupil[i]:7.1f}"]
+                else:
+                    fields += ["   .", "   .", "    0.0"]
+            out.append("\t".join(fields) + "\t" + flags + tail)
+            while e_i < len(events) and events[e_i][0] <= t[i]:
+                out.append(events[e_i][2])
+                e_i += 1
+        out.append(f"END\t{tf(t[idx[-1]] + 1)} \tSAMPLES\tEVENTS\tRES\t  38.54\t  31.12")
     path.write_text("\n".join(out) + "\n")
     return path
 

@@ -16,11 +16,15 @@ Both trajectory models (``burst``, the default, and ``legacy``) are measured, so
 what the burst generator changed. About 5 s on one core.
 
 With ``--recording FILE`` it measures a person instead (``experiments.eyetracking``): it reads an
-EyeLink ASC file or a CSV/TSV of samples, finds the saccades (the file's own events or Engbert &
-Kliegl detection; saccades near blinks dropped) and writes ``main_sequence.csv`` (one row per
-saccade: amplitude, duration, peak velocity, direction, skewness), ``generator.json`` (the burst
-generator fitted to that main sequence, with 95 % CIs; usable as ``--generator`` of ``run``,
-``phenomena`` and ``fit`` and as ``models.BurstGenerator.from_file``) and ``main_sequence.png``.
+EyeLink ASC file or a CSV/TSV of samples, finds the saccades (the file's own events of the chosen
+eye or Engbert & Kliegl detection; none across missing data, none near blinks), refuses
+implausible ones, and writes ``recording.json`` (which file, which eye and why), ``main_sequence.csv``
+(one row per saccade: amplitude, duration, peak velocity, direction, skewness),
+``main_sequence.png`` and ``generator.json`` (the burst generator fitted to that main sequence,
+with 95 % CIs and ``at_bounds``; usable as ``--generator`` of ``run``, ``phenomena`` and ``fit`` and
+as ``models.BurstGenerator.from_file``). A fit that the saccades do not identify (too few, an
+estimate on a bound, a CI wider than the parameter's range) writes no ``generator.json`` and exits
+3 with one line. A folder holding another recording's results has them all removed first.
 Pixels need the screen: ``--screen WIDTH_CM HEIGHT_CM DISTANCE_CM`` for ASC (resolution from the
 file) or ``--screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM``.
 """
@@ -141,7 +145,7 @@ def plot(results: dict[str, dict], path: Path) -> None:
 
 
 def _screen(values: list[str]):
-    """``--screen``: 3 numbers (cm, for ASC files) or 5 (px and cm)."""
+    """``--screen``: 3 numbers (cm; the resolution from the ASC file) or 5 (px and cm)."""
     from .eyetracking import RecordingError, Screen
 
     if len(values) not in (3, 5):
@@ -152,9 +156,11 @@ def _screen(values: list[str]):
     except ValueError:
         raise argparse.ArgumentTypeError(f"--screen takes numbers; got {' '.join(values)!r}") from None
     if len(nums) == 3:
-        nums = [1, 1] + nums  # resolution from the ASC file (a CSV in pixels needs all five)
+        nums = [None, None] + nums  # resolution from the ASC file (a CSV in pixels needs all five)
+    elif any(v != int(v) for v in nums[:2]):
+        raise argparse.ArgumentTypeError(f"--screen WIDTH_PX HEIGHT_PX must be whole numbers; got {values[0]} {values[1]}")
     try:
-        return Screen(int(nums[0]), int(nums[1]), *nums[2:]), len(values) == 3
+        return Screen(*(int(v) if v is not None else None for v in nums[:2]), *nums[2:])
     except RecordingError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
 
@@ -169,8 +175,22 @@ def _fit_parameters(text: str) -> tuple[str, ...]:
     return names
 
 
+def _columns(text: str):
+    from .oculomotor.tables import TableError, parse_columns
+
+    try:
+        return parse_columns(text)
+    except TableError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+#: The files ``saccades --recording`` writes into its folder: one recording's results, replaced together.
+RECORDING_FILES = ("recording.json", "main_sequence.csv", "main_sequence.png", "generator.json")
+
+
 def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | None = None) -> int:
-    """``saccades --recording FILE``: main sequence, fitted generator and figure of a recording."""
+    """``saccades --recording FILE``: main sequence, fitted generator and figure of a recording (each
+    eye in its own sub-folder ``left/``, ``right/`` with ``--eye both``)."""
     from . import eyetracking as et
 
     def usage(message: str):
@@ -178,55 +198,120 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
             raise ValueError(message)
         parser.error(message)
 
-    screen, cm_only = (None, False)
+    screen = None
     if args.screen is not None:
         try:
-            screen, cm_only = _screen(args.screen)
+            screen = _screen(args.screen)
         except argparse.ArgumentTypeError as e:
             usage(f"argument --screen: {e}")
     path = Path(args.recording)
+    eye = getattr(args, "eye", None)
     try:
-        if cm_only and (args.format or et._SUFFIX_FORMAT.get(path.suffix.lower())) == "csv":
-            raise et.RecordingError(f"{path}: a CSV in pixels needs the resolution too: --screen WIDTH_PX HEIGHT_PX "
-                                    "WIDTH_CM HEIGHT_CM DISTANCE_CM (3 numbers serve ASC files only)")
-        rec = et.read_recording(path, screen=screen, fmt=args.format)
-        sacc = et.detect_saccades(rec, args.detect)
-        rows = et.main_sequence_rows(rec, sacc)
-        if not rows:
-            raise et.RecordingError(f"{path}: no measurable saccades found ({len(sacc)} candidate(s) from "
-                                    f"{'the file events' if rec.file_saccades_ms and args.detect != 'engbert' else 'Engbert-Kliegl detection'}, "
-                                    f"{len(rec.times_ms)} samples at {rec.rate_hz:g} Hz)")
-        need = max(5, 2 * len(args.fit_parameters))
-        if len(rows) < need:
-            raise et.RecordingError(f"{path}: only {len(rows)} measurable saccade(s); fitting "
-                                    f"{len(args.fit_parameters)} parameters needs at least {need}")
+        recs = et.read_recordings(path, screen=screen, fmt=args.format, eye=eye, columns=getattr(args, "columns", None),
+                                  preset=getattr(args, "preset", None), time_unit=getattr(args, "time_unit", None),
+                                  units=getattr(args, "units", None))
+        measured = []
+        for rec in recs:
+            sacc = et.detect_saccades(rec, args.detect)
+            rows = et.main_sequence_rows(rec, sacc)
+            if not rows:
+                broken = float(np.mean(~rec.ok_steps)) if len(rec.times_ms) > 1 else 0.0
+                why = (f"; {100 * broken:.0f} % of the sample intervals differ from the median by more than 25 %: "
+                       "irregular time stamps leave no unbroken stretch long enough to measure a saccade"
+                       if broken > 0.05 else "")
+                raise et.RecordingError(f"{path}: no measurable saccades found in the {rec.eye} eye ({len(sacc)} candidate(s) "
+                                        f"from {'the file events' if rec.file_saccades_ms and args.detect != 'engbert' else 'Engbert-Kliegl detection'}, "
+                                        f"{len(rec.times_ms)} samples at {rec.rate_hz:g} Hz in {rec.n_blocks} unbroken stretch(es)){why}")
+            rows, bad = et.check_plausible(rec, rows)
+            measured.append((rec, rows, bad))
     except et.RecordingError as e:
         usage(f"argument --recording: {e}")
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     with path_lock(out / ".lock", f"the folder {out}"):
-        return _write_recording_results(args, path, rec, rows, out)
+        codes = []
+        for rec, rows, bad in measured:
+            folder = out / rec.eye if len(measured) > 1 else out
+            folder.mkdir(exist_ok=True)
+            codes.append(_write_recording_results(args, path, rec, rows, bad, folder))
+        return max(codes)
 
 
-def _write_recording_results(args, path: Path, rec, rows: list[dict], out: Path) -> int:
+def _source_identity(path: Path, rec, args) -> dict:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return {"file": path.name, "sha256": h.hexdigest(), "eye": rec.eye, "eye_reason": rec.eye_reason,
+            "format": rec.fmt, "detection": args.detect, "sampling_rate_hz": rec.rate_hz,
+            "n_samples": int(len(rec.times_ms)), "n_blocks": rec.n_blocks, "units": rec.units,
+            "screen": None if rec.screen is None else vars(rec.screen), "notes": list(rec.notes)}
+
+
+def _claim_folder(out: Path, ident: dict) -> str | None:
+    """Make ``out`` this recording's: when it holds another recording's results (or results of an
+    unknown one), remove them all first, so that a folder never mixes two recordings' files, even
+    if this run is killed; then write ``recording.json``. Returns the replaced file's name, if any."""
+    import json
+
+    from .folders import write_json
+
+    old = out / "recording.json"
+    previous = None
+    present = [f for f in RECORDING_FILES if (out / f).exists()]
+    if present:
+        try:
+            doc = json.loads(old.read_text()) if old.exists() else {}
+        except (OSError, ValueError, RecursionError):
+            doc = {}
+        same = isinstance(doc, dict) and all(doc.get(k) == ident[k] for k in ("sha256", "eye", "detection"))
+        if not same:
+            previous = (doc.get("file") if isinstance(doc, dict) else None) or "an unknown recording"
+            for f in ("saccades.png",) + RECORDING_FILES[::-1]:  # the manifest last: until then it says whose files remain
+                (out / f).unlink(missing_ok=True)
+    write_json(out / "recording.json", ident)
+    return previous
+
+
+def _write_recording_results(args, path: Path, rec, rows: list[dict], bad: list[dict], out: Path) -> int:
     """Fit the generator to a recording's ``rows`` and write table, parameters and figure into ``out``."""
     from . import eyetracking as et
     from . import generator_fit as gf
 
+    ident = _source_identity(path, rec, args)
+    ident["n_saccades"], ident["n_implausible_dropped"] = len(rows), len(bad)
+    replaced = _claim_folder(out, ident)
+    if replaced:
+        print(f"{out}: replaced the results of {replaced}")
+    (out / "generator.json").unlink(missing_ok=True)  # written again only if the fit is identified
     et.write_rows(rows, out / "main_sequence.csv")
     noise = rec.noise_deg
+    print(f"{path.name}, {rec.eye} eye ({rec.eye_reason}): {len(rec.times_ms)} samples at {rec.rate_hz:g} Hz in "
+          f"{rec.n_blocks} unbroken stretch(es), {len(rows)} saccades measured (tracker noise {noise:.3f} deg)"
+          + (f"; {len(bad)} implausible saccade(s) dropped" if bad else ""))
+    need = max(5, 2 * len(args.fit_parameters))
+    if len(rows) < need:
+        gf.plot_main_sequence(rows, None, out / "main_sequence.png", rate_hz=rec.rate_hz, noise_deg=noise,
+                              title=f"{path.name} ({rec.eye}): {len(rows)} saccades at {rec.rate_hz:g} Hz")
+        print(f"saccades: error: {path.name} ({rec.eye} eye): only {len(rows)} measurable saccade(s); fitting "
+              f"{len(args.fit_parameters)} parameters needs at least {need}: no generator.json written", file=sys.stderr)
+        return 3
     fit = gf.fit_generator(rows, fit=args.fit_parameters, rate_hz=rec.rate_hz, noise_deg=noise,
                            bootstrap=getattr(args, "bootstrap", gf.DEFAULT_BOOTSTRAP))
-    fit.to_file(out / "generator.json", file=path.name, format=rec.fmt, sampling_rate_hz=rec.rate_hz,
-                n_samples=int(len(rec.times_ms)), detection=args.detect, units=rec.units,
-                screen=None if rec.screen is None else vars(rec.screen))
     gf.plot_main_sequence(rows, fit.generator, out / "main_sequence.png", rate_hz=rec.rate_hz, noise_deg=noise,
-                          title=f"{path.name}: {len(rows)} saccades at {rec.rate_hz:g} Hz")
-    print(f"{path.name}: {len(rec.times_ms)} samples at {rec.rate_hz:g} Hz, {len(rows)} saccades measured "
-          f"(tracker noise {noise:.3f} deg)")
+                          title=f"{path.name} ({rec.eye}): {len(rows)} saccades at {rec.rate_hz:g} Hz")
     for name in fit.fitted:
         lo, hi = fit.ci95[name]
-        print(f"  {name:18s} {fit.estimates[name]:9.3f}  95% CI [{lo:.3f}, {hi:.3f}]")
+        flag = "  ON A BOUND" if name in fit.at_bounds else ""
+        print(f"  {name:18s} {fit.estimates[name]:9.3f}  95% CI [{lo:.4g}, {hi:.4g}]{flag}")
+    if fit.problems:
+        print(f"saccades: error: {path.name} ({rec.eye} eye): the generator is not identified by these "
+              f"{len(rows)} saccades ({'; '.join(fit.problems)}): no generator.json written; "
+              f"{out / 'main_sequence.csv'} and {out / 'main_sequence.png'} are", file=sys.stderr)
+        return 3
+    fit.to_file(out / "generator.json", **{k: v for k, v in ident.items() if k != "notes"})
     print(f"wrote {out / 'main_sequence.csv'}, {out / 'generator.json'} and {out / 'main_sequence.png'}")
     return 0
 
@@ -250,6 +335,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_models(args: argparse.Namespace, out: Path) -> int:
+    if (out / "recording.json").exists():  # a recording's results: replaced whole, never mixed with the model's
+        print(f"{out}: replaced the results of a recording with the model's")
+        for f in RECORDING_FILES[::-1]:
+            (out / f).unlink(missing_ok=True)
     models_ = ("burst", "legacy") if args.model == "both" else (args.model,)
     results = {m: measure(m, progress=not getattr(args, "no_progress", True)) for m in models_}
     rows = main_sequence_rows(results)
@@ -290,7 +379,18 @@ def add_subcommand(subparsers) -> None:
     g.add_argument("--format", choices=("asc", "csv"), default=None, help="recording format (default: from the suffix)")
     g.add_argument("--screen", nargs="+", metavar="N", default=None,
                    help="screen geometry for gaze in pixels: WIDTH_CM HEIGHT_CM DISTANCE_CM (ASC: resolution from "
-                        "GAZE_COORDS) or WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM")
+                        "GAZE_COORDS or DISPLAY_COORDS) or WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM")
+    g.add_argument("--eye", choices=("left", "right", "both"), default=None,
+                   help="eye to measure (default: the only one recorded, or in a binocular file the one with fewer "
+                        "lost samples, said in the output); both: each eye into DIR/left and DIR/right")
+    g.add_argument("--columns", type=_columns, default=None, metavar="time=NAME,x=NAME,y=NAME[,eye=NAME]",
+                   help="CSV/TSV: the columns of time and gaze (eye: a column saying L/R per row)")
+    g.add_argument("--preset", choices=sorted(__import__("experiments.oculomotor.tables", fromlist=["PRESETS"]).PRESETS),
+                   default=None, help="CSV/TSV: a documented export layout (default: the one the header matches)")
+    g.add_argument("--time-unit", choices=("ms", "us", "s"), default=None,
+                   help="CSV/TSV: unit of the time column (default: from the preset or the column name, else ms)")
+    g.add_argument("--units", choices=("px", "deg"), default=None,
+                   help="CSV/TSV: unit of the gaze columns (default: from the preset or the column name)")
     g.add_argument("--detect", choices=("auto", "file", "engbert"), default="auto",
                    help="saccades: the file's own ESACC events (file), Engbert & Kliegl 2003 detection (engbert), "
                         "or the events where the file has them (auto)")

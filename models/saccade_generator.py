@@ -65,7 +65,7 @@ import numpy as np
 
 from conformal import checks
 
-__all__ = ["BurstGenerator", "SaccadeProfile", "PLANTS", "DETECTION_THRESHOLD_DEG_S"]
+__all__ = ["BurstGenerator", "SaccadeProfile", "PLANTS", "DETECTION_THRESHOLD_DEG_S", "PARAMETER_BOUNDS"]
 
 #: The three plants of a profile: ``nominal`` (vertical components, the cyclopean eye),
 #: ``abducting`` and ``adducting`` (horizontal component of the eye moving temporally / nasally).
@@ -74,6 +74,12 @@ PLANTS = ("nominal", "abducting", "adducting")
 DETECTION_THRESHOLD_DEG_S = 30.0
 #: Ceiling of eye speed (deg/s) that no parameter set may exceed (``models.MAX_PEAK_VELOCITY``).
 MAX_PEAK_VELOCITY_DEG_S = 700.0
+#: The accepted range (inclusive) of every parameter: what ``BurstGenerator`` accepts is what a fit
+#: (``experiments.generator_fit``) may return, so every fitted file loads. The table's peak-velocity
+#: ceiling (``MAX_PEAK_VELOCITY_DEG_S``) is a further joint bound the fit also respects.
+PARAMETER_BOUNDS = {"burst_max_deg_s": (1.0, 2000.0), "burst_scale_deg": (0.01, 50.0), "burst_lag_ms": (0.1, 50.0),
+                    "adaptation_gain": (0.0, 5.0), "adaptation_ms": (0.1, 500.0), "plant_t2_ms": (0.5, 50.0),
+                    "abducting_t2_ms": (0.5, 50.0), "adducting_t2_ms": (0.5, 50.0), "settle_deg": (1e-4, 1.0)}
 #: Amplitudes of the tabulated profiles (deg).
 _AMP_STEP_DEG, _AMP_MAX_DEG = 0.25, 90.0
 #: Simulation step and table step (ms).
@@ -177,10 +183,7 @@ class BurstGenerator:
     settle_deg: float = 0.01
 
     def __post_init__(self):
-        lim = {"burst_max_deg_s": (1.0, 2000.0), "burst_scale_deg": (0.01, 50.0), "burst_lag_ms": (0.1, 50.0),
-               "adaptation_gain": (0.0, 5.0), "adaptation_ms": (0.1, 500.0), "plant_t2_ms": (0.5, 50.0),
-               "abducting_t2_ms": (0.5, 50.0), "adducting_t2_ms": (0.5, 50.0), "settle_deg": (1e-4, 1.0)}
-        for name, (lo, hi) in lim.items():
+        for name, (lo, hi) in PARAMETER_BOUNDS.items():
             object.__setattr__(self, name, checks.real(name, getattr(self, name), lo, hi))
 
     # ------------------------------------------------------------------ the table
@@ -224,8 +227,8 @@ class BurstGenerator:
     def from_file(cls, path) -> "BurstGenerator":
         """Parameters from a JSON file written by :meth:`to_file` (e.g. the ``generator.json`` of
         ``python -m experiments saccades --recording``); parameters it omits keep their defaults.
-        An unreadable file, another model or an unknown or out-of-range parameter is a ``ValueError``
-        naming the file and the problem."""
+        An unreadable file, another model, an unknown or out-of-range parameter or a parameter set
+        above the peak-velocity ceiling is a ``ValueError`` naming the file and the problem."""
         import dataclasses
         import json
 
@@ -234,6 +237,10 @@ class BurstGenerator:
         path = _path("path", path)
         try:
             doc = json.loads(path.read_text())
+        except RecursionError:
+            raise ValueError(f"path {path}: cannot read a burst generator from it (its JSON is nested too deeply); "
+                             "pass the generator.json written by `python -m experiments saccades --recording FILE "
+                             "--out DIR`") from None
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise ValueError(f"path {path}: cannot read a burst generator from it ({exc}); pass the generator.json "
                              "written by `python -m experiments saccades --recording FILE --out DIR`") from None
@@ -247,7 +254,9 @@ class BurstGenerator:
             raise ValueError(f"{path}: unknown burst-generator parameter(s) {', '.join(unknown)}; "
                              f"known: {', '.join(sorted(known))}")
         try:
-            return cls(**params)
+            gen = cls(**params)
+            gen._table()  # the joint bound (the peak-velocity ceiling): refused here, not after a run has started
+            return gen
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{path}: {exc}") from None
 

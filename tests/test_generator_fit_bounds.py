@@ -1,0 +1,70 @@
+"""One table of the burst generator's parameter ranges for the generator itself and for the fit
+(``models.saccade_generator.PARAMETER_BOUNDS``), ``at_bounds`` and the refusal of unidentified fits
+(issue 35, item 6)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+import models
+from experiments import generator_fit as gf
+from models.saccade_generator import PARAMETER_BOUNDS
+
+
+def test_one_table_for_the_generator_and_the_fit():
+    assert gf.PARAMETER_BOUNDS is PARAMETER_BOUNDS
+    assert set(gf.FITTABLE) <= set(PARAMETER_BOUNDS)
+    names = {f.name for f in dataclasses.fields(models.BurstGenerator)}
+    assert names == set(PARAMETER_BOUNDS)
+    for name, (lo, hi) in PARAMETER_BOUNDS.items():
+        for ok in (lo, hi):
+            models.BurstGenerator(**{name: ok})  # every value the fit may return is accepted
+        for bad in (hi * 1.01, lo - 0.01 * (hi - lo)):
+            with pytest.raises(ValueError, match=name):
+                models.BurstGenerator(**{name: bad})
+
+
+def test_identifiability_flags_bounds_and_wide_cis():
+    fit = ("burst_max_deg_s", "burst_scale_deg", "adaptation_gain")
+    lo = np.array([np.log(1.0), np.log(0.01), 0.0])
+    hi = np.array([np.log(2000.0), np.log(50.0), 5.0])
+    logs = np.array([True, True, False])
+
+    def from_x(x):
+        return np.where(logs, np.exp(x), x)
+
+    x = np.array([np.log(600.0), np.log(0.01), 0.5])  # burst_scale on its lower bound
+    ci = {"burst_max_deg_s": (550.0, 650.0), "burst_scale_deg": (0.01, 0.011), "adaptation_gain": (0.0, float("inf"))}
+    at, problems = gf.identifiability(fit, x, lo, hi, ci, from_x)
+    assert at == ["burst_scale_deg"]
+    assert any("burst_scale_deg = 0.01 is on its lower bound" in p for p in problems)
+    assert any("CI of adaptation_gain" in p for p in problems) and len(problems) == 2
+    at, problems = gf.identifiability(fit, np.array([np.log(600.0), np.log(3.0), 0.5]), lo, hi,
+                                      dict(ci, burst_scale_deg=(2.5, 3.5), adaptation_gain=(0.4, 0.6)), from_x)
+    assert at == [] and problems == []
+
+
+def test_an_unidentified_fit_writes_no_file_and_an_identified_one_strict_json(tmp_path):
+    gen = models.BurstGenerator()
+    base = dict(generator=gen, fitted=("burst_max_deg_s",), estimates={"burst_max_deg_s": 714.0},
+                ci95={"burst_max_deg_s": (700.0, float("inf"))}, kept_default={}, n_saccades=9, rate_hz=500.0,
+                residual_sd={}, success=True, message="")
+    bad = gf.FitResult(**base, problems=["the 95% CI of burst_max_deg_s [700, inf] is as wide as its whole range"])
+    with pytest.raises(ValueError, match="not identified"):
+        bad.to_file(tmp_path / "g.json")
+    assert not (tmp_path / "g.json").exists()
+    good = gf.FitResult(**dict(base, ci95={"burst_max_deg_s": (700.0, 730.0)}),
+                        extra={"ci95_asymptotic": {"burst_max_deg_s": (0.0, float("inf"))}})
+    good.to_file(tmp_path / "g.json")
+
+    def refuse(name):
+        raise AssertionError(f"not strict JSON: {name}")
+
+    doc = json.loads((tmp_path / "g.json").read_text(), parse_constant=refuse)
+    assert doc["at_bounds"] == [] and doc["ci95_asymptotic"]["burst_max_deg_s"] == [0.0, None]
+    assert doc["bounds"]["burst_max_deg_s"] == list(PARAMETER_BOUNDS["burst_max_deg_s"])
+    assert models.BurstGenerator.from_file(tmp_path / "g.json") == gen
