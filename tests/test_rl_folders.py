@@ -97,8 +97,8 @@ def test_planted_pickles_never_run(tmp_path, capsys):
     rc, err = _main([*train_cem, "--out", str(cem)], capsys)
     assert rc == 0, err
 
-    def planted(src: Path, name: str, kind: str = "pickle", extra: bool = True) -> Path:
-        d = tmp_path / "w" / f"{src.name}-{name}-{kind}"
+    def planted(src: Path, name: str, kind: str = "pickle", extra: bool = True, tag: str = "") -> Path:
+        d = tmp_path / "w" / f"{src.name}-{name}-{kind}{tag}"
         shutil.copytree(src, d)
         (d / name).write_bytes(bombs[kind])
         if extra:
@@ -130,13 +130,13 @@ def test_planted_pickles_never_run(tmp_path, capsys):
     from experiments.agents.saved import file_sha256
 
     for kind in ("pickle", "npz"):
-        d = planted(ppo, "ppo.npz", kind, extra=False)
+        d = planted(ppo, "ppo.npz", kind, extra=False, tag="-forged")
         meta = json.loads((d / "ppo.json").read_text())
         (d / "ppo.json").write_text(json.dumps({**meta, "weights_sha256": file_sha256(d / "ppo.npz")}))
         rc, err = _main(["evaluate", "--policy", str(d), "--episodes", "1", "--no-progress"], capsys)
         assert rc == 2 and "could not be read" in err and not marker.exists(), err
     # a CEM folder given another agent's metadata (ppo.json naming a planted ppo.npz): refused, not guessed
-    d = planted(cem, "ppo.npz", "pickle")
+    d = planted(cem, "ppo.npz", "pickle", tag="-other-agent")
     (d / "ppo.json").write_text(json.dumps({"format": "sb3-npz-1", "algo": "ppo", "task": "fixate",
                                             "env_kwargs": {}, "weights_sha256": file_sha256(d / "ppo.npz")}))
     rc, err = _main(["evaluate", "--policy", str(d), "--episodes", "1", "--no-progress"], capsys)
