@@ -80,7 +80,8 @@ def add_subcommand(subparsers) -> None:
     e.add_argument("--episodes", type=_positive, default=100, help="number of episodes (default 100)")
     e.add_argument("--seed", type=_seed, default=0, help="evaluation seed (default 0)")
     e.add_argument("--image-size", type=_image_size,
-                   help="image size for random/heuristic (default 96); a saved policy uses its own")
+                   help="image size for random/heuristic (default 96); a saved policy runs at its own (giving "
+                        "--image-size with a folder is an error)")
     e.add_argument("--stochastic", action="store_true",
                    help="an SB3 policy samples its actions (seeded by --seed) instead of acting deterministically")
     e.add_argument("--no-progress", action="store_true", help="no progress bar (it goes to stderr; the JSON to stdout)")
@@ -258,9 +259,9 @@ def _evaluate(args: argparse.Namespace) -> int:
         if saved_task != args.task:
             raise ValueError(f"policy {args.policy} was trained on task {saved_task!r}, not {args.task!r}")
         env_kwargs = dict(policy.metadata.get("env_kwargs", {}))
-        if args.image_size and args.image_size != env_kwargs.get("image_size", 96):
-            raise ValueError(f"policy {args.policy} was trained at image size "
-                             f"{env_kwargs.get('image_size')}; drop --image-size")
+        if args.image_size:
+            raise ValueError(f"--image-size applies to the built-in policies; policy {args.policy} runs at the "
+                             f"image size it was trained at ({env_kwargs.get('image_size')}): drop --image-size")
     env = make_env(args.task, **env_kwargs)
     try:
         if policy is None:

@@ -281,12 +281,13 @@ def test_options_that_do_nothing_are_usage_errors(tmp_path, capsys):
     if importlib.util.find_spec("stable_baselines3") is not None:
         cases += [(["train", "--algo", a, opt, "3"], f"{opt} apply to --algo cem only")
                   for a in ("ppo", "sac") for opt in ("--iterations", "--population", "--episodes")]
-    for argv, msg in cases:
-        out = tmp_path / "o"
-        full = argv + (["--out", str(out)] if argv[0] in ("train", "baselines") else [])
-        rc, err = _main(full, capsys)
-        assert rc == 2 and msg in err, (argv, err)
-        assert not out.exists()
+    for task in ("fixate", "search"):
+        for argv, msg in cases:
+            out = tmp_path / "o"
+            full = argv + ["--task", task] + (["--out", str(out)] if argv[0] in ("train", "baselines") else [])
+            rc, err = _main(full, capsys)
+            assert rc == 2 and msg in err, (argv, err)
+            assert not out.exists()
 
 
 @pytest.mark.slow
@@ -305,8 +306,10 @@ def test_evaluate_builtin_name_beside_a_folder_of_that_name(tmp_path, capsys, mo
     from experiments.__main__ import main
 
     outs = []
-    for name in ("random", "./random"):
-        assert main(["evaluate", "--policy", name, "--image-size", "32", "--episodes", "1", "--no-progress"]) == 0
+    for argv in (["random", "--image-size", "32"], ["./random"]):
+        assert main(["evaluate", "--policy", *argv, "--episodes", "1", "--no-progress"]) == 0
         outs.append(json.loads(capsys.readouterr().out))
+    rc, err = _main(["evaluate", "--policy", "./random", "--image-size", "32", "--episodes", "1"], capsys)
+    assert rc == 2 and "--image-size applies to the built-in policies" in err
     assert outs[0]["source"] == "built-in" and outs[1]["source"] == "folder (cem)"
     assert "deterministic" not in outs[0] and "deterministic" not in outs[1]
