@@ -578,6 +578,12 @@ def test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu(tmp_path):
                              "--action-mode", "cell"]) == 0
     summary = json.loads((out / "ppo.json").read_text())
     assert summary["policy"] == "cortical" and summary["action_mode"] == "cell" and summary["env_steps"] == 8
+    # the weights as data (no torch.save pickle), the summary inside the same file
+    from experiments.agents.saved import read_unit
+
+    arrays, meta = read_unit(out / "agent.npz")
+    assert meta["summary"] == summary and any(k.startswith("agent/policy/") for k in arrays)
+    assert not list(out.glob("*.pt"))
     assert (out / "learning_curve.csv").read_text().splitlines()[0] == "env_steps,episodes,mean_return,success_rate"
     with pytest.raises(SystemExit):  # cell actions need the cortical policy
         skrl_recipe.main(["--out", str(tmp_path / "x"), "--action-mode", "cell", "--timesteps", "8"])

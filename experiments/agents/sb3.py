@@ -307,6 +307,9 @@ def read_agent_meta(directory: str | Path) -> tuple[str, dict[str, Any]]:
     algo = metas[0].stem
     if meta.get("algo", algo) != algo:
         raise ValueError(f"{metas[0]} says algo {meta.get('algo')!r}; retrain")
+    if meta.get("format") == "skrl-npz-1":
+        raise ValueError(f"{d} is a run of the batched engine's skrl recipe: evaluate loads the folders of "
+                         "'train' and of the SB3 recipe")
     if meta.get("format") != FORMAT:
         raise ValueError(f"{metas[0]} is not a {FORMAT!r} model (format {meta.get('format')!r}; models saved as "
                          "Stable-Baselines3 zips are never loaded, they run code): retrain with this version")
