@@ -151,6 +151,8 @@ def test_planted_pickles_never_run(tmp_path, capsys):
             shutil.copytree(src, d)
             (d / name).write_bytes(bombs["pickle"])
             (d / "cem_s0" / "ppo_fixate.zip").write_bytes(bombs["zip"])
+            if name.startswith("cem_s0/") and name != "cem_s0/heldout.json":
+                (d / "cem_s0" / "heldout.json").unlink()  # so that the run is loaded again
             rc, err = _main([*base_args, "--out", str(d)], capsys)
             assert not marker.exists(), name
             _one_clear_line(rc, err, "baselines")
