@@ -167,8 +167,9 @@ def export_sb3_zip(directory: str | Path, path: str | Path) -> Path:
 
     venv = DummyVecEnv([_make])
     try:
-        model = cls(type(agent.model), venv, device="cpu", verbose=0,
-                    policy_kwargs=dict(meta["architecture"]["policy_kwargs"]) or None)
+        kwargs = dict(meta["architecture"]["policy_kwargs"])
+        use_sde = {"use_sde": bool(kwargs.pop("use_sde"))} if "use_sde" in kwargs else {}
+        model = cls(type(agent.model), venv, device="cpu", verbose=0, policy_kwargs=kwargs or None, **use_sde)
         model.policy.load_state_dict(agent.model.state_dict())
         model.save(path)
     finally:

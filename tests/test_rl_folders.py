@@ -184,6 +184,15 @@ def test_saved_agent_is_rebuilt_to_the_trained_models_numbers(tmp_path, capsys):
     assert ev.success_rate == meta["final"]["success_rate"]
     assert round(ev.mean_reward, 5) == meta["final"]["mean_return"]
     assert not any(p.suffix in (".zip", ".pt", ".pkl") for p in out.iterdir())
+    # the export to SB3's own zip (code: written for SB3's tools, loaded here only because this test wrote it)
+    import stable_baselines3 as sb3
+    import torch
+
+    from experiments.sb3_recipe import export_sb3_zip
+
+    model = sb3.PPO.load(export_sb3_zip(out, tmp_path / "exported.zip"), device="cpu")
+    mine, theirs = agent.model.state_dict(), model.policy.state_dict()
+    assert mine.keys() == theirs.keys() and all(torch.equal(mine[k], theirs[k]) for k in mine)
 
 
 def _kill_after_checkpoint(argv: list[str], out: Path) -> None:
