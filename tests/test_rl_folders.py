@@ -278,6 +278,7 @@ def test_train_refuses_another_runs_folder_and_reports_a_finished_one(tmp_path, 
     assert rc == 2 and "holds files but no train.json" in err and sorted(os.listdir(junk)) == ["notes.txt"], err
 
 
+@pytest.mark.slow
 def test_options_that_do_nothing_are_usage_errors(tmp_path, capsys):
     """Every option pair the RL commands accept but would ignore is refused, naming the option."""
     cases = [
