@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import sys
 
 from .cli import HintingParser
@@ -80,6 +81,9 @@ def chosen_command(argv: list[str]) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # PyOpenGL logs at INFO that its optional accelerator is absent; pymovements (eye-tracker
+    # files) sets the root logger to INFO, which printed that line in the middle of a command's output
+    logging.getLogger("OpenGL").setLevel(logging.WARNING)
     argv = sys.argv[1:] if argv is None else list(argv)
     command = chosen_command(argv)
     parser = build_parser(command, every=False)

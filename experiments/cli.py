@@ -17,8 +17,19 @@ import sys
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["HintingParser", "int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded", "check_path_text",
+__all__ = ["DefaultsHelpFormatter", "HintingParser", "int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded", "check_path_text",
            "guarded"]
+
+
+class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """``ArgumentDefaultsHelpFormatter`` that adds ``(default: X)`` only where it says something: not
+    when the help already names its default, nor for a default of ``None`` or ``False``."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "default" in text.lower() or action.default is None or action.default is False:
+            return text
+        return super()._get_help_string(action)
 
 
 class HintingParser(argparse.ArgumentParser):
@@ -32,8 +43,15 @@ class HintingParser(argparse.ArgumentParser):
       as a second option: "expected one argument") is shown in the form that works,
       ``--flash-times=-100:100:20``.
 
-    Subparsers made with ``add_subparsers().add_parser`` are of this class too.
+    A command's help made with ``ArgumentDefaultsHelpFormatter`` shows each default once
+    (:class:`DefaultsHelpFormatter`). Subparsers made with ``add_subparsers().add_parser`` are of
+    this class too.
     """
+
+    def _get_formatter(self) -> argparse.HelpFormatter:
+        if self.formatter_class is argparse.ArgumentDefaultsHelpFormatter:  # no default shown twice
+            return DefaultsHelpFormatter(prog=self.prog)
+        return super()._get_formatter()
 
     def parse_known_args(self, args=None, namespace=None):
         self._argv = list(sys.argv[1:] if args is None else args)

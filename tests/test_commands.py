@@ -107,3 +107,33 @@ def test_the_lazy_parser_parses_as_the_full_one():
         return {k: v for k, v in vars(ns).items() if not isinstance(v, argparse.ArgumentParser)}
 
     assert values(lazy) == values(full) and values(lazy)["seed"] == 3
+
+
+@pytest.mark.parametrize("command", ["run", "saccades", "baselines"])
+def test_help_shows_each_default_once_and_no_doubled_percent(command):
+    """``ArgumentDefaultsHelpFormatter`` appended ``(default: X)`` to help that already named its
+    default (``saccades --help``); a description is not %-formatted, so ``95%%`` showed as typed."""
+    sub = next(a for a in build_parser(command)._actions if isinstance(a, argparse._SubParsersAction))
+    parser = sub.choices[command]
+    text = parser.format_help()
+    assert "%%" not in text
+    formatter, stock = parser._get_formatter(), argparse.ArgumentDefaultsHelpFormatter(parser.prog)
+    named = [a for a in parser._actions if a.help and "default" in a.help.lower()]  # the help names its default
+    for action in named:
+        assert formatter._get_help_string(action) == action.help, action.option_strings
+    if parser.formatter_class is argparse.ArgumentDefaultsHelpFormatter:
+        assert any(stock._get_help_string(a) != a.help for a in named)  # the stock formatter doubled these
+        assert any(formatter._get_help_string(a) != a.help for a in parser._actions if a.help)  # others keep theirs
+
+
+@pytest.mark.slow  # pymovements' import
+def test_a_command_prints_no_opengl_info_line():
+    """pymovements sets the root logger to INFO; PyOpenGL then logged
+    'INFO:OpenGL.acceleratesupport:No OpenGL_accelerate module loaded' in a command's output."""
+    code = ("import contextlib, io\nfrom experiments.__main__ import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            "    try:\n        main(['--help'])\n    except SystemExit:\n        pass\n"
+            "import pymovements, OpenGL.GL\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "OpenGL" not in r.stderr, r.stderr
