@@ -6,10 +6,10 @@ each means and which command leaves which out. A test over ~2 s on 2 cores carri
 ``@pytest.mark.slow`` where it is written.
 
 * **Workers.** ``pyproject.toml`` runs the suite on pytest-xdist workers (``-n auto``: one per CPU,
-  at most 8; ``-n 0`` runs in one process) with ``--dist loadgroup``: the tests that share a
-  module-scoped fixture (a trained policy, a study's table, the README's scratch folder whose
-  blocks run in order) are sent to one worker together, so no fixture is built twice; the others
-  are spread one by one.
+  at most 8; ``-n 0`` runs in one process) with ``--dist loadgroup``: the tests of a file that
+  defines a module-scoped fixture (a trained policy, a study's table, the README's scratch folder
+  whose blocks run in order) are sent to one worker together, so no fixture is built twice; the
+  others are spread one by one.
 * **numba.** Before any worker starts, the compiled kernels an env episode runs are compiled once
   into numba's on-disk cache (or read back from it), so their compilation (about 30 s cold) is
   not charged to whichever test first touches a kernel, nor paid by every worker.
@@ -23,6 +23,9 @@ each means and which command leaves which out. A test over ~2 s on 2 cores carri
 from __future__ import annotations
 
 import hashlib
+import json
+import shutil
+import tempfile
 import importlib.util
 import os
 import sys
@@ -99,25 +102,64 @@ def _is_worker(config: pytest.Config) -> bool:
     return hasattr(config, "workerinput")
 
 
-def _module_scoped_fixtures(item: pytest.Item) -> bool:
+def _shares_a_fixture(item: pytest.Item) -> bool:
+    """The test uses a fixture built once for several tests (module, class, package or session scope)."""
     info = getattr(item, "_fixtureinfo", None)
-    if info is None:
-        return False
-    return any(defs and defs[-1].scope in ("module", "package", "class")
-               for name, defs in info.name2fixturedefs.items() if name in item.fixturenames)
+    return info is not None and any(
+        defs and defs[-1].scope != "function" and defs[-1].baseid != ""  # pytest's own fixtures aside
+        for name, defs in info.name2fixturedefs.items() if name in item.fixturenames)
 
 
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own hook reads the xdist_group marks
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    grouping = config.pluginmanager.hasplugin("xdist")
-    for item in items:
-        if " at 0x" in item.nodeid:
-            raise pytest.UsageError(f"{item.nodeid}: a test id holds a memory address, which differs between "
-                                    "pytest-xdist workers; give the parametrization ids without it")
-        if f"{item.path.name}::{item.originalname}" in SLOW:
-            item.add_marker(pytest.mark.slow)
-        if grouping and _module_scoped_fixtures(item) and not item.get_closest_marker("xdist_group"):
-            item.add_marker(pytest.mark.xdist_group(item.path.name))
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node) -> None:
+    """The controller tells each worker where to write which tests share a fixture."""
+    node.workerinput["fixture_groups"] = node.config._fixture_groups_dir
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """A worker writes which of its tests share a fixture (node id -> file), before pytest-xdist
+    reports its collection to the controller."""
+    folder = getattr(session.config, "workerinput", {}).get("fixture_groups")
+    if folder:
+        groups = {i.nodeid: i.nodeid.split("::", 1)[0] for i in session.items if _shares_a_fixture(i)}
+        path = Path(folder) / f"{session.config.workerinput['workerid']}.json"
+        path.with_suffix(".tmp").write_text(json.dumps(groups))
+        path.with_suffix(".tmp").replace(path)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """``--dist loadgroup``: the tests that share a fixture of their file go to one worker together
+    (so the fixture is built once, and the README's blocks run in order in one folder); the others
+    are spread one by one. (pytest-xdist's own ``xdist_group`` marks do not group under pytest 9,
+    whose node ids its worker can no longer rename.)"""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    folder = Path(config._fixture_groups_dir)
+
+    class SharedFixtureScheduling(LoadScopeScheduling):
+        groups: dict[str, str] | None = None
+
+        def _split_scope(self, nodeid: str) -> str:
+            if self.groups is None:  # every worker has collected (and written its file) by now
+                self.groups = {}
+                for f in folder.glob("*.json"):
+                    self.groups.update(json.loads(f.read_text()))
+            return self.groups.get(nodeid, nodeid)
+
+    return SharedFixtureScheduling(config, log)
+
+
+def pytest_itemcollected(item: pytest.Item) -> None:
+    """Marks each test as it is collected."""
+    if " at 0x" in item.nodeid:
+        raise pytest.UsageError(f"{item.nodeid}: a test id holds a memory address, which differs between "
+                                "pytest-xdist workers; give the parametrization ids without it")
+    if f"{item.path.name}::{getattr(item, 'originalname', item.name)}" in SLOW:
+        item.add_marker(pytest.mark.slow)
 
 
 # ------------------------------------------------------------------------------------------------ numba
@@ -165,7 +207,10 @@ def warm_numba() -> None:
 @pytest.hookimpl(trylast=True)  # after the terminal reporter is set up
 def pytest_configure(config: pytest.Config) -> None:
     """Warm numba's cache once per run, in the process that starts the workers (or runs the tests)."""
-    if _is_worker(config) or config.option.collectonly or config.option.help or config.option.version:
+    if _is_worker(config):
+        return
+    config._fixture_groups_dir = tempfile.mkdtemp(prefix="pytest-fixture-groups-")
+    if config.option.collectonly or config.option.help or config.option.version:
         return
     try:
         stamp = _warm_stamp()
@@ -186,6 +231,12 @@ def pytest_configure(config: pytest.Config) -> None:
     except Exception as e:  # noqa: BLE001  (the tests that need the kernels will report it themselves)
         warnings.warn(f"numba warm-up failed: {type(e).__name__}: {e}", stacklevel=1)
         _WARM["numba"] = f"warm-up failed: {type(e).__name__}: {e}"
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    folder = getattr(config, "_fixture_groups_dir", None)
+    if folder and not _is_worker(config):
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def pytest_report_header(config: pytest.Config) -> str | None:
