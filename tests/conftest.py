@@ -223,6 +223,7 @@ def pytest_configure(config: pytest.Config) -> None:
         t0 = time.perf_counter()
         warm_numba()
         _WARM["numba"] = f"kernels compiled or read back in {time.perf_counter() - t0:.1f} s"
+        stamp.parent.mkdir(parents=True, exist_ok=True)
         for old in stamp.parent.glob("tests-warm-*"):
             old.unlink(missing_ok=True)
         stamp.touch()
