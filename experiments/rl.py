@@ -92,7 +92,7 @@ def add_subcommand(subparsers) -> None:
         description="Train each agent with each seed (the runs of 'train --algo AGENT'), evaluate every run on "
                     "the same held-out episodes (as 'evaluate --episodes N --seed S', deterministic and, for "
                     "PPO/SAC, sampled actions) beside the heuristic and random cells, and write table.csv, "
-                    "table.md and curves.png (IQM over seeds, percentile-bootstrap 95%% CI; Agarwal et al. "
+                    "table.md and curves.png (IQM over seeds, percentile-bootstrap 95% CI; Agarwal et al. "
                     "2021). Runs already evaluated are kept: run the same command again to resume.")
     b.add_argument("--task", choices=TASKS, default="fixate", help="env task (default: fixate)")
     b.add_argument("--agents", nargs="+", choices=("ppo", "sac", "cem"), default=["ppo", "sac", "cem"],
