@@ -96,6 +96,7 @@ def test_a_joint_at_its_range_is_stepped_with_the_solver(pair):
     assert np.abs(out[0] - out[1]).max() < TOLERANCE_DEG
 
 
+@pytest.mark.slow
 def test_fewer_kernel_launches_per_physics_step(pair, monkeypatch):
     """The launch count of one physics step (a GPU step's cost: launch-bound), with and without the solver."""
     import warp as wp
