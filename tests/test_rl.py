@@ -253,6 +253,8 @@ def test_evaluate_rejects_corrupt_policy_folders(case, tmp_path, capsys):
     from experiments.__main__ import main
 
     d, msg = _corrupt_policies(tmp_path)[case]
+    if "ppo" in d.name or "sb3" in d.name:  # an SB3 folder is read only with the rl extra (else: one line saying so)
+        pytest.importorskip("stable_baselines3", reason="the SB3 folder cases need the rl extra")
     assert main(["evaluate", "--policy", str(d), "--episodes", "1"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("evaluate: error:") and msg in err and len(err.splitlines()) == 1, err
@@ -429,7 +431,7 @@ def test_wrap_conv_is_equivariant_to_sector_rolls_and_wraps():
 
 
 def test_soft_argmax_saccade_reaches_the_cell():
-    import torch
+    torch = pytest.importorskip("torch", reason="needs the rl extra")
 
     from experiments.agents.extractors import SoftArgmaxSaccade, cell_saccade_vectors
 
