@@ -23,9 +23,10 @@ and 0 ms); reference contrast 0.25; two simultaneous flashes 4 deg apart (separa
 ruler: the target extinguished at onset with a marker 10 deg before it (focus), the target lit
 (target only) and the target extinguished 100 ms before onset (memory-guided); a target step during
 the saccade with and without a 250 ms blank (displacement: 13 steps of 0.5 deg from -3 to +3, 30
-repetitions each). About 12 minutes on 2 idle cores with ``--workers 2`` (3,744 localization
-trials, 3,900 displacement trials); a re-run reads the cached observations and displacement tables
-and takes the read-outs' and bootstrap's time.
+repetitions each): 3,552 localization trials and 3,900 displacement trials. About 30 minutes on 2
+busy, shared cores with ``--workers 2`` (the last run: 17 min 37 s with three of the eight designs'
+observations cached); a re-run reads the cached observations and displacement tables and takes the
+read-outs' and bootstrap's time.
 """
 
 from __future__ import annotations
@@ -65,6 +66,12 @@ ROWS = {
                              "Morrone, Ross & Burr 1997, abstract", (-100.0, -25.0), "ms"),
     "compression_fwhm_ms": ("compression confined to roughly +-50 ms around onset: full width at half maximum",
                             "Morrone, Ross & Burr 1997, Fig. 3", (40.0, 110.0), "ms"),
+    "compression_fixation": ("no compression during fixation, long before the saccade (errors appear up to 100 ms "
+                             "before it): index at -150 ms with references; the range is the index's tolerance "
+                             "around none", "Morrone, Ross & Burr 1997, abstract", (-0.1, 0.1), "index"),
+    "shift_with_references_deg": ("no published number for the uniform shift with references: the model's mean "
+                                  "horizontal error at 0 ms minus -150 ms, with references", "none found", None,
+                                  "deg"),
     "compression_amplitude_growth": ("compression grows with saccade amplitude: index 24 deg minus 12 deg near "
                                      "onset", "Lavergne, Vergilino-Perez, Lappe & Dore-Mazars 2010, abstract",
                                      (0.02, 1.0), "index"),
@@ -283,6 +290,8 @@ def statistics(tab: dict, psychometric_start: dict | None = None) -> dict[str, f
         "compression_peak_time_ms": peak_t,
         "compression_onset_ms": onset,
         "compression_fwhm_ms": fwhm,
+        "compression_fixation": _index(ref, ref["flash_time_ms"] == TIMES[0]),
+        "shift_with_references_deg": _mean_error_x(ref, 0) - _mean_error_x(ref, TIMES[0]),
         "compression_amplitude_growth": _near(amp, amplitude=24.0) - _near(amp, amplitude=12.0),
         "shift_dark_presaccadic_deg": _mean_error_x(dark, -50) - _mean_error_x(dark, -150),
         "shift_dark_reversal_deg": _mean_error_x(dark, 50) - _mean_error_x(dark, -150),
@@ -318,13 +327,15 @@ def resample_cells(t: dict, cells: np.ndarray, rng: np.random.Generator) -> dict
     n = np.bincount(sc)
     first = np.concatenate([[0], np.cumsum(n)[:-1]])
     pick = order[first[sc] + (rng.random(sc.size) * n[sc]).astype(int)]
-    scale = np.where(n > 1, np.sqrt(n / np.maximum(n - 1, 1)), 1.0)
     out = dict(t)
     for col, true, err in _REPORTED:
         if col not in t:
             continue
         v = t[col]
-        mean = np.bincount(cells, np.nan_to_num(v)) / n
+        seen = np.isfinite(v)  # a lost flash (no report) stays lost; the cell's mean and scale are the reports'
+        k = np.bincount(cells, seen, minlength=n.size)
+        mean = np.bincount(cells, np.where(seen, v, 0.0), minlength=n.size) / np.maximum(k, 1)
+        scale = np.where(k > 1, np.sqrt(k / np.maximum(k - 1, 1)), 1.0)
         new = np.empty_like(v)
         new[order] = mean[sc] + scale[sc] * (v[pick] - mean[sc])
         out[col] = new
@@ -440,10 +451,10 @@ def markdown_table(rows: list[dict]) -> str:
         unit = ROWS[name][3] if name in ROWS else ""
         pub = (f"{float(first['published_low']):g} to {float(first['published_high']):g} {unit}"
                if str(first["published_low"]).strip() else "none found")
-        src = first["source"]
+        src = "" if first["source"].startswith("none") else f" ({first['source']})"
         cells = [f"{fmt(c['simulated'], unit)} [{fmt(c['ci_low'], unit)}, {fmt(c['ci_high'], unit)}] {verdict(c)}"
                  for c in (cell[(name, m)] for m in models)]
-        lines.append(f"| `{name}` | {pub} ({src}) | " + " | ".join(cells) + " |")
+        lines.append(f"| `{name}` | {pub}{src} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 

@@ -18,7 +18,7 @@ import re
 from pathlib import Path
 
 __all__ = ["CALIBRATION_CSV", "CALIBRATION_COLUMNS", "ALL_MODELS", "read_calibration", "citation_keys",
-           "calibration_keys", "role", "constant_value"]
+           "calibration_keys", "role", "constant_value", "markdown_table"]
 
 CALIBRATION_CSV = Path(__file__).resolve().parents[1] / "data" / "calibration.csv"
 CALIBRATION_COLUMNS = ("model", "constant", "value", "source")
@@ -100,3 +100,15 @@ def constant_value(path: str, config=None, participant=None) -> float:
             raise AttributeError(f"calibration constant {path!r}: {type(obj).__name__} has no {p!r}")
         obj = getattr(obj, p)
     return float(obj)
+
+
+def markdown_table(table: list[dict] | None = None) -> str:
+    """The calibration table as Markdown (the README's): one line per model and source, its
+    constants and values."""
+    table = read_calibration() if table is None else table
+    groups: dict = {}
+    for r in table:
+        groups.setdefault((r["model"], r["source"]), []).append(f"`{r['constant']}` = {r['value']:g}")
+    lines = ["| model | constants | source |", "|---|---|---|"]
+    lines += [f"| {m} | {', '.join(c)} | {src} |" for (m, src), c in groups.items()]
+    return "\n".join(lines) + "\n"
