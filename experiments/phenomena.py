@@ -386,6 +386,15 @@ def _note(name: str, model: str, tab: dict, value: float, ci: tuple) -> str:
         notes.append("undefined in some bootstrap replicates: no CI")
     if name == "displacement_blank_ratio":
         fits = displacement_psychometrics(tab["displacement"])
+        steps = np.unique(tab["displacement"]["flash_dx_deg"])
+        spacing, span = float(np.min(np.diff(steps))), float(steps[-1] - steps[0])
+        for b, r in fits.items():
+            if r["threshold_deg"] < spacing:
+                notes.append(f"threshold {r['threshold_deg']:.2f} deg at blank {b} ms is under the {spacing:g} deg "
+                             f"step: not resolved by the grid")
+            elif r["threshold_deg"] > span / 2 or not steps[0] < r["pse_deg"] < steps[-1]:
+                notes.append(f"blank {b} ms: PSE {r['pse_deg']:.2f}, threshold {r['threshold_deg']:.2f} deg reach "
+                             f"beyond the steps ({steps[0]:g} to {steps[-1]:g} deg): extrapolated")
         bad = [f"{b} ms" for b, r in fits.items() if not r["monotonic"]]
         if bad:
             notes.append("psychometric data not monotone at blank " + ", ".join(bad) +
