@@ -37,48 +37,6 @@ import pytest
 
 import models  # noqa: F401  (first: it picks MuJoCo's off-screen GL backend before anything loads mujoco)
 
-#: Tests over ~2 s in files other sessions are editing now (test_rl.py, test_perception_*.py,
-#: test_batched_*.py, test_recording*.py): marked ``slow`` here until each carries
-#: ``@pytest.mark.slow`` itself. "file::name" covers every parametrization.
-SLOW = {
-    "test_recording.py::test_run_blueprint_views_point_at_the_recording",  # 4.5 s with its setup
-    "test_batched_planner.py::test_profiles_equal_the_generators",  # 3 s
-    "test_batched_planner.py::test_profiles_of_other_generators",  # 6 s
-    "test_perception_mechanisms.py::test_compression_grows_with_saccade_amplitude",  # 4 s
-    "test_perception_mechanisms.py::test_displacement_paradigm_blank_restores_detection",  # 9 s
-    "test_perception_mechanisms.py::test_phenomena_command_writes_the_report",  # ~90 s
-    "test_perception_mechanisms.py::test_rows_name_model_condition_and_paradigm",  # 19 s
-    "test_recording.py::test_cli_writes_recording",  # 2 s
-    "test_recording.py::test_every_entity_present",  # 5 s
-    "test_recording.py::test_serve_on_loopback_only_and_stops_by_itself",  # 9 s
-    "test_rl.py::test_cli_bad_options_fail_clearly",  # 4 s
-    "test_rl.py::test_sb3_recipe_prints_progress_and_evaluate_loads_it",  # 42 s
-    "test_rl.py::test_sb3_recipe_runs",  # 2 s
-    "test_rl.py::test_train_recipe_runs_a_few_hundred_steps_and_evaluates",  # PPO and SAC, 256 steps each
-    "test_rl.py::test_baselines_command_trains_evaluates_aggregates_and_resumes",  # 4 quick runs
-    "test_rl.py::test_training_keeps_one_torch_thread_whatever_ran_before",  # two training subprocesses
-    "test_rl.py::test_wrap_conv_is_equivariant_to_sector_rolls_and_wraps",  # torch's first import
-    "test_rl.py::test_iqm_and_bootstrap_match_a_direct_computation",  # scipy's first import
-    "test_rl.py::test_potential_shaping_telescopes",  # two envs
-    "test_rl.py::test_train_sb3_cli_refuses_bad_combinations",  # 4 s
-    "test_rl.py::test_cell_head_policy_is_the_cell_map",  # SB3's first import
-    "test_rl.py::test_gymnasium_wrappers_compose_with_shaping",
-    "test_rl.py::test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu",  # ~25 s: Warp on the CPU backend
-    "test_rl.py::test_short_training_beats_random_by_a_clear_margin",  # 15 s
-    "test_rl.py::test_train_and_evaluate_commands_end_to_end",  # 3 s
-    # the users of module fixtures that simulate for 5-20 s (a trained policy, study tables, a recorded run)
-    "test_rl.py::test_saved_policy_reloads_and_evaluates_identically",
-    "test_perception_mechanisms.py::test_dark_flashes_before_the_saccade_shift_in_its_direction",
-    "test_perception_mechanisms.py::test_compression_near_onset_needs_references",
-    "test_perception_mechanisms.py::test_nothing_beyond_the_sampling_error_far_from_the_saccade",
-    "test_perception_mechanisms.py::test_every_mechanism_off_is_the_sampling_error_alone",
-    "test_recording.py::test_image_shapes",
-    "test_recording.py::test_time_range_and_resolution",
-    "test_recording.py::test_every_timed_entity_lies_in_the_run_and_3d_shapes",
-    "test_recording.py::test_saccades_visible_in_velocity",
-    "test_recording.py::test_remap_difference_is_abs_of_predicted_minus_actual",
-    "test_recording.py::test_dots_scene_in_the_env_recording",
-}
 
 MAX_WORKERS = 8  # -n auto: one worker per CPU, at most this many (each holds MuJoCo, numba and torch)
 
@@ -158,8 +116,6 @@ def pytest_itemcollected(item: pytest.Item) -> None:
     if " at 0x" in item.nodeid:
         raise pytest.UsageError(f"{item.nodeid}: a test id holds a memory address, which differs between "
                                 "pytest-xdist workers; give the parametrization ids without it")
-    if f"{item.path.name}::{getattr(item, 'originalname', item.name)}" in SLOW:
-        item.add_marker(pytest.mark.slow)
 
 
 # ------------------------------------------------------------------------------------------------ numba

@@ -20,6 +20,7 @@ PROFILE_FIELDS = ("onset_ms", "offset_ms", "duration_ms", "settle_ms", "peak_vel
 
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.floats(0.0, 90.0, allow_nan=False), min_size=1, max_size=12))
+@pytest.mark.slow
 def test_profiles_equal_the_generators(amps):
     """Detected onset/offset, settle time, peak speed and positions of every plant equal
     ``BurstGenerator.profile``'s exactly (the same arithmetic, batched; the table's bounds only skip
@@ -41,6 +42,7 @@ def test_profiles_equal_the_generators(amps):
 @given(st.sampled_from([dict(burst_max_deg_s=600.0, settle_deg=0.3, abducting_t2_ms=4.0), dict(settle_deg=1.0),
                         dict(settle_deg=1e-4, burst_lag_ms=20.0), dict(plant_t2_ms=15.0, burst_lag_ms=4.0)]),
        st.lists(st.floats(0.0, 90.0, allow_nan=False), min_size=1, max_size=20))
+@pytest.mark.slow
 def test_profiles_of_other_generators(params, amps):
     """Other generators, the settle margin included from 1e-4 to 1 deg (where the table's bounds on
     the computed steps are the tightest)."""

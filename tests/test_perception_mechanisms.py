@@ -43,6 +43,7 @@ def _mean_at(t: dict, col: str, time: int) -> float:
     return float(t[col][t["flash_time_ms"] == time].mean())
 
 
+@pytest.mark.slow
 def test_rows_name_model_condition_and_paradigm(tables):
     r = tables["dark"]
     assert set(r["model"]) == {"mechanistic"} and set(r["condition"]) == {"dark"}
@@ -51,6 +52,7 @@ def test_rows_name_model_condition_and_paradigm(tables):
     assert np.all(r["reference_weight"] == 0) and np.all(tables["references"]["reference_weight"] == 1)
 
 
+@pytest.mark.slow
 def test_dark_flashes_before_the_saccade_shift_in_its_direction(tables):
     """In darkness, flashes 50-100 ms before a saccade are mislocalized in the saccade's direction
     (Honda 1991, Vision Res 31:1915; Lappe, Awater & Krekelberg 2000, Nature 403:892, dark
@@ -65,6 +67,7 @@ def test_dark_flashes_before_the_saccade_shift_in_its_direction(tables):
     assert np.ptp(moved) < 0.6, moved
 
 
+@pytest.mark.slow
 def test_compression_near_onset_needs_references(tables):
     """Compression towards the saccade target peaks near saccade onset (Morrone, Ross & Burr 1997,
     J Neurosci 17:7941; Ross, Morrone & Burr 1997, Nature 386:598) and needs post-saccadic visual
@@ -83,6 +86,7 @@ def test_compression_near_onset_needs_references(tables):
         assert abs(_mean_at(r, "perceived_x_deg", t) - _mean_at(off, "perceived_x_deg", t)) < 1.0
 
 
+@pytest.mark.slow
 def test_nothing_beyond_the_sampling_error_far_from_the_saccade(tables):
     """+-150 ms from onset there is neither compression nor shift (Morrone et al. 1997: errors
     confined to about +-100 ms); the model's read-out there matches the all-off read-out."""
@@ -93,6 +97,7 @@ def test_nothing_beyond_the_sampling_error_far_from_the_saccade(tables):
         assert d[far].max() < 0.8, (cond, d[far])
 
 
+@pytest.mark.slow
 def test_every_mechanism_off_is_the_sampling_error_alone(tables):
     """With every ingredient off the model reads the flash's retinal position through the true eye:
     what is left is the retina's sampling error, with no saccade-locked pattern -- no compression
@@ -107,6 +112,7 @@ def test_every_mechanism_off_is_the_sampling_error_alone(tables):
     assert np.sqrt(np.mean(o["error_x_deg"] ** 2 + o["error_y_deg"] ** 2)) < 2.5
 
 
+@pytest.mark.slow
 def test_compression_grows_with_saccade_amplitude():
     """Larger saccades compress more (Lavergne, Vergilino-Perez, Collins & Dore-Mazars 2010; Ostendorf
     et al. 2007, saccade velocity): here because the oculomotor command that drives the remapping
@@ -128,6 +134,7 @@ def test_config_refuses_unknown_names():
             TrialConfig(**{name: bad})
 
 
+@pytest.mark.slow
 def test_phenomena_command_writes_the_report(tmp_path):
     """``python -m experiments phenomena`` (``--quick`` at 64 px, 100 resamples: the command's
     machinery, not its numbers): one row per (phenomenon, model) with the published range and its
@@ -158,6 +165,7 @@ def test_phenomena_command_writes_the_report(tmp_path):
     assert (tmp_path / "phenomena.csv").read_text() == before
 
 
+@pytest.mark.slow
 def test_displacement_paradigm_blank_restores_detection(tmp_path):
     """Saccadic suppression of displacement, as the ``observer`` predicts it: without a
     post-saccadic blank a target step during the saccade is hard to report (the eye estimate is

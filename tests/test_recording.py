@@ -104,12 +104,14 @@ EXPECTED = (
 )
 
 
+@pytest.mark.slow
 def test_every_entity_present(run):
     data, _ = run
     missing = [p for p in EXPECTED if "/" + p not in data]
     assert not missing, missing
 
 
+@pytest.mark.slow
 def test_image_shapes(run, grid):
     data, _ = run
     g, _ = grid
@@ -127,6 +129,7 @@ def test_image_shapes(run, grid):
     assert image(data["/cortex/map"]).shape == (g.N + CORTEX_GAP, 2 * g.M, 3)
 
 
+@pytest.mark.slow
 def test_time_range_and_resolution(run):
     data, summary = run
     start, end = summary["start_ms"], summary["end_ms"]
@@ -143,6 +146,7 @@ def test_time_range_and_resolution(run):
     assert data["/eyes/left/grid"]["static"]
 
 
+@pytest.mark.slow
 def test_every_timed_entity_lies_in_the_run_and_3d_shapes(run):
     """Every non-static entity is logged inside [start, end] of simulated time; the 3-D scene has
     the head, both eyes 6.4 cm apart with unit gaze rays starting at them, and scene objects."""
@@ -171,6 +175,7 @@ def test_every_timed_entity_lies_in_the_run_and_3d_shapes(run):
     assert np.linalg.norm(eyes["left"] - eyes["right"]) == pytest.approx(0.064, abs=0.006)
 
 
+@pytest.mark.slow
 def test_saccades_visible_in_velocity(run):
     data, summary = run
     onsets = data["/saccades/amplitude_deg"]["times_ms"]
@@ -199,6 +204,7 @@ def test_saccades_visible_in_velocity(run):
         assert math.hypot(sig_h[j1] - sig_h[j0], sig_v[j1] - sig_v[j0]) < 0.8 * moved
 
 
+@pytest.mark.slow
 def test_remap_difference_is_signed_predicted_minus_actual(run):
     """predicted and actual share one gain (their larger maximum); the difference is predicted - actual
     on RdBu_r over [-m, m]: red where the prediction is brighter, blue where it is darker."""
@@ -296,6 +302,7 @@ def test_grid_overlay_radii(grid):
         assert np.linalg.norm(s - centre, axis=1) == pytest.approx([r_fovea[0], outer])
 
 
+@pytest.mark.slow
 def test_cli_writes_recording(tmp_path):
     p = tmp_path / "cli.rrd"
     assert main(["visualize", "--out", str(p), "--steps", "1", "--image-size", "64", "--fixation-ms", "50"]) == 0
@@ -458,6 +465,7 @@ def test_scene_geom_world_poses_match_mujoco(scene_run):
     assert sorted(map(tuple, np.round(world, 6))) == sorted(map(tuple, np.round(expected, 6)))
 
 
+@pytest.mark.slow
 def test_dots_scene_in_the_env_recording(run):
     """The env run's recording holds the dots scene: the screen as a box, the fixation point and
     target as coloured spheres where MuJoCo puts them, 24 flash dots (hidden except when flashed),
@@ -625,6 +633,7 @@ def check_blueprint(path) -> dict:
     return bp
 
 
+@pytest.mark.slow
 def test_run_blueprint_views_point_at_the_recording(run_path):
     bp = check_blueprint(run_path)
     views = {v["name"]: v for v in bp["views"].values()}
@@ -765,6 +774,7 @@ def _free_port() -> int:
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/net/tcp")
+@pytest.mark.slow
 def test_serve_on_loopback_only_and_stops_by_itself(tmp_path):
     """``visualize --serve --serve-seconds 2`` hosts the web viewer and its gRPC proxy on 127.0.0.1
     only, answers there, also writes ``--out``, and exits 0 by itself, leaving no server behind."""
