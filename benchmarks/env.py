@@ -11,7 +11,7 @@ remapping models and score the step. The bare loop does the same saccades and re
    and for any extra threads either starts). Each process's steps/s over its solo steps/s is the
    share of its speed it keeps. Run as the env runs (BLAS limited to one thread around its per-step
    product, ``conformal.blas_threads``; numba's parallel loops of the saccade model on one thread per
-   64 saccades, ``models._plan_kernels.kernel_threads``: one thread for one head), then with each
+   64 saccades, ``models.limit_plan_threads``: one thread for one head), then with each
    limit lifted in turn, as before it. The load average is printed: other jobs on the machine lower
    the ratios.
 
@@ -29,6 +29,7 @@ import time
 import numpy as np
 
 import envs
+import models
 
 SACCADE = np.array([[0.3, 0.1], [-0.3, -0.1]], np.float32)  # ~9 deg right/left: the eyes stay in range
 
@@ -85,11 +86,7 @@ def _worker(image_size: int, steps: int, repeats: int, lifted: str | None, barri
 
         conformal.remap_plan.blas_threads = lambda n=1: contextlib.nullcontext()
     elif lifted == "numba":  # numba's default: every parallel loop on one thread per core
-        import numba
-
-        import models._plan_kernels as K
-
-        K.kernel_threads = lambda n: contextlib.nullcontext(numba.get_num_threads())
+        models.limit_plan_threads(False)
     env = envs.BinocularSaccadeEnv(image_size=image_size)
     actions = np.tile(SACCADE, (steps // 2, 1))
     env.reset(seed=0)

@@ -22,8 +22,10 @@ from .saccade_plans import Profiles, SaccadePlans, profiles
 from .planner import BatchedPlanner, SettledReset, plan_clipped
 from .servo import servo_setpoints
 from .plant import EYE_DRIVES, OrbitalPlant
+from ._plan_kernels import limit_plan_threads
 
 __all__ = [
+    "limit_plan_threads",
     "SCENES", "QUALITIES", "EYES", "DEFAULT_FOVY_DEG", "DEFAULT_IPD", "HEAD_XML", "CYCLOPEAN_EYE",
     "MAX_PEAK_VELOCITY", "DEFAULT_TIMESTEP_MS", "DEFAULT_SACCADE_TIMESTEP_MS",
     "build_model", "build_spec", "export_xml", "load_model", "screen_point",

@@ -28,7 +28,7 @@ import numba as nb
 
 from conformal.kernels import DISK_CACHE
 
-__all__ = ["SACCADES_PER_THREAD", "kernel_threads", "angles", "burst_loop", "rates", "signals", "profile_marks", "profile_values", "listing_torsion", "vergence_fraction", "vergence_rate",
+__all__ = ["SACCADES_PER_THREAD", "kernel_threads", "limit_plan_threads", "angles", "burst_loop", "rates", "signals", "profile_marks", "profile_values", "listing_torsion", "vergence_fraction", "vergence_rate",
            "legacy_position", "legacy_rate"]
 
 _inline = nb.njit(cache=DISK_CACHE, nogil=True, inline="always")
@@ -37,13 +37,27 @@ _inline = nb.njit(cache=DISK_CACHE, nogil=True, inline="always")
 SACCADES_PER_THREAD = 64
 
 
+_LIMIT = [True]  # limit_plan_threads' setting for this process
+
+
+def limit_plan_threads(on: bool) -> bool:
+    """Whether the saccade model's parallel loops limit numba's threads by their number of saccades
+    (:func:`kernel_threads`; on by default). Off, every loop runs on numba's current setting, one thread
+    per core by default: for one process alone on a machine, or to measure what the limit buys
+    (``benchmarks/env.py``). Returns the previous setting."""
+    if not isinstance(on, bool):
+        raise TypeError(f"on must be True or False; got {type(on).__name__}")
+    prev, _LIMIT[0] = _LIMIT[0], on
+    return prev
+
+
 @contextlib.contextmanager
 def kernel_threads(n: int) -> Iterator[int]:
     """numba's threads limited, in this thread, to one per :data:`SACCADES_PER_THREAD` of ``n`` saccades
     (at least 1, at most the current setting) while the block runs; the setting is restored on exit.
-    Yields the number in force."""
+    Yields the number in force. With :func:`limit_plan_threads` off, the current setting as it is."""
     prev = nb.get_num_threads()
-    k = max(1, min(prev, int(n) // SACCADES_PER_THREAD))
+    k = max(1, min(prev, int(n) // SACCADES_PER_THREAD)) if _LIMIT[0] else prev
     if k == prev:
         yield k
         return

@@ -749,9 +749,13 @@ API: dict[str, Api] = {
     "envs.Task.initialize_episode": Api(lambda o: envs.SearchTask(scene="dots").initialize_episode, dict(
         head=Lazy(lambda o: o.head), rng=np.random.default_rng(0)), bad={"rng": {"seed": 3, "legacy": np.random.RandomState(0)}}),
     "envs.FixateTask.check_scene": Api(lambda o: envs.FixateTask().check_scene, dict(head=Lazy(lambda o: o.head))),
-    "envs.FixateTask.initialize_episode": Api(lambda o: envs.FixateTask().initialize_episode, dict(
-        head=Lazy(lambda o: o.head), rng=np.random.default_rng(0)), bad={"rng": {"seed": 3, "legacy": np.random.RandomState(0)}}),
     "envs.Task.score": Api(lambda o: envs.FixateTask().score, dict(head=Lazy(lambda o: o.head))),
+    "models.limit_plan_threads": Api(lambda o: (lambda on: models.limit_plan_threads(models.limit_plan_threads(on))),
+                                     dict(on=True), bad={"on": {"int": 1, "none": None, "str": "yes"}}),
+    "envs.Task.placements": Api(lambda o: envs.SearchTask(scene="dots").placements, dict(rng=np.random.default_rng(0)),
+                                bad={"rng": {"seed": 3, "legacy": np.random.RandomState(0)}}),
+    "envs.FixateTask.placements": Api(lambda o: envs.FixateTask().placements, dict(rng=np.random.default_rng(0)),
+                                      bad={"rng": {"seed": 3, "legacy": np.random.RandomState(0)}}),
     "envs.FreeViewingTask.check_scene": Api(lambda o: envs.FreeViewingTask(scene="dots").check_scene,
                                             dict(head=Lazy(lambda o: o.head))),
     "envs.FreeViewingTask.score": Api(lambda o: envs.FreeViewingTask(scene="dots").score, dict(head=Lazy(lambda o: o.head))),

@@ -90,3 +90,19 @@ def test_many_worlds_use_every_thread(monkeypatch):
     plans, _ = planner.plan(np.arange(256), rng.uniform(-0.2, 0.2, (256, 2)), np.ones(256))
     planner.commands(plans)
     assert seen and all(k == full for k in seen)
+
+
+@pytest.mark.skipif(not MULTI, reason="numba has one thread in all")
+def test_the_limit_can_be_lifted_and_restored():
+    """``models.limit_plan_threads(False)``: a one-head loop runs on numba's whole setting; on again: one."""
+    out = np.zeros(1, np.int64)
+    assert models.limit_plan_threads(False) is True
+    try:
+        _probe(out)
+        assert out[0] == numba.get_num_threads() >= 2
+    finally:
+        assert models.limit_plan_threads(True) is False
+    _probe(out)
+    assert out[0] == 1
+    with pytest.raises(TypeError, match="True or False"):
+        models.limit_plan_threads(1)
