@@ -257,11 +257,12 @@ def test_committed_scoreboard_is_consistent():
 
 
 def test_readme_scoreboard_is_the_committed_one():
-    """The README's phenomena table is ``markdown_table`` of the committed ``phenomena.csv``."""
+    """The docs' phenomena table (docs/psychophysics/theories.md) is ``markdown_table`` of the
+    committed ``phenomena.csv``."""
     from experiments.phenomena import markdown_table
 
     rows = list(csv.DictReader((ROOT / "experiments" / "data" / "phenomena.csv").open()))
-    assert markdown_table(rows) in (ROOT / "README.md").read_text()
+    assert markdown_table(rows) in (ROOT / "docs" / "psychophysics" / "theories.md").read_text()
 
 
 def test_observer_predictions_in_the_scoreboard_against_published_values():
