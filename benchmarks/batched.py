@@ -11,6 +11,9 @@ env (``BinocularSaccadeEnv``, the classic renderer) runs the same actions in the
     python benchmarks/batched.py --device cpu --num-envs 1 4 16 --steps 3
     python benchmarks/batched.py --device cuda --num-envs 1 64 1024 4096 --image-size 128
     python benchmarks/batched.py --device cuda --retina-rays 1    # the retina rendered along its rays
+    python benchmarks/batched.py --device cuda --csv out.csv --label "branch x"   # the table as CSV
+
+The README's tables are rendered from such CSVs in ``benchmarks/data/`` by ``benchmarks/tables.py``.
 
 Each configuration is warmed up (kernel compilation, graph capture) before it is timed.
 """
@@ -98,6 +101,8 @@ def main(argv=None) -> None:
     ap.add_argument("--single-steps", type=int, default=20)
     ap.add_argument("--csv", default=None, help="also write the table to this CSV file (one row per number of "
                     "worlds, the device named in each row)")
+    ap.add_argument("--label", default=None, help="with --csv: what was measured (a branch, a commit), written "
+                    "in a first column 'code' (benchmarks/tables.py shows it)")
     ap.add_argument("--retina-rays", type=int, default=None,
                     help="render the retina along s x s rays per receptive field (envs.retina_rays) instead of "
                          "pinhole pictures (default: pictures)")
@@ -133,10 +138,11 @@ def main(argv=None) -> None:
     if args.csv:
         from experiments.folders import write_csv
 
-        fields = ["device", "eyes", "worlds", "env_steps_per_s", "single_env_steps_per_s", "ms_per_step"]
+        fields = (["code"] if args.label else []) + ["device", "eyes", "worlds", "env_steps_per_s",
+                                                      "single_env_steps_per_s", "ms_per_step"]
         fields += [f"{p.replace(' ', '_')}_ms" for p in PARTS] + ["memory"]
         write_csv(args.csv, fields, [
-            {"device": device_name, "eyes": seen, "worlds": n, "env_steps_per_s": round(r["steps/s"], 1),
+            {**({"code": args.label} if args.label else {}), "device": device_name, "eyes": seen, "worlds": n, "env_steps_per_s": round(r["steps/s"], 1),
              "single_env_steps_per_s": round(single, 1), "ms_per_step": round(r["ms/step"], 3),
              **{f"{p.replace(' ', '_')}_ms": round(r["parts"].get(p, 0.0), 3) for p in PARTS}, "memory": r["memory"]}
             for n, r in rows])

@@ -20,7 +20,7 @@ try:
 except ImportError:  # running from a checkout without `pip install -e .`
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import models
-from models._gl import mujoco
+import mujoco  # after models: importing models picks MuJoCo's off-screen GL backend first
 
 
 def _time(fn, repeats: int) -> float:
@@ -59,9 +59,10 @@ def main() -> None:
     ts = [saccade_and_fixation() for _ in range(args.repeats)]
     rows.append((f"physics: 10 deg saccade + 250 ms ({models.DEFAULT_SACCADE_TIMESTEP_MS:g} ms step)", "-",
                  float(np.median(ts)) * 1e3))
-    head.model.opt.timestep = models.DEFAULT_TIMESTEP_MS * 1e-3
-    rows.append(("physics: one mj_step", "-",
-                 _time(lambda: mujoco.mj_step(head.model, head.data), args.repeats * 10)))
+    model = models.build_model(args.scene)  # the head's MuJoCo model, stepped bare at the fixation step
+    model.opt.timestep = models.DEFAULT_TIMESTEP_MS * 1e-3
+    data = mujoco.MjData(model)
+    rows.append(("physics: one mj_step", "-", _time(lambda: mujoco.mj_step(model, data), args.repeats * 10)))
     print(f"scene={args.scene}  MUJOCO_GL={__import__('os').environ.get('MUJOCO_GL')}  (median ms)")
     print(f"{'operation':<48}{'quality':<10}{'ms':>10}")
     print("-" * 68)

@@ -32,7 +32,7 @@ import numba as nb
 import numpy as np
 
 __all__ = [
-    "KIND_PROJECTIVE", "KIND_MOBIUS", "pool_picture", "series_table", "map_points", "tabulate_angles", "contract_rings",
+    "DISK_CACHE", "KIND_PROJECTIVE", "KIND_MOBIUS", "pool_picture", "series_table", "map_points", "tabulate_angles", "contract_rings",
     "normalized_errors", "map_footprints", "tabulate_angles_pooled", "contract_rings_pooled",
 ]
 

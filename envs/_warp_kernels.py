@@ -3,7 +3,7 @@ it needs warp-lang; no ``from __future__ import annotations`` here, Warp reads t
 
 import warp as wp
 
-__all__ = ["servo", "advance"]
+__all__ = ["servo", "advance", "beyond_range"]
 
 
 @wp.kernel
@@ -23,3 +23,14 @@ def servo(u: wp.array3d(dtype=wp.float32), ncmd: wp.array(dtype=wp.int32), step:
 def advance(step: wp.array(dtype=wp.int32)):
     """The next physics step's index (a kernel, so that a captured graph replays it)."""
     step[0] = step[0] + 1
+
+
+@wp.kernel
+def beyond_range(qpos: wp.array2d(dtype=wp.float32), adr: wp.array(dtype=wp.int32),
+                 lo: wp.array(dtype=wp.float32), hi: wp.array(dtype=wp.float32), left: wp.array(dtype=wp.int32)):
+    """``left[0] = 1`` where limited joint j of world w is at or beyond its range: the state in which
+    MuJoCo's joint-limit constraint acts (``mjCNSTR_LIMIT_JOINT``, active for distance < margin = 0)."""
+    w, j = wp.tid()
+    q = qpos[w, adr[j]]
+    if q <= lo[j] or q >= hi[j]:
+        left[0] = 1

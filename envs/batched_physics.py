@@ -13,6 +13,12 @@ before every physics step, so a whole step is a fixed sequence of kernel launche
 captured once in a graph (``chunk_ms`` physics steps per graph) and replayed; on Warp's CPU backend
 the same launches run one by one.
 
+The head has no contacts, so MuJoCo's constraint solver has nothing to solve unless a joint reaches
+its range (a joint-limit constraint): the physics steps without it (``skip_solver=True``, the
+default: ``qacc`` is the unconstrained ``qacc_smooth``, about a fifth fewer kernel launches per step)
+and a kernel flags any world whose limited joint reaches its range; then the whole run is stepped
+again from its start with the solver, as MuJoCo steps it (``tests/test_batched_physics.py``).
+
 Differences from the CPU head, by design: the physics steps at 1 ms throughout (the CPU head steps
 saccades at 0.25 ms), and the feed-forward torque uses one constant inertia per joint. Both
 only change how closely the servo tracks the command during the saccade; after the fixation the
@@ -23,6 +29,7 @@ Requires the ``gpu`` extra (``pip install -e ".[gpu]"``: mujoco-warp, warp-lang,
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -48,6 +55,20 @@ def require_gpu_extra():
     return wp, mjw, torch
 
 
+def _solver_skippable(mjm, limited: np.ndarray) -> bool:
+    """Whether the model's only possible constraints are its joints' limits, tested by
+    ``beyond_range`` (hinges and slides with no margin), and its integrator is implicit in velocity
+    (the unconstrained step of ``WarpHeads`` integrates as ``mujoco_warp.implicit``)."""
+    import mujoco
+
+    contacts_off = bool(mjm.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
+    return (mjm.opt.integrator in (mujoco.mjtIntegrator.mjINT_IMPLICITFAST, mujoco.mjtIntegrator.mjINT_IMPLICIT)
+            and contacts_off and mjm.neq == 0 and mjm.nflex == 0 and mjm.nsensor == 0
+            and not np.any(mjm.dof_frictionloss) and not np.any(mjm.tendon_limited)
+            and not np.any(mjm.tendon_frictionloss) and not np.any(mjm.jnt_margin[limited])
+            and np.all(np.isin(mjm.jnt_type[limited], (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE))))
+
+
 class WarpHeads:
     """N worlds of one head model in MuJoCo Warp, stepped by the saccade controller and rendered.
 
@@ -60,10 +81,13 @@ class WarpHeads:
         retina_directions: None (render pinhole images, :meth:`render`) or the retina's ray directions
             (s^2, P, 3) (``envs.retina_rays.field_ray_directions``): render the samples themselves
             (:meth:`render_retina`) instead of images.
+        skip_solver: step without MuJoCo's constraint solver while no limited joint reaches its range,
+            stepping a run again with the solver where one does (see the module docstring); False:
+            MuJoCo Warp's ``step`` throughout.
     """
 
     def __init__(self, head: models.Head, num_worlds: int, device: str = "cuda", *, chunk_ms: int = 25,
-                 retina_directions: np.ndarray | None = None) -> None:
+                 retina_directions: np.ndarray | None = None, skip_solver: bool = True) -> None:
         wp, mjw, torch = require_gpu_extra()
         self._wp, self._mjw, self._torch = wp, mjw, torch
         self.device = wp.get_device(device)
@@ -93,9 +117,11 @@ class WarpHeads:
         self._dt = float(mjm.opt.timestep)
         if abs(self._dt - 1e-3) > 1e-12:
             raise ValueError(f"the batched physics steps 1 ms; the model's timestep is {self._dt}")
-        from ._warp_kernels import advance, servo
+        from ._warp_kernels import advance, beyond_range, servo
 
-        self._servo, self._advance = servo, advance
+        self._servo, self._advance, self._beyond_range = servo, advance, beyond_range
+        limited = np.flatnonzero(mjm.jnt_limited)
+        self.skip_solver = bool(skip_solver) and _solver_skippable(mjm, limited)
         self.cam_ids = [mjm.camera(e).id for e in EYES]
         groups = [g for g in range(6) if g not in HIDDEN_GEOM_GROUPS]
         h, w = self.image_shape
@@ -115,6 +141,20 @@ class WarpHeads:
             self._step = wp.zeros(1, dtype=wp.int32)
             self._ncmd = wp.ones(n, dtype=wp.int32)
             self._cmd = wp.zeros((n, 2, 18), dtype=wp.float32)
+            self._limit_adr = wp.array(mjm.jnt_qposadr[limited].astype(np.int32), dtype=wp.int32)
+            self._limit_lo = wp.array(mjm.jnt_range[limited, 0].astype(np.float32), dtype=wp.float32)
+            self._limit_hi = wp.array(mjm.jnt_range[limited, 1].astype(np.float32), dtype=wp.float32)
+            self._left = wp.zeros(1, dtype=wp.int32)
+            d = self.data
+            # the run's starting state, to step it again with the solver where a joint reached its range
+            self._saved = [(a, wp.empty_like(a)) for a in (d.qpos, d.qvel, d.act, d.qacc_warmstart, d.time)]
+        # the same arrays seen with no room for constraints: MuJoCo Warp's solve() then sets qacc to
+        # qacc_smooth, and qacc_smooth is computed (both need njmax == 0)
+        self._free_data = dataclasses.replace(self.data, njmax=0)
+        # and the model with its constraints switched off (no limit rows are made)
+        self._free_model = dataclasses.replace(self.model, opt=dataclasses.replace(
+            self.model.opt, disableflags=int(self.model.opt.disableflags) | int(mjw.DisableBit.CONSTRAINT)))
+        self._stepped = 0
         t = wp.to_torch
         d = self.data
         self.qpos, self.qvel, self.ctrl = t(d.qpos), t(d.qvel), t(d.ctrl)
@@ -204,6 +244,9 @@ class WarpHeads:
             if self.device.is_cuda:  # torch's copy (its stream) lands before Warp's kernels (Warp's stream)
                 self._torch.cuda.synchronize(self.torch_device)
             self._step.zero_()
+            self._left.zero_()
+            for a, saved in self._saved:
+                wp.copy(saved, a)
             stepped = 0
             if self.device.is_cuda and self._graph is not False:
                 chunks = max(1, math.ceil(n_ms / self.chunk_ms))
@@ -221,14 +264,31 @@ class WarpHeads:
                     stepped = chunks * self.chunk_ms
             for _ in range(stepped, n_ms):  # the CPU backend; CUDA where no graph could be captured
                 self._physics_step()
-            stepped = max(stepped, n_ms)
+            self._stepped = stepped = max(stepped, n_ms)
             mjw.forward(self.model, self.data)
         if wait:
-            self._handoff_to_torch()
+            self.wait()
         return stepped
 
     def wait(self) -> None:
-        """Wait for the physics launched by ``run(..., wait=False)`` before torch reads its state."""
+        """Wait for the physics launched by ``run(..., wait=False)`` before torch reads its state (and
+        step the run again with the solver if a joint reached its range)."""
+        self._handoff_to_torch()
+        if self.skip_solver and self._stepped and int(self._left.numpy()[0]):
+            self._rerun_with_solver()
+
+    def _rerun_with_solver(self) -> None:
+        """Step the last run again from its start with MuJoCo Warp's full ``step`` (the constraint
+        solver), launch by launch: a joint reached its range, where the limit's constraint acts."""
+        wp, mjw = self._wp, self._mjw
+        with wp.ScopedDevice(self.device):
+            for a, saved in self._saved:
+                wp.copy(a, saved)
+            self._step.zero_()
+            for _ in range(self._stepped):
+                self._physics_step(solver=True)
+            mjw.forward(self.model, self.data)
+        self._stepped = 0
         self._handoff_to_torch()
 
     def _capture(self):
@@ -253,13 +313,34 @@ class WarpHeads:
                       "from Python (slower, same result)", RuntimeWarning, stacklevel=3)
         return False
 
-    def _physics_step(self) -> None:
-        wp = self._wp
+    def _physics_step(self, solver: bool = False) -> None:
+        wp, mjw = self._wp, self._mjw
         wp.launch(self._servo, dim=(self.num_worlds, 6),
                   inputs=[self._cmd, self._ncmd, self._step, self._pos0, self._vel0, self._ff0],
                   outputs=[self.data.ctrl])
-        self._mjw.step(self.model, self.data)
+        if solver or not self.skip_solver:
+            mjw.step(self.model, self.data)
+        else:
+            self._unconstrained_step()
         wp.launch(self._advance, dim=1, inputs=[self._step])
+
+    def _unconstrained_step(self) -> None:
+        """``mujoco_warp.step`` with no constraint (MuJoCo's ``mj_step``: forward dynamics, then the
+        implicit-in-velocity integrator) for a model with no contacts and no joint at its range: the
+        constraint forces are zero, so ``qacc = qacc_smooth`` and ``M qacc`` (the integrator's ``efc.Ma``)
+        is ``qfrc_smooth``. Sensors (the head has none) and the energy are not computed. Flags
+        ``_left`` where a limited joint ends the step at or beyond its range."""
+        wp, mjw, m, d = self._wp, self._mjw, self._free_model, self._free_data
+        mjw.fwd_position(m, d, factorize=False)
+        mjw.fwd_velocity(m, d)
+        mjw.fwd_actuation(m, d)
+        mjw.fwd_acceleration(m, d, factorize=True)
+        wp.copy(d.qacc, d.qacc_smooth)
+        wp.copy(d.efc.Ma, d.qfrc_smooth)
+        mjw.implicit(m, d)
+        if self._limit_adr.shape[0]:
+            wp.launch(self._beyond_range, dim=(self.num_worlds, self._limit_adr.shape[0]),
+                      inputs=[d.qpos, self._limit_adr, self._limit_lo, self._limit_hi], outputs=[self._left])
 
     # ------------------------------------------------------------------ rendering
     def render_retina(self):

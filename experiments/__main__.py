@@ -1,48 +1,92 @@
 """``python -m experiments COMMAND``: the project's commands.
 
-run        perisaccadic flash-localization study (table, figures, summary, Rerun recording)
-saccades   saccade kinematics and the eye-position signal against published data (figure, table)
-phenomena  which published perisaccadic phenomena each theory predicts (table with CIs, figures)
-fit        fit a perception model to localization data (maximum likelihood; local or Ray)
-compare    fit several models to the same data and rank them (AIC, BIC, likelihood-ratio tests)
-simulate   simulate a localization data set from a model
-recovery   model recovery: simulate from each theory, fit every theory (confusion matrix of delta AIC)
-visualize  record a run of the environment in Rerun (``--out FILE.rrd``, ``--spawn`` or ``--serve``)
-view       open .rrd recordings in Rerun's web viewer on 127.0.0.1 (Ctrl-C / SIGTERM leave nothing behind)
-train      train a saccade agent on a task
-evaluate   evaluate a saved, random or heuristic policy
-baselines  train and evaluate agents x seeds on a task: held-out IQM table with bootstrap CIs, curves
-
-Each command is defined in its own module by ``add_subcommand(subparsers)``, which registers
-its arguments and sets ``func`` to the function that runs it.
+``COMMANDS`` names each command, the module that defines it and its one-line help. Only the chosen
+command's module is imported (it builds its subparser with ``add_subcommand(subparsers)`` or
+``add_subcommands``, setting ``func`` to the function that runs it); the others are listed by
+name and help. So ``--help``, a mistyped command and a usage error answer without importing
+numba, MuJoCo, torch or Rerun. ``build_parser()`` builds every command's subparser (for tests and
+documentation).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import sys
 
-# command modules, in the order shown by --help
-COMMAND_MODULES = ("experiments.study", "experiments.saccades", "experiments.phenomena", "experiments.modelfit.cli",
-                   "experiments.modelfit.recovery", "experiments.recording", "experiments.rl")
+from .cli import HintingParser
+
+#: command -> (module that registers it, one-line help), in the order ``--help`` lists them. A
+#: module that registers several commands lists them here consecutively, in its own order.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "run": ("experiments.study",
+            "perisaccadic flash-localization study (table, figures, summary, Rerun recording)"),
+    "saccades": ("experiments.saccades",
+                 "saccade kinematics vs the published main sequence (figure, table)"),
+    "phenomena": ("experiments.phenomena",
+                  "which published perisaccadic phenomena each theory predicts (table with CIs, "
+                  "calibrated/predicted, figures)"),
+    "fit": ("experiments.modelfit.cli", "fit a perception model to localization data (maximum likelihood)"),
+    "compare": ("experiments.modelfit.cli", "fit several models to the same data and rank them (AIC, BIC, LRT)"),
+    "simulate": ("experiments.modelfit.cli",
+                 "simulate a localization data set from a model (for recovery checks)"),
+    "recovery": ("experiments.modelfit.recovery",
+                 "model recovery: simulate from each theory, fit every theory, confusion matrix of delta AIC"),
+    "visualize": ("experiments.recording",
+                  "record a run of the environment in Rerun (--out FILE.rrd, --serve or --spawn)"),
+    "view": ("experiments.recording",
+             "open .rrd recordings in Rerun's web viewer on 127.0.0.1 (no display needed)"),
+    "train": ("experiments.rl", "train a saccade agent: CEM linear cell policy (default), PPO or SAC"),
+    "evaluate": ("experiments.rl", "evaluate a saved, random or heuristic policy; prints one JSON line"),
+    "baselines": ("experiments.rl",
+                  "train and evaluate agents x seeds on a task: IQM table with bootstrap CIs and curves"),
+}
+
+#: command modules, in the order shown by --help
+COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+def _register(module_name: str, subparsers) -> None:
+    module = importlib.import_module(module_name)
+    register = getattr(module, "add_subcommands", None) or getattr(module, "add_subcommand")
+    register(subparsers)
+
+
+def build_parser(command: str | None = None, *, every: bool | None = None) -> argparse.ArgumentParser:
+    """The command-line parser. ``command``: only its module is imported and builds its subparser(s);
+    the other commands are listed by name and help (they take no arguments in this parser). Without
+    ``command`` (or with ``every=True``) every command module is imported."""
+    every = command is None if every is None else every
+    parser = HintingParser(
         prog="python -m experiments",
         description="Conformal-camera binocular head: psychophysics, visualization and RL commands.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMAND_MODULES:
-        module = importlib.import_module(name)
-        getattr(module, "add_subcommands", None) and module.add_subcommands(sub)
-        getattr(module, "add_subcommand", None) and module.add_subcommand(sub)
+    chosen = COMMANDS.get(command or "", ("", ""))[0]
+    for module_name in COMMAND_MODULES:
+        if every or module_name == chosen:
+            _register(module_name, sub)
+        else:
+            for name, (owner, help_text) in COMMANDS.items():
+                if owner == module_name:
+                    sub.add_parser(name, help=help_text, add_help=False)
     return parser
 
 
+def chosen_command(argv: list[str]) -> str | None:
+    """The command named in ``argv``: its first word that is not an option (the top level takes
+    no option with a value)."""
+    return next((a for a in argv if not a.startswith("-")), None)
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    # PyOpenGL logs at INFO that its optional accelerator is absent; pymovements (eye-tracker
+    # files) sets the root logger to INFO, which printed that line in the middle of a command's output
+    logging.getLogger("OpenGL").setLevel(logging.WARNING)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    command = chosen_command(argv)
+    parser = build_parser(command, every=False)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

@@ -1,19 +1,112 @@
-"""argparse types shared by the commands: bounded numbers and output paths.
+"""argparse types shared by the commands: bounded numbers and output paths; and the commands' parser.
 
-Each raises ``argparse.ArgumentTypeError`` with what was wrong, so a bad option ends in a usage
+Each type raises ``argparse.ArgumentTypeError`` with what was wrong, so a bad option ends in a usage
 error (exit 2) with one line naming the option, never a traceback, a NaN or a silent truncation.
+:class:`HintingParser` adds to each usage error how to fix it (the closest option or choice, the
+``--option=-value`` form).
 """
 
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
 import os
+import re
+import sys
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded", "check_path_text",
+__all__ = ["DefaultsHelpFormatter", "HintingParser", "int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded", "check_path_text",
            "guarded"]
+
+
+class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """``ArgumentDefaultsHelpFormatter`` that adds ``(default: X)`` only where it says something: not
+    when the help already names its default, nor for a default of ``None`` or ``False``."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "default" in text.lower() or action.default is None or action.default is False:
+            return text
+        return super()._get_help_string(action)
+
+
+class HintingParser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose usage errors say how to fix them.
+
+    * an unknown option names the closest one (``--quik``: did you mean ``--quick``?), and is
+      reported by the subcommand it was given to, with that subcommand's usage (argparse reports
+      a subcommand's unknown options with the top-level usage);
+    * an invalid choice names the closest choice (``runn``: did you mean ``run``?);
+    * an option whose value starts with ``-`` (``--flash-times -100:100:20``, which argparse reads
+      as a second option: "expected one argument") is shown in the form that works,
+      ``--flash-times=-100:100:20``.
+
+    A command's help made with ``ArgumentDefaultsHelpFormatter`` shows each default once
+    (:class:`DefaultsHelpFormatter`). Subparsers made with ``add_subparsers().add_parser`` are of
+    this class too.
+    """
+
+    def _get_formatter(self) -> argparse.HelpFormatter:
+        if self.formatter_class is argparse.ArgumentDefaultsHelpFormatter:  # no default shown twice
+            return DefaultsHelpFormatter(prog=self.prog)
+        return super()._get_formatter()
+
+    def parse_known_args(self, args=None, namespace=None):
+        self._argv = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
+
+    def parse_args(self, args=None, namespace=None):
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            self._parser_of(parsed).error(f"unrecognized arguments: {' '.join(extras)}")
+        return parsed
+
+    def _parser_of(self, parsed: argparse.Namespace) -> argparse.ArgumentParser:
+        """The subcommand's parser that ``parsed`` went through (or this one)."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                sub = action.choices.get(getattr(parsed, action.dest, None) or "")
+                if sub is not None:
+                    return sub._parser_of(parsed) if isinstance(sub, HintingParser) else sub
+        return self
+
+    def error(self, message: str):
+        super().error(message + self._hint(message))
+
+    def _hint(self, message: str) -> str:
+        m = re.match(r"argument (\S+): expected (?:one|at least one|\d+) arguments?$", message)
+        if m:
+            names = m[1].split("/")
+            argv = getattr(self, "_argv", [])
+            for i, word in enumerate(argv[:-1]):
+                if word in names and argv[i + 1].startswith("-") and len(argv[i + 1]) > 1:
+                    return (f"; a value that starts with '-' must be joined to its option with '=': "
+                            f"{word}={argv[i + 1]}")
+            return ""
+        m = re.search(r"invalid choice: (.+?) \(choose from (.*)\)$", message)
+        if m:
+            choices = [c.strip().strip("'") for c in m[2].split(",")]
+            close = difflib.get_close_matches(m[1].strip("'"), choices, n=1, cutoff=0.6)
+            return f"; did you mean {close[0]!r}?" if close else ""
+        m = re.match(r"unrecognized arguments: (.*)$", message)
+        if m:
+            options = [o for o in self._option_string_actions if o.startswith("--")]
+            commands = [c for a in self._actions if isinstance(a, argparse._SubParsersAction) for c in a.choices]
+            for word in m[1].split():
+                if not word.startswith("-"):
+                    continue
+                close = difflib.get_close_matches(word.split("=")[0], options, n=1, cutoff=0.6)
+                if close:
+                    return f"; did you mean {close[0]}?"
+                close = difflib.get_close_matches(word.lstrip("-"), commands, n=1, cutoff=0.6)
+                if close:
+                    return f"; did you mean the command {close[0]!r}?"
+                if commands:
+                    return f"; a command's options go after it: {self.prog} COMMAND {word} (see {self.prog} COMMAND --help)"
+            return ""
+        return ""
 
 
 def whole_number(text: str) -> int:

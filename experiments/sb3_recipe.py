@@ -13,9 +13,11 @@ CPU wheel first)::
     python -m experiments evaluate --task fixate --policy runs/ppo_fixate --episodes 100 --seed 1
 
 Training prints one progress line per PPO rollout (steps, elapsed time, the rollout's episode
-success rate and return). The saved folder (``ppo_<task>.zip`` + ``ppo.json``) is loaded by
-``python -m experiments evaluate --policy DIR`` (:class:`SB3Policy`), which runs the same episodes
-as for the other policies.
+success rate and return). The saved folder (``ppo.npz`` weights + ``ppo.json``: architecture,
+spaces, settings; no pickle) is loaded by ``python -m experiments evaluate --policy DIR``
+(:func:`experiments.agents.sb3.load_agent`), which runs the same episodes as for the other
+policies. :func:`export_sb3_zip` writes SB3's own zip for SB3's tools: that zip is code (pickle),
+and nothing here loads one.
 
 The env is the same as the CEM agent's (:data:`experiments.agents.DEFAULT_ENV_KWARGS`: cell
 actions, 96 px, dict observation ``cortical``/``fovea``/``remapped``/``eyes``), vectorised with
@@ -32,9 +34,10 @@ from pathlib import Path
 from typing import Any
 
 from experiments.cli import int_in, out_dir
+from experiments.folders import LockBusyError
 from experiments.agents.rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, episode_seeds, make_env
 
-__all__ = ["SB3Policy", "evaluate_ppo", "load_sb3_policy", "main", "make_vec", "train_ppo", "PPO_META"]
+__all__ = ["PPO_META", "evaluate_ppo", "export_sb3_zip", "load_sb3_policy", "main", "make_vec", "train_ppo"]
 
 #: The metadata file that marks a folder written by :func:`train_ppo`.
 PPO_META = "ppo.json"
@@ -105,73 +108,82 @@ def _progress_callback(total: int, stream=None):
 def train_ppo(out: str | Path, total_timesteps: int = 4096, n_envs: int = 2, n_steps: int = 256,
               vec: str = "subproc", seed: int = 0, task: str = "fixate",
               env_kwargs: dict[str, Any] | None = None, progress: bool = True) -> Path:
-    """Train PPO (``MultiInputPolicy``) and save ``ppo_<task>.zip`` plus ``ppo.json`` into ``out``;
-    with ``progress`` one line per rollout goes to stderr."""
+    """Train PPO (``MultiInputPolicy``) and save it as data into ``out`` (locked while it runs):
+    ``ppo.npz`` (weights) and ``ppo.json`` (architecture, spaces, settings, versions; written last),
+    as :func:`experiments.agents.sb3.save_agent` does; with ``progress`` one line per rollout goes to
+    stderr. Not resumable: an interrupted recipe starts again. Returns the weights' path."""
     sb3 = _require_sb3()
+    from experiments.agents.sb3 import save_agent
+    from experiments.folders import path_lock
+
     if total_timesteps < 1 or n_steps < 2:
         raise ValueError("total_timesteps must be >= 1 and n_steps >= 2")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    venv = make_vec(n_envs, vec, seed, task, env_kwargs)
+    with path_lock(out / ".lock", f"the recipe's folder {out}"):
+        venv = make_vec(n_envs, vec, seed, task, env_kwargs)
+        try:
+            batch = min(64, n_steps * n_envs)
+            model = sb3.PPO("MultiInputPolicy", venv, n_steps=n_steps, batch_size=batch, gamma=0.9,
+                            seed=seed, device="cpu", verbose=0)
+            model.learn(total_timesteps=total_timesteps, progress_bar=False,
+                        callback=_progress_callback(total_timesteps) if progress else None)
+        finally:
+            venv.close()
+        meta = {"task": task, "env_kwargs": {**DEFAULT_ENV_KWARGS, **(env_kwargs or {})}, "seed": seed,
+                "total_timesteps": total_timesteps, "n_envs": n_envs, "n_steps": n_steps, "vec": vec,
+                "policy": "mlp", "recipe": "sb3_recipe"}
+        save_agent(out, model, "ppo", meta)
+    return out / "ppo.npz"
+
+
+def load_sb3_policy(directory: str | Path):
+    """Load the folder written by :func:`train_ppo`: :func:`experiments.agents.sb3.load_agent`
+    (the policy rebuilt from ``ppo.json``'s architecture, the weights read from ``ppo.npz``; no pickle)."""
+    _require_sb3()
+    from experiments.agents.sb3 import load_agent
+
+    return load_agent(directory)
+
+
+def export_sb3_zip(directory: str | Path, path: str | Path) -> Path:
+    """Write the saved PPO/SAC policy of ``directory`` (a folder of ``train --algo ppo|sac`` or of this
+    recipe) as a Stable-Baselines3 zip at ``path``, for SB3's own tools. Such a zip holds pickled
+    Python objects: it is code, for your own machine; this package never loads one."""
+    sb3 = _require_sb3()
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from experiments.agents.sb3 import load_agent
+
+    agent = load_agent(directory)
+    meta = agent.metadata
+    cls = sb3.PPO if meta["algo"] == "ppo" else sb3.SAC
+
+    def _make():
+        from gymnasium.wrappers import FilterObservation
+
+        env = make_env(meta["task"], **meta["env_kwargs"])
+        return FilterObservation(env, list(agent.keys)) if agent.keys else env
+
+    venv = DummyVecEnv([_make])
     try:
-        batch = min(64, n_steps * n_envs)
-        model = sb3.PPO("MultiInputPolicy", venv, n_steps=n_steps, batch_size=batch, gamma=0.9,
-                        seed=seed, device="cpu", verbose=0)
-        model.learn(total_timesteps=total_timesteps, progress_bar=False,
-                    callback=_progress_callback(total_timesteps) if progress else None)
-        path = out / f"ppo_{task}.zip"
+        kwargs = dict(meta["architecture"]["policy_kwargs"])
+        use_sde = {"use_sde": bool(kwargs.pop("use_sde"))} if "use_sde" in kwargs else {}
+        model = cls(type(agent.model), venv, device="cpu", verbose=0, policy_kwargs=kwargs or None, **use_sde)
+        model.policy.load_state_dict(agent.model.state_dict())
         model.save(path)
     finally:
         venv.close()
-    meta = {"task": task, "env_kwargs": {**DEFAULT_ENV_KWARGS, **(env_kwargs or {})}, "seed": seed,
-            "total_timesteps": total_timesteps, "n_envs": n_envs, "n_steps": n_steps, "vec": vec,
-            "sb3_version": sb3.__version__}
-    (out / PPO_META).write_text(json.dumps(meta, indent=2) + "\n")
-    return path
-
-
-class SB3Policy:
-    """A saved SB3 model as a cell policy (``experiments.agents.Policy``): acts deterministically."""
-
-    def __init__(self, model, metadata: dict[str, Any], path: Path) -> None:
-        self.model, self.metadata, self.path = model, metadata, path
-        self.name = f"ppo:{path}"
-
-    def act(self, obs: dict, rng=None) -> int:
-        a, _ = self.model.predict(obs, deterministic=True)
-        return int(a)
-
-
-def load_sb3_policy(directory: str | Path) -> SB3Policy:
-    """Load the folder written by :func:`train_ppo` (``ppo.json`` and ``ppo_<task>.zip``)."""
-    d = Path(directory)
-    meta_path = d / PPO_META
-    if not meta_path.is_file():
-        raise FileNotFoundError(f"{d} is not a saved PPO model: missing {PPO_META}")
-    try:
-        meta = json.loads(meta_path.read_text())
-        task, env_kwargs = meta["task"], meta["env_kwargs"]
-    except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError) as err:
-        raise ValueError(f"{meta_path} is not a valid PPO metadata file ({err}); retrain with the SB3 recipe") from None
-    zip_path = d / f"ppo_{task}.zip"
-    if not zip_path.is_file():
-        raise FileNotFoundError(f"{d} is not a saved PPO model: missing {zip_path.name}")
-    sb3 = _require_sb3()
-    try:
-        model = sb3.PPO.load(zip_path, device="cpu")
-    except Exception as err:  # SB3 raises zipfile/pickle/torch errors of many kinds for a corrupt file
-        raise ValueError(f"{zip_path} could not be loaded by stable-baselines3 ({type(err).__name__}: {err}); "
-                         "retrain with the SB3 recipe") from None
-    return SB3Policy(model, {"task": task, "env_kwargs": dict(env_kwargs), **meta}, d)
+    return Path(path)
 
 
 def evaluate_ppo(path: str | Path, episodes: int = 50, seed: int = 0) -> dict:
-    """Evaluate a saved PPO model (its ``.zip`` or its folder) on the same episodes, with the same
+    """Evaluate a saved PPO model (its folder or its ``ppo.npz``) on the same episodes, with the same
     rollout, as ``python -m experiments evaluate``."""
     from experiments.agents.rollout import evaluate
 
     path = Path(path)
-    policy = load_sb3_policy(path.parent if path.suffix == ".zip" else path)
+    policy = load_sb3_policy(path.parent if path.suffix == ".npz" else path)
     env = make_env(policy.metadata["task"], **policy.metadata["env_kwargs"])
     try:
         res = evaluate(env, policy, episode_seeds(seed, episodes, EVAL_STREAM), rng_seed=seed)
@@ -199,7 +211,7 @@ def main(argv: list[str] | None = None) -> int:
         path = train_ppo(args.out, args.timesteps, args.n_envs, args.n_steps, args.vec, args.seed, args.task,
                          progress=not args.no_progress)
         res = evaluate_ppo(path, args.eval_episodes, args.seed)
-    except (ValueError, ImportError) as err:
+    except (ValueError, ImportError, FileNotFoundError, LockBusyError) as err:
         print(f"sb3_recipe: error: {err}", file=sys.stderr)
         return 2
     print(json.dumps(res))

@@ -24,8 +24,9 @@ cortical map (:mod:`experiments.agents.extractors`), whose cell-logit map is the
 PPO: Schulman et al. 2017.
 
 Writes ``learning_curve.csv`` (per rollout: env steps, finished episodes, their mean return and
-success rate; a row appended after every rollout), ``learning_curve.png``, ``agent.pt`` (skrl's checkpoint) and ``ppo.json`` (the run's
-arguments).
+success rate; a row appended after every rollout), ``learning_curve.png``, ``agent.npz`` (the agent's
+state dicts as arrays, with the summary inside: :func:`save_weights`; no pickle) and ``ppo.json``
+(the run's arguments, ``"format": "skrl-npz-1"``; ``python -m experiments evaluate`` does not load it).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from .folders import save_figure
+from .folders import save_figure, write_json
 
 from experiments.cli import int_in, out_dir
 
@@ -298,17 +299,30 @@ def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps:
     wall = time.perf_counter() - t0
     rows = _curve(wrapped.episodes, rollouts * num_envs, timesteps * num_envs)
     _plot(rows, out / "learning_curve.png", f"PPO (skrl) on {task}, {num_envs} worlds, {env.device}")
-    agent.save(str(out / "agent.pt"))
     summary = {"device": str(env.device), "num_envs": num_envs, "task": task, "policy": policy,
                "action_mode": action_mode, "timesteps": timesteps,
                "env_steps": timesteps * num_envs, "image_size": image_size, "rollouts": rollouts, "hidden": hidden,
                "seed": seed, "wall_s": round(wall, 1), "env_steps_per_s": round(timesteps * num_envs / wall, 1),
                "episodes": len(wrapped.episodes)}
-    (out / "ppo.json").write_text(json.dumps(summary, indent=2))
+    summary["format"] = "skrl-npz-1"
+    save_weights(out / "agent.npz", agent, summary)
+    write_json(out / "ppo.json", summary)
     env.close()
     for r in rows:
         log(f"  {r[0]:>9} env steps: {r[1]:>5} episodes, return {r[2]:+.3f}, success {r[3]:.2f}")
     return summary
+
+
+def save_weights(path: Path, agent, summary: dict[str, Any]) -> Path:
+    """The agent's checkpoint modules (policy, value, optimizer, preprocessors: their state dicts) as
+    data: one ``.npz`` with the run's summary inside (:func:`experiments.agents.saved.write_unit`),
+    never ``torch.save``'s pickle."""
+    from experiments.agents.saved import pack, write_unit
+
+    arrays: dict = {}
+    states = {name: agent._get_internal_value(module) for name, module in agent.checkpoint_modules.items()}
+    skeleton = pack(states, "agent", arrays)
+    return write_unit(path, arrays, {"summary": summary, "state_dicts": skeleton})
 
 
 def _curve(episodes, per_rollout: int, total: int, start: int = 0) -> list[tuple[int, int, float, float]]:
@@ -364,7 +378,7 @@ def main(argv=None) -> int:
               image_size=args.image_size, rollouts=args.rollouts, hidden=args.hidden, seed=args.seed,
               policy=args.policy, action_mode=args.action_mode)
     print(f"{s['env_steps']} env steps in {s['wall_s']} s ({s['env_steps_per_s']} env-steps/s) on {s['device']}; "
-          f"wrote {args.out}/learning_curve.csv, learning_curve.png, agent.pt, ppo.json")
+          f"wrote {args.out}/learning_curve.csv, learning_curve.png, agent.npz, ppo.json")
     return 0
 
 

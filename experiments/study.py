@@ -225,6 +225,42 @@ def _mechanisms(text: str) -> tuple[str, ...]:
     return names
 
 
+_NOTHING_AFTER_DARK = "in --condition dark nothing is shown after the saccade (use --condition references)"
+_NOT_PAPER = "the remapping time course is --model paper's; the other models do not read it"
+
+
+def _pointless_rules(args: argparse.Namespace) -> list[tuple[str, str, bool, str]]:
+    """(dest, option, does nothing now, why) for every option that one condition, paradigm or model ignores."""
+    dark, model = args.condition == "dark", args.model
+    return [
+        ("markers", "--markers", dark, _NOTHING_AFTER_DARK),
+        ("no_ruler", "--no-ruler", dark, _NOTHING_AFTER_DARK),
+        ("reference_contrast", "--reference-contrast", dark, _NOTHING_AFTER_DARK),
+        ("reference_ms", "--reference-ms", dark, _NOTHING_AFTER_DARK),
+        ("target_off_ms", "--target-off-ms", dark and getattr(args, "target_off_ms", -1) >= 0,
+         "in --condition dark the target goes off at saccade onset (a negative value, before onset, still applies)"),
+        ("feedback_gain", "--feedback-gain", model != "mechanistic", "it is --model mechanistic's"),
+        ("reference_weight", "--reference-weight", model != "mechanistic", "it is --model mechanistic's"),
+        ("disable", "--disable", model != "mechanistic", "it switches off --model mechanistic's ingredients"),
+        ("peak_time_ms", "--peak-time-ms", model != "paper", _NOT_PAPER),
+        ("rise_ms", "--rise-ms", model != "paper", _NOT_PAPER),
+        ("decay_ms", "--decay-ms", model != "paper", _NOT_PAPER),
+        ("peak_gain", "--peak-gain", model != "paper", _NOT_PAPER),
+        ("stability_tolerance", "--stability-tolerance", args.paradigm != "displacement",
+         "it is --paradigm displacement's"),
+        ("report_noise_deg", "--report-noise-deg", args.paradigm != "displacement", "it is --paradigm displacement's"),
+    ]
+
+
+def _refuse_pointless(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
+    """A usage error for an option given a value other than its default where the chosen condition,
+    paradigm or model ignores it (it would change the configuration's hash and nothing else)."""
+    for dest, option, pointless, why in _pointless_rules(args):
+        default = parser.get_default(dest)
+        if pointless and hasattr(args, dest) and getattr(args, dest) != default:
+            parser.error(f"argument {option}: does nothing here: {why}")
+
+
 def _build(args: argparse.Namespace):
     """The design and configuration of the command line; ``argparse`` usage errors name the option."""
     from .psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, RemapTimeCourse, TrialConfig
@@ -247,6 +283,7 @@ def _build(args: argparse.Namespace):
             parser.error("argument --flash-times: in the displacement paradigm these are blank durations, ms >= 0")
         reps = reps or 10
     reps = reps or 1
+    _refuse_pointless(args, parser)
     n = len(amps) * len(offsets) * len(times) * reps
     if n > MAX_TRIALS:
         parser.error(f"argument --repetitions: the design would have {n} trials, more than {MAX_TRIALS}; lower "

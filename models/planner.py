@@ -83,6 +83,7 @@ class BatchedPlanner:
         self.signal_hold = np.zeros((n, 2, 3))
         self.fix_head = np.zeros((n, 3))
         self.signal_now = np.zeros((n, 2, 3))  # the eye-position signal at time_ms
+        self._table: np.ndarray | None = None  # the command tables' buffer (commands)
         self.rngs: list[np.random.Generator | None] = [None] * n
         d = head.data
         self.mocap_pos = np.zeros((n,) + d.mocap_pos.shape)
@@ -305,8 +306,13 @@ class BatchedPlanner:
     # ------------------------------------------------------------------ execution
     def commands(self, plans: SaccadePlans) -> tuple[np.ndarray, np.ndarray]:
         """The command tables: each plan's executed angles (m, T, 6) at every whole ms from its onset to
-        its ``end_ms`` (then held), and the rows in use per plan (m,) (``SaccadePlans.command_table``)."""
-        return plans.command_table()
+        its ``end_ms`` (then held), and the rows in use per plan (m,) (``SaccadePlans.command_table``).
+        The tables are written into one buffer kept by the planner (grown as needed): they are valid
+        until the next call (copy them to keep them)."""
+        size = plans.n * (int((plans.end_ms - plans.onset_ms).max()) + 1 if plans.n else 1) * 6
+        if self._table is None or self._table.size < size:
+            self._table = np.empty(max(size, int(1.25 * (0 if self._table is None else self._table.size))))
+        return plans.command_table(self._table)
 
     def start(self, worlds: np.ndarray, plans: SaccadePlans, advance_ms: np.ndarray) -> None:
         """Make ``plans`` the worlds' saccades and advance their clocks by ``advance_ms`` (past each plan's

@@ -328,6 +328,37 @@ class Head(SceneObjects, HeadRendering):
         self._plan, self._signal_plan, self.last_plan = state.plan, state.signal_plan, state.last_plan
         self._servo.forget()
 
+    #: MuJoCo arrays that place the scene's bodies and show its geoms (:meth:`scene_state`)
+    SCENE_STATE = ("qpos", "mocap_pos", "mocap_quat", "geom_rgba")
+
+    def scene_state(self) -> dict[str, np.ndarray]:
+        """Copies of the MuJoCo arrays that place the scene's bodies and show its geoms (a 3-D
+        replay's pose): ``qpos``, ``mocap_pos``, ``mocap_quat`` (``data``) and ``geom_rgba`` (``model``)."""
+        return {k: getattr(self.model if k == "geom_rgba" else self.data, k).copy() for k in self.SCENE_STATE}
+
+    def set_scene_state(self, state: dict) -> None:
+        """Pose the scene as :meth:`scene_state` returned it (positions and colours only: no simulation,
+        no oculomotor state), then ``mj_forward``. ``ValueError`` for a missing array, another shape
+        or a value that is not finite."""
+        if not isinstance(state, dict):
+            raise checks.InputTypeError(f"state must be a dict from Head.scene_state; got {type(state).__name__}")
+        new = {}
+        for k in self.SCENE_STATE:
+            now = getattr(self.model if k == "geom_rgba" else self.data, k)
+            if k not in state:
+                raise ValueError(f"the scene state lacks {k!r} (it needs {', '.join(self.SCENE_STATE)})")
+            try:
+                new[k] = np.asarray(state[k], dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"the scene state's {k} is not an array of numbers") from None
+            if new[k].shape != now.shape:
+                raise ValueError(f"the scene state's {k} has shape {new[k].shape}; this scene's is {now.shape}")
+            if not np.isfinite(new[k]).all():
+                raise ValueError(f"the scene state's {k} holds a value that is not finite")
+        for k, v in new.items():
+            getattr(self.model if k == "geom_rgba" else self.data, k)[:] = v
+        mujoco.mj_forward(self.model, self.data)
+
     @property
     def eye_joint_addresses(self) -> tuple[np.ndarray, np.ndarray]:
         """Where the six eye joints (left h, v, t, right h, v, t) sit in ``data.qpos`` and ``data.qvel``."""

@@ -1,61 +1,56 @@
-"""Suite-wide pytest hooks: the ``adversarial`` case count.
+"""Suite-wide pytest hooks: parallel workers, numba's cache warmed once, the ``adversarial`` counts.
 
 The markers (``slow``, ``install``, ``warp``, ``readme``, ``adversarial``) are declared in
 ``pyproject.toml`` (``[tool.pytest.ini_options] markers``); the README's "Tests" section says what
-each means and which command leaves which out.
+each means and which command leaves which out. A test over ~2 s on 2 cores carries
+``@pytest.mark.slow`` where it is written.
 
-Every hostile-input test (NaN, inf, wrong types and shapes, zero, negative, huge and non-integer
-values, corrupt files, bad CLI options) is marked ``@pytest.mark.adversarial``; a test that tries
-many hostile calls in one item (the public-API walk of ``tests/test_adversarial_api.py``) reports
-them through the ``hostile_calls`` fixture. The terminal summary says how many such cases ran and
-how many passed.
+* **Workers.** ``pyproject.toml`` runs the suite on pytest-xdist workers (``-n auto``: one per CPU,
+  at most 8; ``-n 0`` runs in one process) with ``--dist loadgroup``: the tests of a file that
+  defines a module-scoped fixture (a trained policy, a study's table, the README's scratch folder
+  whose blocks run in order) are sent to one worker together, so no fixture is built twice; the
+  others are spread one by one.
+* **numba.** Before any worker starts, the compiled kernels an env episode runs are compiled once
+  into numba's on-disk cache (or read back from it), so their compilation (about 30 s cold) is
+  not charged to whichever test first touches a kernel, nor paid by every worker.
+* **Adversarial counts.** Every hostile-input test (NaN, inf, wrong types and shapes, zero,
+  negative, huge and non-integer values, corrupt files, bad CLI options) is marked
+  ``@pytest.mark.adversarial``; a test that tries many hostile calls in one item (the public-API
+  walk of ``tests/test_adversarial_api.py``) reports them through the ``hostile_calls`` fixture.
+  The terminal summary says how many such cases ran and how many passed.
 """
 
 from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import tempfile
+import importlib.util
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
 
 import pytest
 
 import models  # noqa: F401  (first: it picks MuJoCo's off-screen GL backend before anything loads mujoco)
 
-#: tests over ~2 s on 2 loaded cores (measured with --durations=0; the time of the slowest
-#: parametrization), marked ``slow`` here so that files other work is editing need no change; a
-#: file or test may also carry ``@pytest.mark.slow`` itself. "file::name" covers every parametrization.
+#: Tests over ~2 s in files other sessions are editing now (test_rl.py, test_perception_*.py,
+#: test_batched_*.py, test_recording*.py): marked ``slow`` here until each carries
+#: ``@pytest.mark.slow`` itself. "file::name" covers every parametrization.
 SLOW = {
-    "test_boundaries.py::test_the_walk_finds_planted_violations",  # 3 s (each of 5 plants walks the source)
     "test_recording.py::test_run_blueprint_views_point_at_the_recording",  # 4.5 s with its setup
-    "test_adversarial_fit.py::test_a_folder_holding_another_fit_is_refused",  # 3 s
     "test_batched_planner.py::test_profiles_equal_the_generators",  # 3 s
     "test_batched_planner.py::test_profiles_of_other_generators",  # 6 s
-    "test_envs.py::test_check_env_passes",  # 3 s
-    "test_envs.py::test_memory_does_not_grow_over_ten_thousand_steps",  # 171 s
-    "test_envs.py::test_pickle_and_copy_refuse_clearly_without_a_stray_traceback",  # 5 s
-    "test_envs.py::test_vector_envs_run",  # 8 s
-    "test_fovea_cortex_remap.py::test_fovea_lattice_matches_pixels_in_paper_example",  # 2 s
-    "test_grid_sampling.py::test_constant_image_samples_to_constant",  # 2 s
-    "test_modelfit.py::test_fit_resumes_from_its_cache_and_log",  # 16 s
-    "test_modelfit.py::test_parameters_and_model_are_recovered",  # 113 s idle (446 s on loaded cores)
-    "test_modelfit.py::test_ray_backend_gives_the_local_observations",  # 32 s
-    "test_models_render.py::test_egl_is_the_default_backend_and_its_hint_names_the_packages",  # 3 s
-    "test_models_render.py::test_ten_thousand_renders_do_not_grow_memory",  # 9 s
-    "test_models_saccades.py::test_profile_table_matches_a_direct_simulation",  # 4 s
     "test_perception_mechanisms.py::test_compression_grows_with_saccade_amplitude",  # 4 s
     "test_perception_mechanisms.py::test_displacement_paradigm_blank_restores_detection",  # 9 s
     "test_perception_mechanisms.py::test_phenomena_command_writes_the_report",  # ~90 s
-    "test_recovery.py::test_recovery_confusion_matrix",  # ~50 s
     "test_perception_mechanisms.py::test_rows_name_model_condition_and_paradigm",  # 19 s
-    "test_psychophysics.py::test_cli_small_study_writes_outputs",  # 3 s
-    "test_psychophysics.py::test_gain_zero_is_veridical_up_to_sampling_error",  # 12 s
-    "test_psychophysics.py::test_killed_parallel_run_resumes",  # 19 s
-    "test_psychophysics.py::test_quick_study_through_the_command_line",  # 10 s
     "test_recording.py::test_cli_writes_recording",  # 2 s
     "test_recording.py::test_every_entity_present",  # 5 s
     "test_recording.py::test_serve_on_loopback_only_and_stops_by_itself",  # 9 s
-    "test_remap_pooled.py::test_field_moments_match_the_pooled_retinas_operator",  # 3 s
-    "test_remap_pooled.py::test_pooled_prediction_is_never_much_worse",  # 5 s
-    "test_results_integrity.py::test_a_second_run_on_the_same_folder_is_refused",  # 3 s
-    "test_results_integrity.py::test_interrupted_command_stops_its_workers_and_says_how_to_resume",  # 8 s
-    "test_results_integrity.py::test_kill_9_of_the_command_leaves_no_workers",  # 9 s
-    "test_results_integrity.py::test_workers_use_one_thread_ignore_ctrl_c_and_know_their_parent",  # 3 s
     "test_rl.py::test_cli_bad_options_fail_clearly",  # 4 s
     "test_rl.py::test_sb3_recipe_prints_progress_and_evaluate_loads_it",  # 42 s
     "test_rl.py::test_sb3_recipe_runs",  # 2 s
@@ -73,9 +68,6 @@ SLOW = {
     "test_rl.py::test_train_and_evaluate_commands_end_to_end",  # 3 s
     # the users of module fixtures that simulate for 5-20 s (a trained policy, study tables, a recorded run)
     "test_rl.py::test_saved_policy_reloads_and_evaluates_identically",
-    "test_psychophysics.py::test_errors_point_towards_the_target_near_onset",
-    "test_psychophysics.py::test_compression_peaks_near_onset_and_vanishes_far_from_it",
-    "test_psychophysics.py::test_eye_position_signal_shifts_flashes_along_then_against_the_saccade",
     "test_perception_mechanisms.py::test_dark_flashes_before_the_saccade_shift_in_its_direction",
     "test_perception_mechanisms.py::test_compression_near_onset_needs_references",
     "test_perception_mechanisms.py::test_nothing_beyond_the_sampling_error_far_from_the_saccade",
@@ -88,30 +80,195 @@ SLOW = {
     "test_recording.py::test_dots_scene_in_the_env_recording",
 }
 
+MAX_WORKERS = 8  # -n auto: one worker per CPU, at most this many (each holds MuJoCo, numba and torch)
+
 _ADVERSARIAL = {"passed": 0, "failed": 0, "skipped": 0}
 _CALLS = {"tried": 0, "refused": 0}
+_WARM: dict[str, str] = {}
+
+
+# ---------------------------------------------------------------------------------------------- workers
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """``-n auto``: one worker per CPU this process may use (not per physical core: a 2-vCPU machine
+    gets 2), at most ``MAX_WORKERS``."""
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cpus, MAX_WORKERS))
+
+
+def _is_worker(config: pytest.Config) -> bool:
+    return hasattr(config, "workerinput")
+
+
+def _shares_a_fixture(item: pytest.Item) -> bool:
+    """The test uses a fixture built once for several tests (module, class, package or session scope)."""
+    info = getattr(item, "_fixtureinfo", None)
+    return info is not None and any(
+        defs and defs[-1].scope != "function" and defs[-1].baseid != ""  # pytest's own fixtures aside
+        for name, defs in info.name2fixturedefs.items() if name in item.fixturenames)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node) -> None:
+    """The controller tells each worker where to write which tests share a fixture."""
+    node.workerinput["fixture_groups"] = node.config._fixture_groups_dir
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """A worker writes which of its tests share a fixture (node id -> file), before pytest-xdist
+    reports its collection to the controller."""
+    folder = getattr(session.config, "workerinput", {}).get("fixture_groups")
+    if folder:
+        groups = {i.nodeid: i.nodeid.split("::", 1)[0] for i in session.items if _shares_a_fixture(i)}
+        path = Path(folder) / f"{session.config.workerinput['workerid']}.json"
+        path.with_suffix(".tmp").write_text(json.dumps(groups))
+        path.with_suffix(".tmp").replace(path)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """``--dist loadgroup``: the tests that share a fixture of their file go to one worker together
+    (so the fixture is built once, and the README's blocks run in order in one folder); the others
+    are spread one by one. (pytest-xdist's own ``xdist_group`` marks do not group under pytest 9,
+    whose node ids its worker can no longer rename.)"""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    folder = Path(config._fixture_groups_dir)
+
+    class SharedFixtureScheduling(LoadScopeScheduling):
+        groups: dict[str, str] | None = None
+
+        def _split_scope(self, nodeid: str) -> str:
+            if self.groups is None:  # every worker has collected (and written its file) by now
+                self.groups = {}
+                for f in folder.glob("*.json"):
+                    self.groups.update(json.loads(f.read_text()))
+            return self.groups.get(nodeid, nodeid)
+
+    return SharedFixtureScheduling(config, log)
+
+
+def pytest_itemcollected(item: pytest.Item) -> None:
+    """Marks each test as it is collected."""
+    if " at 0x" in item.nodeid:
+        raise pytest.UsageError(f"{item.nodeid}: a test id holds a memory address, which differs between "
+                                "pytest-xdist workers; give the parametrization ids without it")
+    if f"{item.path.name}::{getattr(item, 'originalname', item.name)}" in SLOW:
+        item.add_marker(pytest.mark.slow)
+
+
+# ------------------------------------------------------------------------------------------------ numba
+
+
+def _kernel_sources() -> list[Path]:
+    """The source files of the compiled kernels (numba's cache is keyed by each file's time stamp)."""
+    names = ("conformal.kernels", "models._plan_kernels", "envs.tasks")
+    return [Path(importlib.util.find_spec(n).origin) for n in names]
+
+
+def _warm_stamp() -> Path:
+    """A file in numba's cache folder named for these kernel sources, numba and Python: present
+    when this warm-up already ran against them."""
+    import numba
+
+    parts = [numba.__version__, sys.version]
+    for path in _kernel_sources():
+        st = path.stat()
+        parts.append(f"{path}:{st.st_mtime_ns}:{st.st_size}")
+    key = hashlib.sha256("|".join(parts).encode()).hexdigest()[:16]
+    folder = os.environ.get("NUMBA_CACHE_DIR") or _kernel_sources()[0].parent / "__pycache__"
+    return Path(folder) / f"tests-warm-{key}"
+
+
+def warm_numba() -> None:
+    """Compile (or read back from numba's on-disk cache) the kernels an env episode runs: retina
+    pooling, DPFT, point and pooled remapping maps, prediction errors, the saccade and vergence
+    plans, the gaze errors (two short episodes of ``BinocularSaccade-v0`` at 32 px)."""
+    import gymnasium as gym
+
+    import envs  # noqa: F401  (registers the env)
+
+    for kwargs in ({"action_mode": "cell"}, {"grayscale": True, "pooled_remap": True, "vergence": True}):
+        env = gym.make("BinocularSaccade-v0", image_size=32, **kwargs)
+        try:
+            env.reset(seed=0)
+            env.action_space.seed(0)
+            for _ in range(2):
+                env.step(env.action_space.sample())
+        finally:
+            env.close()
+
+
+@pytest.hookimpl(trylast=True)  # after the terminal reporter is set up
+def pytest_configure(config: pytest.Config) -> None:
+    """Warm numba's cache once per run, in the process that starts the workers (or runs the tests)."""
+    if _is_worker(config):
+        return
+    config._fixture_groups_dir = tempfile.mkdtemp(prefix="pytest-fixture-groups-")
+    if config.option.collectonly or config.option.help or config.option.version:
+        return
+    try:
+        stamp = _warm_stamp()
+        if stamp.exists():
+            _WARM["numba"] = "kernels already cached (warm-up skipped)"
+            return
+        reporter = config.pluginmanager.get_plugin("terminalreporter")
+        if reporter is not None:
+            reporter.write_line("numba: compiling the kernels into its on-disk cache, once (about 30 s the first time)")
+        t0 = time.perf_counter()
+        warm_numba()
+        _WARM["numba"] = f"kernels compiled or read back in {time.perf_counter() - t0:.1f} s"
+        stamp.parent.mkdir(parents=True, exist_ok=True)
+        for old in stamp.parent.glob("tests-warm-*"):
+            old.unlink(missing_ok=True)
+        stamp.touch()
+    except OSError as e:  # a read-only cache folder: the tests compile what they need
+        _WARM["numba"] = f"warm-up stamp not written ({e})"
+    except Exception as e:  # noqa: BLE001  (the tests that need the kernels will report it themselves)
+        warnings.warn(f"numba warm-up failed: {type(e).__name__}: {e}", stacklevel=1)
+        _WARM["numba"] = f"warm-up failed: {type(e).__name__}: {e}"
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    folder = getattr(config, "_fixture_groups_dir", None)
+    if folder and not _is_worker(config):
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    return f"numba: {_WARM['numba']}" if "numba" in _WARM else None
+
+
+# ------------------------------------------------------------------------------------------ adversarial
 
 
 class HostileCalls:
-    """Counts the hostile calls one test item makes (``add(tried, refused)``)."""
+    """Counts the hostile calls one test item makes (``add(tried, refused)``); the counts travel in
+    the test's report, so they add up across pytest-xdist workers."""
+
+    def __init__(self, node: pytest.Item) -> None:
+        self._node = node
 
     def add(self, tried: int, refused: int) -> None:
-        _CALLS["tried"] += tried
-        _CALLS["refused"] += refused
+        self._node.user_properties.append(("hostile_calls", (int(tried), int(refused))))
 
 
 @pytest.fixture
-def hostile_calls() -> HostileCalls:
-    return HostileCalls()
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    for item in items:
-        if f"{item.path.name}::{item.originalname}" in SLOW:
-            item.add_marker(pytest.mark.slow)
+def hostile_calls(request: pytest.FixtureRequest) -> HostileCalls:
+    return HostileCalls(request.node)
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    if report.when == "call":
+        for name, value in report.user_properties:
+            if name == "hostile_calls":
+                _CALLS["tried"] += value[0]
+                _CALLS["refused"] += value[1]
     if "adversarial" not in report.keywords:
         return
     if report.when == "call" or (report.when == "setup" and report.outcome != "passed"):

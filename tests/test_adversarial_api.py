@@ -564,6 +564,8 @@ API: dict[str, Api] = {
                                    bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
                                    types=ALL_ERRORS + (KeyError,)),
     "models.Head.set_state": Api(lambda o: o.head.set_state, dict(state=Lazy(lambda o: o.head.get_state()))),
+    "models.Head.set_scene_state": Api(lambda o: o.head.set_scene_state,
+                                       dict(state=Lazy(lambda o: o.head.scene_state()))),
     "models.SceneObjects.set_opacity": Api(lambda o: o.head.set_opacity, dict(name="ruler", opacity=0.5),
                                    bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
                                    types=ALL_ERRORS + (KeyError,)),

@@ -140,6 +140,7 @@ def test_a_fit_is_a_function_of_its_data_and_options(data_file, reference_fit, t
     assert not (out / ".lock").exists() and not list(out.glob("*.tmp")) and not list(out.glob(".*.tmp"))
 
 
+@pytest.mark.slow
 def test_a_folder_holding_another_fit_is_refused(data_file, reference_fit, tmp_path, capsys):
     ref_dir, _ = reference_fit
     out = tmp_path / "other"

@@ -427,7 +427,7 @@ def test_skrl_recipe(tmp_path):
     assert summary["env_steps"] == 8 and torch.device(summary["device"]).type == torch.device(DEVICE).type
     with open(out / "learning_curve.csv") as f:
         assert next(csv.reader(f)) == ["env_steps", "episodes", "mean_return", "success_rate"]
-    assert (out / "agent.pt").stat().st_size > 0 and (out / "learning_curve.png").stat().st_size > 0
+    assert (out / "agent.npz").stat().st_size > 0 and (out / "learning_curve.png").stat().st_size > 0
     with pytest.raises(SystemExit):
         skrl_recipe.main(["--out", str(tmp_path / "x"), "--timesteps", "2", "--rollouts", "4"])
 

@@ -254,3 +254,25 @@ def test_take_settled_equals_one_by_one_resets(scene):
             many.take_settled([0], settled, [1], [{name: np.full(3, np.nan)}])
     with pytest.raises(ValueError, match="one seed"):
         many.take_settled([0, 1], settled, [1])
+
+
+def test_command_tables_in_the_reused_buffer_are_the_fresh_tables():
+    """``BatchedPlanner.commands`` writes every call's tables into one buffer (grown, then reused by a
+    shorter table): each is bit-identical to ``SaccadePlans.command_table()``'s new array."""
+    n = 6
+    planner = _planner(n, 3)
+    rng = np.random.default_rng(8)
+    worlds = np.arange(n)
+    sizes = []
+    for scale in (0.05, 0.6, 0.1, 0.6):  # small, larger (the buffer grows), small again (reused), larger
+        plans, _ = planner.plan(worlds, rng.uniform(-scale, scale, (n, 2)), np.ones(n))
+        table, rows = planner.commands(plans)
+        fresh, fresh_rows = plans.command_table()
+        assert table.dtype == fresh.dtype and table.shape == fresh.shape and table.flags.c_contiguous
+        np.testing.assert_array_equal(table, fresh)
+        np.testing.assert_array_equal(rows, fresh_rows)
+        assert np.shares_memory(table, planner._table)
+        sizes.append(table.shape[1])
+    assert sizes[1] > sizes[0] and sizes[2] < sizes[1]  # the buffer was grown and then reused
+    with pytest.raises(ValueError, match="contiguous flat float64"):
+        plans.command_table(np.empty(3))

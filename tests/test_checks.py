@@ -12,6 +12,7 @@ kind, ragged nesting, wrong shapes and dimensions, and objects whose ``==`` rais
 from __future__ import annotations
 
 import math
+import re
 from fractions import Fraction
 
 import numpy as np
@@ -25,6 +26,12 @@ from conformal.checks import InputTypeError
 pytestmark = pytest.mark.adversarial
 
 NAN, INF = float("nan"), float("inf")
+
+
+def _repr(value) -> str:
+    """A test id: ``repr`` without memory addresses (``<object object at 0x...>``), so that every
+    pytest-xdist worker collects the same ids."""
+    return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(value))
 
 
 class BadEq:
@@ -49,14 +56,14 @@ def test_input_type_error_is_both_type_and_value_error():
 
 
 # ---------------------------------------------------------------------- integer
-@pytest.mark.parametrize("value", NOT_NUMBERS, ids=repr)
+@pytest.mark.parametrize("value", NOT_NUMBERS, ids=_repr)
 def test_integer_refuses_wrong_types(value):
     with pytest.raises(InputTypeError, match=r"^count must be an integer.*; got .* of type"):
         checks.integer("count", value)
 
 
 @pytest.mark.parametrize("value", NON_FINITE + [1.5, -0.5, 2.0000001, np.float32(7.5), np.array(7.5), 1e-300,
-                                                Fraction(3, 2)], ids=repr)
+                                                Fraction(3, 2)], ids=_repr)
 def test_integer_refuses_non_integral_and_non_finite_values(value):
     with pytest.raises(ValueError, match="^count must be an integer") as info:
         checks.integer("count", value)
@@ -65,7 +72,7 @@ def test_integer_refuses_non_integral_and_non_finite_values(value):
 
 @pytest.mark.parametrize("value, expected", [(3, 3), (3.0, 3), (-2.0, -2), (np.int8(5), 5), (np.uint64(2**63), 2**63),
                                               (np.float32(4), 4), (np.array(6), 6), (np.array(6.0), 6),
-                                              (Fraction(4, 2), 2), (10**30, 10**30), (1e20, 10**20)], ids=repr)
+                                              (Fraction(4, 2), 2), (10**30, 10**30), (1e20, 10**20)], ids=_repr)
 def test_integer_accepts_integral_numbers_of_any_kind(value, expected):
     out = checks.integer("count", value)
     assert type(out) is int and out == expected
@@ -101,7 +108,7 @@ def test_integers_are_never_truncated(x):
 
 
 # ---------------------------------------------------------------------- real
-@pytest.mark.parametrize("value", NOT_NUMBERS, ids=repr)
+@pytest.mark.parametrize("value", NOT_NUMBERS, ids=_repr)
 def test_real_refuses_wrong_types(value):
     with pytest.raises(InputTypeError, match=r"^level must be a finite real number.*; got .* of type"):
         checks.real("level", value)
@@ -134,7 +141,7 @@ def test_real_bounds_and_messages():
 
 
 @pytest.mark.parametrize("value", [3, -2.5, np.float16(0.5), np.int64(7), np.array(1.25), np.uint8(200), Fraction(1, 4),
-                                   1e308, 10**300], ids=repr)
+                                   1e308, 10**300], ids=_repr)
 def test_real_accepts_finite_reals_of_any_kind(value):
     out = checks.real("level", value)
     assert type(out) is float and out == float(value)
@@ -155,13 +162,13 @@ def test_real_returns_a_finite_float_in_bounds_or_refuses(x, lo, width):
 
 # ---------------------------------------------------------------------- flag
 @pytest.mark.parametrize("value", ["no", "False", "", "True", 1, 0, 1.0, 0.0, None, np.array([True]), np.int64(1), [True],
-                                   np.array([True, False]), b"\x00", BadEq()], ids=repr)
+                                   np.array([True, False]), b"\x00", BadEq()], ids=_repr)
 def test_flag_refuses_anything_but_bools(value):
     with pytest.raises(InputTypeError, match="^switch must be True or False; got"):
         checks.flag("switch", value)
 
 
-@pytest.mark.parametrize("value", [True, False, np.True_, np.False_, np.bool_(1)], ids=repr)
+@pytest.mark.parametrize("value", [True, False, np.True_, np.False_, np.bool_(1)], ids=_repr)
 def test_flag_accepts_python_and_numpy_bools(value):
     out = checks.flag("switch", value)
     assert type(out) is bool and out == bool(value)
@@ -175,7 +182,7 @@ OPTS = ("red", "green")
     ("blue", ValueError), ("", ValueError), ("RED", ValueError), ("red ", ValueError), (np.str_("blue"), ValueError),
     (None, InputTypeError), (1, InputTypeError), (["red"], InputTypeError), (b"red", InputTypeError),
     (("red",), InputTypeError), (NAN, InputTypeError), (BadEq(), InputTypeError), (np.array(["red"]), InputTypeError)],
-    ids=repr)
+    ids=_repr)
 def test_choice_refuses_values_not_listed(value, exc):
     with pytest.raises(exc, match=r"^colour must be one of 'red', 'green'; got"):
         checks.choice("colour", value, OPTS)
@@ -206,7 +213,7 @@ def test_array_refuses_wrong_kinds(value):
         checks.array("data", value, shape=(2, 3))
 
 
-@pytest.mark.parametrize("value", [[[1.0, 2.0], [3.0]], [[1, 2, 3], [4, 5]], [np.zeros(3), np.zeros(2)]], ids=repr)
+@pytest.mark.parametrize("value", [[[1.0, 2.0], [3.0]], [[1, 2, 3], [4, 5]], [np.zeros(3), np.zeros(2)]], ids=_repr)
 def test_array_refuses_ragged_nesting(value):
     with pytest.raises(ValueError, match="^data must be a rectangular numeric array"):
         checks.array("data", value)
@@ -263,7 +270,7 @@ def test_array_kinds_and_nested_lists():
 
 
 # ---------------------------------------------------------------------- callable_
-@pytest.mark.parametrize("value", [3, "f", None, [abs], np.zeros(2), object()], ids=repr)
+@pytest.mark.parametrize("value", [3, "f", None, [abs], np.zeros(2), object()], ids=_repr)
 def test_callable_refuses_non_callables(value):
     with pytest.raises(InputTypeError, match="^point_map must be callable; got"):
         checks.callable_("point_map", value)

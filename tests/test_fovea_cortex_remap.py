@@ -34,6 +34,7 @@ def test_fovea_image_places_samples_upright(grid):
     assert np.count_nonzero(~np.isnan(img)) == grid.n_fovea
 
 
+@pytest.mark.slow
 def test_fovea_lattice_matches_pixels_in_paper_example(grid):
     # K = 4 dots per unit: each foveal sample is one pixel; sampling a picture reproduces it
     r = C.Retina(grid, (512, 512), 4.0)

@@ -81,6 +81,7 @@ def retina_128():
     return C.Retina(g, (128, 128), 1.0)
 
 
+@pytest.mark.slow
 def test_constant_image_samples_to_constant(paper_grid):
     r = C.Retina(paper_grid, (512, 512, 3), 4.0)
     img = np.full((512, 512, 3), 0.37)

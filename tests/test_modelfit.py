@@ -81,6 +81,7 @@ def simulated(tmp_path_factory):
     return read_data(path)
 
 
+@pytest.mark.slow
 def test_parameters_and_model_are_recovered(simulated, tmp_path):
     """Data from the mechanistic model at known parameters: the fit recovers every parameter within
     its 95 % interval, and a comparison with the paper model and the nested no-remap variant prefers
@@ -105,6 +106,7 @@ def test_parameters_and_model_are_recovered(simulated, tmp_path):
     assert lrt[0]["restricted"] == "mechanistic/no_command_remap" and float(lrt[0]["p_value"]) < 1e-3
 
 
+@pytest.mark.slow
 def test_ray_backend_gives_the_local_observations(tmp_path):
     """The same trials observed on a local Ray instance (2 actors) and in-process: identical read-outs."""
     pytest.importorskip("ray")
@@ -122,6 +124,7 @@ def test_ray_backend_gives_the_local_observations(tmp_path):
         runner.close()
 
 
+@pytest.mark.slow
 def test_fit_resumes_from_its_cache_and_log(simulated, tmp_path):
     """The observations are cached (npz, no pickle) and re-used; the same fit again is a no-op; with
     fit.json deleted the logged evaluations are replayed to the same result; a damaged cache is redone."""

@@ -100,7 +100,7 @@ def test_fixation_geometry_and_vergence_by_construction(head):
             cam = head.model.camera(eye).id
             axis = -head.data.cam_xmat[cam].reshape(3, 3)[:, 2]
             to_p = p - head.data.cam_xpos[cam]
-            assert np.rad2deg(np.arccos(axis @ to_p / np.linalg.norm(to_p))) < 0.01
+            assert np.rad2deg(np.arccos(np.clip(axis @ to_p / np.linalg.norm(to_p), -1.0, 1.0))) < 0.01
             axes.append(axis)
         vergence = np.arccos(axes[0] @ axes[1])
         assert np.isclose(vergence, 2 * np.arctan(0.032 / dist), atol=np.deg2rad(0.02))

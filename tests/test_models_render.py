@@ -160,6 +160,7 @@ def test_eye_geometry_nodal_point_and_joint_ranges():
         assert 0 < rng["t"][1] <= 20 and np.isclose(rng["t"][0], -rng["t"][1])
 
 
+@pytest.mark.slow
 def test_ten_thousand_renders_do_not_grow_memory():
     h = Head("dots", image_size=16)
     for _ in range(1000):
@@ -208,6 +209,7 @@ def test_missing_gl_backend_names_debian_packages():
     assert "GLBackendError" in res.stderr and "apt-get install libosmesa6" in res.stderr
 
 
+@pytest.mark.slow
 def test_egl_is_the_default_backend_and_its_hint_names_the_packages():
     code = "import os, models; print(os.environ['MUJOCO_GL'], os.environ.get('PYOPENGL_PLATFORM'))"
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}

@@ -165,6 +165,7 @@ def test_no_parameter_set_drives_the_eye_above_700_deg_s():
         assert BurstGenerator().profile(float(a)).peak_velocity_deg_s < 700.0
 
 
+@pytest.mark.slow
 def test_profile_table_matches_a_direct_simulation():
     """The per-process table interpolated in amplitude agrees with the loop simulated for that amplitude."""
     g = BurstGenerator()

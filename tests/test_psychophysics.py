@@ -85,6 +85,7 @@ def tables():
     return out
 
 
+@pytest.mark.slow
 def test_gain_zero_is_veridical_up_to_sampling_error(tables):
     t = tables["none"]
     err = sampling_error(t)
@@ -98,6 +99,7 @@ def test_gain_zero_is_veridical_up_to_sampling_error(tables):
     assert np.allclose(t["target_x_deg"], 10.0, atol=1e-3) and np.allclose(t["target_y_deg"], 0.0, atol=1e-3)
 
 
+@pytest.mark.slow
 def test_eye_position_signal_shifts_flashes_along_then_against_the_saccade(tables):
     """With no remapping, the eye-position signal alone shifts perisaccadic flashes uniformly: in
     the saccade's direction for flashes shortly before and at onset (the signal already moves
@@ -120,6 +122,7 @@ def test_eye_position_signal_shifts_flashes_along_then_against_the_saccade(table
     assert abs(shift[t == -150].mean()) < 0.5
 
 
+@pytest.mark.slow
 def test_errors_point_towards_the_target_near_onset(tables):
     r, n = tables["remap"], tables["none"]
     near = np.abs(r["flash_time_ms"] - (-10)) <= 10
@@ -139,6 +142,7 @@ def test_errors_point_towards_the_target_near_onset(tables):
     assert np.max(d[near]) < 3.5
 
 
+@pytest.mark.slow
 def test_compression_peaks_near_onset_and_vanishes_far_from_it(tables):
     r, n = tables["remap"], tables["none"]
     times, ci = compression_index(r)[20.0]
@@ -207,6 +211,7 @@ if __name__ == "__main__":  # spawn workers re-import this file
 """
 
 
+@pytest.mark.slow
 def test_killed_parallel_run_resumes(tmp_path):
     """SIGKILL a 2-process run mid-way; the resumed table equals an uninterrupted in-process run."""
     script = tmp_path / "job.py"
@@ -252,6 +257,7 @@ def test_cli_help_and_bad_options(capsys):
         assert "error" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_cli_small_study_writes_outputs(tmp_path):
     from experiments.__main__ import main
 
@@ -283,6 +289,7 @@ def test_cli_small_study_writes_outputs(tmp_path):
         assert sorted(r["trial"] for r in rec[name] if "trial" in r) == sorted(t["trial_id"].tolist())
 
 
+@pytest.mark.slow
 def test_quick_study_through_the_command_line(tmp_path):
     """``run --quick``: the reduced design (one 20 deg saccade, 8 dots, 7 times) writes every output,
     and its summary shows compression near onset."""

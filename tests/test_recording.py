@@ -665,7 +665,7 @@ NUMERIC_OPTIONS = ["--steps", "--seed", "--image-size", "--fixation-ms", "--serv
 
 @pytest.mark.adversarial
 @pytest.mark.parametrize("option,value", [(o, v) for o in NUMERIC_OPTIONS for v in BAD_NUMBERS
-                                          if not (o == "--seed" and v == "0")])
+                                          if not (o in ("--seed", "--web-port", "--grpc-port") and v == "0")])
 def test_cli_bad_numeric_option(option, value, tmp_path, monkeypatch, capsys):
     """Every numeric option rejects NaN, inf, negative, zero (where meaningless), non-integer,
     exponent, huge and non-numeric values: exit 2 with one error line naming the option."""
@@ -796,3 +796,71 @@ def test_serve_on_loopback_only_and_stops_by_itself(tmp_path):
     assert "recorded" in rest
     assert not _listening(web) and not _listening(grpc)
     assert "/world/eyes/left/camera/image" in read(out)
+
+
+def _rrd(tmp_path) -> str:
+    import rerun as rr
+
+    path = str(tmp_path / "tiny.rrd")
+    rec = rr.RecordingStream("tiny")
+    rec.save(path)
+    rec.log("points", rr.Points3D([[0.0, 0.0, 0.0]]))
+    rec.flush()
+    rec.disconnect()
+    return path
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/net/tcp")
+def test_two_viewers_started_at_once_never_share_an_address(tmp_path):
+    """Two ``view`` commands started together on the same ports: one serves and prints the address; the
+    other never prints one (it would be the first one's server), and ends with one line naming the port,
+    exit 2. With ``--web-port 0 --grpc-port 0`` both serve, on ports of their own."""
+    rrd = _rrd(tmp_path)
+    web, grpc = _free_port(), _free_port()
+    while grpc == web:
+        grpc = _free_port()
+    env = {**os.environ, "PYTHONPATH": os.getcwd()}
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+    def start(*ports):
+        return subprocess.Popen([sys.executable, "-m", "experiments", "view", rrd, "--serve-seconds", "3",
+                                 "--web-port", str(ports[0]), "--grpc-port", str(ports[1])],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=root)
+
+    for ports in ((web, grpc), (0, 0)):
+        procs = [start(*ports), start(*ports)]
+        results = []
+        try:
+            results = [p.communicate(timeout=120) + (p.returncode,) for p in procs]
+        finally:
+            for p in procs:
+                if p.poll() is None:
+                    p.kill()
+                    p.wait()
+        urls = [ln for out, _, _ in results for ln in out.splitlines() if ln.startswith("Rerun web viewer: ")]
+        if ports == (0, 0):
+            assert [rc for _, _, rc in results] == [0, 0], results
+            assert len(set(urls)) == 2, urls
+        else:
+            assert sorted(rc for _, _, rc in results) == [0, 2], results
+            assert len(urls) == 1 and f":{web}/" in urls[0], results
+            err = next(e for _, e, rc in results if rc == 2)
+            lines = [ln for ln in err.splitlines() if "error:" in ln]
+            assert len(lines) == 1 and "Traceback" not in err, err
+            assert f"port {web}" in lines[0] or f"port {grpc}" in lines[0], err
+        assert not _listening(web) and not _listening(grpc)
+
+
+def test_taken_port_is_one_line_naming_it(tmp_path, capsys):
+    """A port another program listens on: a usage error naming it, before any server starts."""
+    rrd = _rrd(tmp_path)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        with pytest.raises(SystemExit) as e:
+            main(["view", rrd, "--web-port", str(port), "--grpc-port", "0", "--serve-seconds", "1"])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert f"port {port} on 127.0.0.1 is in use" in err and "Traceback" not in err

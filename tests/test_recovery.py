@@ -5,9 +5,12 @@ from __future__ import annotations
 import csv
 import json
 
+import pytest
+
 from experiments.__main__ import main
 
 
+@pytest.mark.slow
 def test_recovery_confusion_matrix(tmp_path):
     """Each theory's simulated data (with motor noise) is fitted by every theory through a forward
     model without it; the table has one row per (generating, fitted) pair, delta AIC 0 for exactly
@@ -38,8 +41,6 @@ def test_recovery_confusion_matrix(tmp_path):
 
 
 def test_recovery_usage_errors(capsys):
-    import pytest
-
     with pytest.raises(SystemExit) as e:
         main(["recovery", "--reports", "0"])
     assert e.value.code == 2

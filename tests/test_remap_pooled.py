@@ -190,6 +190,7 @@ def test_field_moments_are_the_fields_second_moments(grid):
     assert not got.flags.writeable
 
 
+@pytest.mark.slow
 def test_field_moments_match_the_pooled_retinas_operator():
     """The footprint the pooled retina really averages over (each row of its operator: pixels
     weighted by their share of the field), on a picture fine enough for the fields to span many
@@ -398,6 +399,7 @@ def test_pooled_prediction_is_closer_to_the_post_saccadic_retina(grid, analytic,
     axis0=st.tuples(st.floats(-1, 1), st.floats(-0.2, 0.2), st.floats(-1, 1)),
     deg0=st.floats(0.0, 20.0),
 )
+@pytest.mark.slow
 def test_pooled_prediction_is_never_much_worse(grid, analytic, axis, deg, axis0, deg0):
     """From any pre-saccadic orientation (also saccades that bring the periphery to the fovea, where
     the old fields were coarse and pooling cannot restore the detail), pooling is never worse (within

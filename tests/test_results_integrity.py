@@ -165,6 +165,7 @@ def test_resume_refuses_rows_of_another_configuration_even_without_run_json(tmp_
         run_trials(TINY, gain0, out, workers=1, progress=False)
 
 
+@pytest.mark.slow
 def test_a_second_run_on_the_same_folder_is_refused(tmp_path, capsys):
     from experiments.__main__ import main
 
@@ -194,6 +195,7 @@ def test_nan_results_fail_the_command_naming_the_trials(tmp_path, capsys):
     assert (out / "trials.csv").exists() and not (out / "summary.txt").exists() and not (out / "fig11.png").exists()
 
 
+@pytest.mark.slow
 def test_workers_use_one_thread_ignore_ctrl_c_and_know_their_parent():
     pool = _make_pool(TrialConfig(image_size=32), 1)
     try:
@@ -236,6 +238,7 @@ from procs import holding  # noqa: E402
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.slow
 def test_kill_9_of_the_command_leaves_no_workers(tmp_path):
     proc, kids = _start_run(tmp_path / "k9", capture=False)
     try:
@@ -250,6 +253,7 @@ def test_kill_9_of_the_command_leaves_no_workers(tmp_path):
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 @pytest.mark.parametrize("sig, group", [(signal.SIGINT, True), (signal.SIGTERM, False)], ids=["ctrl-c", "sigterm"])
+@pytest.mark.slow
 def test_interrupted_command_stops_its_workers_and_says_how_to_resume(tmp_path, sig, group):
     """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) or SIGTERM to the parent:
     no traceback, workers gone, exit 128 + signal, one line with the command that resumes."""

@@ -6,6 +6,9 @@
 - ``cem``: :func:`train_cem` (noisy cross-entropy method) with :class:`CEMConfig`.
 - ``curve``: :func:`plot_learning_curve`, :func:`plot_training_log`, :func:`plot_runs`.
 - ``stats``: :func:`iqm`, :func:`bootstrap_ci`, :func:`summarize_runs` (Agarwal et al. 2021).
+- ``saved``: agents on disk as data, never pickle: :func:`write_unit` / :func:`read_unit` (arrays and
+  their JSON in one ``.npz``, written atomically); ``runfolder``: :func:`check_settings` (one run's
+  settings per training folder, ``train.json``; another run's folder refused).
 - ``extractors`` (torch): :class:`WrapConv2d`, :class:`CorticalEncoder`, :class:`SoftArgmaxSaccade`.
 - ``sb3`` (the ``rl`` extra): PPO / SAC policies over the cortical map and :func:`train_sb3`;
   ``hyperparams``: :func:`load_hyperparams` (``experiments/hyperparams/*.yml``); ``baselines``:
@@ -21,9 +24,11 @@ from .curve import plot_learning_curve, plot_runs, plot_training_log, read_train
 from .policies import (BrightestCellPolicy, LinearCellPolicy, RandomPolicy, cell_features,
                        feature_names, load_policy)
 from .rollout import DEFAULT_ENV_KWARGS, Evaluation, episode_seeds, evaluate, make_env
+from .runfolder import check_settings
+from .saved import read_unit, write_unit
 from .stats import bootstrap_ci, iqm, summarize_runs
 
 __all__ = ["BrightestCellPolicy", "CEMConfig", "DEFAULT_ENV_KWARGS", "Evaluation", "LinearCellPolicy",
-           "RandomPolicy", "bootstrap_ci", "cell_features", "episode_seeds", "evaluate", "feature_names", "iqm",
+           "RandomPolicy", "bootstrap_ci", "cell_features", "check_settings", "episode_seeds", "evaluate", "feature_names", "iqm",
            "load_policy", "make_env", "plot_learning_curve", "plot_runs", "plot_training_log", "read_training_log",
-           "summarize_runs", "train_cem"]
+           "read_unit", "summarize_runs", "train_cem", "write_unit"]

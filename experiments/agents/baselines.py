@@ -9,8 +9,8 @@ episodes, aggregated as IQM with a percentile-bootstrap 95 % CI (Agarwal et al. 
 - ``reference.json``: the brightest-cell heuristic and uniform random cells on the held-out episodes.
 - ``<agent>_s<seed>/``: one training run (the folder ``train --algo AGENT`` writes) and, written last,
   its ``heldout.json`` (deterministic and, for PPO/SAC, sampled actions). A run with a valid
-  ``heldout.json`` is done and skipped when the command is run again; any other is trained again from
-  the start (each run is deterministic under its seed, so a re-run gives the same numbers).
+  ``heldout.json`` is done and skipped when the command is run again; any other is resumed from its
+  checkpoint (:mod:`experiments.agents.runfolder`: the same weights as a run never stopped).
 - ``table.csv`` / ``table.md``: per agent, IQM [95 % CI], mean and the per-seed held-out success rates,
   training env steps and wall time; ``curves.png``: PPO's and SAC's curves over env steps (validation
   success and return of the deterministic policy, success of the training episodes with sampled
@@ -24,7 +24,6 @@ in progress.
 from __future__ import annotations
 
 import json
-import shutil
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -70,9 +69,8 @@ def _held_out(env, policy, seeds: np.ndarray, eval_seed: int) -> dict[str, float
 
 def _train_one(run: Path, agent: str, task: str, seed: int, hp: dict | None, timesteps: int | None,
                quick: bool, image_size: int, log) -> dict[str, Any]:
-    """Train one run from scratch into ``run``; returns the training metadata (wall time, env steps)."""
-    if run.exists():
-        shutil.rmtree(run)  # an unfinished run: start again (deterministic under its seed)
+    """Train one run into ``run``, resuming an unfinished one; returns the training metadata (wall
+    time, env steps)."""
     if agent == "cem":
         from .cem import CEMConfig, train_cem
 

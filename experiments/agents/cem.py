@@ -4,7 +4,9 @@ refitted to the elite candidates each iteration, with decaying extra noise).
 
 Candidates of an iteration are scored on the same training episodes (common random numbers);
 after every iteration the mean policy is evaluated on a fixed validation set, a row is appended
-to ``training_log.csv`` and the policy is saved, so an interrupted run loses nothing.
+to ``training_log.csv`` and ``checkpoint.npz`` is replaced (the Gaussian and the generator's state),
+so an interrupted run loses at most one iteration and resumes to the same weights
+(:mod:`experiments.agents.runfolder`).
 """
 
 from __future__ import annotations
@@ -16,9 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..folders import append_csv_row
-from .policies import BrightestCellPolicy, LinearCellPolicy, RandomPolicy, feature_names
+from ..folders import append_csv_row, write_csv, write_json
+from .policies import BrightestCellPolicy, LinearCellPolicy, RandomPolicy, feature_names, load_policy
 from .rollout import DEFAULT_ENV_KWARGS, TRAIN_STREAM, episode_seeds, evaluate, make_env
+from .runfolder import CHECKPOINT, SETTINGS, check_settings
+from .saved import read_unit, write_unit
 
 __all__ = ["CEMConfig", "LOG_COLUMNS", "VALIDATION_STREAM", "train_cem"]
 
@@ -54,37 +58,73 @@ class CEMConfig:
             raise ValueError("init_std and ring_std must be > 0 and extra_std >= 0")
 
 
+def _finished(out: Path, settings: dict) -> tuple[LinearCellPolicy, dict] | None:
+    """The policy and summary of a finished run with ``settings`` in ``out``, or None."""
+    if not (out / "policy.json").exists():
+        return None
+    policy = load_policy(out)
+    if policy.metadata.get("settings") != settings:
+        raise ValueError(f"{out / 'policy.json'} describes another run than {SETTINGS}; use another --out")
+    return policy, policy.metadata
+
+
 def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = None, seed: int = 0,
               env_kwargs: dict | None = None, progress: bool = True) -> tuple[LinearCellPolicy, dict]:
-    """Train a linear cell policy on ``task``; write ``policy.npz/json``, ``training_log.csv`` and
-    ``baselines.json`` into ``out``. Returns the policy and a summary dict (curve, baselines)."""
+    """Train a linear cell policy on ``task``, or resume the run in ``out``; writes ``train.json``
+    (the settings), ``baselines.json``, ``training_log.csv`` (a row per iteration), ``checkpoint.npz``
+    after every iteration (the Gaussian, the generator's state and the curve: one file, replaced
+    atomically) and, last, ``policy.npz`` + ``policy.json``. A resumed run ends with the same weights
+    as one never stopped. Returns the policy and a summary dict (curve, baselines)."""
     from tqdm import tqdm
 
     cfg = config or CEMConfig()
     cfg.validate()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    log_path = out / "training_log.csv"
-    if log_path.exists():
-        log_path.unlink()
     env_kwargs = {**DEFAULT_ENV_KWARGS, **(env_kwargs or {})}
+    settings = json.loads(json.dumps({"format": "cem-npz-1", "trainer": "cem", "task": task, "seed": int(seed),
+                                      "config": asdict(cfg), "env_kwargs": env_kwargs}))
+    check_settings(out, settings)
+    done = _finished(out, settings)
+    if done is not None:
+        return done
+    log_path, ck = out / "training_log.csv", out / CHECKPOINT
     env = make_env(task, **env_kwargs)
     try:
         M, N = env.vision.grid.M, env.vision.grid.N
         dim = len(feature_names(M))
         rng = np.random.default_rng([int(seed), 777])
         val_seeds = episode_seeds(seed, cfg.eval_episodes, VALIDATION_STREAM)
-        baselines = {p.name: evaluate(env, p, val_seeds, rng_seed=seed).as_dict()
-                     for p in (RandomPolicy(M * N), BrightestCellPolicy())}
-        (out / "baselines.json").write_text(json.dumps(baselines, indent=2) + "\n")
         sigma0 = np.r_[np.full(dim - M, cfg.init_std), np.full(M, cfg.ring_std)]
-        mu, sigma = np.zeros(dim), sigma0.copy()
         n_elite = max(1, round(cfg.elite_frac * cfg.population))
+        start, before_s, steps = 0, 0.0, 0  # steps: training env steps (saccades) so far, validation excluded
+        if ck.exists():
+            arrays, state = read_unit(ck, hint=f"delete {ck.name} to train this run again")
+            try:
+                if state["settings"] != settings:
+                    raise ValueError("other settings")
+                mu, sigma = np.asarray(arrays["mu"], np.float64), np.asarray(arrays["sigma"], np.float64)
+                if mu.shape != (dim,) or sigma.shape != (dim,):
+                    raise ValueError(f"weights of shape {mu.shape}, not ({dim},)")
+                rng.bit_generator.state = state["rng"]
+                start, before_s, steps = int(state["iteration"]), float(state["elapsed_s"]), int(state["env_steps"])
+                baselines, curve = dict(state["baselines"]), list(state["curve"])
+            except (KeyError, TypeError, ValueError) as err:
+                raise ValueError(f"{ck} does not fit this run ({err}); delete it to train this run again") from None
+            write_csv(log_path, list(LOG_COLUMNS), curve)
+        else:
+            log_path.unlink(missing_ok=True)
+            baselines = {p.name: evaluate(env, p, val_seeds, rng_seed=seed).as_dict()
+                         for p in (RandomPolicy(M * N), BrightestCellPolicy())}
+            mu, sigma, curve = np.zeros(dim), sigma0.copy(), []
+        write_json(out / "baselines.json", baselines)
         meta = {"task": task, "env_kwargs": env_kwargs, "seed": int(seed), "trainer": "cem",
-                "config": asdict(cfg), "grid": {"M": M, "N": N}, "baselines": baselines, "curve": []}
-        t0, steps = time.perf_counter(), 0  # steps: training env steps (saccades) so far, validation excluded
+                "config": asdict(cfg), "grid": {"M": M, "N": N}, "baselines": baselines, "curve": curve,
+                "settings": settings}
+        t0 = time.perf_counter()
         policy = LinearCellPolicy(mu.copy(), metadata=meta)
-        bar = tqdm(range(cfg.iterations), desc=f"CEM {task}", unit="it", disable=not progress)
+        bar = tqdm(range(start, cfg.iterations), desc=f"CEM {task}", unit="it", disable=not progress,
+                   initial=start, total=cfg.iterations)
         for it in bar:
             seeds = episode_seeds(seed, cfg.episodes, TRAIN_STREAM, start=it * cfg.episodes)
             cands = mu + sigma * rng.standard_normal((cfg.population, dim))
@@ -99,13 +139,18 @@ def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = 
             ev = evaluate(env, policy, val_seeds, rng_seed=seed)
             row = {"iteration": it + 1, "elite_return": float(np.sort(scores)[-n_elite:].mean()),
                    "population_return": float(scores.mean()), **ev.as_dict(),
-                   "sigma": float(sigma.mean()), "elapsed_s": round(time.perf_counter() - t0, 2),
+                   "sigma": float(sigma.mean()), "elapsed_s": round(before_s + time.perf_counter() - t0, 2),
                    "env_steps": steps}
             row.pop("episodes")
             append_csv_row(log_path, LOG_COLUMNS, row)
-            meta["curve"].append(row)
-            policy.save(out)
+            curve.append(row)
+            write_unit(ck, {"mu": mu, "sigma": sigma},
+                       {"settings": settings, "rng": rng.bit_generator.state, "iteration": it + 1,
+                        "elapsed_s": before_s + time.perf_counter() - t0, "env_steps": steps,
+                        "baselines": baselines, "curve": curve})
             bar.set_postfix(success=f"{ev.success_rate:.2f}", reward=f"{ev.mean_reward:.3f}")
+        policy.save(out)
+        ck.unlink(missing_ok=True)
         return policy, meta
     finally:
         env.close()

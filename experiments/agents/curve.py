@@ -46,11 +46,15 @@ def read_training_log(path: str | Path) -> dict[str, list[float]]:
     """The columns of an SB3 agent's ``training_log.csv`` as float lists (empty cells: NaN)."""
     import csv
 
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        raise ValueError(f"{path} holds no rows")
-    return {k: [float(r[k]) if r[k] not in ("", None) else float("nan") for r in rows] for k in rows[0]}
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+        if not rows:
+            raise ValueError("no rows")
+        return {k: [float(r[k]) if r[k] not in ("", None) else float("nan") for r in rows] for k in rows[0]}
+    except (UnicodeDecodeError, csv.Error, ValueError, TypeError) as err:
+        raise ValueError(f"{path} is not a training log ({type(err).__name__}: {str(err)[:120]}); "
+                         "train that run again") from None
 
 
 def plot_training_log(csv_path: str | Path, path: str | Path, title: str = "") -> Path:

@@ -144,13 +144,22 @@ class LinearCellPolicy:
         return int(rng.choice(z.size, p=p / p.sum()))
 
     def save(self, directory: str | Path) -> Path:
-        """Write ``policy.npz`` (weights) and ``policy.json`` (metadata) into ``directory``."""
+        """Write ``policy.npz`` (weights) and then ``policy.json`` (metadata and the weights' SHA-256),
+        each atomically, into ``directory``."""
+        import io
+
+        from ..folders import atomic_write_bytes, write_json
+        from .saved import file_sha256
+
         d = Path(directory)
         d.mkdir(parents=True, exist_ok=True)
-        np.savez(d / "policy.npz", weights=self.weights)
+        buf = io.BytesIO()
+        np.savez(buf, weights=self.weights)
+        atomic_write_bytes(d / "policy.npz", buf.getvalue())
         meta = {"kind": "linear-cell", "feature_set": FEATURE_SET, "temperature": self.temperature,
-                "features": feature_names(self.weights.size - 4), **self.metadata}
-        (d / "policy.json").write_text(json.dumps(meta, indent=2) + "\n")
+                "features": feature_names(self.weights.size - 4), **self.metadata,
+                "weights_sha256": file_sha256(d / "policy.npz")}
+        write_json(d / "policy.json", meta)  # last: its SHA-256 names the weights it describes
         return d
 
 
@@ -162,17 +171,24 @@ def load_policy(directory: str | Path) -> LinearCellPolicy:
         raise FileNotFoundError(f"{d} is not a saved policy: missing {', '.join(missing)}")
     try:
         meta = json.loads((d / "policy.json").read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ValueError(f"{d / 'policy.json'} is not valid JSON ({err}); the policy folder is corrupt: retrain") from None
     if not isinstance(meta, dict):
         raise ValueError(f"{d / 'policy.json'} does not hold a JSON object; the policy folder is corrupt: retrain")
     if meta.get("kind") != "linear-cell" or meta.get("feature_set") != FEATURE_SET:
         raise ValueError(f"{d}: unsupported policy kind/feature set "
                          f"{meta.get('kind')!r}/{meta.get('feature_set')!r}; expected 'linear-cell'/{FEATURE_SET!r}")
+    sha = meta.pop("weights_sha256", None)
+    if sha is not None:
+        from .saved import file_sha256
+
+        if sha != file_sha256(d / "policy.npz"):
+            raise ValueError(f"{d / 'policy.npz'} is not the file policy.json describes (its SHA-256 differs): "
+                             "the folder mixes two runs or was altered; retrain")
     try:
         with np.load(d / "policy.npz", allow_pickle=False) as z:
             weights = np.array(z["weights"])
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+    except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError, zipfile.BadZipFile) as err:
         raise ValueError(f"{d / 'policy.npz'} could not be read ({type(err).__name__}: {err}); "
                          "the policy folder is corrupt: retrain") from None
     temperature = float(meta.pop("temperature", 0.0))

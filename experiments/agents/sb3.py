@@ -15,7 +15,10 @@ Policies (``policy`` in the hyper-parameter files, :mod:`experiments.agents.hype
   atanh, as SAC squashes with tanh); its critics read the same convolution's features.
 
 :func:`train_sb3` trains one agent, appending a row to ``training_log.csv`` after every evaluation
-on held-out validation episodes (so an interrupted run keeps its curve) and saving the model then.
+on held-out validation episodes and replacing ``checkpoint.npz`` then (a kill -9 loses at most one
+evaluation interval; the same command resumes it to the same weights). Models are saved as data
+(:func:`save_agent`: ``<algo>.npz`` weights and ``<algo>.json``) and rebuilt from it
+(:func:`load_agent`); a Stable-Baselines3 zip, which unpickles code, is never read.
 """
 
 from __future__ import annotations
@@ -30,12 +33,15 @@ import torch
 from gymnasium import spaces
 from torch import nn
 
-from ..folders import append_csv_row
+from ..folders import append_csv_row, write_csv, write_json
 from .extractors import CorticalEncoder, SoftArgmaxSaccade, cell_saccade_vectors
 from .rollout import episode_seeds, evaluate, make_env
+from .runfolder import CHECKPOINT, SETTINGS, check_settings
+from .saved import file_sha256, pack, read_unit, rng_state, set_rng_state, space_from_json, space_to_json, unpack, write_unit
 
 __all__ = ["CURVE_COLUMNS", "VALIDATION_STREAM", "CorticalActorCritic", "CorticalFeatures", "CorticalSAC",
-           "SB3Agent", "load_agent", "make_rl_env", "saccade_vectors", "train_sb3"]
+           "SB3Agent", "architecture", "finished_meta", "load_agent", "make_rl_env", "plan_run", "read_agent_meta",
+           "saccade_vectors", "save_agent", "train_sb3"]
 
 VALIDATION_STREAM = 2  # the CEM trainer's validation episodes: neither the training nor the held-out ones
 CURVE_COLUMNS = ("env_steps", "elapsed_s", "success_rate", "mean_return", "mean_saccades", "train_episodes",
@@ -210,9 +216,10 @@ class CorticalSAC(_sac_policy()):
 
 # ---------------------------------------------------------------------------------------------- agents
 class SB3Agent:
-    """A saved SB3 model as a policy for :func:`~experiments.agents.rollout.evaluate`: filters the
-    observation to the keys the model reads; ``deterministic`` (default) or sampled actions (then
-    seeded through :meth:`seed`)."""
+    """A saved SB3 policy as a policy for :func:`~experiments.agents.rollout.evaluate`: filters the
+    observation to the keys the policy reads; ``deterministic`` (default) or sampled actions (then
+    seeded through :meth:`seed`). ``model`` is anything with SB3's ``predict`` and spaces: a trained
+    algorithm or a policy rebuilt by :func:`load_agent`."""
 
     def __init__(self, model, metadata: dict[str, Any], path: Path, deterministic: bool = True) -> None:
         self.model, self.metadata, self.path = model, metadata, Path(path)
@@ -231,69 +238,121 @@ class SB3Agent:
         return int(a) if isinstance(self.model.action_space, spaces.Discrete) else np.asarray(a, np.float32)
 
 
-def load_agent(directory: str | Path, deterministic: bool = True) -> SB3Agent:
-    """Load a folder written by :func:`train_sb3` (``<algo>.json`` + ``<algo>_<task>.zip``) or by the
-    PPO recipe (``ppo.json`` + ``ppo_<task>.zip``). Loading unpickles parts of the zip: trusted files only."""
+#: The policy classes a saved model may name (nothing else is ever built from a folder).
+POLICY_CLASSES = ("CorticalActorCritic", "CorticalSAC", "MultiInputPolicy")
+FORMAT = "sb3-npz-1"
+
+
+def _policy_class(algo: str, name: str):
     import stable_baselines3 as sb3
 
+    if name == "CorticalActorCritic" and algo == "ppo":
+        return CorticalActorCritic
+    if name == "CorticalSAC" and algo == "sac":
+        return CorticalSAC
+    if name == "MultiInputPolicy":
+        return (sb3.PPO if algo == "ppo" else sb3.SAC).policy_aliases["MultiInputPolicy"]
+    raise ValueError(f"unknown {algo} policy class {name!r}; expected one of {', '.join(POLICY_CLASSES)}")
+
+
+def architecture(model, algo: str) -> dict[str, Any]:
+    """What rebuilds ``model``'s policy without its pickle: the policy class's name, the keyword
+    arguments SB3 built it with, and the spaces."""
+    name = type(model.policy).__name__
+    if name in ("MultiInputActorCriticPolicy", "MultiInputPolicy"):
+        name = "MultiInputPolicy"
+    kwargs = dict(model.policy_kwargs or {})
+    if algo == "ppo":
+        kwargs["use_sde"] = bool(model.use_sde)
+    if "features_extractor_class" in kwargs or "optimizer_class" in kwargs or "activation_fn" in kwargs:
+        raise ValueError("policy_kwargs naming classes (features_extractor_class, optimizer_class, activation_fn) "
+                         "cannot be saved as data; use the policy names of the hyper-parameter files")
+    kwargs = json.loads(json.dumps(kwargs))
+    return {"policy_class": name, "policy_kwargs": kwargs,
+            "observation_space": space_to_json(model.observation_space),
+            "action_space": space_to_json(model.action_space)}
+
+
+def save_agent(out: Path, model, algo: str, meta: dict[str, Any]) -> dict[str, Any]:
+    """Write ``<algo>.npz`` (the policy's weights, with ``meta`` and the :func:`architecture` inside
+    the same file) and then ``<algo>.json`` (the same metadata and the weights' SHA-256), each
+    atomically; returns the JSON."""
+    arrays: dict[str, np.ndarray] = {}
+    skeleton = pack(model.policy.state_dict(), "policy", arrays)
+    meta = {**meta, "format": FORMAT, "algo": algo, "architecture": architecture(model, algo),
+            "versions": {"stable_baselines3": __import__("stable_baselines3").__version__,
+                         "torch": torch.__version__, "numpy": np.__version__}}
+    write_unit(out / f"{algo}.npz", arrays, {**meta, "state_dict": skeleton})
+    meta["weights_sha256"] = file_sha256(out / f"{algo}.npz")
+    write_json(out / f"{algo}.json", meta)
+    return meta
+
+
+def read_agent_meta(directory: str | Path) -> tuple[str, dict[str, Any]]:
+    """The algo and the JSON of a folder's saved SB3 policy (``ppo.json`` or ``sac.json``)."""
     d = Path(directory)
     metas = [d / f"{a}.json" for a in ALGOS if (d / f"{a}.json").is_file()]
     if not metas:
         raise FileNotFoundError(f"{d} is not a saved SB3 model: missing ppo.json or sac.json")
+    if len(metas) > 1:
+        raise ValueError(f"{d} holds both ppo.json and sac.json: not one training run's folder")
     try:
-        meta = json.loads(metas[0].read_text())
-        task, env_kwargs = meta["task"], dict(meta["env_kwargs"])
-    except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError, ValueError) as err:
-        raise ValueError(f"{metas[0]} is not a valid {metas[0].stem.upper()} metadata file ({err}); retrain") from None
-    algo = meta.get("algo", metas[0].stem)
-    if algo not in ALGOS:
-        raise ValueError(f"{metas[0]}: unknown algo {algo!r}; expected one of {', '.join(ALGOS)}")
-    zip_path = d / f"{algo}_{task}.zip"
-    if not zip_path.is_file():
-        raise FileNotFoundError(f"{d} is not a saved SB3 model: missing {zip_path.name}")
-    cls = sb3.PPO if algo == "ppo" else sb3.SAC
+        meta = json.loads(metas[0].read_text(encoding="utf-8"))
+        if not isinstance(meta, dict):
+            raise TypeError("not a JSON object")
+        meta["task"], meta["env_kwargs"] = str(meta["task"]), dict(meta["env_kwargs"])
+    except (OSError, UnicodeDecodeError, KeyError, TypeError, ValueError) as err:
+        raise ValueError(f"{metas[0]} is not a valid {metas[0].stem.upper()} metadata file "
+                         f"({type(err).__name__}: {str(err)[:80]}); retrain") from None
+    algo = metas[0].stem
+    if meta.get("algo", algo) != algo:
+        raise ValueError(f"{metas[0]} says algo {meta.get('algo')!r}; retrain")
+    if meta.get("format") == "skrl-npz-1":
+        raise ValueError(f"{d} is a run of the batched engine's skrl recipe: evaluate loads the folders of "
+                         "'train' and of the SB3 recipe")
+    if meta.get("format") != FORMAT:
+        raise ValueError(f"{metas[0]} is not a {FORMAT!r} model (format {meta.get('format')!r}; models saved as "
+                         "Stable-Baselines3 zips are never loaded, they run code): retrain with this version")
+    return algo, meta
+
+
+def load_agent(directory: str | Path, deterministic: bool = True) -> SB3Agent:
+    """Load a folder written by :func:`train_sb3` or by the PPO recipe: the policy is rebuilt from
+    the JSON architecture and the weights read from ``<algo>.npz`` (``allow_pickle=False``); no
+    pickle, zip or ``torch.load`` is ever read."""
+    d = Path(directory)
+    algo, meta = read_agent_meta(d)
+    wpath = d / f"{algo}.npz"
+    if not wpath.is_file():
+        raise FileNotFoundError(f"{d} is not a saved SB3 model: missing {wpath.name}")
+    if meta.get("weights_sha256") != file_sha256(wpath):
+        raise ValueError(f"{wpath} is not the file {algo}.json describes (its SHA-256 differs): the folder mixes "
+                         "two runs or was altered; retrain")
+    arrays, inner = read_unit(wpath)
     try:
-        model = cls.load(zip_path, device="cpu")
-    except Exception as err:  # zipfile/pickle/torch errors of many kinds for a corrupt file
-        raise ValueError(f"{zip_path} could not be loaded by stable-baselines3 ({type(err).__name__}: {err}); "
-                         "retrain") from None
-    return SB3Agent(model, {**meta, "task": task, "env_kwargs": env_kwargs, "algo": algo}, d, deterministic)
+        arch = inner["architecture"]
+        cls = _policy_class(algo, arch["policy_class"])
+        obs_space, act_space = space_from_json(arch["observation_space"]), space_from_json(arch["action_space"])
+        policy = cls(obs_space, act_space, lambda _: 1e-3, **dict(arch["policy_kwargs"]))
+        policy.load_state_dict(unpack(inner["state_dict"], arrays, tensors=True), strict=True)
+    except (KeyError, TypeError, ValueError, RuntimeError) as err:
+        raise ValueError(f"{wpath}: the saved policy cannot be rebuilt ({type(err).__name__}: "
+                         f"{str(err).splitlines()[0][:160]}); retrain") from None
+    policy.set_training_mode(False)
+    return SB3Agent(policy, {**meta, "algo": algo}, d, deterministic)
 
 
 # ---------------------------------------------------------------------------------------------- training
-def _callback(eval_env, agent_meta: dict, out: Path, algo: str, task: str, eval_freq: int, eval_seeds: np.ndarray,
-              seed: int, log):
+def _callback():
     from stable_baselines3.common.callbacks import BaseCallback
 
-    class Curve(BaseCallback):
-        """Every ``eval_freq`` env steps: evaluate the deterministic policy on the validation
-        episodes, append a row to training_log.csv, save the model."""
+    class TrainEpisodes(BaseCallback):
+        """The training episodes' task return and success (the env is reset at each chunk's start)."""
 
         def _on_training_start(self) -> None:
-            self.t0 = time.perf_counter()
-            self.eval_s = 0.0
-            self.next_eval = 0
-            self.train: list[tuple[float, bool]] = []
             self.ret = None
-            self._evaluate()
-
-        def _evaluate(self) -> None:
-            t = time.perf_counter()
-            self.model.save(out / f"{algo}_{task}.zip")
-            pol = SB3Agent(self.model, agent_meta, out)
-            ev = evaluate(eval_env, pol, eval_seeds, rng_seed=seed)
-            self.eval_s += time.perf_counter() - t
-            k = len(self.train)
-            row = {"env_steps": self.num_timesteps, "elapsed_s": round(time.perf_counter() - self.t0, 2),
-                   "success_rate": ev.success_rate, "mean_return": round(ev.mean_reward, 5),
-                   "mean_saccades": ev.mean_saccades, "train_episodes": k,
-                   "train_success_rate": round(sum(s for _, s in self.train) / k, 4) if k else "",
-                   "train_return": round(sum(r for r, _ in self.train) / k, 5) if k else ""}
-            append_csv_row(out / "training_log.csv", CURVE_COLUMNS, row)
-            log(f"{algo} {task}: {row['env_steps']} steps, {row['elapsed_s']:.0f} s: validation success "
-                f"{ev.success_rate:.2f}, return {ev.mean_reward:+.3f}; training episodes {k}")
-            self.train = []
-            self.next_eval += eval_freq
+            if not hasattr(self, "train"):
+                self.train: list[tuple[float, bool]] = []
 
         def _on_step(self) -> bool:
             rewards, dones, infos = self.locals["rewards"], self.locals["dones"], self.locals["infos"]
@@ -304,11 +363,9 @@ def _callback(eval_env, agent_meta: dict, out: Path, algo: str, task: str, eval_
                 if d:
                     self.train.append((self.ret[i], bool(info.get("success", False))))
                     self.ret[i] = 0.0
-            if self.num_timesteps >= self.next_eval:
-                self._evaluate()
             return True
 
-    return Curve()
+    return TrainEpisodes()
 
 
 def _one_torch_thread() -> None:
@@ -323,40 +380,148 @@ def _one_torch_thread() -> None:
     torch.set_num_threads(1)
 
 
-def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0,
-              timesteps: int | None = None, log=print) -> dict[str, Any]:
-    """Train ``algo`` ("ppo" or "sac") on ``task`` with ``hyperparams`` (one entry of a file in
-    ``experiments/hyperparams/``, see :func:`experiments.agents.hyperparams.load_hyperparams`);
-    writes ``training_log.csv`` (appended at every evaluation), ``<algo>_<task>.zip`` and
-    ``<algo>.json`` into ``out``. Deterministic under ``seed`` (one torch thread). Returns the metadata."""
-    import stable_baselines3 as sb3
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
+def plan_run(algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0,
+             timesteps: int | None = None) -> dict[str, Any]:
+    """The settings of one run (``train.json``): ``hyperparams`` split into the env's, the shaping,
+    the policy's, the evaluation's and the algorithm's own; ``ValueError`` for bad ones."""
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {', '.join(ALGOS)}; got {algo!r}")
     hp = json.loads(json.dumps(hyperparams))  # a deep copy
-    total = int(timesteps if timesteps is not None else hp.pop("n_timesteps", 10_000))
+    total = int(timesteps if timesteps is not None else hp.get("n_timesteps", 10_000))
     hp.pop("n_timesteps", None)
     if total < 1:
         raise ValueError(f"timesteps must be >= 1; got {total}")
     policy = hp.pop("policy", "cortical-cell")
     if policy not in POLICIES:
         raise ValueError(f"policy must be one of {', '.join(POLICIES)}; got {policy!r}")
-    env_kwargs = {"action_mode": "cell", "image_size": 96, **hp.pop("env_kwargs", {})}
-    shaping = dict(hp.pop("shaping", {}) or {})
-    n_envs = int(hp.pop("n_envs", 1))
-    eval_freq = int(hp.pop("eval_freq", 1000))
-    eval_episodes = int(hp.pop("eval_episodes", 20))
-    policy_kwargs = dict(hp.pop("policy_kwargs", {}) or {})
-    if eval_freq < 1 or eval_episodes < 1 or n_envs < 1:
+    if algo == "sac" and policy not in ("cortical-sac", "mlp"):
+        raise ValueError(f"SAC takes policy 'cortical-sac' or 'mlp'; got {policy!r}")
+    if algo == "ppo" and policy == "cortical-sac":
+        raise ValueError("policy 'cortical-sac' is SAC's; PPO takes 'cortical-cell', 'cortical-dense' or 'mlp'")
+    plan = {"format": FORMAT, "algo": algo, "task": task, "seed": int(seed), "policy": policy,
+            "env_kwargs": {"action_mode": "cell", "image_size": 96, **hp.pop("env_kwargs", {})},
+            "shaping": dict(hp.pop("shaping", {}) or {}), "n_envs": int(hp.pop("n_envs", 1)),
+            "eval_freq": int(hp.pop("eval_freq", 1000)), "eval_episodes": int(hp.pop("eval_episodes", 20)),
+            "policy_kwargs": dict(hp.pop("policy_kwargs", {}) or {}), "total_timesteps": total}
+    if plan["eval_freq"] < 1 or plan["eval_episodes"] < 1 or plan["n_envs"] < 1:
         raise ValueError("n_envs, eval_freq and eval_episodes must be >= 1")
-    gamma = float(hp.get("gamma", 0.99))
+    plan["algo_kwargs"] = hp
+    plan["hyperparams"] = json.loads(json.dumps(hyperparams))
+    return plan
+
+
+def _make_model(plan: dict[str, Any], venv):
+    import stable_baselines3 as sb3
+
+    vectors = saccade_vectors(venv.envs[0])
+    policy, pk = plan["policy"], dict(plan["policy_kwargs"])
+    if policy == "mlp":
+        policy_cls = "MultiInputPolicy"
+    elif plan["algo"] == "sac":
+        policy_cls, pk = CorticalSAC, {"saccade_vectors": vectors, **pk}
+    else:
+        head = policy.split("-")[1]
+        policy_cls = CorticalActorCritic
+        pk = {"head": head, **({"saccade_vectors": vectors} if head == "cell" else {}), **pk}
+    cls = sb3.PPO if plan["algo"] == "ppo" else sb3.SAC
+    return cls(policy_cls, venv, seed=plan["seed"], device="cpu", verbose=0, policy_kwargs=pk or None,
+               **plan["algo_kwargs"])
+
+
+def _capture(model) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Everything a resumed run needs beyond the settings: weights and optimizers, SAC's entropy
+    coefficient and replay buffer, counters, and every random-number generator the training reads."""
+    arrays: dict[str, np.ndarray] = {}
+    state: dict[str, Any] = {"params": pack(model.get_parameters(), "params", arrays),
+                             "num_timesteps": int(model.num_timesteps), "n_updates": int(model._n_updates),
+                             "episode_num": int(model._episode_num),
+                             "action_space_rng": model.action_space.np_random.bit_generator.state,
+                             "rng": rng_state(arrays)}
+    if getattr(model, "ent_coef_optimizer", None) is not None:
+        state["log_ent_coef"] = pack(model.log_ent_coef, "log_ent_coef", arrays)
+    rb = getattr(model, "replay_buffer", None)
+    if rb is not None:
+        n = rb.buffer_size if rb.full else rb.pos
+        parts = {"actions": rb.actions, "rewards": rb.rewards, "dones": rb.dones, "timeouts": rb.timeouts}
+        if isinstance(rb.observations, dict):
+            parts.update({f"obs/{k}": v for k, v in rb.observations.items()})
+            parts.update({f"next_obs/{k}": v for k, v in rb.next_observations.items()})
+        else:
+            parts.update({"obs": rb.observations, "next_obs": rb.next_observations})
+        for k, v in parts.items():
+            arrays[f"buffer/{k}"] = v[:n]
+        state["buffer"] = {"pos": int(rb.pos), "full": bool(rb.full), "n": int(n), "parts": sorted(parts)}
+    return arrays, state
+
+
+def _restore(model, arrays: dict[str, np.ndarray], state: dict[str, Any]) -> None:
+    """The inverse of :func:`_capture` on a model built from the same settings."""
+    try:
+        model.set_parameters(unpack(state["params"], arrays, tensors=True), exact_match=True, device="cpu")
+        if "log_ent_coef" in state:
+            with torch.no_grad():
+                model.log_ent_coef.copy_(unpack(state["log_ent_coef"], arrays, tensors=True))
+        model.num_timesteps, model._n_updates = int(state["num_timesteps"]), int(state["n_updates"])
+        model._episode_num = int(state["episode_num"])
+        model.action_space.np_random.bit_generator.state = state["action_space_rng"]
+        if "buffer" in state:
+            rb, b = model.replay_buffer, state["buffer"]
+            n = int(b["n"])
+            for k in b["parts"]:
+                if k.startswith(("obs/", "next_obs/")):
+                    head, key = k.split("/", 1)
+                    target = (rb.observations if head == "obs" else rb.next_observations)[key]
+                else:
+                    target = getattr(rb, {"obs": "observations", "next_obs": "next_observations"}.get(k, k))
+                target[:n] = arrays[f"buffer/{k}"]
+            rb.pos, rb.full = int(b["pos"]), bool(b["full"])
+        set_rng_state(state["rng"], arrays)
+    except (KeyError, TypeError, ValueError, RuntimeError, IndexError) as err:
+        raise ValueError(f"the checkpoint does not fit this run ({type(err).__name__}: "
+                         f"{str(err).splitlines()[0][:160]}); delete checkpoint.npz to train this run again") from None
+
+
+def finished_meta(out: Path, algo: str, settings: dict[str, Any]) -> dict[str, Any] | None:
+    """The JSON of a finished run with ``settings`` in ``out``, or None when it has not finished."""
+    if not (out / f"{algo}.json").exists():
+        return None
+    _, meta = read_agent_meta(out)
+    if meta.get("settings") != json.loads(json.dumps(settings)):
+        raise ValueError(f"{out / (algo + '.json')} describes another run than {SETTINGS}; use another --out")
+    if not (out / f"{algo}.npz").is_file() or meta.get("weights_sha256") != file_sha256(out / f"{algo}.npz"):
+        raise ValueError(f"{out / (algo + '.npz')} is missing or not the file {algo}.json describes; "
+                         "use another --out")
+    return meta
+
+
+def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0,
+              timesteps: int | None = None, log=print) -> dict[str, Any]:
+    """Train ``algo`` ("ppo" or "sac") on ``task`` with ``hyperparams`` (one entry of a file in
+    ``experiments/hyperparams/``, see :func:`experiments.agents.hyperparams.load_hyperparams`), or
+    resume the run in ``out``. Writes ``train.json`` (the settings), ``training_log.csv`` (a row per
+    evaluation), ``checkpoint.npz`` after every evaluation (:mod:`experiments.agents.runfolder`),
+    ``learning_curve.png`` and, last, ``<algo>.npz`` + ``<algo>.json`` (:func:`save_agent`).
+
+    Training runs in chunks of ``eval_freq`` env steps (whole PPO rollouts, whole SAC train-frequency
+    blocks); each chunk starts from an env reset with seeds derived from ``seed`` and the chunk's
+    index, so a run resumed from a checkpoint is the same computation as one never stopped and ends
+    with the same weights. Deterministic under ``seed`` (one torch thread). Returns the metadata."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from .curve import plot_training_log
+
+    plan = plan_run(algo, task, hyperparams, seed, timesteps)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    for stale in ("training_log.csv",):
-        (out / stale).unlink(missing_ok=True)
+    check_settings(out, plan)
+    done = finished_meta(out, algo, plan)
+    if done is not None:
+        log(f"{algo} {task}: {out} holds this run, finished; nothing to train")
+        return done
     _one_torch_thread()
     torch.manual_seed(seed)
+    env_kwargs, shaping, total, eval_freq = plan["env_kwargs"], plan["shaping"], plan["total_timesteps"], plan["eval_freq"]
+    gamma = float(plan["algo_kwargs"].get("gamma", 0.99))
 
     def factory(rank: int):
         def _make():
@@ -364,39 +529,69 @@ def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any]
                                shaping_scale_deg=float(shaping.get("scale_deg", 10.0)), **env_kwargs)
         return _make
 
-    venv = DummyVecEnv([factory(i) for i in range(n_envs)])
+    venv = DummyVecEnv([factory(i) for i in range(plan["n_envs"])])
     venv.seed(seed)
     eval_env = make_env(task, **env_kwargs)
     try:
-        vectors = saccade_vectors(venv.envs[0])
-        if policy == "mlp":
-            policy_cls = "MultiInputPolicy"
-        elif algo == "sac":
-            if policy != "cortical-sac":
-                raise ValueError(f"SAC takes policy 'cortical-sac' or 'mlp'; got {policy!r}")
-            policy_cls, policy_kwargs = CorticalSAC, {"saccade_vectors": vectors, **policy_kwargs}
-        else:
-            if policy == "cortical-sac":
-                raise ValueError("policy 'cortical-sac' is SAC's; PPO takes 'cortical-cell', 'cortical-dense' or 'mlp'")
-            head = policy.split("-")[1]
-            policy_cls = CorticalActorCritic
-            policy_kwargs = {"head": head, **({"saccade_vectors": vectors} if head == "cell" else {}), **policy_kwargs}
-        cls = sb3.PPO if algo == "ppo" else sb3.SAC
-        model = cls(policy_cls, venv, seed=seed, device="cpu", verbose=0, policy_kwargs=policy_kwargs or None, **hp)
-        meta = {"algo": algo, "task": task, "policy": policy, "env_kwargs": {**env_kwargs, "cortex": "eyes"},
-                "shaping": shaping, "seed": seed, "n_envs": n_envs, "total_timesteps": total, "hyperparams": hyperparams,
-                "sb3_version": sb3.__version__, "torch_version": torch.__version__}
-        eval_seeds = episode_seeds(seed, eval_episodes, VALIDATION_STREAM)
-        cb = _callback(eval_env, meta, out, algo, task, eval_freq, eval_seeds, seed, log)
+        model = _make_model(plan, venv)
+        meta = {"algo": algo, "task": task, "policy": plan["policy"], "env_kwargs": {**env_kwargs, "cortex": "eyes"},
+                "shaping": shaping, "seed": seed, "n_envs": plan["n_envs"], "total_timesteps": total,
+                "hyperparams": plan["hyperparams"], "settings": json.loads(json.dumps(plan))}
+        eval_seeds = episode_seeds(seed, plan["eval_episodes"], VALIDATION_STREAM)
+        cb = _callback()
+        log_path, ck = out / "training_log.csv", out / CHECKPOINT
+        rows: list[dict] = []
+        chunk, before_s, eval_s = 0, 0.0, 0.0
         t0 = time.perf_counter()
-        model.learn(total_timesteps=total, callback=cb, progress_bar=False)
-        if cb.num_timesteps != cb.next_eval - eval_freq:  # the last evaluation, at the end
-            cb._evaluate()
-        wall = time.perf_counter() - t0
-        model.save(out / f"{algo}_{task}.zip")
-        meta.update(wall_s=round(wall, 1), eval_s=round(cb.eval_s, 1),
-                    train_steps_per_s=round(model.num_timesteps / max(1e-9, wall - cb.eval_s), 1))
-        (out / f"{algo}.json").write_text(json.dumps(meta, indent=2) + "\n")
+
+        def evaluation() -> None:
+            nonlocal eval_s
+            t = time.perf_counter()
+            ev = evaluate(eval_env, SB3Agent(model, meta, out), eval_seeds, rng_seed=seed)
+            eval_s += time.perf_counter() - t
+            k = len(cb.train) if hasattr(cb, "train") else 0
+            tr = cb.train if k else []
+            row = {"env_steps": int(model.num_timesteps), "elapsed_s": round(before_s + time.perf_counter() - t0, 2),
+                   "success_rate": ev.success_rate, "mean_return": round(ev.mean_reward, 5),
+                   "mean_saccades": ev.mean_saccades, "train_episodes": k,
+                   "train_success_rate": round(sum(s for _, s in tr) / k, 4) if k else "",
+                   "train_return": round(sum(r for r, _ in tr) / k, 5) if k else ""}
+            cb.train = []
+            rows.append(row)
+            append_csv_row(log_path, CURVE_COLUMNS, row)
+            log(f"{algo} {task}: {row['env_steps']}/{total} steps, {row['elapsed_s']:.0f} s: validation success "
+                f"{ev.success_rate:.2f}, return {ev.mean_reward:+.3f}; training episodes {k}")
+
+        if ck.exists():
+            arrays, state = read_unit(ck, hint=f"delete {ck.name} to train this run again")
+            if state.get("settings") != meta["settings"]:
+                raise ValueError(f"{ck} belongs to another run than {SETTINGS}; delete it to train this run again")
+            _restore(model, arrays, state)
+            rows, chunk = list(state["log"]), int(state["chunk"])
+            before_s, eval_s = float(state["elapsed_s"]), float(state["eval_s"])
+            write_csv(log_path, list(CURVE_COLUMNS), rows)
+            log(f"{algo} {task}: resuming {out} at {model.num_timesteps} env steps")
+        else:
+            log_path.unlink(missing_ok=True)
+            evaluation()
+        while model.num_timesteps < total:
+            venv.seed(int(np.random.SeedSequence([seed, 3, chunk]).generate_state(1)[0] & 0x7FFFFFFF))
+            model._last_obs = None  # learn() resets the env (with the seeds above) at the chunk's start
+            model.learn(total_timesteps=min(eval_freq, total - model.num_timesteps), callback=cb,
+                        reset_num_timesteps=False, progress_bar=False)
+            chunk += 1
+            evaluation()
+            arrays, state = _capture(model)
+            write_unit(ck, arrays, {**state, "settings": meta["settings"], "log": rows, "chunk": chunk,
+                                    "elapsed_s": before_s + time.perf_counter() - t0, "eval_s": eval_s})
+        wall = before_s + time.perf_counter() - t0
+        meta.update(wall_s=round(wall, 1), eval_s=round(eval_s, 1),
+                    train_steps_per_s=round(model.num_timesteps / max(1e-9, wall - eval_s), 1),
+                    env_steps=int(model.num_timesteps), final=rows[-1])
+        plot_training_log(log_path, out / "learning_curve.png",
+                          title=f"{task}: {algo.upper()} ({plan['policy']}), seed {seed}")
+        meta = save_agent(out, model, algo, meta)
+        ck.unlink(missing_ok=True)
         return meta
     finally:
         venv.close()

@@ -108,21 +108,17 @@ def take_snapshot(runner, trial: Trial, row: dict, design: Design, config_hash: 
 
 def scene_state(head) -> dict[str, np.ndarray]:
     """The MuJoCo state that places the scene's bodies and shows its geoms (for a 3-D replay):
-    ``qpos``, ``mocap_pos``, ``mocap_quat`` and ``geom_rgba`` (flashes shown through their alpha)."""
-    return {"qpos": head.data.qpos.copy(), "mocap_pos": head.data.mocap_pos.copy(),
-            "mocap_quat": head.data.mocap_quat.copy(), "geom_rgba": head.model.geom_rgba.copy()}
+    ``qpos``, ``mocap_pos``, ``mocap_quat`` and ``geom_rgba`` (flashes shown through their alpha);
+    ``models.Head.scene_state``."""
+    return head.scene_state()
 
 
 def apply_scene_state(head, snap: dict[str, np.ndarray]) -> None:
     """Put ``head``'s scene in the state of :func:`scene_state` (positions only: no simulation)."""
-    import mujoco
-
-    for key, arr in (("qpos", head.data.qpos), ("mocap_pos", head.data.mocap_pos),
-                     ("mocap_quat", head.data.mocap_quat), ("geom_rgba", head.model.geom_rgba)):
+    for key, arr in head.scene_state().items():
         if np.shape(snap[key]) != arr.shape:
             raise SnapshotError(f"the snapshot's {key} has shape {np.shape(snap[key])}; this scene's is {arr.shape}")
-        arr[:] = snap[key]
-    mujoco.mj_forward(head.model, head.data)
+    head.set_scene_state(snap)
 
 
 def snapshot_path(out: str | os.PathLike, trial_id: int) -> Path:

@@ -13,7 +13,7 @@ from .web_viewer import WebViewer
 
 #: Bounds of the numeric options of ``visualize`` (inclusive).
 OPTION_BOUNDS = {"steps": (1, 100), "seed": (0, 2**32 - 1), "image_size": (16, 1024), "fixation_ms": (1, 10_000),
-                 "serve_seconds": (1, 7 * 24 * 3600), "web_port": (1, 65535), "grpc_port": (1, 65535)}
+                 "serve_seconds": (1, 7 * 24 * 3600), "web_port": (0, 65535), "grpc_port": (0, 65535)}
 
 
 def _whole(lo: int, hi: int):
@@ -168,9 +168,10 @@ def _server_options(p: argparse.ArgumentParser, prefix: str, seconds_help: str) 
     b = OPTION_BOUNDS
     p.add_argument("--serve-seconds", type=_whole(*b["serve_seconds"]), default=None, metavar="S", help=seconds_help)
     p.add_argument("--web-port", type=_whole(*b["web_port"]), default=9090,
-                   help=f"{prefix}port of the web viewer on 127.0.0.1 (default 9090)")
+                   help=f"{prefix}port of the web viewer on 127.0.0.1 (default 9090; 0: a free one, printed)")
     p.add_argument("--grpc-port", type=_whole(*b["grpc_port"]), default=9876,
-                   help=f"{prefix}port of the gRPC proxy the viewer reads from, on 127.0.0.1 (default 9876)")
+                   help=f"{prefix}port of the gRPC proxy the viewer reads from, on 127.0.0.1 (default 9876; "
+                        "0: a free one)")
 
 
 def add_subcommand(subparsers) -> None:

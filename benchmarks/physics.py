@@ -1,0 +1,108 @@
+"""The batched env's physics per env step: how many 1 ms physics steps it costs, what bounds them, and
+the constraint solver's share (``envs.batched_physics.WarpHeads``, ``skip_solver``).
+
+The env's own physics runs are recorded (state, command tables, milliseconds) over a few steps of
+random saccades, then replayed on fresh ``WarpHeads`` with and without MuJoCo Warp's constraint
+solver, in the same process: wall time per physics step (the ratio is the claim), kernel launches
+per physics step (the launches over a non-empty grid, counted; on a GPU a step is launch-bound) and the largest difference of the eye
+angles from the solver's run (issue 38: within 1e-4 deg).
+
+    python benchmarks/physics.py --device cpu --num-envs 16 --steps 4
+    python benchmarks/physics.py --device cuda --num-envs 1024 4096
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import envs
+
+
+def record(n: int, device: str, steps: int, seed: int = 0) -> tuple[envs.BatchedBinocularSaccade, list[dict]]:
+    """A batched env of n worlds (16 px eyes) and its physics runs over ``steps`` random saccades:
+    each run's starting state, command tables, lengths and milliseconds, and the plans' spans."""
+    env = envs.BatchedBinocularSaccade(n, device=device, image_size=16)
+    ph, runs = env.physics, []
+    run = ph.run
+
+    def recording(commands, lengths, n_ms, wait=True):
+        state = [t.detach().clone() for t in (ph.qpos, ph.qvel, ph.ctrl, ph.mocap_pos, ph.mocap_quat)]
+        runs.append({"state": state, "commands": np.array(commands), "lengths": np.array(lengths), "n_ms": n_ms})
+        return run(commands, lengths, n_ms, wait=wait)
+
+    ph.run = recording
+    env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    for _ in range(steps):
+        env.step(rng.uniform(-0.4, 0.4, size=(n, 2)).astype(np.float32))
+    ph.run = run
+    return env, runs
+
+
+def replay(env, runs: list[dict], skip_solver: bool) -> dict:
+    """Each recorded run again on a fresh WarpHeads: seconds and launches per physics step, end eye angles."""
+    import warp as wp
+    from envs.batched_physics import WarpHeads
+
+    ph = WarpHeads(env.head, env.num_envs, str(env.physics.device), chunk_ms=env.physics.chunk_ms,
+                   skip_solver=skip_solver)
+    launches = [0]
+    launch = wp.launch
+
+    def counting(kernel, dim, *args, **kwargs):  # Warp runs no kernel over an empty grid: not counted
+        launches[0] += int(np.prod(dim)) > 0
+        return launch(kernel, dim, *args, **kwargs)
+
+    def once(r, count: bool):
+        ph.load(np.arange(env.num_envs), *(t.cpu().numpy() for t in r["state"]))
+        wp.launch = counting if count else launch
+        try:
+            t0 = time.perf_counter()
+            ph.run(r["commands"], r["lengths"], r["n_ms"])
+            return time.perf_counter() - t0
+        finally:
+            wp.launch = launch
+
+    once(runs[0], False)  # compile, capture
+    wall, eyes, ms = 0.0, [], 0
+    for r in runs:
+        wall += once(r, False)
+        ms += r["n_ms"]
+        eyes.append(ph.eye_qpos().double().cpu().numpy())
+    if ph.device.is_cuda:  # Warp's launches are counted as they are issued: the graph's, without replay
+        launches[0] = -1
+    else:
+        launches[0] = 0
+        once(runs[0], True)
+    return {"s_per_ms": wall / ms, "launches_per_ms": launches[0] / runs[0]["n_ms"] if launches[0] >= 0 else None,
+            "eyes": eyes}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--num-envs", type=int, nargs="+", default=[16])
+    ap.add_argument("--steps", type=int, default=4)
+    args = ap.parse_args(argv)
+    for n in args.num_envs:
+        env, runs = record(n, args.device, args.steps)
+        spans = [r["lengths"] for r in runs]
+        print(f"{n} worlds on {env.physics.device}: physics ms per env step "
+              + ", ".join(str(r["n_ms"]) for r in runs)
+              + f" (the slowest world's plan + settle_ms {env.settle_ms}; the worlds' plans: mean "
+              f"{np.mean([s.mean() for s in spans]):.0f} ms, slowest {max(s.max() for s in spans)} ms)")
+        full, free = replay(env, runs, False), replay(env, runs, True)
+        diff = max(np.degrees(np.abs(a - b)).max() for a, b in zip(full["eyes"], free["eyes"]))
+        for name, r in (("with the solver", full), ("without (skip_solver)", free)):
+            lpm = "n/a (CUDA graph)" if r["launches_per_ms"] is None else f"{r['launches_per_ms']:.1f}"
+            print(f"  {name}: {r['s_per_ms'] * 1e3:.3f} ms per physics step, {lpm} launches per physics step")
+        print(f"  speed-up {full['s_per_ms'] / free['s_per_ms']:.2f}x; largest eye-angle difference {diff:.2e} deg "
+              "(issue 38: within 1e-4)")
+        env.close()
+
+
+if __name__ == "__main__":
+    main()

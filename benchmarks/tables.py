@@ -1,0 +1,135 @@
+"""The README's batched-env speed tables, rendered from the CSVs of ``benchmarks/batched.py --csv``.
+
+A table in the README is marked by the comment naming its CSV and ends at the comment that closes it::
+
+    <!-- table: benchmarks/data/batched_h100.csv -->
+    | ... the rendered table ... |
+    <!-- end of table -->
+
+    python benchmarks/tables.py README.md           # rewrite every marked table from its CSV
+    python benchmarks/tables.py README.md --check   # exit 1 (naming the CSV) where a table is not its CSV's
+
+``tests/test_benchmark_tables.py`` checks that the README's tables are their CSVs' rendering.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+__all__ = ["COLUMNS", "render", "marked_tables", "update"]
+
+#: (CSV column, table heading, format) of the rendered columns, in order; ``code`` (what was measured:
+#: a branch, a commit) is shown where the CSV has it.
+COLUMNS = (
+    ("code", "code", "text"),
+    ("device", "device", "text"),
+    ("eyes", "eyes", "text"),
+    ("worlds", "worlds", "int"),
+    ("env_steps_per_s", "env-steps/s", "int"),
+    ("ms_per_step", "ms/step", "ms"),
+    ("host_ms", "host", "ms"),
+    ("remap_ms", "remap", "ms"),
+    ("physics_ms", "physics", "ms"),
+    ("render_ms", "render", "ms"),
+    ("retina_ms", "retina", "ms"),
+    ("dpft_ms", "DPFT", "ms"),
+    ("task_ms", "task", "ms"),
+    ("host_sync_ms", "host sync", "ms"),
+)
+_OPTIONAL = {"code"}
+_START = re.compile(r"<!-- table: (?P<csv>\S+) -->\n")
+_END = "<!-- end of table -->"
+
+
+def _cell(value: str, kind: str, where: str) -> str:
+    if kind == "text":
+        return value.replace("|", "/")
+    try:
+        x = float(value)
+    except ValueError:
+        raise ValueError(f"{where}: {value!r} is not a number") from None
+    if x != x or x in (float("inf"), float("-inf")):
+        raise ValueError(f"{where}: {value!r} is not a finite number")
+    return f"{x:,.0f}" if kind == "int" else f"{x:.1f}"
+
+
+def render(path: str | os.PathLike) -> str:
+    """The markdown table (heading, rule, one line per CSV row; parts in ms per step) of a
+    ``benchmarks/batched.py --csv`` file. Raises ValueError naming the file where a column is missing
+    or a number is not one."""
+    path = Path(path)
+    try:
+        with open(path, newline="") as f:
+            reader = csv.DictReader(f)
+            rows = list(reader)
+            fields = reader.fieldnames or []
+    except OSError as e:
+        raise ValueError(f"cannot read the benchmark CSV {path}: {e.strerror}") from None
+    missing = [c for c, _, _ in COLUMNS if c not in fields and c not in _OPTIONAL]
+    if missing:
+        raise ValueError(f"{path} is not a benchmarks/batched.py --csv table: no column {', '.join(missing)}")
+    if not rows:
+        raise ValueError(f"{path} has no rows")
+    cols = [c for c in COLUMNS if c[0] in fields]
+    lines = ["| " + " | ".join(h for _, h, _ in cols) + " |", "|" + "---|" * len(cols)]
+    for i, row in enumerate(rows, start=2):
+        lines.append("| " + " | ".join(_cell(row[c] or "", kind, f"{path} line {i}, {c}") for c, _, kind in cols) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def marked_tables(text: str) -> list[tuple[str, int, int]]:
+    """The marked tables of a markdown text: (CSV path, start, end) of each table's text (between the
+    marks). Raises ValueError where a mark is not closed."""
+    out = []
+    for m in _START.finditer(text):
+        end = text.find(_END, m.end())
+        if end < 0:
+            raise ValueError(f"the table of {m.group('csv')} has no closing {_END!r}")
+        out.append((m.group("csv"), m.end(), end))
+    return out
+
+
+def update(readme: str | os.PathLike, check: bool = False) -> list[str]:
+    """Rewrite each marked table of ``readme`` from its CSV (paths relative to the README's folder); with
+    ``check``, write nothing. Returns the CSVs whose tables differed."""
+    readme = Path(readme)
+    text = readme.read_text()
+    stale, pieces, at = [], [], 0
+    for name, start, end in marked_tables(text):
+        table = render(readme.parent / name)
+        if text[start:end] != table:
+            stale.append(name)
+        pieces += [text[at:start], table]
+        at = end
+    pieces.append(text[at:])
+    if stale and not check:
+        fd, tmp = tempfile.mkstemp(dir=readme.parent, prefix=readme.name + ".")
+        with os.fdopen(fd, "w") as f:
+            f.write("".join(pieces))
+        os.replace(tmp, readme)
+    return stale
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("readme", help="the markdown file whose marked tables are rendered (README.md)")
+    ap.add_argument("--check", action="store_true", help="write nothing; exit 1 where a table is not its CSV's")
+    args = ap.parse_args(argv)
+    try:
+        stale = update(args.readme, check=args.check)
+    except (OSError, ValueError) as e:
+        sys.exit(f"error: {e}")
+    for name in stale:
+        print(f"{'differs from' if args.check else 'rewritten from'} {name}")
+    if args.check and stale:
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
