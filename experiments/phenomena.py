@@ -5,21 +5,28 @@ Every perception model (``psychophysics.MODELS``: the rival theories ``observer`
 (all mechanisms off: the true eye, no remapping, no references -- what the retina alone gives)
 reads out the *same* observed trials: each design is rendered and seen by the retina once
 (``modelfit.observe_trials``, cached in ``DIR/observations/``, so an interrupted run resumes), at
-256 px. Every row of ``phenomena.csv`` is one statistic with a bootstrap 95 % CI (1000 resamples
-of the design's flash positions, seeded), the published value it is compared with, and its role:
-``calibrated`` when the model's defaults were set from that number (it then cannot count as
-reproduced), else ``predicted``; ``reproduced`` is ``yes``/``no`` for predicted rows with a
-published range and ``not tested`` where none is published. See ``ROWS`` for every statistic's
-definition, published range and source, and ``CALIBRATION`` for each model's calibration set.
+256 px, by a simulated participant (``psychophysics.participant``) whose saccades land with motor
+noise and whose reports scatter, at published levels. Every design cell (flash time x position)
+holds ``REPETITIONS`` trials with their own seeds.
 
-Designs (20 deg saccades unless said; 24 flash positions around the target, as Fig. 11):
-references and dark (11 flash times, -150..150 ms); amplitude (12 and 24 deg, -25 and 0 ms);
-reference contrast 0.25 and 0.5; two simultaneous flashes 4 deg apart (separation); without the
+Each row of ``phenomena.csv`` (``psychophysics.scoring.SCORE_COLUMNS``) is one statistic, its
+95 % CI (``--bootstrap`` resamples of the trials within each cell: the experiment repeated), the
+published range it is compared with and the paper's figure it is read from, and three verdicts set
+by rules (``psychophysics.scoring``), never by hand: ``role`` (``predicted`` only if no constant of
+the model came from the row's source, by ``experiments/data/calibration.csv``), ``reproduced``
+(``yes`` only if the whole CI lies in the range) and ``diagnostic`` (``no`` where the baseline also
+reproduces the row). See ``ROWS`` for every statistic's definition, range and source.
+
+Designs (20 deg saccades unless said; 24 flash positions around the target, as Fig. 11; 4
+repetitions): references and dark (11 flash times, -150..150 ms); amplitude (12 and 24 deg, -25
+and 0 ms); reference contrast 0.25; two simultaneous flashes 4 deg apart (separation); without the
 ruler: the target extinguished at onset with a marker 10 deg before it (focus), the target lit
-(target only) and the target extinguished 100 ms before onset (memory-guided); a target step
-during the saccade with and without a 250 ms blank (displacement, 9 steps x 8 repetitions).
-About 6 minutes on 2 idle cores with ``--workers 2``; a re-run reads the cached observations and
-takes about 2 minutes (the read-outs and bootstrap).
+(target only) and the target extinguished 100 ms before onset (memory-guided); a target step during
+the saccade with and without a 250 ms blank (displacement: 13 steps of 0.5 deg from -3 to +3, 30
+repetitions each): 3,552 localization trials and 3,900 displacement trials. About 30 minutes on 2
+busy, shared cores with ``--workers 2`` (the last run: 17 min 37 s with three of the eight designs'
+observations cached); a re-run reads the cached observations and displacement tables and takes the
+read-outs' and bootstrap's time.
 """
 
 from __future__ import annotations
@@ -31,9 +38,10 @@ from pathlib import Path
 import numpy as np
 
 from .cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
+from .psychophysics.scoring import SCORE_COLUMNS
 
-__all__ = ["add_subcommand", "ROWS", "CALIBRATION", "THEORIES", "COLUMNS", "measure", "score", "bootstrap",
-           "statistics", "markdown_table"]
+__all__ = ["add_subcommand", "ROWS", "THEORIES", "COLUMNS", "REPETITIONS", "measure", "score", "bootstrap",
+           "statistics", "resample_cells", "markdown_table"]
 
 IMAGE_SIZE = 256
 TIMES = (-150, -100, -75, -50, -25, 0, 25, 50, 75, 100, 150)
@@ -42,76 +50,81 @@ NEAR = (-25, 0)  # "near onset": the flash times where published compression is 
 THEORIES = ("observer", "population", "paper", "mechanistic", "baseline")
 MARKER = (-10.0, 0.0)  # the focus design's marker, deg from the target
 BOOT = 1000
+#: Trials per design cell (flash time x position; ``--quick``: 2), each with its own seed.
+REPETITIONS = 4
+#: Displacement steps (deg along the saccade) and reports per step and blank (``--quick``: 1 deg, 6).
+STEPS_DEG = tuple(float(s) for s in np.arange(-3.0, 3.01, 0.5))
+STEP_REPETITIONS = 30
 
-#: phenomenon -> (published statement and source, published range (lo, hi) or None, unit)
+#: phenomenon -> (published statement, source (citation, figure), published range (lo, hi) or None, unit)
 ROWS = {
-    "compression_peak": ("peak compression ~50 % for 20 deg saccades with references (Morrone, Ross & Burr 1997, "
-                         "J Neurosci 17:7941, Fig. 3; Ross et al. 1997)", (0.35, 0.65), "index"),
-    "compression_peak_time_ms": ("compression is maximal just before saccade onset (Morrone et al. 1997, abstract)",
-                                 (-50.0, 0.0), "ms"),
-    "compression_onset_ms": ("errors appear up to 100 ms before the saccade (Morrone et al. 1997, abstract): "
-                             "first time at half the peak", (-100.0, -25.0), "ms"),
-    "compression_fwhm_ms": ("compression confined to roughly +-50 ms around onset (Morrone et al. 1997, Fig. 3)",
-                            (40.0, 110.0), "ms"),
-    "compression_amplitude_growth": ("compression grows with saccade amplitude (Lavergne et al. 2010, J Vis; "
-                                     "Ostendorf et al. 2007): index 24 deg minus 12 deg near onset", (0.02, 1.0),
-                                     "index"),
-    "shift_dark_presaccadic_deg": ("in the dark, flashes before onset are seen shifted in the saccade's direction, "
-                                   "from ~100 ms before (Honda 1991; Dassonville et al. 1992): mean error at -50 "
-                                   "minus -150 ms", (0.5, 10.0), "deg"),
-    "shift_dark_reversal_deg": ("flashes near the end of the saccade are seen shifted against it (Honda 1989, "
-                                "Percept Psychophys 45:162): mean error at +50 minus -150 ms", (-10.0, -0.5), "deg"),
-    "compression_needs_references": ("compression with post-saccadic references, none in complete darkness "
-                                     "(Lappe, Awater & Krekelberg 2000, Nature 403:892): index references minus "
-                                     "dark near onset", (0.2, 1.0), "index"),
-    "compression_vs_reference_contrast": ("no published grading with the references' contrast found: the "
-                                          "model's prediction (index at contrast 1 minus 0.25, near onset)",
-                                          None, "index"),
-    "compression_along_minus_across": ("2-D compression, stronger along the saccade than across it (Kaiser & "
-                                       "Lappe 2004, Neuron 41:293)", (0.05, 1.0), "index"),
-    "compression_across": ("compression also across the saccade (Kaiser & Lappe 2004, Neuron 41:293)",
-                           (0.05, 1.0), "index"),
+    "compression_peak": ("peak compression ~50 % for 20 deg saccades with references",
+                         "Morrone, Ross & Burr 1997, Fig. 3", (0.35, 0.65), "index"),
+    "compression_peak_time_ms": ("compression is maximal just before saccade onset",
+                                 "Morrone, Ross & Burr 1997, abstract", (-50.0, 0.0), "ms"),
+    "compression_onset_ms": ("errors appear up to 100 ms before the saccade: first time at half the peak",
+                             "Morrone, Ross & Burr 1997, abstract", (-100.0, -25.0), "ms"),
+    "compression_fwhm_ms": ("compression confined to roughly +-50 ms around onset: full width at half maximum",
+                            "Morrone, Ross & Burr 1997, Fig. 3", (40.0, 110.0), "ms"),
+    "compression_fixation": ("no compression during fixation, long before the saccade (errors appear up to 100 ms "
+                             "before it): index at -150 ms with references; the range is the index's tolerance "
+                             "around none", "Morrone, Ross & Burr 1997, abstract", (-0.1, 0.1), "index"),
+    "shift_with_references_deg": ("no published number for the uniform shift with references: the model's mean "
+                                  "horizontal error at 0 ms minus -150 ms, with references", "none found", None,
+                                  "deg"),
+    "compression_amplitude_growth": ("compression grows with saccade amplitude: index 24 deg minus 12 deg near "
+                                     "onset", "Lavergne, Vergilino-Perez, Lappe & Dore-Mazars 2010, abstract",
+                                     (0.02, 1.0), "index"),
+    "shift_dark_presaccadic_deg": ("in the dark, flashes before onset are seen shifted in the saccade's direction: "
+                                   "mean error at -50 minus -150 ms", "Honda 1989, abstract; Honda 1991", (0.5, 10.0), "deg"),
+    "shift_dark_reversal_deg": ("flashes near the end of the saccade are seen shifted against it: mean error at +50 "
+                                "minus -150 ms", "Honda 1989, abstract; Honda 1991", (-10.0, -0.5), "deg"),
+    "compression_needs_references": ("compression with post-saccadic references, none in complete darkness: index "
+                                     "references minus dark near onset", "Lappe, Awater & Krekelberg 2000, Fig. 2",
+                                     (0.2, 1.0), "index"),
+    "compression_vs_reference_contrast": ("no published grading with the references' contrast found: the model's "
+                                          "prediction (index at contrast 1 minus 0.25, near onset)",
+                                          "none found", None, "index"),
+    "compression_along_minus_across": ("2-D compression, stronger along the saccade than across it: index along "
+                                       "minus across near onset", "Kaiser & Lappe 2004, Fig. 3", (0.05, 1.0),
+                                       "index"),
+    "compression_across": ("compression also across the saccade: index across near onset",
+                           "Kaiser & Lappe 2004, Fig. 3", (0.05, 1.0), "index"),
     "separation_over_localization": ("perceived separation of two simultaneous flashes compresses much less than "
-                                     "their localization (Reeve, Clark & O'Regan 2008, J Vis 8(13):5): ratio near "
-                                     "onset", (-1.0, 0.5), "ratio"),
-    "displacement_blank_ratio": ("a 50-300 ms post-saccadic blank restores detection of intrasaccadic target "
-                                 "steps (Deubel, Schneider & Bridgeman 1996, Vision Res 36:985): threshold without "
-                                 "/ with a 250 ms blank", (2.0, 1000.0), "ratio"),
-    "focus_toward_reference": ("with no target after onset, compression is focused on a visible reference object "
-                               "(Zimmermann, Morrone & Burr 2014, J Vis 14(12):13): focus position from the goal "
-                               "(0) to the marker (1)", (0.5, 1.5), "fraction"),
+                                     "their localization: ratio near onset", "Reeve, Clark & O'Regan 2008, abstract",
+                                     (-1.0, 0.5), "ratio"),
+    "displacement_blank_ratio": ("a 50-300 ms post-saccadic blank restores detection of intrasaccadic target steps: "
+                                 "threshold without / with a 250 ms blank",
+                                 "Deubel, Schneider & Bridgeman 1996, Fig. 2", (2.0, 1000.0), "ratio"),
+    "focus_toward_reference": ("with no target after onset, compression is focused on a visible reference object: "
+                               "focus position from the goal (0) to the marker (1)",
+                               "Zimmermann, Morrone & Burr 2014, abstract", (0.5, 1.5), "fraction"),
     "memory_guided_reduction": ("memory-guided saccades (no visible target) give weaker, more veridical "
-                                "localization (Zimmermann et al. 2014): index with the target lit minus with it "
-                                "off from 100 ms before onset, no ruler, near onset",
+                                "localization: index with the target lit minus with it off from 100 ms before "
+                                "onset, no ruler, near onset", "Zimmermann, Morrone & Burr 2014, abstract",
                                 (0.05, 1.0), "index"),
-}
-#: model -> the published numbers (ROWS keys) its defaults were set from: one per free constant.
-CALIBRATION = {
-    "observer": ("compression_peak",),  # ObserverParams.prior_sd_deg
-    "population": ("compression_peak",),  # PopulationParams.gain_per_deg
-    "mechanistic": ("compression_peak",),  # TrialConfig.feedback_gain
-    "paper": ("compression_peak", "compression_peak_time_ms", "compression_onset_ms", "compression_fwhm_ms"),
-    "baseline": (),
 }
 
 
 def _designs(quick: bool = False) -> dict:
     """name -> (Design, TrialConfig overrides): everything the rows need (``quick``: 8 flash
-    positions instead of 24)."""
+    positions instead of 24, 2 repetitions instead of ``REPETITIONS``)."""
     from .psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design
 
     pos = MORRONE_OFFSETS_DEG if quick else FIG11_OFFSETS_DEG
-    loc = Design(amplitudes_deg=(20.0,), flash_offsets_deg=pos, flash_times_ms=TIMES, name="localization")
-    near = Design(amplitudes_deg=(20.0,), flash_offsets_deg=pos, flash_times_ms=NEAR, name="near")
+    reps = 2 if quick else REPETITIONS
+
+    def design(name, times, amplitudes=(20.0,)):
+        return Design(amplitudes_deg=amplitudes, flash_offsets_deg=pos, flash_times_ms=times, repetitions=reps,
+                      name=name)
+
+    loc, near = design("localization", TIMES), design("near", NEAR)
     return {
         "references": (loc, dict(condition="references")),
         "dark": (loc, dict(condition="dark")),
-        "amplitude": (Design(amplitudes_deg=(12.0, 24.0), flash_offsets_deg=pos, flash_times_ms=NEAR,
-                             name="amplitude"), dict(condition="references")),
+        "amplitude": (design("amplitude", NEAR, (12.0, 24.0)), dict(condition="references")),
         "contrast_0.25": (near, dict(condition="references", reference_contrast=0.25)),
-        "contrast_0.5": (near, dict(condition="references", reference_contrast=0.5)),
-        "separation": (Design(amplitudes_deg=(20.0,), flash_offsets_deg=pos, flash_times_ms=(-150,) + NEAR,
-                              name="separation"), dict(condition="references", paradigm="separation")),
+        "separation": (design("separation", (-150,) + NEAR), dict(condition="references", paradigm="separation")),
         "focus": (near, dict(condition="references", target_off_ms=0, markers=(MARKER,), ruler=False)),
         "target_only": (near, dict(condition="references", ruler=False)),
         "memory": (near, dict(condition="references", target_off_ms=-100, ruler=False)),
@@ -121,8 +134,9 @@ def _designs(quick: bool = False) -> dict:
 def _displacement(quick: bool = False):
     from .psychophysics import Design
 
-    return Design(amplitudes_deg=(20.0,), flash_offsets_deg=tuple((float(s), 0.0) for s in range(-4, 5)),
-                  flash_times_ms=(0, 250), repetitions=3 if quick else 8, name="displacement")
+    steps = tuple(float(s) for s in range(-3, 4)) if quick else STEPS_DEG
+    return Design(amplitudes_deg=(20.0,), flash_offsets_deg=tuple((s, 0.0) for s in steps),
+                  flash_times_ms=(0, 250), repetitions=6 if quick else STEP_REPETITIONS, name="displacement")
 
 
 def _model_config(base, model: str):
@@ -142,16 +156,20 @@ def _columns(rows: list[dict]) -> dict[str, np.ndarray]:
 
 def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False, image_size: int = IMAGE_SIZE,
             quick: bool = False, generator=None) -> dict:
-    """Observe every design once (cached), read it out with every model; returns {model: {design: table}}.
+    """Observe every design once (cached), read it out with every model; returns {model: {design:
+    table}}, the localization tables holding the participant's reports (``participant.add_report_noise``;
+    ``DIR/tables/`` keeps the models' percepts). Saccades land with the participant's motor noise.
     ``generator``: the burst generator's parameters (``models.BurstGenerator``; None: its defaults)."""
     from .folders import write_csv
     from .modelfit.observe import observe_trials
     from .psychophysics import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner, read_table, run_trials
+    from .psychophysics.participant import PARTICIPANT, add_report_noise
 
+    noise = PARTICIPANT.endpoint_noise
     tables: dict = {m: {} for m in models}
     (out / "tables").mkdir(parents=True, exist_ok=True)
     for name, (design, kw) in _designs(quick).items():
-        base = TrialConfig(image_size=image_size, generator=generator, **kw)
+        base = TrialConfig(image_size=image_size, generator=generator, endpoint_noise=noise, **kw)
         runner = TrialRunner(base)
         try:
             obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
@@ -159,12 +177,12 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
             for m in models:
                 rows = [{**runner.readout(o, _model_config(base, m)), "model": m} for o in obs]
                 write_csv(out / "tables" / f"{m}_{name}.csv", list(ROW_COLUMNS + TEXT_COLUMNS), rows)
-                tables[m][name] = _columns(rows)
+                tables[m][name] = add_report_noise(_columns(rows), PARTICIPANT, name)
         finally:
             runner.close()
     for m in models:
         cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement",
-                                        generator=generator), m)
+                                        generator=generator, endpoint_noise=noise), m)
         path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress)
         tables[m]["displacement"] = read_table(path)
     return tables
@@ -172,12 +190,28 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
 
 # ---------------------------------------------------------------------------------------- statistics
 def _index(t: dict, sel: np.ndarray, axis: int | None = None) -> float:
-    """Compression index of the selected flashes: 1 - perceived / true spread (RMS about the mean),
-    in 2-D, or along one axis (0 = along the saccade, 1 = across)."""
+    """Compression index of the selected flashes: 1 - perceived / true spread (RMS about the mean)
+    of the mean report per flash position (over its repetitions; flashes the retina missed, with no
+    report, left out), the perceived spread corrected for the report noise left in those means (the
+    mean within-position variance / repetitions subtracted: else noise alone would lower the index), in 2-D, or along one axis (0 =
+    along the saccade, 1 = across)."""
     cols = (("perceived_x_deg", "true_x_deg"), ("perceived_y_deg", "true_y_deg"))
     use = cols if axis is None else (cols[axis],)
-    num = sum(np.mean((t[p][sel] - t[p][sel].mean()) ** 2) for p, _ in use)
-    den = sum(np.mean((t[q][sel] - t[q][sel].mean()) ** 2) for _, q in use)
+    sel = sel & np.isfinite(t["perceived_x_deg"]) & np.isfinite(t["perceived_y_deg"])  # a flash not seen: no report
+    if not sel.any():
+        return float("nan")
+    key = (t["flash_dx_deg"] + 1j * t["flash_dy_deg"] + 1e3 * t["saccade_amplitude_deg"])[sel]
+    _, cell = np.unique(key, return_inverse=True)
+    n = np.bincount(cell)
+
+    def spread(col: str) -> float:
+        v = t[col][sel]
+        m = np.bincount(cell, v) / n
+        within = np.bincount(cell, (v - m[cell]) ** 2) / np.maximum(n - 1, 1)  # each cell's report variance
+        return float(np.mean((m - m.mean()) ** 2) - np.mean(within / n))
+
+    num = sum(spread(p) for p, _ in use)
+    den = sum(spread(q) for _, q in use)
     return float(1 - np.sqrt(num / den))
 
 
@@ -256,6 +290,8 @@ def statistics(tab: dict, psychometric_start: dict | None = None) -> dict[str, f
         "compression_peak_time_ms": peak_t,
         "compression_onset_ms": onset,
         "compression_fwhm_ms": fwhm,
+        "compression_fixation": _index(ref, ref["flash_time_ms"] == TIMES[0]),
+        "shift_with_references_deg": _mean_error_x(ref, 0) - _mean_error_x(ref, TIMES[0]),
         "compression_amplitude_growth": _near(amp, amplitude=24.0) - _near(amp, amplitude=12.0),
         "shift_dark_presaccadic_deg": _mean_error_x(dark, -50) - _mean_error_x(dark, -150),
         "shift_dark_reversal_deg": _mean_error_x(dark, 50) - _mean_error_x(dark, -150),
@@ -270,87 +306,164 @@ def statistics(tab: dict, psychometric_start: dict | None = None) -> dict[str, f
     }
 
 
+#: Reported columns of a localization table, resampled by ``resample_cells`` (the rest describe the stimulus).
+_REPORTED = (("perceived_x_deg", "true_x_deg", "error_x_deg"), ("perceived_y_deg", "true_y_deg", "error_y_deg"),
+             ("second_perceived_x_deg", None, None), ("second_perceived_y_deg", None, None))
+
+
+def _cells(t: dict) -> np.ndarray:
+    """Each row's design cell (amplitude, flash time, position): the repetitions of one stimulus."""
+    key = np.column_stack([t["saccade_amplitude_deg"], t["flash_time_ms"], t["flash_dx_deg"], t["flash_dy_deg"]])
+    return np.unique(key, axis=0, return_inverse=True)[1].ravel()
+
+
+def resample_cells(t: dict, cells: np.ndarray, rng: np.random.Generator) -> dict:
+    """One bootstrap replicate of a localization table: within each design cell, the reports are
+    drawn with replacement from the cell's repetitions, as deviations from the cell's mean scaled by
+    sqrt(n / (n - 1)) (the cell's unbiased variance: a plain resample of n repetitions has (n - 1) / n
+    of it; Davison & Hinkley 1997, eq. 3.12's modified residuals), and the errors recomputed."""
+    order = np.argsort(cells, kind="stable")
+    sc = cells[order]
+    n = np.bincount(sc)
+    first = np.concatenate([[0], np.cumsum(n)[:-1]])
+    pick = order[first[sc] + (rng.random(sc.size) * n[sc]).astype(int)]
+    out = dict(t)
+    for col, true, err in _REPORTED:
+        if col not in t:
+            continue
+        v = t[col]
+        seen = np.isfinite(v)  # a lost flash (no report) stays lost; the cell's mean and scale are the reports'
+        k = np.bincount(cells, seen, minlength=n.size)
+        mean = np.bincount(cells, np.where(seen, v, 0.0), minlength=n.size) / np.maximum(k, 1)
+        scale = np.where(k > 1, np.sqrt(k / np.maximum(k - 1, 1)), 1.0)
+        new = np.empty_like(v)
+        new[order] = mean[sc] + scale[sc] * (v[pick] - mean[sc])
+        out[col] = new
+        if err is not None:
+            out[err] = new - t[true]
+    return out
+
+
 def bootstrap(tab: dict, n: int = BOOT, seed: int = 0) -> dict[str, tuple[float, float]]:
-    """95 % percentile CIs of ``statistics``: the flash positions (and the displacement paradigm's
-    repetitions) resampled with replacement, the same draw for every design of a resample."""
+    """95 % percentile CIs of ``statistics``: the experiment repeated -- each localization design's
+    reports resampled within its cells (``resample_cells``), the displacement reports within each
+    step and blank."""
     from .psychophysics import displacement_psychometrics
 
     rng = np.random.default_rng(seed)
     start = {b: (r["pse_deg"], r["threshold_deg"]) for b, r in displacement_psychometrics(tab["displacement"]).items()}
-    pos_key = {name: t["flash_dx_deg"] + 1j * t["flash_dy_deg"] for name, t in tab.items() if name != "displacement"}
-    positions = np.unique(np.concatenate(list(pos_key.values())))
-    rows_of = {name: {p: np.flatnonzero(k == p) for p in positions} for name, k in pos_key.items()}
+    cells = {name: _cells(t) for name, t in tab.items() if name != "displacement"}
     disp = tab["displacement"]
-    cells = {}
+    groups: dict = {}
     for i, c in enumerate(zip(disp["flash_dx_deg"], disp["flash_time_ms"])):
-        cells.setdefault(c, []).append(i)
+        groups.setdefault(c, []).append(i)
     samples: dict[str, list] = {k: [] for k in ROWS}
     for _ in range(n):
-        draw = rng.choice(positions, size=positions.size, replace=True)
-        sub = {}
-        for name, t in tab.items():
-            if name == "displacement":
-                idx = np.concatenate([rng.choice(v, size=len(v), replace=True) for v in cells.values()])
-            else:
-                idx = np.concatenate([rows_of[name][p] for p in draw])
-            sub[name] = {k: v[idx] for k, v in t.items()}
+        sub = {name: resample_cells(t, cells[name], rng) for name, t in tab.items() if name != "displacement"}
+        idx = np.concatenate([rng.choice(v, size=len(v), replace=True) for v in groups.values()])
+        sub["displacement"] = {k: v[idx] for k, v in disp.items()}
         with np.errstate(all="ignore"):
             for k, v in statistics(sub, start).items():
                 samples[k].append(v)
     out = {}
     for k, v in samples.items():
         v = np.asarray(v, float)
-        v = v[np.isfinite(v)]
-        out[k] = (float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5))) if v.size else (np.nan, np.nan)
+        if not np.all(np.isfinite(v)):  # an undefined replicate: the CI is undefined, not narrower
+            out[k] = (float("nan"), float("nan"))
+        else:
+            out[k] = (float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5)))
     return out
 
 
+def _note(name: str, model: str, tab: dict, value: float, ci: tuple) -> str:
+    """What a reader of the row must know: an undefined value or CI, a non-monotone psychometric fit."""
+    from .psychophysics import displacement_psychometrics
+
+    notes = []
+    if not np.isfinite(value):
+        notes.append("undefined on these data (e.g. no half-maximum crossing, no fixed point)")
+    elif not all(np.isfinite(ci)):
+        notes.append("undefined in some bootstrap replicates: no CI")
+    if name == "displacement_blank_ratio":
+        fits = displacement_psychometrics(tab["displacement"])
+        steps = np.unique(tab["displacement"]["flash_dx_deg"])
+        spacing, span = float(np.min(np.diff(steps))), float(steps[-1] - steps[0])
+        for b, r in fits.items():
+            if r["threshold_deg"] < spacing:
+                notes.append(f"threshold {r['threshold_deg']:.2f} deg at blank {b} ms is under the {spacing:g} deg "
+                             f"step: not resolved by the grid")
+            elif r["threshold_deg"] > span / 2 or not steps[0] < r["pse_deg"] < steps[-1]:
+                notes.append(f"blank {b} ms: PSE {r['pse_deg']:.2f}, threshold {r['threshold_deg']:.2f} deg reach "
+                             f"beyond the steps ({steps[0]:g} to {steps[-1]:g} deg): extrapolated")
+        bad = [f"{b} ms" for b, r in fits.items() if not r["monotonic"]]
+        if bad:
+            notes.append("psychometric data not monotone at blank " + ", ".join(bad) +
+                         " (p = " + ", ".join(f"{fits[int(b.split()[0])]['monotone_p']:.2f}" for b in bad) + ")")
+    if ROWS[name][2] is None:
+        notes.append("no published number: reported, not tested")
+    return "; ".join(notes)
+
+
+def _fmt(v: float) -> float | str:
+    return round(float(v), 3) if np.isfinite(v) else "nan"
+
+
 def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
-    """One row per (phenomenon, model): published, simulated, ci_low, ci_high, role, reproduced."""
+    """One row per (phenomenon, model) with ``scoring.SCORE_COLUMNS``, the verdicts set by
+    ``scoring.finalize`` from ``experiments/data/calibration.csv``."""
+    from .psychophysics.scoring import finalize
+
     rows = []
     for model, tab in tables.items():
         point = statistics(tab)
         ci = bootstrap(tab, n_boot)
-        for name, (published, rng, unit) in ROWS.items():
-            role = "calibrated" if name in CALIBRATION.get(model, ()) else "predicted"
-            v = round(point[name], 3)  # decided on the value the table reports
-            if role == "calibrated":
-                ok = "calibrated"
-            elif rng is None:
-                ok = "not tested"
-            else:
-                ok = "yes" if np.isfinite(v) and rng[0] <= v <= rng[1] else "no"
-            rows.append({"phenomenon": name, "model": model, "published": published,
-                         "published_range": "" if rng is None else f"{rng[0]:g} to {rng[1]:g} {unit}",
-                         "simulated": v, "ci_low": round(ci[name][0], 3), "ci_high": round(ci[name][1], 3),
-                         "role": role, "reproduced": ok})
-    return rows
+        for name, (statement, source, rng, unit) in ROWS.items():
+            rows.append({"phenomenon": name, "model": model, "source": source,
+                         "published_low": "" if rng is None else rng[0],
+                         "published_high": "" if rng is None else rng[1],
+                         "simulated": _fmt(point[name]), "ci_low": _fmt(ci[name][0]), "ci_high": _fmt(ci[name][1]),
+                         "note": _note(name, model, tab, point[name], ci[name])})
+    return finalize(rows)
 
 
-COLUMNS = ["phenomenon", "model", "published", "simulated", "ci_low", "ci_high", "role", "reproduced",
-           "published_range"]
+#: The columns of ``phenomena.csv``.
+COLUMNS = list(SCORE_COLUMNS)
 
 
 def markdown_table(rows: list[dict]) -> str:
     """The scoreboard as a Markdown table (the README's): one line per phenomenon, one column per
-    model; each cell the simulated value, its 95 % CI and the verdict (cal. = calibrated on it,
-    yes / **no** = a predicted row reproduced or not, n/t = no published number to test)."""
+    model; each cell the simulated value, its 95 % CI and the verdict: **yes** / no (predicted,
+    diagnostic, and the CI inside the published range or not: the rows that count), cal. yes / cal.
+    no (calibrated: a constant of the model came from the row's source), n.d. (the baseline also
+    reproduces the row: not diagnostic), n/t (no published number)."""
     models = list(dict.fromkeys(r["model"] for r in rows))
     cell = {(r["phenomenon"], r["model"]): r for r in rows}
-    verdict = {"calibrated": "cal.", "yes": "yes", "no": "**no**", "not tested": "n/t"}
 
     def fmt(v, unit: str) -> str:
         v = float(v)
+        if not np.isfinite(v):
+            return "nan"
         return f"{v:.0f}" if unit == "ms" or abs(v) >= 100 else f"{v:.2f}"
 
-    lines = ["| phenomenon | published | " + " | ".join(models) + " |", "|---|---|" + "---|" * len(models)]
+    def verdict(c: dict) -> str:
+        if c["reproduced"] == "not tested":
+            return "n/t"
+        if c["role"] == "calibrated":
+            return f"cal. {c['reproduced']}"
+        if c["diagnostic"] == "no":
+            return f"n.d. {c['reproduced']}"
+        return "**yes**" if c["reproduced"] == "yes" else "no"
+
+    lines = ["| phenomenon | published (source) | " + " | ".join(models) + " |", "|---|---|" + "---|" * len(models)]
     for name in dict.fromkeys(r["phenomenon"] for r in rows):
         first = cell[(name, models[0])]
-        pub = first["published_range"] or "none found"
-        unit = ROWS[name][2] if name in ROWS else ""
-        cells = [f"{fmt(c['simulated'], unit)} [{fmt(c['ci_low'], unit)}, {fmt(c['ci_high'], unit)}] "
-                 f"{verdict[c['reproduced']]}" for c in (cell[(name, m)] for m in models)]
-        lines.append(f"| `{name}` | {pub} | " + " | ".join(cells) + " |")
+        unit = ROWS[name][3] if name in ROWS else ""
+        pub = (f"{float(first['published_low']):g} to {float(first['published_high']):g} {unit}"
+               if str(first["published_low"]).strip() else "none found")
+        src = "" if first["source"].startswith("none") else f" ({first['source']})"
+        cells = [f"{fmt(c['simulated'], unit)} [{fmt(c['ci_low'], unit)}, {fmt(c['ci_high'], unit)}] {verdict(c)}"
+                 for c in (cell[(name, m)] for m in models)]
+        lines.append(f"| `{name}` | {pub}{src} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -407,18 +520,19 @@ def _save(fig, path: Path) -> Path:
 
 def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:
     from .folders import atomic_write_text, write_csv
+    from .psychophysics.scoring import counts
 
     rows = score(tables, n_boot)
     write_csv(out / "phenomena.csv", COLUMNS, rows)
-    lines = [f"{'phenomenon':34s} {'model':12s} {'role':10s} {'simulated':>9s}  {'95% CI':17s} {'published':18s} "
-             f"reproduced"]
-    lines += [f"{r['phenomenon']:34s} {r['model']:12s} {r['role']:10s} {r['simulated']:9.3f}  "
-              f"[{r['ci_low']:7.3f}, {r['ci_high']:7.3f}] {r['published_range']:18s} {r['reproduced']}" for r in rows]
-    counts = []
-    for m in tables:
-        pred = [r for r in rows if r["model"] == m and r["role"] == "predicted" and r["reproduced"] in ("yes", "no")]
-        counts.append(f"{m}: {sum(r['reproduced'] == 'yes' for r in pred)}/{len(pred)} predicted rows reproduced")
-    text = "\n".join(lines + [""] + counts) + "\n"
+    lines = [f"{'phenomenon':34s} {'model':12s} {'role':10s} {'diag':4s} {'simulated':>9s}  {'95% CI':19s} "
+             f"{'published':14s} reproduced"]
+    for r in rows:
+        pub = f"{r['published_low']}..{r['published_high']}" if str(r["published_low"]).strip() else "none"
+        lines.append(f"{r['phenomenon']:34s} {r['model']:12s} {r['role']:10s} {r['diagnostic']:4s} "
+                     f"{float(r['simulated']):9.3f}  [{float(r['ci_low']):7.3f}, {float(r['ci_high']):7.3f}] "
+                     f"{pub:14s} {r['reproduced']}" + (f"  ({r['note']})" if r["note"] else ""))
+    tally = [f"{m}: {a}/{b} predicted, diagnostic rows reproduced" for m, (a, b) in counts(rows).items()]
+    text = "\n".join(lines + [""] + tally) + "\n"
     atomic_write_text(out / "phenomena.txt", text)
     atomic_write_text(out / "phenomena.md", markdown_table(rows))
     return text, plot(tables, out)
@@ -467,7 +581,8 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--bootstrap", type=int_in(100, 100_000), default=BOOT, metavar="N",
                    help=f"bootstrap resamples per confidence interval (100-100000, default {BOOT})")
     p.add_argument("--quick", action="store_true",
-                   help="8 flash positions instead of 24 and 3 displacement repetitions instead of 8: a fast look "
+                   help="8 flash positions instead of 24, 2 repetitions instead of 4, 7 displacement steps x 6 reports "
+                        "instead of 13 x 30: a fast look "
                         "with wider CIs (a folder holds one of the two)")
     p.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
     p.add_argument("--no-progress", action="store_true", help="no progress bars")

@@ -409,3 +409,63 @@ def test_a_run_trials_table_reads(tmp_path):
     d = _read_quietly(_csv(tmp_path / "trials.csv", list(TABLE_COLUMNS), rows))
     assert len(d) == 4 and list(d.condition) == ["references", "dark", "references", "dark"]
     assert d.perceived_deg[:, 0] == pytest.approx([r[4] for r in ROWS])
+
+
+# ---------------------------------------------------------------------------------------------- 1-D localization
+def test_one_dimensional_rows_read_with_an_empty_perceived_y(tmp_path):
+    """Studies that measured only the error along the saccade (e.g. Honda 1989; Lappe, Awater &
+    Krekelberg 2000, Fig. 2) leave ``perceived_y_deg`` empty: the row reads, with y unmeasured."""
+    rows = [list(r) for r in ROWS]
+    rows[0][5] = rows[2][5] = ""
+    data = _read_quietly(_csv(tmp_path / "d.csv", REQ, rows))
+    assert data.measured.tolist() == [[True, False], [True, True], [True, False], [True, True]]
+    assert data.perceived_deg[1, 1] == -2 and math.isnan(data.perceived_deg[0, 1])
+    # a 1-D row has no SD across either
+    header = REQ + ["n", "sd_x_deg", "sd_y_deg"]
+    rows = [r + [4, 1.0, 1.0] for r in rows]
+    rows[0][-1] = rows[2][-1] = ""
+    assert _read_quietly(_csv(tmp_path / "ok.csv", header, rows)).measured[0].tolist() == [True, False]
+    rows[2][-1] = "1.0"
+    _fails(_csv(tmp_path / "bad.csv", header, rows), 4, "sd_y_deg", "empty where perceived_y_deg is")
+    # an empty perceived_x_deg is still an error: every row reports along the saccade
+    rows = [list(r) for r in ROWS]
+    rows[1][4] = ""
+    _fails(_csv(tmp_path / "x.csv", REQ, rows), 3, "perceived_x_deg")
+
+
+def test_one_dimensional_likelihood_uses_x_alone():
+    """The log-likelihood of data with 1-D rows is the sum of the Gaussian log-densities of the
+    reports that were measured (a direct sum with scipy.stats.norm), whatever the model predicts
+    across on those rows; the noise MLE across uses the 2-D rows only, and with no y at all
+    ``noise_y_deg`` is held at its default."""
+    from scipy.stats import norm
+
+    from experiments.modelfit.data import LocalizationData
+    from experiments.modelfit.likelihood import FIT_MODELS, Evaluator
+
+    perceived = np.array([[11.5, np.nan], [5.0, -2.0], [9.0, np.nan], [13.0, -3.5]])
+    data = LocalizationData(np.array([20.0, 16, 20, 24]), np.array([-50, 0, 50, 100]),
+                            np.array([[12.0, 3], [4, -3], [8, 1], [14, -4]]), perceived,
+                            np.array(["references"] * 4), np.array([1, 2, 1, 3]), np.full((4, 2), np.nan))
+    ev = Evaluator(FIT_MODELS["paper"], data, {}, {}, np.arange(4))
+    pred = np.array([[11.0, 5.0], [4.5, -1.0], [9.5, 99.0], [12.0, -3.0]])
+    ev.predict = lambda values: pred
+    v = {"noise_x_deg": 0.8, "noise_y_deg": 1.5}
+    n = data.n.astype(float)
+    want = sum(norm.logpdf(perceived[i, 0], pred[i, 0], 0.8 / math.sqrt(n[i])) for i in range(4))
+    want += sum(norm.logpdf(perceived[i, 1], pred[i, 1], 1.5 / math.sqrt(n[i])) for i in (1, 3))
+    assert ev.log_likelihood(v) == pytest.approx(want, rel=1e-12)
+    pred[2, 1] = -50.0  # a prediction across on a 1-D row changes nothing
+    assert ev.log_likelihood(v) == pytest.approx(want, rel=1e-12)
+    s = ev.noise_mle(v)
+    assert s["noise_y_deg"] == pytest.approx(math.sqrt((2 * 1.0**2 + 3 * 0.5**2) / 2))
+    x_only = dataclasses_replace(data, perceived_deg=np.column_stack([perceived[:, 0], np.full(4, np.nan)]))
+    ev2 = Evaluator(FIT_MODELS["paper"], x_only, {}, {}, np.arange(4))
+    ev2.predict = lambda values: pred
+    assert ev2.noise_mle(v)["noise_y_deg"] == 1.0  # not identified: the default
+
+
+def dataclasses_replace(obj, **kw):
+    import dataclasses
+
+    return dataclasses.replace(obj, **kw)

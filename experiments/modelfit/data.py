@@ -12,7 +12,9 @@ saccade_amplitude_deg      yes       A, in (0, 40]
 flash_time_ms              yes       flash onset re saccade onset, whole ms in [-1000, 1000]
 true_x_deg, true_y_deg     yes       where the flash was, within +-60 deg
 perceived_x_deg,           yes       where it was reported (the mean, for a condition mean), within
-perceived_y_deg                      +-90 deg
+perceived_y_deg                      +-90 deg; ``perceived_y_deg`` may be empty where a study measured
+                                     only the error along the saccade (1-D localization: the row's
+                                     likelihood uses x alone)
 condition                  no        ``references`` (default) or ``dark`` (case and surrounding
                                      spaces ignored)
 n                          no        trials behind the row: a whole number in [1, 10**9] (default 1:
@@ -108,11 +110,16 @@ class LocalizationData:
     amplitude_deg: np.ndarray
     flash_time_ms: np.ndarray
     true_deg: np.ndarray  #: (R, 2)
-    perceived_deg: np.ndarray  #: (R, 2)
+    perceived_deg: np.ndarray  #: (R, 2); y NaN on 1-D rows (only the error along the saccade measured)
     condition: np.ndarray  #: (R,) str
     n: np.ndarray  #: (R,) int >= 1
     sd_deg: np.ndarray  #: (R, 2), NaN where not given
     source: str = ""
+
+    @property
+    def measured(self) -> np.ndarray:
+        """(R, 2) bool: the axes each row reports (1-D rows: x only)."""
+        return np.isfinite(self.perceived_deg)
 
     @property
     def n_observations(self) -> int:
@@ -418,7 +425,8 @@ def _conventions(path: Path, amp, t, true, perceived) -> list[str]:
                    "from (the format's saccade goes from -A/2 to +A/2 azimuth, the target at +A/2); if the saccades "
                    "were leftward, mirror azimuths (negate true_x_deg and perceived_x_deg); read as given")
     for j, ax in enumerate("xy"):
-        a, b = true[:, j], perceived[:, j]
+        ok = np.isfinite(perceived[:, j])  # 1-D rows have no perceived y
+        a, b = true[ok, j], perceived[ok, j]
         if len(a) >= 10 and len(np.unique(a)) >= 2 and np.std(b) > 0:
             rho = float(np.corrcoef(a, b)[0, 1])
             if rho < -0.5:
@@ -442,7 +450,8 @@ def read_data(path) -> LocalizationData:
         raise DataFormatError(f"{path}: row 1 (the header): missing column(s) {', '.join(missing)}; required: "
                               f"{', '.join(REQUIRED)} (units in the names: deg, ms)"
                               + (f"; names are case-sensitive: rename {', '.join(near)}" if near else ""))
-    v = {c: _numbers(path, tab, c)[0] for c in REQUIRED}
+    v = {c: _numbers(path, tab, c)[0] for c in REQUIRED if c != "perceived_y_deg"}
+    v["perceived_y_deg"], no_y = _numbers(path, tab, "perceived_y_deg", blank_ok=True)  # empty: 1-D, x alone
     a = v["saccade_amplitude_deg"]
     _check(path, tab, "saccade_amplitude_deg", np.isfinite(a) & (a > 0) & (a <= 40),
            "saccade amplitudes in degrees, in (0, 40]")
@@ -454,8 +463,11 @@ def read_data(path) -> LocalizationData:
     for c in ("true_x_deg", "true_y_deg"):
         _check(path, tab, c, np.isfinite(v[c]) & (np.abs(v[c]) <= 60), "degrees within +-60")
     for c in ("perceived_x_deg", "perceived_y_deg"):
-        _check(path, tab, c, np.isfinite(v[c]) & (np.abs(v[c]) <= 90), "finite degrees within +-90",
-               "a trial without a report (NaN) cannot be fitted: delete its row")
+        empty_ok = no_y if c == "perceived_y_deg" else np.zeros(len(no_y), bool)
+        _check(path, tab, c, empty_ok | np.isfinite(v[c]) & (np.abs(v[c]) <= 90), "finite degrees within +-90",
+               "a trial without a report (NaN) cannot be fitted: delete its row"
+               + ("; leave perceived_y_deg empty where only the error along the saccade was measured"
+                  if c == "perceived_y_deg" else ""))
     r = len(t)
     parsed = dict(v)
     if "condition" in cols:
@@ -483,6 +495,9 @@ def read_data(path) -> LocalizationData:
                    "(not inf or nan; R: write.csv(..., na = \"\"))")
             _check(path, tab, c, empty | (n >= 2), "given only on rows with n >= 2 (an SD of one trial is "
                    "undefined)", "leave it empty or give the row's n")
+            if c == "sd_y_deg":
+                _check(path, tab, c, empty | ~no_y, "empty where perceived_y_deg is (no report across, no SD of it)",
+                       "leave it empty on 1-D rows")
             sd[:, j] = s
             parsed[c] = [None if e else x for e, x in zip(empty, s)]
     _duplicates(path, tab, {k: list(x) for k, x in parsed.items()})

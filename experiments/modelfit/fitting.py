@@ -335,21 +335,24 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
             ok = False
     se = dict(zip(free_names, np.sqrt(var) if ok else np.full(len(free), np.nan)))
     n_eff = len(data) + float(np.sum(np.where(np.isfinite(data.sd_deg[:, 0]), data.n - 1, 0)))
-    for nm in _NOISE:  # the MLE of a Gaussian s.d.: SE = s / sqrt(2 N)
-        se[nm] = best[nm] / math.sqrt(2 * n_eff)
+    for j, nm in enumerate(_NOISE):  # the MLE of a Gaussian s.d.: SE = s / sqrt(2 N); none without data
+        se[nm] = best[nm] / math.sqrt(2 * n_eff) if data.measured[:, j].any() else math.nan
     bounds = {p.name: (p.lo, p.hi) for p in model.parameters}
     ci = {n: ([max(bounds[n][0], best[n] - 1.96 * se[n]), min(bounds[n][1], best[n] + 1.96 * se[n])]
               if math.isfinite(se[n]) else [None, None]) for n in names}
     at_bound = [n for n in names if min(best[n] - bounds[n][0], bounds[n][1] - best[n]) <= 1e-3 * (bounds[n][1]
                                                                                                    - bounds[n][0])]
-    k, n_obs = len(names), data.n_observations
-    resid = data.perceived_deg - pred
-    rms = np.sqrt(np.sum(data.n[:, None] * resid**2, axis=0) / data.n.sum())
+    # a parameter without data (noise_y_deg of 1-D data) is not counted
+    k, n_obs = len(names) - int(not data.measured[:, 1].any()), data.n_observations
+    m = data.measured
+    resid = np.where(m, data.perceived_deg - pred, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rms = np.sqrt(np.sum(data.n[:, None] * resid**2, axis=0) / np.sum(np.where(m, data.n[:, None], 0), axis=0))
     return {"model": model.name, "parameters": {n: float(best[n]) for n in names},
             "se": {n: (float(se[n]) if math.isfinite(se[n]) else None) for n in names}, "ci": ci,
             "log_likelihood": float(ll), "aic": 2 * k - 2 * ll, "bic": k * math.log(n_obs) - 2 * ll, "n": n_obs,
             "n_parameters": k, "n_rows": len(data), "converged": bool(res.success), "evaluations": len(log.memo),
-            "hessian_ok": ok, "at_bounds": at_bound, "residual_rms_deg": [float(rms[0]), float(rms[1])],
+            "hessian_ok": ok, "at_bounds": at_bound, "residual_rms_deg": [float(v) if math.isfinite(v) else None for v in rms],
             "data": data.source, "data_hash": _data_hash(data), "fit_key": key, "_predict": pred}
 
 

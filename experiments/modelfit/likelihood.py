@@ -3,7 +3,9 @@
 Response model: each report is the model's perceived position plus independent Gaussian report
 noise per axis, s.d. ``noise_x_deg`` and ``noise_y_deg`` (free parameters). A row that is the
 mean of n reports has s.d. noise/sqrt(n); a row that also gives its SDs adds the likelihood of
-the sample variance ((n-1) s^2 / noise^2 ~ chi-square with n-1 degrees of freedom).
+the sample variance ((n-1) s^2 / noise^2 ~ chi-square with n-1 degrees of freedom). A 1-D row
+(``perceived_y_deg`` empty: only the error along the saccade measured) contributes its x term
+alone; with no y anywhere, ``noise_y_deg`` is not identified (held at its default, not counted).
 
 Models (``FIT_MODELS``) and their free parameters (bounds; the rest of ``TrialConfig`` at defaults):
 
@@ -123,13 +125,17 @@ class Evaluator:
         pred = self.predict(values)
         d = self.data
         n = d.n[:, None].astype(float)
-        resid = d.perceived_deg - pred
-        has_sd = np.isfinite(d.sd_deg) & (n >= 2)
-        num = np.sum(n * resid**2, axis=0) + np.sum(np.where(has_sd, (n - 1) * np.nan_to_num(d.sd_deg) ** 2, 0.0), axis=0)
-        den = len(d) + np.sum(np.where(has_sd, n - 1, 0.0), axis=0)
-        s = np.sqrt(num / den)
+        m = d.measured
+        resid = np.where(m, d.perceived_deg - pred, 0.0)
+        has_sd = np.isfinite(d.sd_deg) & (n >= 2) & m
+        num = np.sum(np.where(m, n * resid**2, 0.0), axis=0) + \
+            np.sum(np.where(has_sd, (n - 1) * np.nan_to_num(d.sd_deg) ** 2, 0.0), axis=0)
+        den = np.sum(m, axis=0) + np.sum(np.where(has_sd, n - 1, 0.0), axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s = np.sqrt(num / den)
         lo, hi = NOISE[0].lo, NOISE[0].hi
         s = np.clip(np.where(np.isfinite(s), s, hi), lo, hi)
+        s = np.where(den > 0, s, [p.default for p in NOISE])  # no data on an axis: not identified
         return {**values, "noise_x_deg": float(s[0]), "noise_y_deg": float(s[1])}
 
     def log_likelihood(self, values: dict) -> float:
@@ -137,12 +143,13 @@ class Evaluator:
         d = self.data
         sig = np.array([values["noise_x_deg"], values["noise_y_deg"]])
         n = d.n[:, None].astype(float)
-        resid = d.perceived_deg - pred
-        if not np.all(np.isfinite(resid)):
+        m = d.measured
+        if not np.all(np.isfinite(pred[m])):
             return -math.inf  # a flash lost by the read-out under these parameters
+        resid = np.where(m, d.perceived_deg - pred, 0.0)
         var = sig**2 / n
-        ll = float(np.sum(-0.5 * (np.log(2 * np.pi * var) + resid**2 / var)))
-        has_sd = np.isfinite(d.sd_deg) & (n >= 2)
+        ll = float(np.sum(np.where(m, -0.5 * (np.log(2 * np.pi * var) + resid**2 / var), 0.0)))
+        has_sd = np.isfinite(d.sd_deg) & (n >= 2) & m
         if has_sd.any():  # (n-1) s^2 / sigma^2 ~ chi2(n-1), as a density of s^2
             from scipy.stats import chi2
 

@@ -35,10 +35,13 @@ _RUNNER = None
 
 
 def observation_key(trials, config) -> str:
-    """12 hex digits identifying the trials and every field of the observing configuration."""
+    """12 hex digits identifying the trials and every field of the observing configuration that the
+    observation depends on (all but ``psychophysics.trial.READOUT_ONLY``)."""
     import dataclasses
 
-    cfg = {f.name: repr(getattr(config, f.name)) for f in dataclasses.fields(config)}
+    from ..psychophysics.trial import READOUT_ONLY
+
+    cfg = {f.name: repr(getattr(config, f.name)) for f in dataclasses.fields(config) if f.name not in READOUT_ONLY}
     text = json.dumps({"trials": [repr(t) for t in trials], "config": cfg}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 

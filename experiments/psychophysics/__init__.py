@@ -3,7 +3,7 @@
 Trials run through the environment's pipeline (rendering, retina, DPFT, efference-copy
 remapping into the target-centred frame, log-radius shift) and the perceived flash position is
 decoded from the remapped map through the eye-position signal and, when seen, the post-saccadic
-references; the perception models (``mechanistic``, ``paper``) are in ``mechanisms``. ``python -m experiments run``
+references; the perception theories are modules of ``theories``, found through its registry. ``python -m experiments run``
 drives a whole study (``experiments.study``).
 
 The names below are imported on first use (PEP 562), so that the command line can read the
@@ -32,6 +32,10 @@ _EXPORTS = {
     "fig11": "figures", "perceived_vs_time": "figures", "compression_vs_time": "figures", "save_all": "figures", "psychometric": "figures",
     "save_displacement": "figures",
     "LIMITS": "bounds", "MAX_TRIALS": "bounds",
+    "Participant": "participant", "PARTICIPANT": "participant", "add_report_noise": "participant",
+    "read_calibration": "calibration", "citation_keys": "calibration", "CALIBRATION_CSV": "calibration",
+    "SCORE_COLUMNS": "scoring", "check_scoreboard": "scoring", "finalize": "scoring",
+    "theory": "theories", "REGISTRY": "theories",
     "example_trials": "snapshots", "read_snapshot": "snapshots", "write_snapshot": "snapshots",
     "take_snapshot": "snapshots", "snapshot_path": "snapshots", "scene_state": "snapshots",
     "apply_scene_state": "snapshots", "SnapshotError": "snapshots", "SNAPSHOT_DIR": "snapshots",

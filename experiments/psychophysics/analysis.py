@@ -181,20 +181,11 @@ def format_summary(rows: list[dict], timecourse: RemapTimeCourse | None = None, 
         lines.append(f"trials: {n_trials}")
     if config is not None:
         lines.append(f"model: {config.model}, condition: {config.condition}, paradigm: {config.paradigm}")
-        if config.model == "mechanistic":
-            off = ", ".join(config.disabled) or "none"
-            lines.append(f"remapping driven by the eye-position signal's speed x {config.feedback_gain:g} ms/deg; "
-                         f"reference weight {config.reference_weight:g}; mechanisms off: {off}")
-            timecourse = None
-        elif config.model in ("observer", "population"):
-            import dataclasses
+        from .theories import theory
 
-            params = getattr(config, config.model)
-            lines.append(f"{config.model} constants: " + ", ".join(f"{k} {v:g}" for k, v in
-                                                                 dataclasses.asdict(params).items()))
-            timecourse = None
-        else:
-            timecourse = config.timecourse
+        model = theory(config.model)
+        lines += model.describe(config)
+        timecourse = config.timecourse if model.uses_timecourse else None
     if timecourse is not None:
         tc = timecourse
         lines.append(f"gain time course: peak {tc.peak_gain:.3f} (compression {1 - np.exp(-tc.peak_gain):.0%}) at "

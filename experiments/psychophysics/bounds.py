@@ -67,6 +67,7 @@ LIMITS: dict[str, Limit] = {
     "visual_latency_ms": Limit(0.0, 300.0, unit="ms"),
     "feedback_gain": Limit(0.0, 50.0, unit="ms/deg"),
     "reference_weight": Limit(0.0, 1.0),
+    "reference_unit": Limit(0.0, 1.0, lo_open=True),
     "stability_tolerance": Limit(0.0, 1.0),
     "report_noise_deg": Limit(0.0, 10.0, unit="deg"),
     "eps_sigma_ms": Limit(1.0, 500.0, unit="ms"),

@@ -38,8 +38,12 @@ switched off by name (``TrialConfig(disabled=(...))``, ``--disable``):
     a reference (``condition="dark"``: the target goes off at saccade onset, the screen is black)
     only the extraretinal route is left: the flash's unremapped retinal position through the
     eye-position signal, which shifts but does not compress. The weight of the anchored route is
-    ``reference_weight`` times the fraction of the reference's activity the retina sees; off:
-    weight 0.
+    graded by how much reference the retina sees: ``reference_weight x min(1, A / reference_unit)``,
+    with A the retina's summed activity of every post-saccadic reference (target, ruler, markers;
+    their contrast and size as rendered) and ``reference_unit`` the activity of the default
+    references (target + ruler at full contrast, 256 px: the same measured unit as the observer's).
+    The anchor is the seen target, or, where the target is not seen, the centroid of the references
+    that are. Off: weight 0.
 
 What the mechanistic model does not contain (so does not claim): any fitted time course, a
 reference-dependent change of the remapping itself, a Bayesian weighting of the two routes by

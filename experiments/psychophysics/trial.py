@@ -42,12 +42,12 @@ import models
 from .bounds import check_int, check_real
 from .decode import DEFAULT_THRESHOLD, activity_centroid
 from .design import Trial
-from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS, command_gain
-from .observer import ObserverParams, eye_estimate, posterior_mean, prior_precision, sensory_sd_deg
-from .population import (PopulationParams, cortical_offset, feedback_signal, from_cortical_offset,
-                         population_estimate)
+from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS
+from .observer import ObserverParams
+from .population import PopulationParams
 from .targetmap import TargetCentredMap
 from .snapshots import scene_state
+from .theories import theory
 from .timecourse import RemapTimeCourse
 
 __all__ = ["TrialConfig", "TrialRunner", "Observation", "head_angles_deg", "ROW_COLUMNS", "TEXT_COLUMNS",
@@ -68,6 +68,10 @@ FIXATION_MS = 200
 FLASH_MS = 8
 #: The post-saccadic look at the references: this long after the saccade has settled (ms).
 POST_SACCADE_MS = 100
+#: A lit dot this close (deg) to a flash may share its image (the flash's radius, the dot's and the
+#: eye's travel during the 8 ms flash at up to ~700 deg/s): the flash is then rendered over the dot
+#: hidden, as the increment it is (``TrialRunner._increments``).
+LIT_NEAR_DEG = 8.0
 #: The ruler's elevation re the target (deg), as in the ``dots`` scene.
 RULER_ELEVATION_DEG = models.scenes.RULER_ELEVATION_DEG
 
@@ -114,8 +118,10 @@ class TrialConfig:
         (``models.EyePositionSignal``; 50, 50 ms).
     oversample : density factor of the target-centred read-out grid. flash_radius_deg : flash dot radius.
     model : ``"mechanistic"`` (default) or ``"paper"`` (``mechanisms``); ``timecourse`` is the paper
-        model's, ``feedback_gain`` (ms/deg), ``reference_weight`` and ``disabled`` (a tuple of
-        ``mechanisms.MECHANISMS``) the mechanistic model's.
+        model's, ``feedback_gain`` (ms/deg), ``reference_weight``, ``reference_unit`` and ``disabled``
+        (a tuple of ``mechanisms.MECHANISMS``) the mechanistic model's: the anchored route's weight is
+        ``reference_weight x min(1, A / reference_unit)``, A the retina's activity of the post-saccadic
+        references (``mechanisms``).
     condition : ``"references"`` (the target stays lit and a ruler appears at saccade offset) or
         ``"dark"`` (black screen; the target goes off at saccade onset).
     paradigm : ``"localization"`` (one flash per trial), ``"separation"`` (two simultaneous
@@ -158,6 +164,7 @@ class TrialConfig:
     paradigm: str = "localization"
     feedback_gain: float = 4.5
     reference_weight: float = 1.0
+    reference_unit: float = 8.4e-3
     disabled: tuple = ()
     stability_tolerance: float = 0.1
     report_noise_deg: float = 0.5
@@ -176,7 +183,8 @@ class TrialConfig:
         for name in ("image_size", "oversample", "reference_ms", "target_off_ms"):
             object.__setattr__(self, name, check_int(name, getattr(self, name)))
         for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise", "visual_latency_ms",
-                     "feedback_gain", "reference_weight", "stability_tolerance", "report_noise_deg", "eps_sigma_ms",
+                     "feedback_gain", "reference_weight", "reference_unit", "stability_tolerance", "report_noise_deg",
+                     "eps_sigma_ms",
                      "eps_delay_ms", "reference_contrast"):
             object.__setattr__(self, name, check_real(name, getattr(self, name)))
         object.__setattr__(self, "markers", _markers(self.markers))
@@ -232,7 +240,12 @@ def _markers(value) -> tuple:
 #: ``TrialConfig`` fields that only the read-out uses: ``TrialRunner.readout`` may be given a config
 #: that differs from the runner's in these (and only these), e.g. by a model fit.
 READOUT_PARAMETERS = ("timecourse", "threshold", "eye_position", "visual_latency_ms", "model", "feedback_gain",
-                      "reference_weight", "eps_sigma_ms", "eps_delay_ms", "observer", "population")
+                      "reference_weight", "reference_unit", "eps_sigma_ms", "eps_delay_ms", "observer", "population")
+#: ``READOUT_PARAMETERS`` that ``TrialRunner.observe`` never reads (the others -- the model, the
+#: centroid threshold, the eye-position signal's timing -- shape what it stores): an observation
+#: cache need not be keyed on them.
+READOUT_ONLY = ("timecourse", "eye_position", "visual_latency_ms", "feedback_gain", "reference_weight",
+                "reference_unit", "observer", "population")
 
 
 @dataclass
@@ -440,27 +453,30 @@ class TrialRunner:
             raise ValueError("observe/readout split the localization and separation paradigms; "
                              "the displacement paradigm runs with run()")
         head, cfg = self.head, self.config
-        mech_smear = not (cfg.model == "mechanistic" and "smear" in cfg.disabled)
+        mech_smear = theory(cfg.model).mechanisms_on(cfg)["smear"]
         two = cfg.paradigm == "separation"
         plan, t_abs, (tgt_w, fl_w, fl2_w) = self.stage(trial)
         exposure = FLASH_MS if mech_smear else 0
         ref = head.render(exposure_ms=exposure)
         frames = []
         scene = None
-        for name in ((_FLASH, _FLASH2) if two else (_FLASH,)):  # simultaneous flashes, read out one by one
+        names = (_FLASH, _FLASH2) if two else (_FLASH,)
+        for name in names:  # simultaneous flashes, read out one by one
             head.flash(name, FLASH_MS)
             frames.append(head.render(exposure_ms=exposure))
             if scene is None:
                 scene = {**scene_state(head), "flash_world": np.asarray(fl_w, float)}
             head.hide_flashes()
+        increments = self._increments(trial, names, exposure) if self._lit_near(trial, two) else (ref, frames)
         eye_h = np.degrees(head.eye_angles[:, 0])
         t_mid = t_abs + exposure / 2  # the middle of the flash's retinal image
         copy_pose = self._pose(plan.intended_angles(t_mid))  # efference copy: where the target is
         tgt_h = head.to_head(plan.intended_target)
         flashes = []
-        for frame, w in zip(frames, (fl_w, fl2_w)):
+        inc_ref, inc_frames = increments
+        for frame, w in zip(inc_frames, (fl_w, fl2_w)):
             eyes = []
-            for e, (img, img0) in enumerate(((frame.left, ref.left), (frame.right, ref.right))):
+            for e, (img, img0) in enumerate(((frame.left, inc_ref.left), (frame.right, inc_ref.right))):
                 diff = np.clip(img.image.astype(float) - img0.image.astype(float), 0, None) / 255.0
                 view = self.vision.see(diff)
                 ca, co = copy_pose[0][e], copy_pose[1][e]
@@ -475,43 +491,52 @@ class TrialRunner:
                            seen_z=seen_z, t_post=t_post, frame=frames[0], reference=ref, ref_z=ref_z,
                            ref_activity=ref_act, ref_on_ms=float(min(cfg.reference_ms, 1000)), scene=scene)
 
+    def _lit_near(self, trial: Trial, two: bool) -> list[str]:
+        """The lit dots (fixation point, target, markers: opacity > 0 now) whose direction lies within
+        ``LIT_NEAR_DEG`` of a flash of the trial: where their image and the flash's can overlap."""
+        flashes = [np.array(trial.flash_deg)]
+        if two:
+            flashes.append(flashes[0] + np.array(SEPARATION_DEG))
+        dots = {"fixation": trial.fixation_deg, "target": trial.target_deg}
+        dots.update({f"marker_{i:02d}": (trial.target_deg[0] + dx, trial.target_deg[1] + dy)
+                     for i, (dx, dy) in enumerate(self.config.markers)})
+        rgba = self.head.model.geom_rgba
+        return [n for n, d in dots.items() if rgba[self.head.model.geom(n).id, 3] > 0
+                and min(math.dist(d, f) for f in flashes) < LIT_NEAR_DEG]
+
+    def _increments(self, trial: Trial, names: tuple, exposure: float) -> tuple:
+        """The flash-free frame and each flash's frame with the lit dots near a flash hidden (the same
+        instants): their difference is the flash's luminance increment, also where it falls on a lit
+        dot -- a flash on the fixation point or target is seen, as it is by a person (the
+        renderer's saturated white would otherwise hide it). The dots' opacities are restored."""
+        head = self.head
+        near = self._lit_near(trial, len(names) > 1)
+        rgba = head.model.geom_rgba
+        saved = {n: float(rgba[head.model.geom(n).id, 3]) for n in near}
+        for n in near:
+            head.set_opacity(n, 0.0)
+        try:
+            ref = head.render(exposure_ms=exposure)
+            frames = []
+            for name in names:
+                head.flash(name, FLASH_MS)
+                frames.append(head.render(exposure_ms=exposure))
+                head.hide_flashes()
+        finally:
+            for n, a in saved.items():
+                head.set_opacity(n, a)
+        return ref, frames
+
     def readout(self, obs: Observation, config: TrialConfig | None = None) -> dict:
         """The perceived position(s) of an observed trial under ``config`` (default: the runner's;
         only its ``READOUT_PARAMETERS`` may differ from the runner's): the trial's table row."""
         cfg = config or self.config
-        mech = cfg.model == "mechanistic"
-        on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
         trial, plan = obs.trial, obs.plan
         eps = models.EyePositionSignal(cfg.eps_sigma_ms, cfg.eps_delay_ms)
         if plan.eye_position != eps:
             plan = plan.with_eye_position(eps)  # the same validated plan, read through another signal timing
-        t_mid = obs.t_mid
-        true_pose = self._pose(plan.angles(t_mid))
-        weight = 0.0
-        if cfg.model == "observer":
-            reads, gain = self._read_observer(obs, plan, true_pose, cfg)
-        elif cfg.model == "population":
-            reads, gain = self._read_population(obs, plan, cfg)
-        else:  # mechanistic, paper: the log-radius shift of the target-centred map
-            t_read = t_mid + (cfg.visual_latency_ms if on["latency"] else 0.0)  # when its response arrives
-            if mech:
-                gain = command_gain(plan, t_read, cfg.feedback_gain) if on["command_remap"] else 0.0
-            else:
-                gain = float(cfg.timecourse.gain(trial.flash_time_ms))
-            if cfg.eye_position == "signal" and on["eye_position_signal"]:
-                read_angles = plan.eye_position_signal(t_read)
-            else:
-                read_angles = plan.angles(t_mid)
-            read_pose = self._pose(read_angles)  # eye-position estimate: retinal -> head
-            seen = None
-            if mech and on["references"]:
-                axes, origins = self._pose(plan.eye_position_signal(float(obs.t_post)))
-                seen = np.full((2, 2), np.nan)
-                for e, z in enumerate(obs.seen_z):
-                    if np.isfinite(z.real):
-                        seen[e] = self._ray_to_screen_deg(origins[e], axes[e], z)
-                weight = cfg.reference_weight * float(np.all(np.isfinite(seen)))
-            reads = [self._read(f, gain, weight, seen, obs.copy_pose, read_pose, true_pose, cfg) for f in obs.flashes]
+        true_pose = self._pose(plan.angles(obs.t_mid))
+        reads, gain, weight = theory(cfg.model).read(self, obs, plan, true_pose, cfg)
         perceived, closed, maps = reads[0]
         self.last = dict(frame=obs.frame, reference=obs.reference, maps=maps, plan=plan, scene=obs.scene)
 
@@ -552,51 +577,8 @@ class TrialRunner:
                 "ruler": float(cfg.ruler)}
 
     # ------------------------------------------------------------------ the theories' read-outs
-    def _read_observer(self, obs: Observation, plan, true_pose, cfg: TrialConfig):
-        """``observer`` (module ``observer``): eqs. (1)-(3) for every flash of the trial jointly."""
-        p = cfg.observer
-        e_mean, e_cov = eye_estimate(plan, obs.t_mid, p.temporal_sd_ms)
-        axes, origins = self._pose(e_mean)
-        lam, rho = 0.0, np.zeros(2)
-        if obs.ref_z is not None:
-            r_mean, _ = eye_estimate(plan, float(obs.t_post), p.temporal_sd_ms)
-            r_axes, r_origins = self._pose(r_mean)
-            seen = [self._ray_to_screen_deg(r_origins[e], r_axes[e], z) for e, z in enumerate(obs.ref_z)
-                    if np.isfinite(z.real)]
-            if seen:
-                rho = np.mean(seen, axis=0)
-                act = float(np.mean([a for a, z in zip(obs.ref_activity, obs.ref_z) if np.isfinite(z.real)]))
-                lam = prior_precision(act, obs.ref_on_ms, p)
-        (ta, to) = true_pose
-        meas, cf, var = [], [], []  # (flash, eye, axis)
-        maps = [self._plain_maps(f, cfg.threshold) for f in obs.flashes]
-        for f, f_maps in zip(obs.flashes, maps):
-            m_e, c_e, v_e = [], [], []
-            for e, (_, _, _, z_t, z_rel) in enumerate(f_maps):
-                z = z_t + z_rel
-                xf = ta[e].T @ (f["head"] - to[e])
-                z_true = complex(xf[2], xf[0]) / xf[1]
-                m_e.append(self._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
-                c_e.append(self._ray_to_screen_deg(origins[e], axes[e], z_true))
-                ecc = math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan
-                v_e.append(float(sensory_sd_deg(ecc, p)) ** 2)
-            meas.append(m_e), cf.append(c_e), var.append(v_e)
-        meas, cf, var = np.array(meas), np.array(cf), np.array(var)
-        post, post_cf = np.full_like(meas, np.nan), np.full_like(cf, np.nan)
-        for e in range(2):
-            ok = np.isfinite(meas[:, e, 0])
-            for ax in range(2):
-                if ok.any():
-                    post[ok, e, ax] = posterior_mean(meas[ok, e, ax], var[ok, e], e_cov[ax, ax], rho[ax], lam)
-                post_cf[:, e, ax] = posterior_mean(cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg ** 2),
-                                                   e_cov[ax, ax], rho[ax], lam)
-        v0 = float(np.nanmean(var[0]))
-        weight_x = lam / (lam + 1.0 / (v0 + e_cov[0, 0])) if lam > 0 else 0.0
-        reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], maps[k]) for k in range(len(maps))]
-        return reads, float(weight_x)
-
-    def _plain_maps(self, flash: dict, threshold: float) -> list:
-        """Each eye's maps of a flash, as ``_read`` gives them for recordings: the retina's view, the
+    def plain_maps(self, flash: dict, threshold: float) -> list:
+        """Each eye's maps of a flash, as the shift read-out gives them for recordings: the retina's view, the
         target-centred map (unshifted: the theories do not shift it), the predicted target point and
         the flash's unremapped position relative to it (the activity centroid above ``threshold``)."""
         out = []
@@ -604,27 +586,6 @@ class TrialRunner:
             z_rel, per = self._centroid(view, self.grid, centred, 0.0, threshold)
             out.append((view, centred, per, z_t, z_rel))
         return out
-
-    def _read_population(self, obs: Observation, plan, cfg: TrialConfig):
-        """``population`` (module ``population``): the gain field's population vector per flash and eye."""
-        pp = cfg.population
-        t_resp = obs.t_mid + pp.latency_ms + np.linspace(0.0, pp.response_ms, 11)
-        strength = pp.gain_per_deg * float(np.mean(feedback_signal(plan, t_resp, pp.tau_ms)))
-        axes, origins = self._pose(plan.eye_position_signal(obs.t_mid + pp.latency_ms))
-        reads = []
-        for f in obs.flashes:
-            per_eye, maps = [], self._plain_maps(f, cfg.threshold)
-            for e, (_, _, _, z_t, z_rel) in enumerate(maps):
-                z = z_t + z_rel
-                goal = _image_to_deg(np.array([z_t]))[0][0]
-                dw = complex(cortical_offset(_image_to_deg(np.array([z]))[0][0], goal, pp.map_a_deg))
-                est = from_cortical_offset(population_estimate(dw, strength, pp.rf_sd, pp.field_sd), goal,
-                                           pp.map_a_deg) if np.isfinite(dw.real) else complex(np.nan, np.nan)
-                z_hat = _deg_to_image(est)
-                per_eye.append(self._ray_to_screen_deg(origins[e], axes[e], z_hat) if np.isfinite(z_hat.real)
-                               else np.full(2, np.nan))
-            reads.append((per_eye, per_eye, maps))
-        return reads, strength
 
     def _target_seen(self, t_ms: int, plan: models.SaccadePlan, latency: float,
                      true_eye: bool = False) -> tuple[np.ndarray, float, list[complex]]:
@@ -654,8 +615,8 @@ class TrialRunner:
         through its own eye-position estimate (``observer.eye_estimate``) and its noise is its own:
         the sensory and eye-position variances of both looks."""
         head, cfg = self.head, self.config
-        mech = cfg.model == "mechanistic"
-        on = {m: not (mech and m in cfg.disabled) for m in MECHANISMS}
+        model = theory(cfg.model)
+        on = model.mechanisms_on(cfg)
         blank = int(trial.flash_time_ms)
         if blank < 0:
             raise ValueError(f"the displacement paradigm's flash_times_ms are blank durations (ms >= 0); got {blank}")
@@ -680,15 +641,11 @@ class TrialRunner:
         head.step_ms(t_seen - head.time_ms)
         head.set_visible("target", True)
         post, mismatch, post_z = self._target_seen(t_seen, plan, latency, not use_eps)
-        weight = 0.0
         sd = cfg.report_noise_deg
-        if cfg.model == "observer":
-            (pre, v_pre), (post, v_post) = (self._observer_look(plan, t, zs, cfg) for t, zs in ((t_pre, pre_z),
-                                                                                                (t_seen, post_z)))
-            sd = math.sqrt(v_pre + v_post)  # the model's own noise on the step: both looks
-        if mech and on["references"] and np.isfinite(mismatch):
-            tol = cfg.stability_tolerance * trial.amplitude_deg
-            weight = cfg.reference_weight * math.exp(-0.5 * (mismatch / tol) ** 2) if tol > 0 else 0.0
+        looks = model.displacement_looks(self, plan, ((t_pre, pre_z), (t_seen, post_z)), cfg)
+        if looks is not None:  # the theory's own looks and noise on the step
+            pre, post, sd = looks
+        weight = model.stability_weight(cfg, mismatch, trial.amplitude_deg, on)
         step = (1.0 - weight) * float(post[0] - pre[0])
         noise = np.random.default_rng(trial.seed).normal(0.0, sd) if sd else 0.0
         true = head_angles_deg(head, step_w)[0]
@@ -714,69 +671,6 @@ class TrialRunner:
             "perceived_step_deg": step, "reported_forward": float(step + noise > 0),
             **self._stimulus_columns(cfg, None),
         }
-
-    def _observer_look(self, plan, t_ms: float, zs: list[complex], cfg: TrialConfig) -> tuple[np.ndarray, float]:
-        """The ``observer``'s head-centred estimate (deg) of the target seen at ``t_ms`` at the
-        retinal points ``zs`` (each eye's) and its variance along the saccade (sensory + eye
-        position, deg^2)."""
-        p = cfg.observer
-        e_mean, e_cov = eye_estimate(plan, t_ms, p.temporal_sd_ms)
-        axes, origins = self._pose(e_mean)
-        pos = [self._ray_to_screen_deg(origins[e], axes[e], z) for e, z in enumerate(zs) if np.isfinite(z.real)]
-        if not pos:
-            return np.full(2, np.nan), float("nan")
-        ecc = np.nanmean([math.degrees(math.atan(abs(z))) for z in zs if np.isfinite(z.real)])
-        return np.mean(pos, axis=0), float(sensory_sd_deg(ecc, p)) ** 2 + float(e_cov[0, 0])
-
-    def _read(self, flash: dict, gain, weight, seen, copy_pose, read_pose, true_pose, cfg: TrialConfig):
-        """Per eye, the perceived position (head-centred deg) of an observed flash and its closed
-        form, by the configured model; and the maps (for recordings)."""
-        mech = cfg.model == "mechanistic"
-        grid, fl_h = self.grid, flash["head"]
-        perceived, closed, maps = [], [], []
-        for e, (view, centred, z_t) in enumerate(flash["eyes"]):
-            (ca, co), (ra, ro), (ta, to) = ((a[e], o[e]) for a, o in (copy_pose, read_pose, true_pose))
-            z_rel, shifted = self._centroid(view, grid, centred, gain / grid.delta, cfg.threshold)
-            xf = ta.T @ (fl_h - to)
-            z_f = complex(xf[2], xf[0]) / xf[1]
-            z_cf = z_t + (z_f - z_t) * math.exp(-gain)
-            if not mech:
-                perceived.append(self._ray_to_screen_deg(ro, ra, z_t + z_rel))
-                closed.append(self._ray_to_screen_deg(ro, ra, z_cf))
-            else:
-                z_rel0 = self._centroid(view, grid, centred, 0.0, cfg.threshold)[0] if gain else z_rel
-                extra = self._ray_to_screen_deg(ro, ra, z_t + z_rel0)  # unremapped, via the signal
-                extra_cf = self._ray_to_screen_deg(ro, ra, z_f)
-                if weight > 0:  # anchored on the seen target: the flash's remapped offset from it
-                    base = self._ray_to_screen_deg(co, ca, z_t)
-                    anch = seen[e] + self._ray_to_screen_deg(co, ca, z_t + z_rel) - base
-                    anch_cf = seen[e] + self._ray_to_screen_deg(co, ca, z_cf) - base
-                else:
-                    anch = anch_cf = np.zeros(2)
-                perceived.append(weight * anch + (1 - weight) * extra)
-                closed.append(weight * anch_cf + (1 - weight) * extra_cf)
-            maps.append((view, centred, shifted, z_t, z_rel))
-        return perceived, closed, maps
-
-
-def _image_to_deg(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Image-plane points (complex, tan of eccentricity) as retinal positions in degrees (complex:
-    eccentricity along the same direction), and the map's area factor (deg^2 per image-plane unit^2)."""
-    z = np.asarray(z, complex)
-    r = np.abs(z)
-    ecc = np.degrees(np.arctan(r))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(r > 0, ecc / np.where(r > 0, r, 1.0), math.degrees(1.0))
-    radial = math.degrees(1.0) / (1.0 + r**2)
-    return z * scale, radial * scale
-
-
-def _deg_to_image(zeta: complex) -> complex:
-    """A retinal position in degrees (complex) back on the image plane."""
-    r = abs(zeta)
-    if not np.isfinite(r):
-        return complex(np.nan, np.nan)
-    return zeta * (math.tan(math.radians(r)) / r) if r > 0 else 0j
 
 
 def _mean_of_eyes(perceived: list) -> np.ndarray:

@@ -1,0 +1,93 @@
+"""The ``observer`` theory's read-out (the model: ``psychophysics.observer``): eqs. (1)-(3) of
+that module for every flash of a trial jointly, and its own looks at the target in the
+displacement paradigm (its eye-position estimate and its own noise)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..observer import eye_estimate, posterior_mean, prior_precision, sensory_sd_deg
+from . import register
+from .base import Theory
+
+__all__ = ["Observer"]
+
+
+class Observer(Theory):
+    """Perisaccadic localization as optimal inference (``psychophysics.observer``)."""
+
+    name = "observer"
+
+    def describe(self, cfg) -> list[str]:
+        """The theory's constants, as set in ``cfg``."""
+        import dataclasses
+
+        params = getattr(cfg, self.name)
+        return [f"{self.name} constants: " + ", ".join(f"{k} {v:g}" for k, v in dataclasses.asdict(params).items())]
+
+    def read(self, runner, obs, plan, true_pose, cfg):
+        """Eqs. (1)-(3) for every flash of the trial jointly; ``gain`` is the references' weight
+        along the saccade (the prior's share of the posterior), ``weight`` 0."""
+        p = cfg.observer
+        e_mean, e_cov = eye_estimate(plan, obs.t_mid, p.temporal_sd_ms)
+        axes, origins = runner._pose(e_mean)
+        lam, rho = 0.0, np.zeros(2)
+        if obs.ref_z is not None:
+            r_mean, _ = eye_estimate(plan, float(obs.t_post), p.temporal_sd_ms)
+            r_axes, r_origins = runner._pose(r_mean)
+            seen = [runner._ray_to_screen_deg(r_origins[e], r_axes[e], z) for e, z in enumerate(obs.ref_z)
+                    if np.isfinite(z.real)]
+            if seen:
+                rho = np.mean(seen, axis=0)
+                act = float(np.mean([a for a, z in zip(obs.ref_activity, obs.ref_z) if np.isfinite(z.real)]))
+                lam = prior_precision(act, obs.ref_on_ms, p)
+        (ta, to) = true_pose
+        meas, cf, var = [], [], []  # (flash, eye, axis)
+        maps = [runner.plain_maps(f, cfg.threshold) for f in obs.flashes]
+        for f, f_maps in zip(obs.flashes, maps):
+            m_e, c_e, v_e = [], [], []
+            for e, (_, _, _, z_t, z_rel) in enumerate(f_maps):
+                z = z_t + z_rel
+                xf = ta[e].T @ (f["head"] - to[e])
+                z_true = complex(xf[2], xf[0]) / xf[1]
+                m_e.append(runner._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
+                c_e.append(runner._ray_to_screen_deg(origins[e], axes[e], z_true))
+                ecc = math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan
+                v_e.append(float(sensory_sd_deg(ecc, p)) ** 2)
+            meas.append(m_e), cf.append(c_e), var.append(v_e)
+        meas, cf, var = np.array(meas), np.array(cf), np.array(var)
+        post, post_cf = np.full_like(meas, np.nan), np.full_like(cf, np.nan)
+        for e in range(2):
+            ok = np.isfinite(meas[:, e, 0])
+            for ax in range(2):
+                if ok.any():
+                    post[ok, e, ax] = posterior_mean(meas[ok, e, ax], var[ok, e], e_cov[ax, ax], rho[ax], lam)
+                post_cf[:, e, ax] = posterior_mean(cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg ** 2),
+                                                   e_cov[ax, ax], rho[ax], lam)
+        v0 = float(np.nanmean(var[0]))
+        weight_x = lam / (lam + 1.0 / (v0 + e_cov[0, 0])) if lam > 0 else 0.0
+        reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], maps[k]) for k in range(len(maps))]
+        return reads, float(weight_x), 0.0
+
+    def look(self, runner, plan, t_ms: float, zs: list, cfg) -> tuple[np.ndarray, float]:
+        """The head-centred estimate (deg) of the target seen at ``t_ms`` at the retinal points ``zs``
+        (each eye's) and its variance along the saccade (sensory + eye position, deg^2)."""
+        p = cfg.observer
+        e_mean, e_cov = eye_estimate(plan, t_ms, p.temporal_sd_ms)
+        axes, origins = runner._pose(e_mean)
+        pos = [runner._ray_to_screen_deg(origins[e], axes[e], z) for e, z in enumerate(zs) if np.isfinite(z.real)]
+        if not pos:
+            return np.full(2, np.nan), float("nan")
+        ecc = np.nanmean([math.degrees(math.atan(abs(z))) for z in zs if np.isfinite(z.real)])
+        return np.mean(pos, axis=0), float(sensory_sd_deg(ecc, p)) ** 2 + float(e_cov[0, 0])
+
+    def displacement_looks(self, runner, plan, looks, cfg):
+        """Both looks through the observer's own eye estimate; the report's noise is its own: the
+        sensory and eye-position variances of both looks."""
+        (pre, v_pre), (post, v_post) = (self.look(runner, plan, t, zs, cfg) for t, zs in looks)
+        return pre, post, math.sqrt(v_pre + v_post)
+
+
+register(Observer())
