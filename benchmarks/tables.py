@@ -1,15 +1,16 @@
-"""The README's batched-env speed tables, rendered from the CSVs of ``benchmarks/batched.py --csv``.
+"""The docs' batched-env speed tables (docs/batched.md), rendered from the CSVs of ``benchmarks/batched.py --csv``.
 
-A table in the README is marked by the comment naming its CSV and ends at the comment that closes it::
+A table in a page is marked by the comment naming its CSV and ends at the comment that closes it::
 
     <!-- table: benchmarks/data/batched_h100.csv -->
     | ... the rendered table ... |
     <!-- end of table -->
 
-    python benchmarks/tables.py README.md           # rewrite every marked table from its CSV
-    python benchmarks/tables.py README.md --check   # exit 1 (naming the CSV) where a table is not its CSV's
+    python benchmarks/tables.py docs/batched.md           # rewrite every marked table from its CSV
+    python benchmarks/tables.py docs/batched.md --check   # exit 1 (naming the CSV) where a table is not its CSV's
 
-``tests/test_benchmark_tables.py`` checks that the README's tables are their CSVs' rendering.
+The CSV paths are relative to the repository root (the folder holding ``pyproject.toml`` above the
+page). ``tests/test_benchmark_tables.py`` checks that the pages' tables are their CSVs' rendering.
 """
 
 from __future__ import annotations
@@ -95,14 +96,20 @@ def marked_tables(text: str) -> list[tuple[str, int, int]]:
     return out
 
 
+def _root(page: Path) -> Path:
+    """The repository root above ``page``: the nearest folder holding ``pyproject.toml`` (else the page's)."""
+    return next((d for d in page.resolve().parents if (d / "pyproject.toml").is_file()), page.parent)
+
+
 def update(readme: str | os.PathLike, check: bool = False) -> list[str]:
-    """Rewrite each marked table of ``readme`` from its CSV (paths relative to the README's folder); with
-    ``check``, write nothing. Returns the CSVs whose tables differed."""
+    """Rewrite each marked table of the page ``readme`` from its CSV (paths relative to the repository
+    root, ``_root``); with ``check``, write nothing. Returns the CSVs whose tables differed."""
     readme = Path(readme)
     text = readme.read_text()
+    root = _root(readme)
     stale, pieces, at = [], [], 0
     for name, start, end in marked_tables(text):
-        table = render(readme.parent / name)
+        table = render(root / name)
         if text[start:end] != table:
             stale.append(name)
         pieces += [text[at:start], table]
@@ -118,7 +125,7 @@ def update(readme: str | os.PathLike, check: bool = False) -> list[str]:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("readme", help="the markdown file whose marked tables are rendered (README.md)")
+    ap.add_argument("readme", help="the markdown page whose marked tables are rendered (docs/batched.md)")
     ap.add_argument("--check", action="store_true", help="write nothing; exit 1 where a table is not its CSV's")
     args = ap.parse_args(argv)
     try:

@@ -219,7 +219,7 @@ class RemapPlan:
         return values, valid
 
     def samples(self, values: NDArray, valid: NDArray) -> list[list[RetinaSamples]]:
-        """``RetinaSamples`` views [eye][map] of a call's result (values in float32)."""
+        """``RetinaSamples`` views ``[eye][map]`` of a call's result (values in float32)."""
         n_f, o = self.on.n_fovea, self.on
         values = checks.array("values", values, kinds="f", ndim=4, finite=False)
         if values.shape[2] != self.n_points:

@@ -431,7 +431,7 @@ COLUMNS = list(SCORE_COLUMNS)
 
 
 def markdown_table(rows: list[dict]) -> str:
-    """The scoreboard as a Markdown table (the README's): one line per phenomenon, one column per
+    """The scoreboard as a Markdown table (docs/psychophysics/theories.md): one line per phenomenon, one column per
     model; each cell the simulated value, its 95 % CI and the verdict: **yes** / no (predicted,
     diagnostic, and the CI inside the published range or not: the rows that count), cal. yes / cal.
     no (calibrated: a constant of the model came from the row's source), n.d. (the baseline also

@@ -1,4 +1,4 @@
-"""The README's batched-env speed tables are their CSVs' rendering (``benchmarks/tables.py``), and the
+"""The docs' batched-env speed tables (docs/batched.md) are their CSVs' rendering (``benchmarks/tables.py``), and the
 renderer reads a CSV as written (numbers, the device, the code measured) or says what is wrong."""
 
 from __future__ import annotations
@@ -23,12 +23,15 @@ HEAD = ("device,eyes,worlds,env_steps_per_s,single_env_steps_per_s,ms_per_step,h
         "render_ms,retina_ms,dpft_ms,task_ms,host_sync_ms,memory\n")
 
 
-def test_the_readme_tables_are_their_csvs():
-    text = (ROOT / "README.md").read_text()
-    marked = tables.marked_tables(text)
-    assert marked, "the README marks no benchmark table"
-    for name, start, end in marked:
-        assert text[start:end] == tables.render(ROOT / name), f"README's table of {name} differs: python benchmarks/tables.py README.md"
+def test_the_docs_tables_are_their_csvs():
+    found = 0
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]:
+        text, where = page.read_text(), page.relative_to(ROOT)
+        for name, start, end in tables.marked_tables(text):
+            found += 1
+            assert text[start:end] == tables.render(ROOT / name), \
+                f"{where}'s table of {name} differs: python benchmarks/tables.py {where}"
+    assert found, "no docs page marks a benchmark table"
 
 
 def test_a_row_is_rendered_from_its_cells(tmp_path):

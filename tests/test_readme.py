@@ -1,7 +1,8 @@
-"""Every code block of README.md runs as written.
+"""Every code block of README.md and of the docs pages (docs/, the site ``mkdocs.yml`` builds) runs as written.
 
-Each ```bash / ```python block is one test, run in README order in one scratch folder (so a block
-may use what an earlier one wrote, as a reader following the README would), with the checkout's
+Each ```bash / ```python block is one test, run in one scratch folder in the README's order and then
+page by page in the order of ``mkdocs.yml``'s ``nav`` (so a block may use what an earlier one wrote,
+as a reader following the page would), with the checkout's
 top-level files and folders linked into it (``python benchmarks/env.py`` works) and the test's
 own Python first on PATH. A python block is saved as a script and run with ``python script.py``,
 exactly as a reader pasting it into a file would. A block is skipped only when the line right
@@ -24,6 +25,10 @@ A block that needs the ``gpu`` extra says so on the line before it::
 
 and runs wherever that extra is installed (CI installs it), skipping with that reason elsewhere: it
 counts as a block that runs.
+
+A page may show a block of the README with ``--8<-- "README.md:name"`` (pymdownx.snippets, between the
+README's ``[start:name]`` and ``[end:name]`` comments): that block runs once, as the README's. The
+README stays short (at most ``README_MAX_LINES``), and every page under docs/ is in the nav.
 """
 
 from __future__ import annotations
@@ -42,6 +47,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+MKDOCS = ROOT / "mkdocs.yml"
+README_MAX_LINES = 250
+SNIPPET = re.compile(r'^--8<--\s+"(?P<file>[^":]+)(?::(?P<section>[\w-]+))?"\s*$', re.M)
 SKIP = re.compile(r"<!--\s*readme-test:\s*skip\s*\((?P<why>[^)]+)\)\s*-->")
 NEEDS_GPU = re.compile(r"<!--\s*readme-test:\s*needs the gpu extra\s*-->")
 #: what the gpu extra brings (envs.batched_physics.require_gpu_extra imports them)
@@ -64,15 +73,17 @@ class Block:
     code: str
     skip: str | None
     needs_gpu: bool = False
+    source: str = "README.md"  # the file, relative to the checkout
 
     @property
     def id(self) -> str:
         first = next((ln for ln in self.code.splitlines() if ln.strip() and not ln.startswith("#")), "")
-        return f"L{self.line}-{self.lang}-{re.sub(r'[^A-Za-z0-9_.-]+', '_', first)[:40]}"
+        where = "" if self.source == "README.md" else f"{self.source.removeprefix('docs/')}:"
+        return f"{where}L{self.line}-{self.lang}-{re.sub(r'[^A-Za-z0-9_.-]+', '_', first)[:40]}"
 
 
-def readme_blocks(text: str) -> list[Block]:
-    """The fenced code blocks of a Markdown text, with their skip markers."""
+def readme_blocks(text: str, source: str = "README.md") -> list[Block]:
+    """The fenced code blocks of a Markdown text (the file ``source``), with their skip markers."""
     lines = text.splitlines()
     blocks, i = [], 0
     while i < len(lines):
@@ -82,22 +93,31 @@ def readme_blocks(text: str) -> list[Block]:
             while j < len(lines) and not lines[j].startswith("```"):
                 j += 1
             if j == len(lines):
-                raise ValueError(f"README.md line {i + 1}: code block never closed")
+                raise ValueError(f"{source} line {i + 1}: code block never closed")
             prev = next((lines[k] for k in range(i - 1, -1, -1) if lines[k].strip()), "")
             s = SKIP.search(prev)
             blocks.append(Block(i + 1, m["lang"].lower(), "\n".join(lines[i + 1:j]) + "\n", s["why"] if s else None,
-                                bool(NEEDS_GPU.search(prev))))
+                                bool(NEEDS_GPU.search(prev)), source))
             i = j + 1
         else:
             i += 1
     return blocks
 
 
-BLOCKS = [b for b in readme_blocks(README.read_text()) if b.lang in LANGS]
+def nav_pages(mkdocs_yml: str) -> list[str]:
+    """The pages of ``mkdocs.yml``'s ``nav``, in order (paths under docs/); none without a nav."""
+    _, found, nav = mkdocs_yml.partition("\nnav:")
+    return re.findall(r"^\s+-\s+(?:[^\n]*?:\s+)?([\w./-]+\.md)\s*$", nav, re.M) if found else []
+
+
+#: README.md, then the docs pages in the nav's order
+SOURCES = ["README.md"] + [f"docs/{p}" for p in nav_pages(MKDOCS.read_text() if MKDOCS.is_file() else "")
+                           if (DOCS / p).is_file()]  # a nav entry without its page fails the nav test
+BLOCKS = [b for src in SOURCES for b in readme_blocks((ROOT / src).read_text(), src) if b.lang in LANGS]
 
 
 def test_readme_has_blocks_and_known_languages():
-    every = readme_blocks(README.read_text())
+    every = [b for src in SOURCES for b in readme_blocks((ROOT / src).read_text(), src)]
     assert len(BLOCKS) >= 10
     assert {b.lang for b in every} <= set(LANGS) | {"text", "toml", "json", "csv", ""}, {b.lang for b in every}
 
@@ -113,6 +133,34 @@ def test_readme_skips_are_justified():
                 assert b.code.split()[3] in test_file.read_text(), (b.line, b.skip)  # the subcommand
     # most blocks run: a skip is the exception
     assert sum(b.skip is None for b in BLOCKS) >= 0.6 * len(BLOCKS)
+
+
+def test_readme_is_short_and_every_docs_page_is_in_the_nav():
+    lines = README.read_text().count("\n")
+    assert lines <= README_MAX_LINES, f"README.md has {lines} lines (at most {README_MAX_LINES}): move detail to docs/"
+    nav = nav_pages(MKDOCS.read_text())
+    pages = sorted(str(p.relative_to(DOCS)) for p in DOCS.rglob("*.md"))
+    assert len(nav) == len(set(nav)), f"a page is twice in mkdocs.yml's nav: {nav}"
+    assert sorted(nav) == pages, (f"docs pages not in mkdocs.yml's nav: {sorted(set(pages) - set(nav))}; "
+                                  f"nav entries with no page: {sorted(set(nav) - set(pages))}")
+
+
+def test_snippets_name_readme_sections():
+    """Each ``--8<-- "FILE:section"`` of a page names a file and a section it has (the build checks it
+    too, but the suite runs without the docs extra)."""
+    readme = README.read_text()
+    for src in SOURCES[1:]:
+        for m in SNIPPET.finditer((ROOT / src).read_text()):
+            target = (ROOT / m["file"]).read_text()
+            if m["section"]:
+                assert f"[start:{m['section']}]" in target and f"[end:{m['section']}]" in target, (src, m[0])
+    assert "[start:quickstart]" in readme and "[start:setup]" in readme
+
+
+def test_nav_pages_in_order():
+    yml = "site_name: x\nnav:\n  - Home: index.md\n  - Part:\n      - One: part/one.md\n      - two.md\n"
+    assert nav_pages(yml) == ["index.md", "part/one.md", "two.md"]
+    assert nav_pages("site_name: x\n") == []
 
 
 def test_parser_finds_skip_markers():
@@ -188,29 +236,30 @@ def scratch(tmp_path_factory) -> Path:
 @pytest.mark.parametrize("block", BLOCKS, ids=[b.id for b in BLOCKS])
 def test_readme_block_runs(block: Block, scratch: Path):
     if block.skip is not None:
-        pytest.skip(f"README line {block.line}: {block.skip}")
+        pytest.skip(f"{block.source} line {block.line}: {block.skip}")
     if block.needs_gpu:
         missing = [m for m in GPU_MODULES if importlib.util.find_spec(m) is None]
         if missing:
-            pytest.skip(f"README line {block.line} needs the gpu extra ({', '.join(missing)} missing): "
+            pytest.skip(f"{block.source} line {block.line} needs the gpu extra ({', '.join(missing)} missing): "
                         'pip install -e ".[gpu]"')
     code = block.code
     if LANGS[block.lang] == "bash":
         code, why = without_installs(code)
         if why is not None:
-            pytest.skip(f"README line {block.line}: {why}")
+            pytest.skip(f"{block.source} line {block.line}: {why}")
     env = dict(os.environ)
     env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
     env.setdefault("MUJOCO_GL", "egl")
     env.pop("DISPLAY", None)
     env.pop("WAYLAND_DISPLAY", None)
     if LANGS[block.lang] == "python":
-        script = scratch / f"readme_block_{block.line}.py"
+        stem = "readme" if block.source == "README.md" else re.sub(r"[^A-Za-z0-9]+", "_", block.source[:-3])
+        script = scratch / f"{stem}_block_{block.line}.py"
         script.write_text(code)
         cmd = [sys.executable, script.name]
     else:
         cmd = ["bash", "-eo", "pipefail", "-c", code]
     r = subprocess.run(cmd, cwd=scratch, env=env, capture_output=True, text=True, timeout=HANG_S,
                        stdin=subprocess.DEVNULL)
-    assert r.returncode == 0, (f"README.md line {block.line} ({block.lang}) exited {r.returncode}:\n"
+    assert r.returncode == 0, (f"{block.source} line {block.line} ({block.lang}) exited {r.returncode}:\n"
                                f"{block.code}\n--- stdout ---\n{r.stdout[-3000:]}\n--- stderr ---\n{r.stderr[-3000:]}")

@@ -177,11 +177,11 @@ def test_committed_scoreboard_keeps_the_rules():
 def test_readme_scoreboard_is_generated_from_the_committed_csv():
     from experiments.phenomena import markdown_table
 
-    assert markdown_table(_committed()) in (ROOT / "README.md").read_text()
+    assert markdown_table(_committed()) in (ROOT / "docs" / "psychophysics" / "theories.md").read_text()
 
 
 def test_readme_calibration_table_is_generated_from_the_csv():
-    assert cal.markdown_table() in (ROOT / "README.md").read_text()
+    assert cal.markdown_table() in (ROOT / "docs" / "psychophysics" / "theories.md").read_text()
 
 
 # ------------------------------------------------------------------ the participant's noise

@@ -103,7 +103,7 @@ def constant_value(path: str, config=None, participant=None) -> float:
 
 
 def markdown_table(table: list[dict] | None = None) -> str:
-    """The calibration table as Markdown (the README's): one line per model and source, its
+    """The calibration table as Markdown (docs/psychophysics/theories.md): one line per model and source, its
     constants and values."""
     table = read_calibration() if table is None else table
     groups: dict = {}
