@@ -14,10 +14,13 @@ captured once in a graph (``chunk_ms`` physics steps per graph) and replayed; on
 the same launches run one by one.
 
 The head has no contacts, so MuJoCo's constraint solver has nothing to solve unless a joint reaches
-its range (a joint-limit constraint): the physics steps without it (``skip_solver=True``, the
-default: ``qacc`` is the unconstrained ``qacc_smooth``, about a fifth fewer kernel launches per step)
-and a kernel flags any world whose limited joint reaches its range; then the whole run is stepped
-again from its start with the solver, as MuJoCo steps it (``tests/test_batched_physics.py``).
+its range (a joint-limit constraint): the physics can step without it (``skip_solver=True``, the
+default on Warp's CPU backend: ``qacc`` is the unconstrained ``qacc_smooth``, about a fifth fewer kernel
+launches per step) and a kernel flags any world whose limited joint reaches its range; then the whole run
+is stepped again from its start with the solver, as MuJoCo steps it (``tests/test_batched_physics.py``).
+Not the default on CUDA: with thousands of worlds some world reaches its range in nearly every run, and
+the re-run (every world, launch by launch, outside the captured graph) made the physics 2.3x slower on
+an H100 (``docs/batched.md``).
 
 Differences from the CPU head, by design: the physics steps at 1 ms throughout (the CPU head steps
 saccades at 0.25 ms), and the feed-forward torque uses one constant inertia per joint. Both
@@ -83,11 +86,11 @@ class WarpHeads:
             (:meth:`render_retina`) instead of images.
         skip_solver: step without MuJoCo's constraint solver while no limited joint reaches its range,
             stepping a run again with the solver where one does (see the module docstring); False:
-            MuJoCo Warp's ``step`` throughout.
+            MuJoCo Warp's ``step`` throughout; None (default): True on the CPU backend, False on CUDA.
     """
 
     def __init__(self, head: models.Head, num_worlds: int, device: str = "cuda", *, chunk_ms: int = 25,
-                 retina_directions: np.ndarray | None = None, skip_solver: bool = True) -> None:
+                 retina_directions: np.ndarray | None = None, skip_solver: bool | None = None) -> None:
         wp, mjw, torch = require_gpu_extra()
         self._wp, self._mjw, self._torch = wp, mjw, torch
         self.device = wp.get_device(device)
@@ -121,6 +124,8 @@ class WarpHeads:
 
         self._servo, self._advance, self._beyond_range = servo, advance, beyond_range
         limited = np.flatnonzero(mjm.jnt_limited)
+        if skip_solver is None:
+            skip_solver = not self.device.is_cuda
         self.skip_solver = bool(skip_solver) and _solver_skippable(mjm, limited)
         self.cam_ids = [mjm.camera(e).id for e in EYES]
         groups = [g for g in range(6) if g not in HIDDEN_GEOM_GROUPS]

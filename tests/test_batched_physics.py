@@ -30,8 +30,9 @@ def pair():
     from envs.batched_physics import WarpHeads
 
     env = envs.BatchedBinocularSaccade(N, device=DEVICE, image_size=16, eye_drive="plant")
+    fast = env.physics if env.physics.skip_solver else WarpHeads(env.head, N, DEVICE, skip_solver=True)
     ref = WarpHeads(env.head, N, DEVICE, skip_solver=False)
-    yield env, env.physics, ref
+    yield env, fast, ref
     env.close()
 
 
@@ -114,3 +115,11 @@ def test_fewer_kernel_launches_per_physics_step(pair, monkeypatch):
         with wp.ScopedDevice(ph.device):
             ph._physics_step()
     assert counts["fast"] < 0.75 * counts["ref"], counts
+
+
+@pytest.mark.slow
+def test_the_solver_is_skipped_by_default_on_the_cpu_backend_only(pair):
+    """The default (``skip_solver=None``): skipped on Warp's CPU backend, kept on CUDA, where the
+    all-world re-run outside the captured graph measured 2.3x slower physics (an H100, 4096 worlds)."""
+    env, _, _ = pair
+    assert env.physics.skip_solver == (not env.physics.device.is_cuda)
