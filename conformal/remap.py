@@ -98,7 +98,8 @@ def mobius_params(g: NDArray[np.complex128]) -> NDArray[np.float64]:
 class MobiusMap:
     """z -> g . z = (d z + c) / (b z + a) for g = [[a, b], [c, d]] (eq. ``lft1``, as ``act``).
 
-    Poles (|b z + a| < ``conformal.maps.POLE_TOL``, ``maps.is_pole``) map to NaN. ``kind`` and ``params`` describe the map to ``RemapPlan``.
+    Poles (|b z + a| < ``conformal.maps.POLE_TOL``, ``maps.is_pole``) map to NaN. ``kind`` and ``params``
+    describe the map to ``RemapPlan``.
     """
 
     kind = KIND_MOBIUS

@@ -130,7 +130,8 @@ def test_the_kernel_keeps_its_old_results(seed):
     rng = np.random.default_rng(seed)
     g = _su2(rng)
     z = _points(rng, g)
-    for kind, params in ((KIND_MOBIUS, mobius_params(g)), (KIND_PROJECTIVE, rotation_homography(_rotation(rng)).ravel())):
+    cases = ((KIND_MOBIUS, mobius_params(g)), (KIND_PROJECTIVE, rotation_homography(_rotation(rng)).ravel()))
+    for kind, params in cases:
         u, v, ok = np.zeros(z.size), np.zeros(z.size), np.zeros(z.size, dtype=bool)
         _old_kernel_maps(z.real.copy(), z.imag.copy(), kind, params, u, v, ok)
         w, valid = _kernel(kind, params, z)
