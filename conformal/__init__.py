@@ -42,6 +42,7 @@ from .geometry import (
 )
 from .grid import RetinaGrid
 from . import checks, kernels
+from .maps import POLE_TOL
 from .remap import (
     MobiusMap,
     ProjectiveMap,
@@ -59,7 +60,7 @@ from .shift import log_radius_shift
 from .threads import blas_threads
 
 __all__ = [
-    "BinocularCortex", "MobiusMap", "checks", "kernels", "OffGridEvaluator", "ProjectiveMap", "RemapPlan", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
+    "BinocularCortex", "MobiusMap", "POLE_TOL", "checks", "kernels", "OffGridEvaluator", "ProjectiveMap", "RemapPlan", "Retina", "RetinaGrid", "RetinaSamples", "SPHERE_CENTRE",
     "act", "apply_homography", "binocular_cortex", "blas_threads", "check_rotation", "check_sl2", "compose", "cortical_map", "dpft",
     "dpft_direct", "euler_rotation", "evaluate", "evaluate_direct", "field_moments", "fovea_dft", "fovea_idft",
     "fovea_image", "fovea_indices", "h_matrix", "hemifields", "homography_map", "idpft",

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import checks
+from .maps import POLE_TOL, homography, is_pole, mobius
 
 __all__ = [
     "PERM_FLAT",
@@ -42,7 +43,6 @@ SPHERE_CENTRE = np.array([0.0, 1.0, 0.0])
 SPHERE_CENTRE.setflags(write=False)
 """Centre (x1, x2, x3) of the unit sphere S^2_(0,1,0) on which j is the stereographic projection (read-only)."""
 
-_POLE_TOL = 1e-12
 _EYE3 = np.eye(3)
 
 
@@ -74,7 +74,7 @@ def project(points: ArrayLike) -> NDArray[np.complex128]:
     """
     p = _as_points(points, "points")
     x2 = p[..., 1]
-    if np.any(np.abs(x2) < _POLE_TOL):
+    if np.any(np.abs(x2) < POLE_TOL):
         raise ValueError("points with x2 = 0 project to infinity (they lie in the plane of the nodal point)")
     with np.errstate(over="ignore"):
         return _finite_result((p[..., 2] + 1j * p[..., 0]) / x2, "the projection")
@@ -124,13 +124,10 @@ def act(g: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:
     Vectorised over ``z``. Raises ``ValueError`` for non-unimodular ``g``, NaN or infinite
     ``z``, and for points sent to infinity (b z + a = 0).
     """
-    a, b, c, d = check_sl2(g).ravel()
-    zz = _as_z(z)
-    with np.errstate(over="ignore", invalid="ignore"):
-        den = b * zz + a
-        if np.any(np.abs(den) < _POLE_TOL):
-            raise ValueError("some points are sent to infinity by g (b z + a = 0, i.e. z = -a/b)")
-        return _finite_result((d * zz + c) / den, "g")
+    w, pole = mobius(check_sl2(g), _as_z(z))
+    if np.any(pole):
+        raise ValueError("some points are sent to infinity by g (b z + a = 0, i.e. z = -a/b)")
+    return _finite_result(w, "g")
 
 
 def transform_image(f, g: ArrayLike):
@@ -190,7 +187,7 @@ def h_matrix(b1: float, b2: float, b3: float) -> NDArray[np.complex128]:
     For 1 + b2 < 0 the square root is imaginary (the paper's epsilon A N-bar coset).
     """
     b1, b2, b3 = (checks.real(n, v) for n, v in (("b1", b1), ("b2", b2), ("b3", b3)))
-    if abs(1.0 + b2) < _POLE_TOL:
+    if abs(1.0 + b2) < POLE_TOL:
         raise ValueError("b2 = -1 translates the image plane into the nodal plane (x2 = 0); not allowed")
     s = np.sqrt(complex(1.0 + b2))
     return np.array([[s, 0.0], [(b3 + 1j * b1) / s, 1.0 / s]], dtype=complex)
@@ -308,14 +305,10 @@ def apply_homography(H: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:
     ``H`` must be a finite, real, invertible 3x3 matrix; points sent to infinity (homogeneous
     weight 0) raise ``ValueError``.
     """
-    h = _check_homography(H)
-    zz = _as_z(z)
-    x, y = zz.real, zz.imag
-    with np.errstate(over="ignore", invalid="ignore"):
-        w = h[2, 0] * x + h[2, 1] * y + h[2, 2]
-        if np.any(np.abs(w) < _POLE_TOL):
+    out, w3 = homography(_check_homography(H), _as_z(z))
+    with np.errstate(over="ignore"):
+        if np.any(is_pole(w3 * w3)):
             raise ValueError("some points are sent to infinity by the homography (they leave the eye's front)")
-        out = ((h[0, 0] * x + h[0, 1] * y + h[0, 2]) + 1j * (h[1, 0] * x + h[1, 1] * y + h[1, 2])) / w
     return _finite_result(out, "the homography")
 
 

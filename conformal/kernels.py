@@ -31,14 +31,12 @@ import warnings
 import numba as nb
 import numpy as np
 
+from .maps import KIND_MOBIUS, KIND_PROJECTIVE, behind, homography_plane, homography_weight, is_pole, mobius_parts
+
 __all__ = [
     "DISK_CACHE", "KIND_PROJECTIVE", "KIND_MOBIUS", "pool_picture", "series_table", "map_points", "tabulate_angles", "contract_rings",
     "normalized_errors", "map_footprints", "tabulate_angles_pooled", "contract_rings_pooled",
 ]
-
-KIND_PROJECTIVE = 0  # params: the 3x3 matrix H row-major, acting on (Re z, Im z, 1)
-KIND_MOBIUS = 1  # params: a, b, c, d (re, im) of g . z = (d z + c) / (b z + a), then 0
-
 
 
 def _cache_probe() -> int:  # pragma: no cover - compiled only if ever called
@@ -68,8 +66,13 @@ DISK_CACHE = _disk_cache_available()
 
 # Reassociation lets the sums vectorise; no "nnan"/"ninf": the kernels test for poles.
 _jit = nb.njit(cache=DISK_CACHE, nogil=True, fastmath={"reassoc", "contract", "arcp", "nsz"})
-
-_POLE_TOL = 1e-12  # as conformal.geometry
+# conformal.maps' scalar formulas (the point maps and their pole rule), compiled inline into the kernels
+_inline = nb.njit(cache=DISK_CACHE, nogil=True, inline="always")
+_mobius_parts = _inline(mobius_parts)
+_homography_weight = _inline(homography_weight)
+_homography_plane = _inline(homography_plane)
+_is_pole = _inline(is_pole)
+_behind = _inline(behind)
 
 
 @_jit
@@ -149,20 +152,19 @@ def map_points(zr, zi, kinds, params, r0, r_outer, fovea_pictures, fovea_spacing
                 ok = True
                 u = 0.0
                 v = 0.0
+                # conformal.maps' point maps and pole rule, divided only where seen
                 if kinds[k] == KIND_PROJECTIVE:
-                    w3 = p[6] * x + p[7] * y + p[8]
-                    if w3 <= _POLE_TOL:  # behind the old eye (or at infinity)
+                    w3 = _homography_weight(p, x, y)
+                    if _behind(w3):
                         ok = False
                     else:
-                        u = (p[0] * x + p[1] * y + p[2]) / w3
-                        v = (p[3] * x + p[4] * y + p[5]) / w3
+                        nu, nv = _homography_plane(p, x, y)
+                        u = nu / w3
+                        v = nv / w3
                 else:
-                    nr = p[6] * x - p[7] * y + p[4]
-                    ni = p[6] * y + p[7] * x + p[5]
-                    dr = p[2] * x - p[3] * y + p[0]
-                    di = p[2] * y + p[3] * x + p[1]
+                    nr, ni, dr, di = _mobius_parts(p, x, y)
                     den = dr * dr + di * di
-                    if den < _POLE_TOL * _POLE_TOL:
+                    if _is_pole(den):
                         ok = False
                     else:
                         u = (nr * dr + ni * di) / den
@@ -269,15 +271,13 @@ def _map_jacobian(kind, p, x, y):  # pragma: no cover - compiled
     """w = map(z) and its Jacobian (d(Re w, Im w) / d(x, y)) at z = x + i y, for a point that
     ``map_points`` found valid (no pole)."""
     if kind == KIND_PROJECTIVE:
-        inv = 1.0 / (p[6] * x + p[7] * y + p[8])
-        u = (p[0] * x + p[1] * y + p[2]) * inv
-        v = (p[3] * x + p[4] * y + p[5]) * inv
+        nu, nv = _homography_plane(p, x, y)
+        inv = 1.0 / _homography_weight(p, x, y)
+        u = nu * inv
+        v = nv * inv
         return u, v, (p[0] - u * p[6]) * inv, (p[1] - u * p[7]) * inv, (p[3] - v * p[6]) * inv, (p[4] - v * p[7]) * inv
     # w = (d z + c) / (b z + a), w' = (a d - b c) / (b z + a)^2
-    nr = p[6] * x - p[7] * y + p[4]
-    ni = p[6] * y + p[7] * x + p[5]
-    dr = p[2] * x - p[3] * y + p[0]
-    di = p[2] * y + p[3] * x + p[1]
+    nr, ni, dr, di = _mobius_parts(p, x, y)
     inv = 1.0 / (dr * dr + di * di)
     u = (nr * dr + ni * di) * inv
     v = (ni * dr - nr * di) * inv

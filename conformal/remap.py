@@ -29,9 +29,9 @@ from numpy.typing import ArrayLike, NDArray
 from . import checks
 from .dpft import OffGridEvaluator, _check_float_dtype, _check_grid, _check_samples
 from .fovea import fovea_image
-from .geometry import _POLE_TOL, PERM_FLAT, _check_homography, check_rotation, rotation_homography
+from .geometry import PERM_FLAT, _check_homography, check_rotation, rotation_homography
 from .grid import RetinaGrid
-from .kernels import KIND_MOBIUS, KIND_PROJECTIVE
+from .maps import KIND_MOBIUS, KIND_PROJECTIVE, behind, homography, mobius
 from .sampling import RetinaSamples
 
 __all__ = ["ProjectiveMap", "MobiusMap", "homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix",
@@ -68,8 +68,9 @@ def _map_input(z: ArrayLike) -> NDArray[np.complex128]:
 class ProjectiveMap:
     """z -> H . z for a real 3x3 homography H acting on (Re z, Im z, 1) (see ``apply_homography``).
 
-    A point whose homogeneous weight is <= 0 maps to NaN: for an eye rotation
-    (``homography_map``) it is a direction behind the old eye, which the old image never saw.
+    A point whose homogeneous weight is below ``conformal.maps.POLE_TOL`` maps to NaN (``maps.behind``):
+    for an eye rotation (``homography_map``) it is a direction behind the old eye, which the old image
+    never saw, or a pole.
     ``kind`` and ``params`` describe the map to the compiled ``RemapPlan``.
     """
 
@@ -80,13 +81,8 @@ class ProjectiveMap:
         self.params = self.matrix.ravel().copy()
 
     def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
-        h = self.matrix
-        zz = _map_input(z)
-        x, y = zz.real, zz.imag
-        w = h[2, 0] * x + h[2, 1] * y + h[2, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = ((h[0, 0] * x + h[0, 1] * y + h[0, 2]) + 1j * (h[1, 0] * x + h[1, 1] * y + h[1, 2])) / w
-        return np.where(w > _POLE_TOL, out, np.nan + 0j)
+        out, w3 = homography(self.matrix, _map_input(z))
+        return np.where(behind(w3), np.nan + 0j, out)
 
 
 def mobius_params(g: NDArray[np.complex128]) -> NDArray[np.float64]:
@@ -102,7 +98,8 @@ def mobius_params(g: NDArray[np.complex128]) -> NDArray[np.float64]:
 class MobiusMap:
     """z -> g . z = (d z + c) / (b z + a) for g = [[a, b], [c, d]] (eq. ``lft1``, as ``act``).
 
-    Poles (b z + a = 0) map to NaN. ``kind`` and ``params`` describe the map to ``RemapPlan``.
+    Poles (|b z + a| < ``conformal.maps.POLE_TOL``, ``maps.is_pole``) map to NaN. ``kind`` and ``params``
+    describe the map to ``RemapPlan``.
     """
 
     kind = KIND_MOBIUS
@@ -116,12 +113,8 @@ class MobiusMap:
         self.params = mobius_params(self.matrix)
 
     def __call__(self, z: ArrayLike) -> NDArray[np.complex128]:
-        a, b, c, d = self.matrix.ravel()
-        zz = _map_input(z)
-        den = b * zz + a
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = (d * zz + c) / den
-        return np.where(np.abs(den) >= _POLE_TOL, out, np.nan + 0j)
+        out, pole = mobius(self.matrix, _map_input(z))
+        return np.where(pole, np.nan + 0j, out)
 
 
 def homography_map(R: ArrayLike) -> ProjectiveMap:

@@ -42,7 +42,8 @@ from conformal import checks, hemifields
 from conformal.dpft import dpft_tables, dpft_weight, mirror_map
 from conformal.fovea import fovea_indices
 from conformal.remap import point_map_params
-from conformal.kernels import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
+from conformal.maps import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
+from conformal.maps import homography_point, mobius_point  # the point maps and their pole rule, on tensors
 
 from .vision import REMAP_MODELS, Vision, rotation_faults
 
@@ -54,7 +55,6 @@ except ImportError:  # pragma: no cover - the module is only imported with torch
 
 __all__ = ["TorchVision", "TorchFrame", "KIND_PROJECTIVE", "KIND_MOBIUS"]
 
-_POLE_TOL = 1e-12  # as conformal.kernels / conformal.geometry
 _DEFAULT_CHUNK_BYTES = 1 << 30
 
 
@@ -331,21 +331,9 @@ class TorchVision:
             idx = self._index(tuple(ks))
             p = params[:, idx].unsqueeze(-1)  # (n, K', 9, 1)
             pk = [p[:, :, j] for j in range(9)]  # each (n, K', 1)
-            if kind == KIND_PROJECTIVE:
-                w3 = pk[6] * x + pk[7] * y + pk[8]
-                okk = w3 > _POLE_TOL  # in front of the old eye
-                uu = (pk[0] * x + pk[1] * y + pk[2]) / w3
-                vv = (pk[3] * x + pk[4] * y + pk[5]) / w3
-            else:  # (d z + c) / (b z + a)
-                nr = pk[6] * x - pk[7] * y + pk[4]
-                ni = pk[6] * y + pk[7] * x + pk[5]
-                dr = pk[2] * x - pk[3] * y + pk[0]
-                di = pk[2] * y + pk[3] * x + pk[1]
-                den = dr * dr + di * di
-                okk = den >= _POLE_TOL * _POLE_TOL
-                uu = (nr * dr + ni * di) / den
-                vv = (ni * dr - nr * di) / den
-            u[:, idx], v[:, idx], ok[:, idx] = uu, vv, okk
+            point = homography_point if kind == KIND_PROJECTIVE else mobius_point  # as kernels.map_points
+            uu, vv, unseen = point(pk, x, y)  # unseen: a pole, or behind the old eye
+            u[:, idx], v[:, idx], ok[:, idx] = uu, vv, ~unseen
         rr = u * u + v * v
         series = ok & (rr >= self._r0_sq) & (rr < self._r_outer_sq)
         in_fovea = ok & (rr < self._r0_sq)
