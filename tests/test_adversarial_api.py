@@ -612,6 +612,11 @@ API: dict[str, Api] = {
     **{f"models.BurstGenerator.{m}": Api(lambda o, m=m: getattr(models.BurstGenerator(), m), dict(amp_deg=10.0),
                                          bad={"amp_deg": bounds(0.0, 90.0)})
        for m in ("profile", "peak_velocity_deg_s", "duration_ms")},
+    "models.BurstGenerator.simulate": Api(lambda o: models.BurstGenerator().simulate,
+                                          dict(amplitudes_deg=[5.0, 10.0], span_ms=20.0, dt_ms=0.05), bad={
+        "amplitudes_deg": {"negative": [-1.0], "above": [181.0], "too_many": np.ones(10**6)},
+        "span_ms": bounds(0.0, 60_000.0, lo_open=True), "dt_ms": {"zero": 0.0, "negative": -0.05, "above_span": 21.0},
+        "every": counts(1, 400)}),
     "models.BurstGenerator.to_file": Api(lambda o: models.BurstGenerator().to_file,
                                          dict(path=Lazy(lambda o: _tmp("generator.json"))),
                                          bad={"path": {"empty": "", "folder": "/tmp"}}),
