@@ -21,6 +21,9 @@ from .servo import _ms
 
 __all__ = ["SceneObjects"]
 
+#: Largest radius ``set_sphere_radius`` accepts (m): a bound on a typing error, not a physical limit.
+_MAX_RADIUS = 100.0
+
 
 class SceneObjects:
     """Scene objects, flashes and visibility of a ``models.Head`` (which provides ``model``, ``data``,
@@ -95,6 +98,17 @@ class SceneObjects:
         if gid not in self._alpha0:
             self._alpha0[gid] = float(self.model.geom_rgba[gid, 3])
         self.model.geom_rgba[gid, 3] = opacity
+
+    def set_sphere_radius(self, name: str, radius: float) -> None:
+        """Resize the sphere scene object (geom) ``name`` to ``radius`` (scene units, metres; in
+        (0, 100]): e.g. a paradigm's flash dots of a given visual angle. Only the drawn size changes
+        (a model property: ``reset`` keeps it). ``ValueError`` for an object that is not a sphere."""
+        gid = self._geom_id(name)
+        radius = checks.real("radius", radius, 0.0, _MAX_RADIUS, lo_open=True, hint="a sphere radius in metres")
+        if self.model.geom_type[gid] != mujoco.mjtGeom.mjGEOM_SPHERE:
+            raise ValueError(f"name {name!r} is not a sphere of scene {self.scene.name!r} "
+                             f"(type {mujoco.mjtGeom(self.model.geom_type[gid]).name}): only a sphere has one radius")
+        self.model.geom_size[gid, 0] = radius
 
     def hide_flashes(self) -> None:
         for gid in self._flash_off:

@@ -566,6 +566,11 @@ API: dict[str, Api] = {
     "models.Head.set_state": Api(lambda o: o.head.set_state, dict(state=Lazy(lambda o: o.head.get_state()))),
     "models.Head.set_scene_state": Api(lambda o: o.head.set_scene_state,
                                        dict(state=Lazy(lambda o: o.head.scene_state()))),
+    "models.SceneObjects.set_sphere_radius": Api(lambda o: o.head.set_sphere_radius,
+                                                 dict(name="flash_00", radius=Lazy(lambda o: _radius(o.head, "flash_00"))),
+                                                 bad={"name": {"unknown": "unicorn", "box": "ruler"},
+                                                      "radius": bounds(0.0, 100.0, lo_open=True)},
+                                                 names={"name": "name|unicorn"}, types=ALL_ERRORS + (KeyError,)),
     "models.SceneObjects.set_opacity": Api(lambda o: o.head.set_opacity, dict(name="ruler", opacity=0.5),
                                    bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
                                    types=ALL_ERRORS + (KeyError,)),
@@ -834,6 +839,11 @@ def _generator_file() -> str:
     path = _tmp("generator_in.json")
     models.BurstGenerator(burst_max_deg_s=650.0).to_file(path)
     return path
+
+
+def _radius(head, name: str) -> float:
+    """The drawn radius of sphere ``name`` (the valid call sets it to itself: later entries see the scene unchanged)."""
+    return float(head.model.geom_size[head.model.geom(name).id, 0])
 
 
 def _tmp(name: str) -> str:

@@ -41,9 +41,6 @@ ALLOWED = {
     # models/: the oculomotor formulas that need no MuJoCo are to move into a subpackage pure-numpy
     # code can import (issue 37, item 2); until then these three import each other in functions.
     "import circle: models/gaze.py -> models/oculomotor.py -> models/saccade_plans.py",
-    # the trial sizes the flash discs by writing the head's MuJoCo model; models.Head needs a
-    # public setter for a geom's size (issue 37, item 4).
-    "experiments/psychophysics/trial.py: foreign write: self.head.model.geom_size (MuJoCo state of models.Head)",
 }
 
 
