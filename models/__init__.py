@@ -8,15 +8,16 @@ from ._gl import GLBackendError, gl_install_hint
 from .build import (DEFAULT_FOVY_DEG, DEFAULT_IPD, HEAD_XML, QUALITIES, ModelFileError, build_model,
                     build_spec, export_xml, load_model)
 from .eye_position_signal import VISUAL_LATENCY_MS, EyePositionSignal
-from .oculomotor import (MAX_PEAK_VELOCITY, SACCADE_MODELS, MainSequence, OculomotorRangeError, SaccadePlan, fick_angles,
-                         fick_matrix, fixation_angles, gaze_direction, listing_torsion, rotation_vector)
+from .eye_kinematics import (MAX_PEAK_VELOCITY, MainSequence, OculomotorRangeError, fick_angles, fick_matrix,
+                             fixation_angles, gaze_direction, listing_torsion, rotation_vector)
+from .oculomotor import SACCADE_MODELS, SaccadePlan
 from .render import EYES, EyeImage, EyeRenderer, ForkedGLContextError, StereoFrame
 from .saccade_generator import PLANTS, BurstGenerator, SaccadeProfile
 from .scenes import CYCLOPEAN_EYE, SCENES, SceneInfo, screen_point
 from .servo import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS
 from .simulation import EyeState, EyeTrace, Head
 from .vergence import VergenceDynamics
-from .gaze import cyclopean_amplitude, displaced, fixation_batch
+from .eye_kinematics import cyclopean_amplitude, displaced, fixation_batch
 from .oculomotor_state import OculomotorState
 from .saccade_plans import Profiles, SaccadePlans, profiles
 from .planner import BatchedPlanner, SettledReset, plan_clipped

@@ -16,7 +16,7 @@ import numpy as np
 from conformal import checks
 
 from ._gl import mujoco
-from .oculomotor import _check_point
+from .eye_kinematics.ranges import check_point
 from .servo import _ms
 
 __all__ = ["SceneObjects"]
@@ -59,7 +59,7 @@ class SceneObjects:
         bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
         if bid < 0 or self.model.body_mocapid[bid] < 0:
             raise KeyError(f"{name!r} is not a movable object of scene {self.scene.name!r}; movable: {', '.join(self.scene.movable)}")
-        self.data.mocap_pos[self.model.body_mocapid[bid]] = _check_point(pos, name)
+        self.data.mocap_pos[self.model.body_mocapid[bid]] = check_point(pos, name)
 
     def set_object_position(self, name: str, pos) -> None:
         """Move a movable scene object (mocap body) to world ``pos``."""

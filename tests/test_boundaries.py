@@ -37,11 +37,7 @@ MUJOCO_STATE = ("model", "data")  # models.Head's MjModel and MjData
 
 #: Known debt (issue 37), each a violation its owning package still has to remove. The key is the
 #: violation's text without its line number.
-ALLOWED = {
-    # models/: the oculomotor formulas that need no MuJoCo are to move into a subpackage pure-numpy
-    # code can import (issue 37, item 2); until then these three import each other in functions.
-    "import circle: models/gaze.py -> models/oculomotor.py -> models/saccade_plans.py",
-}
+ALLOWED: set[str] = set()
 
 
 def _private(name: str) -> bool:
