@@ -9,7 +9,7 @@ where their range is positive), within the generator's own accepted ranges
 (``models.saccade_generator.PARAMETER_BOUNDS``: one table, so every fitted file loads).
 
 The model side is a forward model of the measurement, not the generator's ideal kinematics: for
-a grid of amplitudes the loop is simulated (``models.saccade_generator.simulate``, vectorised over
+a grid of amplitudes the loop is simulated (``models.BurstGenerator.simulate``, vectorised over
 amplitudes, nominal plant), the traces are sampled at the recording's rate (at several sampling
 phases, averaged) and measured exactly as the recording was (``experiments.oculomotor.kinematics``:
 the Savitzky--Golay speed, 30 deg/s crossings; resting-gaze amplitude). So the smoothing of a 250 Hz
@@ -123,14 +123,12 @@ def _grid_dt(rate_hz: float) -> tuple[float, int]:
 def _traces(generator, amplitudes_deg, rate_hz: float):
     """The generator's saccades of ``amplitudes_deg`` (nominal plant, degrees), from ``_PRE_MS`` before
     the burst onset, on a grid ``k`` steps per sample: times (K,), positions (K, n), ``k``."""
-    from models.saccade_generator import simulate
-
     from .eyetracking import POST_WINDOW_MS
 
     A = np.asarray(amplitudes_deg, float)
     dt, k = _grid_dt(rate_hz)
     span = min(320.0, 3.0 * float(A.max()) + 40.0 * generator.burst_scale_deg / 2.82 + 60.0 + POST_WINDOW_MS[1])
-    p = simulate(generator, A, span_ms=span, dt_ms=dt)[0][0]
+    p = generator.simulate(A, span_ms=span, dt_ms=dt)[0][0]
     n_pre = int(round(_PRE_MS / dt))
     p = np.concatenate([np.zeros((n_pre, len(A))), p], axis=0)
     return (np.arange(p.shape[0]) - n_pre) * dt, p, k

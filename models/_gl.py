@@ -9,11 +9,9 @@ from __future__ import annotations
 
 import os
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-if os.environ["MUJOCO_GL"].lower() == "osmesa":
-    os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
-elif os.environ["MUJOCO_GL"].lower() == "egl":
-    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+from ._gl_default import set_default_backend
+
+set_default_backend()
 
 __all__ = ["mujoco", "GLBackendError", "gl_install_hint"]
 

@@ -10,7 +10,7 @@ worlds near 1,000 env-steps/s; :class:`BatchedPlanner` plans all worlds at once:
 * the trajectory, efference copies and eye-position signal of each plan: ``models.SaccadePlans``,
   the same code ``models.SaccadePlan`` runs for one head.
 
-The geometry (fixation angles, retinotopic targets, the noisy endpoint) is :mod:`models.gaze`'s,
+The geometry (fixation angles, retinotopic targets, the noisy endpoint) is :mod:`models.eye_kinematics.fixation`'s,
 which ``models.Head`` uses for one head; the sequence of checks and draws follows ``Head``'s, so
 plans and random streams agree with the single head's (``tests/test_batched_planner.py``: < 1e-9
 rad and exact integer times). Saccades that would leave the oculomotor range are shortened by
@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .gaze import cyclopean_amplitude, displaced, fixation_batch, noisy_endpoints
-from .oculomotor import NULL_SACCADE, OculomotorRangeError, SaccadePlan
+from .eye_kinematics import (NULL_SACCADE, OculomotorRangeError, cyclopean_amplitude, displaced, fixation_batch,
+                             noisy_endpoints)
+from .oculomotor import SaccadePlan
 from .oculomotor_state import OculomotorState
 from .saccade_plans import SaccadePlans
 from .simulation import Head

@@ -85,6 +85,9 @@ _AMP_STEP_DEG, _AMP_MAX_DEG = 0.25, 90.0
 #: Simulation step and table step (ms).
 _SIM_DT_MS, _TABLE_DT_MS = 0.05, 0.25
 _TABLE_SPAN_MS = 320.0
+#: Limits of a direct simulation (``simulate``): the largest amplitude (deg), span (ms) and number
+#: of stored values (an allocation bound).
+_SIM_AMP_MAX_DEG, _SIM_SPAN_MAX_MS, _SIM_MAX_VALUES = 180.0, 60_000.0, 10**8
 
 
 @dataclass(frozen=True)
@@ -139,9 +142,30 @@ class SaccadeProfile:
 
 def simulate(generator: "BurstGenerator", amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS,
              dt_ms: float = _SIM_DT_MS, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """Run the loop for each amplitude (compiled: ``models._plan_kernels.burst_loop``). Returns eye
-    positions (3, K, n_amp) in degrees (plants in ``PLANTS`` order) and burst rates (K, n_amp) in deg/ms, sampled every ``every``
-    steps from burst onset. The linear stages are integrated exactly for an input held over each step."""
+    """Simulate the burst-generator loop (module docstring) directly for each amplitude.
+
+    ``generator``: the parameters; ``amplitudes_deg``: desired displacements (any shape, 0-180 deg);
+    ``span_ms``: how long to simulate from the burst onset; ``dt_ms``: the integration step;
+    ``every``: keep every ``every``-th step. The linear stages are integrated exactly for an input
+    held over each step (compiled: ``models._plan_kernels.burst_loop``). Returns eye positions
+    ``(3, K) + amplitudes.shape`` in degrees (plants in ``PLANTS`` order) and burst rates
+    ``(K,) + amplitudes.shape`` in deg/ms, ``K = round(span_ms / dt_ms) // every + 1`` samples from
+    the burst onset. ``BurstGenerator.simulate`` is its public form; ``BurstGenerator.profile``
+    interpolates a table of these runs instead.
+    """
+    if not isinstance(generator, BurstGenerator):
+        raise checks.InputTypeError(f"generator must be a models.BurstGenerator; got {type(generator).__name__}")
+    amps = checks.array("amplitudes_deg", amplitudes_deg, kinds="iuf")
+    if amps.size and (amps.min() < 0.0 or amps.max() > _SIM_AMP_MAX_DEG):
+        raise ValueError(f"amplitudes_deg must lie in [0, {_SIM_AMP_MAX_DEG:g}] deg; got {amps.min():g} to {amps.max():g}")
+    span_ms = checks.real("span_ms", span_ms, 0.0, _SIM_SPAN_MAX_MS, lo_open=True, hint="simulated time in ms")
+    dt_ms = checks.real("dt_ms", dt_ms, 0.0, span_ms, lo_open=True, hint="integration step in ms, at most span_ms")
+    steps = int(round(span_ms / dt_ms))
+    every = checks.integer("every", every, 1, max(1, steps), hint="steps per kept sample")
+    if 3 * (steps // every + 1) * max(1, amps.size) > _SIM_MAX_VALUES:
+        raise ValueError(f"amplitudes_deg ({amps.size}) times span_ms / dt_ms / every ({steps // every + 1} samples) "
+                         f"exceeds {_SIM_MAX_VALUES:.0e} stored values: simulate fewer amplitudes, a shorter span or a "
+                         f"coarser grid")
     g = generator
     A = np.ascontiguousarray(np.asarray(amplitudes_deg, float).ravel())
     n = int(round(span_ms / dt_ms))
@@ -272,6 +296,14 @@ class BurstGenerator:
             pos = (1 - w) * norm[:, :, j] + w * norm[:, :, j + 1]
             b = (1 - w) * burst[:, j] + w * burst[:, j + 1]
         return SaccadeProfile(amp, _TABLE_DT_MS, pos, b, self.settle_deg)
+
+    def simulate(self, amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS, dt_ms: float = _SIM_DT_MS,
+                 every: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """Direct simulation of the loop for each of ``amplitudes_deg`` (any shape, 0-180 deg), no
+        table: eye positions ``(3, K) + shape`` (deg, plants in ``PLANTS`` order) and burst rates
+        ``(K,) + shape`` (deg/ms), every ``every``-th step of ``dt_ms`` over ``span_ms`` from the
+        burst onset, ``K = round(span_ms / dt_ms) // every + 1`` (module docstring for the loop)."""
+        return simulate(self, amplitudes_deg, span_ms, dt_ms, every)
 
     def peak_velocity_deg_s(self, amp_deg: float) -> float:
         return self.profile(amp_deg).peak_velocity_deg_s

@@ -26,7 +26,9 @@ import numpy as np
 
 from . import _plan_kernels as K
 from .eye_position_signal import EyePositionSignal
-from .oculomotor import PRIMARY_EYE_BASIS, MainSequence, OculomotorRangeError, fick_matrix, gaze_direction
+from .eye_kinematics.fick import PRIMARY_EYE_BASIS, fick_matrix, gaze_direction, with_listing
+from .eye_kinematics.main_sequence import MainSequence
+from .eye_kinematics.ranges import OculomotorRangeError
 from .saccade_generator import _AMP_STEP_DEG, _TABLE_DT_MS, DETECTION_THRESHOLD_DEG_S, BurstGenerator
 from .vergence import VergenceDynamics
 
@@ -310,8 +312,3 @@ class SaccadePlans:
 
 _FIELDS = ("onset_ms", "start", "end", "intended_end", "amplitude", "intended_amplitude", "signal_start",
            "target", "intended_target")
-
-
-def with_listing(hv: np.ndarray) -> np.ndarray:
-    """Append Listing torsion to (..., 2) Fick (h, v) -> (..., 3)."""
-    return np.concatenate([hv, K.listing_torsion(hv[..., :1], hv[..., 1:])], axis=-1)

@@ -16,10 +16,13 @@ import numpy as np
 from conformal import checks
 
 from ._gl import mujoco
-from .oculomotor import _check_point
+from .eye_kinematics.ranges import check_point
 from .servo import _ms
 
 __all__ = ["SceneObjects"]
+
+#: Largest radius ``set_sphere_radius`` accepts (m): a bound on a typing error, not a physical limit.
+_MAX_RADIUS = 100.0
 
 
 class SceneObjects:
@@ -56,7 +59,7 @@ class SceneObjects:
         bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
         if bid < 0 or self.model.body_mocapid[bid] < 0:
             raise KeyError(f"{name!r} is not a movable object of scene {self.scene.name!r}; movable: {', '.join(self.scene.movable)}")
-        self.data.mocap_pos[self.model.body_mocapid[bid]] = _check_point(pos, name)
+        self.data.mocap_pos[self.model.body_mocapid[bid]] = check_point(pos, name)
 
     def set_object_position(self, name: str, pos) -> None:
         """Move a movable scene object (mocap body) to world ``pos``."""
@@ -95,6 +98,17 @@ class SceneObjects:
         if gid not in self._alpha0:
             self._alpha0[gid] = float(self.model.geom_rgba[gid, 3])
         self.model.geom_rgba[gid, 3] = opacity
+
+    def set_sphere_radius(self, name: str, radius: float) -> None:
+        """Resize the sphere scene object (geom) ``name`` to ``radius`` (scene units, metres; in
+        (0, 100]): e.g. a paradigm's flash dots of a given visual angle. Only the drawn size changes
+        (a model property: ``reset`` keeps it). ``ValueError`` for an object that is not a sphere."""
+        gid = self._geom_id(name)
+        radius = checks.real("radius", radius, 0.0, _MAX_RADIUS, lo_open=True, hint="a sphere radius in metres")
+        if self.model.geom_type[gid] != mujoco.mjtGeom.mjGEOM_SPHERE:
+            raise ValueError(f"name {name!r} is not a sphere of scene {self.scene.name!r} "
+                             f"(type {mujoco.mjtGeom(self.model.geom_type[gid]).name}): only a sphere has one radius")
+        self.model.geom_size[gid, 0] = radius
 
     def hide_flashes(self) -> None:
         for gid in self._flash_off:

@@ -21,9 +21,10 @@ from conformal import checks
 from ._gl import mujoco
 from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, build_spec
 from .eye_position_signal import EyePositionSignal
-from .gaze import cyclopean_amplitude, displaced, noisy_endpoints
+from .eye_kinematics import (MainSequence, OculomotorRangeError, check_point, cyclopean_amplitude, displaced,
+                             fixation_angles, noisy_endpoints)
 from .oculomotor_state import OculomotorState
-from .oculomotor import SACCADE_MODELS, MainSequence, OculomotorRangeError, SaccadePlan, _check_point, fixation_angles
+from .oculomotor import SACCADE_MODELS, SaccadePlan
 from .saccade_generator import BurstGenerator
 from .vergence import VergenceDynamics
 from .render import EYES, MAX_IMAGE_SIDE, EyeRenderer, focal_pixels
@@ -43,7 +44,7 @@ _CAM_TO_EYE = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 @dataclass(frozen=True)
 class EyeState:
     """One eye at one instant. ``angles`` = Fick (h, v, t) in radians (h > 0 right, v > 0 up,
-    see :mod:`models.oculomotor`); ``eye_axes`` columns are the world directions of x1 (up),
+    see :mod:`models.eye_kinematics.fick`); ``eye_axes`` columns are the world directions of x1 (up),
     x2 (optical axis), x3 (right)."""
 
     name: str
@@ -378,12 +379,12 @@ class Head(SceneObjects, HeadRendering):
     def to_head(self, point) -> np.ndarray:
         """World point -> head frame (x forward, y left, z up; origin at the head body)."""
         x, R = self.head_pose()
-        return R.T @ (_check_point(point) - x)
+        return R.T @ (check_point(point) - x)
 
     def to_world(self, point_head) -> np.ndarray:
         """Head-frame point (a finite 3-vector) -> world."""
         x, R = self.head_pose()
-        return x + R @ _check_point(point_head, "point_head")
+        return x + R @ check_point(point_head, "point_head")
 
     @property
     def eye_centres_head(self) -> np.ndarray:
@@ -398,7 +399,7 @@ class Head(SceneObjects, HeadRendering):
     def _resolve(self, target) -> np.ndarray:
         if isinstance(target, str):
             return self.object_position(target)
-        return _check_point(target)
+        return check_point(target)
 
     def fixation_angles(self, point) -> np.ndarray:
         """Fick angles (2, 3) [left, right] fixating world ``point`` (Listing torsion)."""

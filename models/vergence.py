@@ -27,7 +27,7 @@ Not modelled: accommodation and its coupling to vergence, convergence/divergence
 vertical vergence dynamics (vertical components move with the saccade), and Listing's plane
 tilting with convergence (L2; Mok et al. 1992, Van Rijn & Van den Berg 1993): torsion obeys
 Listing's law for each eye's own gaze direction at every instant (L1), as in the rest of
-``models.oculomotor``.
+``models.eye_kinematics``.
 """
 
 from __future__ import annotations

@@ -566,6 +566,11 @@ API: dict[str, Api] = {
     "models.Head.set_state": Api(lambda o: o.head.set_state, dict(state=Lazy(lambda o: o.head.get_state()))),
     "models.Head.set_scene_state": Api(lambda o: o.head.set_scene_state,
                                        dict(state=Lazy(lambda o: o.head.scene_state()))),
+    "models.SceneObjects.set_sphere_radius": Api(lambda o: o.head.set_sphere_radius,
+                                                 dict(name="flash_00", radius=Lazy(lambda o: _radius(o.head, "flash_00"))),
+                                                 bad={"name": {"unknown": "unicorn", "box": "ruler"},
+                                                      "radius": bounds(0.0, 100.0, lo_open=True)},
+                                                 names={"name": "name|unicorn"}, types=ALL_ERRORS + (KeyError,)),
     "models.SceneObjects.set_opacity": Api(lambda o: o.head.set_opacity, dict(name="ruler", opacity=0.5),
                                    bad={"name": {"unknown": "unicorn"}}, names={"name": "name|unicorn"},
                                    types=ALL_ERRORS + (KeyError,)),
@@ -612,6 +617,11 @@ API: dict[str, Api] = {
     **{f"models.BurstGenerator.{m}": Api(lambda o, m=m: getattr(models.BurstGenerator(), m), dict(amp_deg=10.0),
                                          bad={"amp_deg": bounds(0.0, 90.0)})
        for m in ("profile", "peak_velocity_deg_s", "duration_ms")},
+    "models.BurstGenerator.simulate": Api(lambda o: models.BurstGenerator().simulate,
+                                          dict(amplitudes_deg=[5.0, 10.0], span_ms=20.0, dt_ms=0.05), bad={
+        "amplitudes_deg": {"negative": [-1.0], "above": [181.0], "too_many": np.ones(10**6)},
+        "span_ms": bounds(0.0, 60_000.0, lo_open=True), "dt_ms": {"zero": 0.0, "negative": -0.05, "above_span": 21.0},
+        "every": counts(1, 400)}),
     "models.BurstGenerator.to_file": Api(lambda o: models.BurstGenerator().to_file,
                                          dict(path=Lazy(lambda o: _tmp("generator.json"))),
                                          bad={"path": {"empty": "", "folder": "/tmp"}}),
@@ -829,6 +839,11 @@ def _generator_file() -> str:
     path = _tmp("generator_in.json")
     models.BurstGenerator(burst_max_deg_s=650.0).to_file(path)
     return path
+
+
+def _radius(head, name: str) -> float:
+    """The drawn radius of sphere ``name`` (the valid call sets it to itself: later entries see the scene unchanged)."""
+    return float(head.model.geom_size[head.model.geom(name).id, 0])
 
 
 def _tmp(name: str) -> str:

@@ -37,16 +37,7 @@ MUJOCO_STATE = ("model", "data")  # models.Head's MjModel and MjData
 
 #: Known debt (issue 37), each a violation its owning package still has to remove. The key is the
 #: violation's text without its line number.
-ALLOWED = {
-    # models/: the oculomotor formulas that need no MuJoCo are to move into a subpackage pure-numpy
-    # code can import (issue 37, item 2); until then these three import each other in functions.
-    "import circle: models/gaze.py -> models/oculomotor.py -> models/saccade_plans.py",
-    # the saccade-profile simulation is not yet exported by models (models.saccade_generator.__all__).
-    "experiments/generator_fit.py: internal import: models.saccade_generator.simulate (not in its __all__)",
-    # the trial sizes the flash discs by writing the head's MuJoCo model; models.Head needs a
-    # public setter for a geom's size (issue 37, item 4).
-    "experiments/psychophysics/trial.py: foreign write: self.head.model.geom_size (MuJoCo state of models.Head)",
-}
+ALLOWED: set[str] = set()
 
 
 def _private(name: str) -> bool:

@@ -304,8 +304,7 @@ class TrialRunner:
         self.grid = self.map.grid  # the target-centred (read-out) grid
         # flash and target dots of the flash's size (the scene's default is ~0.46 deg: sub-pixel at 128 px)
         for name in (_FLASH, _FLASH2, "target"):
-            gid = self.head.model.geom(name).id
-            self.head.model.geom_size[gid, 0] = SCREEN_DISTANCE * math.tan(math.radians(config.flash_radius_deg))
+            self.head.set_sphere_radius(name, SCREEN_DISTANCE * math.tan(math.radians(config.flash_radius_deg)))
         self.last = None  # the last trial's frames and maps (for recordings)
 
     def close(self) -> None:

@@ -2,17 +2,45 @@
 cyclopean saccade amplitudes -- array code that ``models.Head`` runs for one head (N = 1) and
 ``models.BatchedPlanner`` for many.
 
-Head frame (``models.oculomotor``): x forward, y left, z up; Fick ``h > 0`` right, ``v > 0`` up.
+Head frame (``models.eye_kinematics.fick``): x forward, y left, z up; Fick ``h > 0`` right, ``v > 0`` up.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .oculomotor import H_RANGE, MIN_TARGET_DISTANCE, NULL_SACCADE, V_RANGE, gaze_direction
-from .saccade_plans import with_listing
+from conformal import checks
 
-__all__ = ["fixation_batch", "displaced", "cyclopean_amplitude", "noisy_endpoints"]
+from .fick import gaze_direction, with_listing
+from .ranges import H_RANGE, MIN_TARGET_DISTANCE, NULL_SACCADE, V_RANGE, OculomotorRangeError, check_point
+
+__all__ = ["fixation_angles", "fixation_batch", "displaced", "cyclopean_amplitude", "noisy_endpoints"]
+
+
+def fixation_angles(target_head: np.ndarray, eye_centres_head: np.ndarray) -> np.ndarray:
+    """Fick angles ``(2, 3)`` [eye, (h, v, t)] that make both eyes fixate ``target_head``.
+
+    Each eye's optical axis is aimed from its rotation centre (the nodal point lies on that axis)
+    through the target, so vergence follows from depth; torsion obeys Listing's law.
+    Raises :class:`OculomotorRangeError` for unreachable or non-finite targets.
+    """
+    p = check_point(target_head)
+    c = checks.array("eye_centres_head", eye_centres_head, kinds="biuf", ndim=2).astype(float)
+    if c.shape[1] != 3 or len(c) == 0:
+        raise ValueError(f"eye_centres_head must be (n_eyes, 3) points in metres; got shape {c.shape}")
+    ang, ok, dist = fixation_batch(p[None], c)
+    if ok[0]:
+        return ang[0]
+    if np.any(dist < MIN_TARGET_DISTANCE):
+        raise OculomotorRangeError(
+            f"target {p.tolist()} is closer than {MIN_TARGET_DISTANCE} m to an eye; choose a farther point"
+        )
+    h, v = ang[0, :, 0], ang[0, :, 1]
+    raise OculomotorRangeError(
+        "target outside the oculomotor range (+-45 deg horizontal, +-35 deg vertical): "
+        f"needs h = {np.rad2deg(h).round(1).tolist()} deg, v = {np.rad2deg(v).round(1).tolist()} deg "
+        "(left, right eye); move the target or turn the neck"
+    )
 
 
 def fixation_batch(p_head: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
