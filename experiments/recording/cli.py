@@ -77,6 +77,7 @@ def _with_viewer(args: argparse.Namespace, name: str, recordings: tuple, work) -
 
     prog = f"python -m experiments {name}"
     viewer = None
+    serving = False  # from here on a Ctrl-C / SIGTERM is the normal end: the work is done, the server up
     with interruptible():
         try:
             if name == "view" or args.serve:
@@ -87,6 +88,7 @@ def _with_viewer(args: argparse.Namespace, name: str, recordings: tuple, work) -
                 except RuntimeError as e:
                     print(f"{prog}: error: {e}", file=sys.stderr)
                     return 1
+                serving = work is None  # view: serving is all it does, from the moment it can print its address
                 until = ("Ctrl-C to stop)" if args.serve_seconds is None else
                          f"for {args.serve_seconds} s{' after the run' if work else ''})")
                 print(f"Rerun web viewer: {viewer.url}", flush=True)
@@ -95,6 +97,7 @@ def _with_viewer(args: argparse.Namespace, name: str, recordings: tuple, work) -
             if work is not None:
                 work(args, viewer)
             if viewer is not None:
+                serving = True
                 try:
                     viewer.wait(args.serve_seconds)
                 except KeyboardInterrupt:
@@ -103,6 +106,9 @@ def _with_viewer(args: argparse.Namespace, name: str, recordings: tuple, work) -
                     print(f"{prog}: error: {e}", file=sys.stderr)
                     return 1
         except KeyboardInterrupt as e:
+            if serving:  # the signal came between the work's end and the wait: still the normal end
+                print("stopped serving", flush=True)
+                return 0
             print("interrupted", file=sys.stderr)
             return _stopped(e)
         finally:
