@@ -106,13 +106,14 @@ def save_figure(fig, path: os.PathLike | str, dpi: int = 110, close: bool = True
     return path
 
 
-def write_csv(path: os.PathLike | str, fieldnames: list[str], rows: list[dict]) -> None:
-    """A CSV table (a header, then ``rows`` as dicts), written atomically."""
+def write_csv(path: os.PathLike | str, fieldnames: list[str], rows: list[dict], lineterminator: str = "\n") -> None:
+    """A CSV table (a header, then ``rows`` as dicts), written atomically; ``lineterminator``: "\\r\\n"
+    for the csv module's default (Excel's)."""
     import csv
     import io
 
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=fieldnames, lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=fieldnames, lineterminator=lineterminator)
     w.writeheader()
     w.writerows(rows)
     atomic_write_text(path, buf.getvalue())

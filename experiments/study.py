@@ -19,7 +19,6 @@ another run; 2 a bad option, or a folder holding another configuration; 130 / 14
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import shlex
 import signal
@@ -30,6 +29,7 @@ import numpy as np
 
 from .cli import GENERATOR_HELP, amplitude_list, bounded, check_path_text, generator_file
 from .folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
+from .folders import atomic_write_text, write_csv
 from .folders import interruptible as _interruptible
 from .psychophysics.bounds import LIMITS, MAX_TRIALS
 
@@ -456,15 +456,17 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
             return _displacement_outputs(table, config, out, csv_path, formats)
         rows = summary(table)
         text = format_summary(rows, n_trials=len(table["trial_id"]), config=config)
-        (out / "summary.txt").write_text(text)
-        with (out / "summary.csv").open("w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        _write_summary(out, text, rows)
         # only the paper model has a set time course to draw; the others show their own results alone
         figures = save_all(table, out, config.timecourse if config.model == "paper" else None, formats)
         rrd = record_study(out, table, design, config) if recording else None
     return {"table": csv_path, "summary": text, "figures": figures, "recording": rrd}
+
+
+def _write_summary(out: Path, text: str, rows: list[dict]) -> None:
+    """``summary.txt`` and ``summary.csv`` (the csv module's CRLF rows, as before), each written atomically."""
+    atomic_write_text(out / "summary.txt", text)
+    write_csv(out / "summary.csv", list(rows[0]), rows, lineterminator="\r\n")
 
 
 def _displacement_outputs(table, config, out: Path, csv_path: Path, formats) -> dict:
@@ -490,11 +492,7 @@ def _displacement_outputs(table, config, out: Path, csv_path: Path, formats) -> 
     lines.append("CIs: 200 bootstrap resamples of the reports within each step; threshold = s.d. of the "
                  "cumulative Gaussian")
     text = "\n".join(lines) + "\n"
-    (out / "summary.txt").write_text(text)
-    with (out / "summary.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    _write_summary(out, text, rows)
     figures = save_displacement(table, out, formats)
     return {"table": csv_path, "summary": text, "figures": figures, "recording": None}
 

@@ -73,10 +73,30 @@ class OutputFolderError(ValueError):
 
 # ---------------------------------------------------------------------------------------------- workers
 def _limit_threads() -> None:
-    """One BLAS/OpenMP thread in this process from now on (a worker: two workers on two cores)."""
+    """One BLAS/OpenMP/numba thread in this process from now on (a worker: two workers on two cores).
+    numba first: under its OpenMP threading layer, changing numba's thread count also sets OpenMP's."""
+    import numba
     from threadpoolctl import threadpool_limits
 
+    numba.set_num_threads(1)
     threadpool_limits(limits=1)
+
+
+@contextlib.contextmanager
+def _one_thread() -> Iterator[None]:
+    """One BLAS/OpenMP/numba thread while the block runs (in-process trials), each restored after.
+    numba's count is set to 1 too: else the saccade kernels, which set numba's thread count for their
+    loops and restore it, would restore OpenMP's count along with it (numba's OpenMP threading layer)."""
+    import numba
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        prev = numba.get_num_threads()
+        numba.set_num_threads(1)
+        try:
+            yield
+        finally:
+            numba.set_num_threads(prev)
 
 
 def _die_with_parent(parent_pid: int) -> None:
@@ -512,9 +532,7 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
                     bar.update(len(rows))
 
             if workers == 1 or len(todo) <= batch_size:
-                from threadpoolctl import threadpool_limits
-
-                with threadpool_limits(limits=1):
+                with _one_thread():
                     runner = TrialRunner(config)
                     try:
                         for b in _batches(todo, batch_size):
