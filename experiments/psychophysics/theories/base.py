@@ -4,9 +4,11 @@ runner asks the registry for ``TrialConfig.model`` and never branches on a theor
 
 from __future__ import annotations
 
+import dataclasses
+
 from ..mechanisms import MECHANISMS
 
-__all__ = ["Theory"]
+__all__ = ["Theory", "ConstantsTheory"]
 
 
 class Theory:
@@ -45,3 +47,12 @@ class Theory:
         """The weight of the assumption that the target did not move (0: none), given the target's
         retinal offset from the fovea at landing."""
         return 0.0
+
+
+class ConstantsTheory(Theory):
+    """A theory whose constants are one dataclass, ``TrialConfig.<name>``: its report line lists them."""
+
+    def describe(self, cfg) -> list[str]:
+        """The theory's constants, as set in ``cfg``."""
+        params = getattr(cfg, self.name)
+        return [f"{self.name} constants: " + ", ".join(f"{k} {v:g}" for k, v in dataclasses.asdict(params).items())]

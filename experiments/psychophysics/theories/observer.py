@@ -10,22 +10,15 @@ import numpy as np
 
 from ..observer import eye_estimate, posterior_mean, prior_precision, sensory_sd_deg
 from . import register
-from .base import Theory
+from .base import ConstantsTheory
 
 __all__ = ["Observer"]
 
 
-class Observer(Theory):
+class Observer(ConstantsTheory):
     """Perisaccadic localization as optimal inference (``psychophysics.observer``)."""
 
     name = "observer"
-
-    def describe(self, cfg) -> list[str]:
-        """The theory's constants, as set in ``cfg``."""
-        import dataclasses
-
-        params = getattr(cfg, self.name)
-        return [f"{self.name} constants: " + ", ".join(f"{k} {v:g}" for k, v in dataclasses.asdict(params).items())]
 
     def read(self, runner, obs, plan, true_pose, cfg):
         """Eqs. (1)-(3) for every flash of the trial jointly; ``gain`` is the references' weight

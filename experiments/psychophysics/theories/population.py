@@ -9,7 +9,7 @@ import numpy as np
 
 from ..population import cortical_offset, feedback_signal, from_cortical_offset, population_estimate
 from . import register
-from .base import Theory
+from .base import ConstantsTheory
 
 __all__ = ["Population", "image_to_deg", "deg_to_image"]
 
@@ -34,17 +34,10 @@ def deg_to_image(zeta: complex) -> complex:
     return zeta * (math.tan(math.radians(r)) / r) if r > 0 else 0j
 
 
-class Population(Theory):
+class Population(ConstantsTheory):
     """A gain-field population on the cortical map (``psychophysics.population``)."""
 
     name = "population"
-
-    def describe(self, cfg) -> list[str]:
-        """The theory's constants, as set in ``cfg``."""
-        import dataclasses
-
-        params = getattr(cfg, self.name)
-        return [f"{self.name} constants: " + ", ".join(f"{k} {v:g}" for k, v in dataclasses.asdict(params).items())]
 
     def read(self, runner, obs, plan, true_pose, cfg):
         """The population vector per flash and eye; ``gain`` is the gain field's strength."""
