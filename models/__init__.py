@@ -14,7 +14,7 @@ from ._gl_default import set_default_backend
 
 set_default_backend()
 
-#: The submodule each public name lives in (imported when the name is first used).
+#: The submodule each public name lives in (imported when the name is first used); its keys are ``__all__``.
 _HOMES: dict[str, str] = {
     **dict.fromkeys(('GLBackendError', 'gl_install_hint'), '_gl'),
     **dict.fromkeys(('DEFAULT_FOVY_DEG', 'DEFAULT_IPD', 'HEAD_XML', 'QUALITIES', 'ModelFileError', 'build_model',
@@ -37,19 +37,7 @@ _HOMES: dict[str, str] = {
     **dict.fromkeys(('limit_plan_threads',), '_plan_kernels'),
 }
 
-__all__ = [
-    "limit_plan_threads",
-    "SCENES", "QUALITIES", "EYES", "DEFAULT_FOVY_DEG", "DEFAULT_IPD", "HEAD_XML", "CYCLOPEAN_EYE",
-    "MAX_PEAK_VELOCITY", "DEFAULT_TIMESTEP_MS", "DEFAULT_SACCADE_TIMESTEP_MS",
-    "build_model", "build_spec", "export_xml", "load_model", "screen_point",
-    "Head", "EyeState", "EyeTrace", "SceneInfo",
-    "EyeRenderer", "EyeImage", "StereoFrame",
-    "SACCADE_MODELS", "BurstGenerator", "SaccadeProfile", "PLANTS", "VergenceDynamics", "EyePositionSignal",
-    "VISUAL_LATENCY_MS", "MainSequence", "SaccadePlan", "fixation_angles", "listing_torsion", "fick_matrix", "fick_angles",
-    "gaze_direction", "rotation_vector", "OculomotorState", "SaccadePlans", "Profiles", "profiles",
-    "BatchedPlanner", "SettledReset", "plan_clipped", "servo_setpoints", "OrbitalPlant", "EYE_DRIVES", "fixation_batch", "displaced", "cyclopean_amplitude",
-    "GLBackendError", "ForkedGLContextError", "ModelFileError", "OculomotorRangeError", "gl_install_hint",
-]
+__all__ = list(_HOMES)
 
 
 def __getattr__(name: str):
