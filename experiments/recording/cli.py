@@ -94,10 +94,12 @@ def _with_viewer(args: argparse.Namespace, name: str, recordings: tuple, work) -
                 print(f"Rerun web viewer: {viewer.url}", flush=True)
                 print(f"(serving {', '.join(recordings) + ' ' if recordings else ''}on {viewer.HOST} only, web port "
                       f"{viewer.web_port}, gRPC port {viewer.grpc_port}; {until}", flush=True)
-            if work is not None:
-                work(args, viewer)
+            report = work(args, viewer) if work is not None else []
             if viewer is not None:
-                serving = True
+                serving = True  # set before the report is printed: a signal after it is the normal end
+            for line in report:
+                print(line, flush=True)
+            if viewer is not None:
                 try:
                     viewer.wait(args.serve_seconds)
                 except KeyboardInterrupt:
@@ -117,8 +119,8 @@ def _with_viewer(args: argparse.Namespace, name: str, recordings: tuple, work) -
     return 0
 
 
-def _visualize(args: argparse.Namespace, viewer: WebViewer | None) -> None:
-    """Record the run (to ``--out``, a native viewer and/or the web viewer) and print its summary."""
+def _visualize(args: argparse.Namespace, viewer: WebViewer | None) -> list[str]:
+    """Record the run (to ``--out``, a native viewer and/or the web viewer); return its summary lines."""
     p = args.parser
     try:
         summary = record_env_run(args.out, steps=args.steps, seed=args.seed, task=args.task, scene=args.scene,
@@ -127,13 +129,15 @@ def _visualize(args: argparse.Namespace, viewer: WebViewer | None) -> None:
                                  progress=not args.no_progress)
     except (ValueError, FileNotFoundError, KeyError) as e:
         p.error(str(e))
+    lines = []
     for i, s in enumerate(summary["saccades"]):
         err = ", ".join(f"{m} {v:.3f}" for m, v in summary["remap_error"][i].items())
-        print(f"saccade {i + 1}: {s['amplitude_deg']:.1f} deg, peak {s['peak_velocity_deg_s']:.0f} deg/s, "
-              f"{s['duration_ms']:.0f} ms; remap error {err}")
+        lines.append(f"saccade {i + 1}: {s['amplitude_deg']:.1f} deg, peak {s['peak_velocity_deg_s']:.0f} deg/s, "
+                     f"{s['duration_ms']:.0f} ms; remap error {err}")
     where = " and ".join([w for w in (args.out, "the viewer" if args.spawn else None,
                                       "the web viewer" if viewer is not None else None) if w])
-    print(f"recorded {summary['start_ms']:.0f}-{summary['end_ms']:.0f} ms of simulated time to {where}", flush=True)
+    lines.append(f"recorded {summary['start_ms']:.0f}-{summary['end_ms']:.0f} ms of simulated time to {where}")
+    return lines
 
 
 def _check_visualize(args: argparse.Namespace) -> None:
