@@ -1,4 +1,6 @@
-"""The docs' batched-env speed tables (docs/batched.md), rendered from the CSVs of ``benchmarks/batched.py --csv``.
+"""The docs' measured tables, rendered from the repository's CSVs: the batched-env speed tables (docs/batched.md,
+from ``benchmarks/batched.py --csv``) and the RL results table (docs/rl.md, from ``experiments/data/rl_results.csv``,
+written by ``benchmarks/rl_results.py``). A CSV with a ``heldout_success_iqm`` column is an RL table.
 
 A table in a page is marked by the comment naming its CSV and ends at the comment that closes it::
 
@@ -23,7 +25,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["COLUMNS", "render", "marked_tables", "update"]
+__all__ = ["COLUMNS", "RL_COLUMNS", "render", "marked_tables", "update"]
 
 #: (CSV column, table heading, format) of the rendered columns, in order; ``code`` (what was measured:
 #: a branch, a commit) is shown where the CSV has it.
@@ -44,6 +46,9 @@ COLUMNS = (
     ("host_sync_ms", "host sync", "ms"),
 )
 _OPTIONAL = {"code"}
+#: The RL results table's CSV columns (``experiments/data/rl_results.csv``), in the order they are written.
+RL_COLUMNS = ("agent", "task", "engine", "device", "actions", "env_steps", "wall_s", "seeds", "heldout_success_iqm",
+              "ci_low", "ci_high", "per_seed", "mean_return", "code", "note")
 _START = re.compile(r"<!-- table: (?P<csv>\S+) -->\n")
 _END = "<!-- end of table -->"
 
@@ -57,21 +62,50 @@ def _cell(value: str, kind: str, where: str) -> str:
         raise ValueError(f"{where}: {value!r} is not a number") from None
     if x != x or x in (float("inf"), float("-inf")):
         raise ValueError(f"{where}: {value!r} is not a finite number")
-    return f"{x:,.0f}" if kind == "int" else f"{x:.1f}"
+    return f"{x:,.0f}" if kind == "int" else f"{x:.1f}" if kind == "ms" else repr(x)
+
+
+def _listed(value: str) -> str:
+    """A per-seed cell (``"0 1 2"``) as the docs write it (``"0, 1, 2"``); ``-`` where empty."""
+    return ", ".join(value.split()) or "-"
+
+
+def _render_rl(path: Path, rows: list[dict], fields: list[str]) -> str:
+    """The RL results table: one line per agent, task, engine, device and action mode."""
+    missing = [c for c in RL_COLUMNS if c not in fields]
+    if missing:
+        raise ValueError(f"{path} is not an RL results table (benchmarks/rl_results.py): no column {', '.join(missing)}")
+    lines = ["| task | agent | engine | device | actions | seeds | env steps per seed | training wall s per seed "
+             "| held-out success IQM [95 % CI] | per seed | mean return | measured with |",
+             "|" + "---|" * 12]
+    for i, r in enumerate(rows, start=2):
+        where = f"{path} line {i}"
+        iqm = float(_cell(r["heldout_success_iqm"], "float", f"{where}, heldout_success_iqm"))
+        ci = "" if not r["ci_low"] else (f" [{float(_cell(r['ci_low'], 'float', where)):.2f}, "
+                                         f"{float(_cell(r['ci_high'], 'float', where)):.2f}]")
+        ret = float(_cell(r["mean_return"], "float", f"{where}, mean_return"))
+        lines.append(f"| `{r['task']}` | {_cell(r['agent'], 'text', where)} | {r['engine']} | {r['device']} | "
+                     f"{r['actions']} | {_listed(r['seeds'])} | {_listed(r['env_steps'])} | {_listed(r['wall_s'])} | "
+                     f"{iqm:.2f}{ci} | {_listed(r['per_seed'])} | {ret:+.3f} | {_cell(r['code'], 'text', where)} |")
+    return "\n".join(lines) + "\n"
 
 
 def render(path: str | os.PathLike) -> str:
-    """The markdown table (heading, rule, one line per CSV row; parts in ms per step) of a
-    ``benchmarks/batched.py --csv`` file. Raises ValueError naming the file where a column is missing
-    or a number is not one."""
+    """The markdown table (heading, rule, one line per CSV row) of a ``benchmarks/batched.py --csv`` file (parts in
+    ms per step) or of an RL results CSV. Raises ValueError naming the file where a column is missing or a number
+    is not one."""
     path = Path(path)
     try:
         with open(path, newline="") as f:
             reader = csv.DictReader(f)
             rows = list(reader)
-            fields = reader.fieldnames or []
+            fields = list(reader.fieldnames or [])
     except OSError as e:
         raise ValueError(f"cannot read the benchmark CSV {path}: {e.strerror}") from None
+    if "heldout_success_iqm" in fields:
+        if not rows:
+            raise ValueError(f"{path} has no rows")
+        return _render_rl(path, rows, fields)
     missing = [c for c, _, _ in COLUMNS if c not in fields and c not in _OPTIONAL]
     if missing:
         raise ValueError(f"{path} is not a benchmarks/batched.py --csv table: no column {', '.join(missing)}")

@@ -74,3 +74,70 @@ def test_missing_csv_and_unclosed_mark(tmp_path):
         tables.render(tmp_path / "none.csv")
     with pytest.raises(ValueError, match="no closing"):
         tables.marked_tables("<!-- table: b.csv -->\n| x |\n")
+
+
+def _rl_results():
+    spec = importlib.util.spec_from_file_location("rl_results", ROOT / "benchmarks" / "rl_results.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+BASELINES_TABLE = ("agent,actions,seeds,iqm,ci_low,ci_high,mean,per_seed,mean_return,env_steps,wall_s\n"
+                   "\"PPO (cortical conv, Box saccade)\",deterministic,0 1 2,0.5,0.25,0.75,0.5,0.25 0.50 0.75,0.1234,"
+                   "4096 4096 4096,300 310 320\n"
+                   "random (uniform cell),-,-,0.02,,,0.02,,-0.473,,\n")
+
+
+def _baselines(folder, task="search"):
+    folder.mkdir()
+    (folder / "study.json").write_text(f'{{"version": 1, "task": "{task}", "episodes": 100, "eval_seed": 1}}')
+    (folder / "table.csv").write_text(BASELINES_TABLE)
+    return folder
+
+
+def test_the_rl_results_table_is_written_from_baselines_folders_and_rendered(tmp_path):
+    """A ``baselines`` table.csv becomes rows of the RL results CSV (the same numbers), a second folder of the
+    same agents, task, engine and device replaces them, another engine adds rows; the rendering shows each."""
+    rl = _rl_results()
+    out = tmp_path / "rl.csv"
+    table = rl.merge(out, rl.rows_from_baselines(_baselines(tmp_path / "a"), "single", "cpu", "abc123"))
+    assert [(r["agent"], r["heldout_success_iqm"], r["ci_low"], r["seeds"]) for r in table] == [
+        ("PPO (cortical conv, Box saccade)", "0.5", "0.25", "0 1 2"), ("random (uniform cell)", "0.02", "", "")]
+    table = rl.merge(out, rl.rows_from_baselines(_baselines(tmp_path / "b"), "single", "cpu", "def456"))
+    assert [r["code"] for r in table] == ["def456", "def456"]  # replaced, not appended
+    table = rl.merge(out, rl.rows_from_baselines(_baselines(tmp_path / "c"), "batched", "H100", "def456"))
+    assert len(table) == 4
+    lines = tables.render(out).splitlines()
+    assert lines[0].startswith("| task | agent | engine | device | actions | seeds |")
+    assert lines[2] == ("| `search` | PPO (cortical conv, Box saccade) | single | cpu | deterministic | 0, 1, 2 | "
+                        "4096, 4096, 4096 | 300, 310, 320 | 0.50 [0.25, 0.75] | 0.25, 0.50, 0.75 | +0.123 | def456 |")
+    assert lines[3] == "| `search` | random (uniform cell) | single | cpu | - | - | - | - | 0.02 | - | -0.473 | def456 |"
+    assert len(lines) == 6
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda d: d.mkdir(), "not a finished `python -m experiments baselines` folder"),
+    (lambda d: (_baselines(d), (d / "table.csv").write_text("agent,iqm\nx,1\n")), "no column actions"),
+    (lambda d: (_baselines(d), (d / "study.json").write_text("{")), "not a finished"),
+])
+def test_rl_results_refuses_what_is_not_a_baselines_folder(tmp_path, make, message):
+    rl = _rl_results()
+    make(tmp_path / "f")
+    with pytest.raises(ValueError, match=message):
+        rl.rows_from_baselines(tmp_path / "f", "single", "cpu", "abc")
+
+
+def test_rl_results_refuses_a_csv_of_other_columns_and_bad_words(tmp_path):
+    rl = _rl_results()
+    (tmp_path / "rl.csv").write_text("device,eyes\nx,y\n")
+    rows = rl.rows_from_baselines(_baselines(tmp_path / "a"), "single", "cpu", "abc")
+    with pytest.raises(ValueError, match="does not have the RL results columns"):
+        rl.merge(tmp_path / "rl.csv", rows)
+    with pytest.raises(ValueError, match="--device must be a non-empty word"):
+        rl.rows_from_baselines(tmp_path / "a", "single", "cpu, 2 cores", "abc")
+    bad = tmp_path / "bad.csv"
+    rl.merge(bad, rows)
+    bad.write_text(bad.read_text().replace("0.5,0.25", "nan,0.25"))
+    with pytest.raises(ValueError, match="not a finite number"):
+        tables.render(bad)
