@@ -625,6 +625,14 @@ def test_baselines_command_trains_evaluates_aggregates_and_resumes(tmp_path, cap
     assert float(ppo["iqm"]) == pytest.approx(s["iqm"], abs=1e-4)
     assert float(ppo["ci_low"]) == pytest.approx(s["ci_low"], abs=1e-4)
     assert (out / "curves.png").stat().st_size > 1000 and not (out / ".lock").exists()
+    # the one RL results table reads the folder as written (benchmarks/rl_results.py)
+    spec = importlib.util.spec_from_file_location(
+        "rl_results", os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks", "rl_results.py"))
+    rl_results = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rl_results)
+    res = rl_results.merge(tmp_path / "rl.csv", rl_results.rows_from_baselines(out, "single", "cpu", "test"))
+    assert {(r["agent"], r["actions"]): r["heldout_success_iqm"] for r in res}[
+        ("PPO (cortical conv, Box saccade)", "deterministic")] == ppo["iqm"]
     # resume: nothing is trained again
     stamps = {p: p.stat().st_mtime_ns for p in out.glob("*_s*/*")}
     assert main(args) == 0
