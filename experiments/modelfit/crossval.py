@@ -560,8 +560,8 @@ def run(args: argparse.Namespace) -> int:
 def add_subcommand(subparsers) -> None:
     from ..cli import int_in, out_dir
 
-    p = subparsers.add_parser("crossval", help="fit each theory on some conditions, predict held-out ones (dark, "
-                                               "marker, the 2-D shape): which theory generalises",
+    p = subparsers.add_parser("crossval", help="cross-validation: fit each theory on some conditions, predict "
+                                               "held-out ones (dark, marker, the 2-D shape): which theory generalises",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=out_dir, required=True, help="output folder (created; the same command resumes)")
     p.add_argument("--quick", action="store_true",
