@@ -156,6 +156,28 @@ def test_kill_9_then_resume_gives_the_uninterrupted_table(reference, tmp_path):
         reap(proc, [])
 
 
+@pytest.mark.slow
+def test_sigterm_says_how_to_resume(tmp_path):
+    """SIGTERM during the work: exit 143, one line saying how to resume, no traceback, no lock left."""
+    out = tmp_path / "term"
+    cmd = [sys.executable, "-m", "experiments", "crossval", "--out", str(out), *QUICK]
+    proc = subprocess.Popen(cmd, env=ENV, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 300
+        while proc.poll() is None and time.monotonic() < deadline and not (out / "crossval.json").exists():
+            time.sleep(0.02)
+        time.sleep(1.0)  # into the warm-up or the observing
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+        assert proc.returncode == 143, err
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert len(lines) == 1 and "Traceback" not in err, err
+        assert "interrupted (SIGTERM)" in lines[0] and "run the same command again" in lines[0]
+        assert not (out / ".lock").exists()
+    finally:
+        reap(proc, [])
+
+
 # ---------------------------------------------------------------------------------------------- hostile options
 def _usage(argv: list[str], capsys, *words: str) -> None:
     with pytest.raises(SystemExit) as e:
