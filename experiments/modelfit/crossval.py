@@ -62,7 +62,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -356,23 +355,22 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
     with folder_lock(out) as out:
         _claim_folder(out, cfg)
         _warm_up(cfg, design, progress)
-        conds, data = {}, {}
-        for c, name in enumerate(CONDITIONS):
-            cond, noisy_obs, noisy_runner = _observe(name, design, cfg, out, options)
-            conds[name] = cond
-            try:
-                for g, gen in enumerate(cfg["data_from"]):
-                    data[gen, name] = _simulate(gen, cond, noisy_obs, noisy_runner, cfg, g, c)
-                    _write_data(out / "data" / gen / f"{name}.csv", data[gen, name], cond, design, gen, cfg)
-            finally:
-                noisy_runner.close()
-        n_fits = len(cfg["data_from"]) * len(HELDOUT) * len(cfg["theories"])
-        bar = None
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=n_fits, desc="crossval: fits", unit="fit")
+        conds, data, bar = {}, {}, None
         try:
+            for c, name in enumerate(CONDITIONS):
+                cond, noisy_obs, noisy_runner = _observe(name, design, cfg, out, options)
+                conds[name] = cond
+                try:
+                    for g, gen in enumerate(cfg["data_from"]):
+                        data[gen, name] = _simulate(gen, cond, noisy_obs, noisy_runner, cfg, g, c)
+                        _write_data(out / "data" / gen / f"{name}.csv", data[gen, name], cond, design, gen, cfg)
+                finally:
+                    noisy_runner.close()
+            n_fits = len(cfg["data_from"]) * len(HELDOUT) * len(cfg["theories"])
+            if progress:
+                from tqdm import tqdm
+
+                bar = tqdm(total=n_fits, desc="crossval: fits", unit="fit")
             for g, gen in enumerate(cfg["data_from"]):
                 for fit_set, (cname, axes, heldout) in HELDOUT.items():
                     cond = conds[cname]
@@ -411,8 +409,8 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
         finally:
             if bar is not None:
                 bar.close()
-        for cond in conds.values():
-            cond.runner.close()
+            for cond in conds.values():
+                cond.runner.close()
         write_csv(out / "crossval.csv", COLUMNS, rows)
         _plot(rows, cfg, out / "crossval.png")
         from ..folders import atomic_write_text
