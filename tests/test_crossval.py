@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from experiments.__main__ import main
-from experiments.modelfit.crossval import COLUMNS, HELDOUT, _claim_folder, score, settings
+from experiments.modelfit.crossval import COLUMNS, HELDOUT, PAIR_COLUMNS, _claim_folder, paired_difference, score, settings
 from procs import holding, reap
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -69,6 +69,20 @@ def test_score_matches_a_direct_sum():
     assert s1["rmse_deg"][0] == pytest.approx(math.sqrt(np.mean(d[:, 1] ** 2)), rel=1e-12)
 
 
+def test_paired_difference_matches_a_direct_sum():
+    """The paired difference per report over the trials both theories predict; its interval
+    brackets it; a constant lead has a zero-width interval at that lead."""
+    a = {0: (-4.0, 2.0), 1: (-6.0, 2.0), 2: (-3.0, 1.0), 3: (-9.0, 2.0)}
+    b = {0: (-5.0, 2.0), 1: (-6.5, 2.0), 2: (-3.5, 1.0)}  # trial 3 lost by b
+    d, lo, hi, n = paired_difference(a, b, np.random.default_rng(0))
+    assert n == 5 and d == pytest.approx((1.0 + 0.5 + 0.5) / 5)
+    assert lo <= d <= hi
+    shifted = {t: (v - 0.3 * c, c) for t, (v, c) in a.items()}
+    d, lo, hi, _ = paired_difference(a, shifted, np.random.default_rng(0))
+    assert d == pytest.approx(0.3) and lo == pytest.approx(0.3) and hi == pytest.approx(0.3)
+    assert math.isnan(paired_difference(a, {}, np.random.default_rng(0))[0])
+
+
 @pytest.mark.adversarial
 def test_settings_refuse_bad_values():
     for kw, msg in ((dict(theories=["nope"]), "unknown theory"), (dict(theories=[]), "at least one"),
@@ -100,6 +114,18 @@ def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
         assert int(r["n"]) == 4 * 4 * 2 and int(r["lost"]) == 0, r  # 4 flashes x 4 times x 2 reports
         assert (v > 0) if r["metric"] == "rmse_deg" else math.isfinite(v)
     assert {r["role"] for r in rows if r["condition"] in ("dark", "marker", "references (y)")} == {"held-out"}
+    # the paired comparison: best minus runner-up, as the table's own values say
+    pairs = list(csv.DictReader((out / "crossval_pairs.csv").open()))
+    assert list(pairs[0]) == PAIR_COLUMNS and len(pairs) == len(theories) * 3
+    ll = {(r["data"], r["condition"], r["theory"]): float(r["value"]) for r in rows
+          if r["metric"] == "loglik_per_report" and r["role"] == "held-out"}
+    for p in pairs:
+        best, second = ll[p["data"], p["condition"], p["best"]], ll[p["data"], p["condition"], p["runner_up"]]
+        assert best >= second and best == max(v for (d, c, _), v in ll.items() if (d, c) == (p["data"], p["condition"]))
+        d = float(p["delta_loglik_per_report"])
+        assert d == pytest.approx(best - second, abs=2e-6)
+        assert float(p["ci_low"]) <= d <= float(p["ci_high"])
+        assert p["separated"] == str(float(p["ci_low"]) > 0)
     assert (out / "crossval.png").stat().st_size > 5000
     text = (out / "summary.txt").read_text()
     assert "not predicted: separation" in text and "simulated observers" in text

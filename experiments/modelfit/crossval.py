@@ -42,8 +42,11 @@ uses the fitted x noise: isotropic report noise, an assumption), and ``rmse_deg`
 square of report minus prediction over the measured axes. ``ci_low``/``ci_high``: 95 % percentile
 bootstrap over trials (each trial's reports resampled together; 1000 resamples, seeded). ``lost``:
 trials whose flash the theory loses (no activity to read out); the metrics are over the others.
-``crossval.png`` plots the held-out log-likelihoods; ``summary.txt`` ranks the theories per
-held-out condition and says how often the generating theory wins.
+``crossval_pairs.csv``: per data set and held-out condition, the best theory's log-likelihood per
+report minus the runner-up's, with a paired bootstrap interval over trials (``separated``: the
+interval excludes 0). ``crossval.png`` plots the held-out log-likelihoods; ``summary.txt`` ranks the
+theories per held-out condition and says how often the generating theory wins, and by a lead
+whose interval excludes 0.
 
 The folder keeps ``run``'s promises: one writer (a lock), atomic writes, observations cached and
 each fit's evaluations logged, so the same command after an interruption (even ``kill -9``)
@@ -69,7 +72,7 @@ import numpy as np
 from ..folders import save_figure
 
 __all__ = ["add_subcommand", "crossvalidate", "CrossvalFolderError", "THEORIES", "HELDOUT", "COLUMNS",
-           "CONDITIONS", "MOTOR_NOISE"]
+           "CONDITIONS", "MOTOR_NOISE", "PAIR_COLUMNS", "paired_difference", "score"]
 
 #: The theories fitted, and by default the ones that generate the data.
 THEORIES = ("observer", "population", "paper", "mechanistic")
@@ -99,6 +102,9 @@ HELDOUT = {
     "references (x)": ("references", (0,), [("references (y)", "references", (1,))]),
 }
 COLUMNS = ["data", "theory", "fit_set", "condition", "role", "metric", "value", "ci_low", "ci_high", "n", "lost"]
+#: ``crossval_pairs.csv``: per data set and held-out condition, the best theory against the runner-up.
+PAIR_COLUMNS = ["data", "fit_set", "condition", "best", "runner_up", "delta_loglik_per_report", "ci_low", "ci_high",
+                "n", "separated"]
 
 
 class CrossvalFolderError(ValueError):
@@ -280,7 +286,8 @@ def score(rows: np.ndarray, pred: np.ndarray, noise: tuple[float, float], axes: 
     r, p = rows[keep], pred[trial[keep]]
     lost = int(np.sum(~ok_trial[np.unique(trial)]))
     if not len(r):
-        return {"n": 0, "lost": lost, "loglik_per_report": (math.nan,) * 3, "rmse_deg": (math.nan,) * 3}
+        return {"n": 0, "lost": lost, "loglik_per_report": (math.nan,) * 3, "rmse_deg": (math.nan,) * 3,
+                "per_trial": {}}
     ll = np.zeros(len(r))
     sq = np.zeros(len(r))
     for a in axes:
@@ -303,7 +310,26 @@ def score(rows: np.ndarray, pred: np.ndarray, noise: tuple[float, float], axes: 
     boot = np.array([stats(np.bincount(d, minlength=len(ids)).astype(float)) for d in draws])
     lo, hi = np.percentile(boot, [2.5, 97.5], axis=0)
     return {"n": int(len(r)), "lost": lost, "loglik_per_report": (point[0], lo[0], hi[0]),
-            "rmse_deg": (point[1], lo[1], hi[1])}
+            "rmse_deg": (point[1], lo[1], hi[1]),
+            "per_trial": {int(t): (float(a), float(c)) for t, a, c in zip(ids, ll_t, cnt)}}
+
+
+def paired_difference(a: dict, b: dict, rng) -> tuple[float, float, float, int]:
+    """Log-likelihood per report of ``a`` minus ``b`` (``score``'s ``per_trial``: trial -> (sum of
+    log-densities, reports)) over the trials both predict, with a 95 % percentile bootstrap
+    interval that resamples trials for both at once (a paired comparison: the theories' errors on
+    a trial are correlated). Returns (difference, ci_low, ci_high, reports)."""
+    common = sorted(set(a) & set(b))
+    if not common:
+        return math.nan, math.nan, math.nan, 0
+    d = np.array([a[t][0] - b[t][0] for t in common])
+    cnt = np.array([a[t][1] for t in common])
+    point = float(d.sum() / cnt.sum())
+    draws = rng.integers(0, len(common), size=(N_BOOT, len(common)))
+    w = np.stack([np.bincount(x, minlength=len(common)) for x in draws]).astype(float)
+    boot = (w @ d) / (w @ cnt)
+    lo, hi = np.percentile(boot, [2.5, 97.5])
+    return point, float(lo), float(hi), int(cnt.sum())
 
 
 # ---------------------------------------------------------------------------------------------- driver
@@ -340,7 +366,8 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
                   max_evals: int | None = None, backend: str = "local", workers: int = 1,
                   ray_address: str | None = None, progress: bool = False) -> list[dict]:
     """Simulate each data set, fit each theory on each fit set, score it on the held-out conditions;
-    writes ``crossval.csv``, ``crossval.png``, ``summary.txt`` in ``out`` and returns the rows."""
+    writes ``crossval.csv``, ``crossval_pairs.csv``, ``crossval.png``, ``summary.txt`` in ``out`` and
+    returns the rows of ``crossval.csv``."""
     from ..folders import write_csv
     from ..psychophysics.runner import folder_lock
     from .fitting import _fit_in
@@ -355,7 +382,7 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
     with folder_lock(out) as out:
         _claim_folder(out, cfg)
         _warm_up(cfg, design, progress)
-        conds, data, bar = {}, {}, None
+        conds, data, bar, per_trial = {}, {}, None, {}
         try:
             for c, name in enumerate(CONDITIONS):
                 cond, noisy_obs, noisy_runner = _observe(name, design, cfg, out, options)
@@ -398,6 +425,7 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
                             pred = _predict(theory, params, conds[hc])
                             rng = np.random.default_rng([cfg["seed"], g, len(rows)])
                             s = score(data[gen, hc], pred, noise, hax, rng)
+                            per_trial[f"simulated:{gen}", fit_set, label, theory] = s["per_trial"]
                             for metric in ("loglik_per_report", "rmse_deg"):
                                 v, lo, hi = s[metric]
                                 rows.append({"data": f"simulated:{gen}", "theory": theory, "fit_set": fit_set,
@@ -411,11 +439,13 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
                 bar.close()
             for cond in conds.values():
                 cond.runner.close()
+        pairs = _pairs(rows, per_trial, cfg["seed"])
         write_csv(out / "crossval.csv", COLUMNS, rows)
+        write_csv(out / "crossval_pairs.csv", PAIR_COLUMNS, pairs)
         _plot(rows, cfg, out / "crossval.png")
         from ..folders import atomic_write_text
 
-        atomic_write_text(out / "summary.txt", summary(rows, cfg))
+        atomic_write_text(out / "summary.txt", summary(rows, cfg, pairs))
     return rows
 
 
@@ -441,7 +471,23 @@ def winners(rows: list[dict], metric: str = "loglik_per_report") -> list[dict]:
     return out
 
 
-def summary(rows: list[dict], cfg: dict) -> str:
+def _pairs(rows: list[dict], per_trial: dict, seed: int) -> list[dict]:
+    """Per data set and held-out condition: the best theory minus the runner-up (paired bootstrap)."""
+    out = []
+    for k, w in enumerate(winners(rows)):
+        if len(w["ranking"]) < 2:
+            continue
+        best, second = w["ranking"][0][0], w["ranking"][1][0]
+        key = (w["data"], w["fit_set"], w["condition"])
+        d, lo, hi, n = paired_difference(per_trial[(*key, best)], per_trial[(*key, second)],
+                                         np.random.default_rng([seed, 7919, k]))
+        out.append({"data": w["data"], "fit_set": w["fit_set"], "condition": w["condition"], "best": best,
+                    "runner_up": second, "delta_loglik_per_report": _r(d), "ci_low": _r(lo), "ci_high": _r(hi),
+                    "n": n, "separated": bool(math.isfinite(lo) and lo > 0)})
+    return out
+
+
+def summary(rows: list[dict], cfg: dict, pairs: list[dict] | None = None) -> str:
     lines = [f"python -m experiments crossval: {'--quick, ' if cfg['quick'] else ''}seed {cfg['seed']}, "
              f"{cfg['image_size']} px, {cfg['reports']} reports per trial, report noise {cfg['noise_deg']:g} deg, "
              f"motor noise {cfg['motor_noise']:g}, {cfg['max_evals']} evaluations per fit",
@@ -456,6 +502,14 @@ def summary(rows: list[dict], cfg: dict) -> str:
         text = ", ".join(f"{t} {v:.2f}" for t, v in w["ranking"])
         lines.append(f"  {w['data']:22s} fit on {w['fit_set']:15s} -> {w['condition']:15s}: {text}")
     lines += ["", f"the generating theory predicts its own held-out condition best in {own} of {len(wins)} cases"]
+    if pairs:
+        sep = [p for p in pairs if p["separated"]]
+        lines += [f"the best theory's lead over the runner-up (paired bootstrap over trials) excludes 0 in "
+                  f"{len(sep)} of {len(pairs)} cases"]
+        for p in pairs:
+            if not p["separated"]:
+                lines.append(f"  not separated: {p['data']} {p['condition']}: {p['best']} - {p['runner_up']} = "
+                             f"{p['delta_loglik_per_report']} [{p['ci_low']}, {p['ci_high']}]")
     lost = [r for r in rows if r["lost"] and r["metric"] == "rmse_deg"]
     for r in lost:
         lines.append(f"note: {r['theory']} loses {r['lost']} trial(s) of {r['condition']} ({r['data']}); scored "
@@ -474,8 +528,8 @@ def _plot(rows: list[dict], cfg: dict, path: Path) -> None:
     panels = list(dict.fromkeys((r["fit_set"], r["condition"]) for r in rows if r["role"] == "held-out"))
     datas = [f"simulated:{g}" for g in cfg["data_from"]]
     theories = cfg["theories"]
-    fig, axs = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.8), squeeze=False)
-    width = 0.8 / len(theories)
+    fig, axs = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 4.0), squeeze=False)
+    width = 0.7 / len(theories)
     for ax, (fit_set, cond) in zip(axs[0], panels):
         for j, th in enumerate(theories):
             vals, lo, hi = [], [], []
@@ -487,13 +541,17 @@ def _plot(rows: list[dict], cfg: dict, path: Path) -> None:
                 lo.append(float(r["value"]) - float(r["ci_low"]) if ok else 0.0)
                 hi.append(float(r["ci_high"]) - float(r["value"]) if ok else 0.0)
             x = np.arange(len(datas)) + (j - (len(theories) - 1) / 2) * width
-            ax.bar(x, vals, width, yerr=[lo, hi], label=th, capsize=2)
+            ax.errorbar(x, vals, yerr=[lo, hi], fmt="o", color=f"C{j}", label=th, capsize=2, ms=5)
+        for k in range(1, len(datas)):
+            ax.axvline(k - 0.5, color="0.85", lw=0.8)
         ax.set_xticks(range(len(datas)), [d.split(":", 1)[1] for d in datas])
         ax.set(title=f"fit: {fit_set} -> {cond}", xlabel="data simulated by",
                ylabel="held-out log-likelihood per report")
-        ax.legend(fontsize=7, title="fitted theory", title_fontsize=7)
+    handles, labels = axs[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(theories), title="fitted theory", fontsize=8,
+               title_fontsize=8)
     fig.suptitle("cross-validation: which theory generalises (higher is better; 95 % bootstrap CI)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
     save_figure(fig, path, dpi=100)
 
 
@@ -546,7 +604,7 @@ def run(args: argparse.Namespace) -> int:
                              max_evals=args.max_evals, backend=args.backend, workers=args.workers,
                              ray_address=args.ray_address, progress=not args.no_progress)
         print((out / "summary.txt").read_text(), end="")
-        print(f"wrote {out / 'crossval.csv'} ({len(rows)} rows), crossval.png, summary.txt")
+        print(f"wrote {out / 'crossval.csv'} ({len(rows)} rows), crossval_pairs.csv, crossval.png, summary.txt")
         return 0
 
     return guarded("python -m experiments crossval", work,
