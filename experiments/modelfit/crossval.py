@@ -622,7 +622,7 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--out", type=out_dir, required=True, help="output folder (created; the same command resumes)")
     p.add_argument("--quick", action="store_true",
                    help="a small check: 4 flashes x 4 times, data from observer and paper, 64 px, 15 evaluations "
-                        "per fit (a few minutes on 2 cores)")
+                        "per fit (about a minute on 2 cores)")
     p.add_argument("--seed", type=int_in(0, 2**31 - 1), default=0,
                    help="seed of the motor noise, the report noise and the bootstrap")
     p.add_argument("--theories", type=_names, default=list(THEORIES), metavar="A,B,...",
