@@ -33,6 +33,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
                  "simulate a localization data set from a model (for recovery checks)"),
     "recovery": ("experiments.modelfit.recovery",
                  "model recovery: simulate from each theory, fit every theory, confusion matrix of delta AIC"),
+    "crossval": ("experiments.modelfit.crossval",
+                 "cross-validation: fit each theory on some conditions, predict held-out ones (dark, marker, "
+                 "the 2-D shape): which theory generalises"),
     "visualize": ("experiments.recording",
                   "record a run of the environment in Rerun (--out FILE.rrd, --serve or --spawn)"),
     "view": ("experiments.recording",

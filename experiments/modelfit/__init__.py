@@ -1,6 +1,8 @@
 """Fitting the perception models to a lab's localization data, comparing them, and simulating data.
 
-``python -m experiments fit`` / ``compare`` / ``simulate`` (``experiments.modelfit.cli``).
+``python -m experiments fit`` / ``compare`` / ``simulate`` (``experiments.modelfit.cli``),
+``recovery`` (``modelfit.recovery``), ``crossval`` (``modelfit.crossval``); the published data
+sets and their provenance (``modelfit.published``, ``experiments/data/published/``).
 """
 
 from .data import OPTIONAL, REQUIRED, DataConventionWarning, DataFormatError, LocalizationData, read_data
@@ -8,7 +10,10 @@ from .fitting import IMAGE_SIZE, FitError, FitFolderError, compare, fit, fit_key
 from .forward import ForwardModel, ForwardModelError, forward_model
 from .likelihood import FIT_MODELS, NESTED, FitModel, Parameter
 from .observe import BACKENDS, observe_trials
+from .crossval import CrossvalFolderError, crossvalidate
+from .published import PUBLISHED_DIR, check as check_published
 
 __all__ = ["REQUIRED", "OPTIONAL", "DataFormatError", "DataConventionWarning", "LocalizationData", "read_data", "fit",
            "compare", "simulate_data", "IMAGE_SIZE", "FitError", "FitFolderError", "fit_key", "ForwardModel",
-           "ForwardModelError", "forward_model", "FIT_MODELS", "NESTED", "FitModel", "Parameter", "BACKENDS", "observe_trials"]
+           "ForwardModelError", "forward_model", "FIT_MODELS", "NESTED", "FitModel", "Parameter", "BACKENDS", "observe_trials",
+           "crossvalidate", "CrossvalFolderError", "PUBLISHED_DIR", "check_published"]

@@ -1,0 +1,249 @@
+"""``python -m experiments crossval``: fit on some conditions, predict held-out ones (issue 34, item 4)."""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from experiments.__main__ import main
+from experiments.modelfit.crossval import COLUMNS, HELDOUT, PAIR_COLUMNS, _claim_folder, paired_difference, score, settings
+from procs import holding, reap
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = dict(os.environ, PYTHONPATH=str(ROOT))
+#: Two theories of different kinds, each generating data and each fitted: 2 data sets x 2 fit sets x 2 fits.
+THEORIES = "observer,paper"
+QUICK = ["--quick", "--theories", THEORIES, "--data-from", THEORIES, "--no-progress"]
+
+
+def _rows(out: Path) -> list[dict]:
+    return list(csv.DictReader((out / "crossval.csv").open()))
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """An uninterrupted quick cross-validation (and the bytes of its table)."""
+    out = tmp_path_factory.mktemp("crossval") / "ref"
+    assert main(["crossval", "--out", str(out), *QUICK]) == 0
+    return out, (out / "crossval.csv").read_bytes()
+
+
+# ---------------------------------------------------------------------------------------------- scoring
+def test_score_matches_a_direct_sum():
+    """Log-likelihood per report and RMSE against a direct sum over the reports (scipy's normal
+    log-density); trials whose flash is lost are left out and counted; the CI brackets the value."""
+    from scipy.stats import norm
+
+    rng = np.random.default_rng(3)
+    pred = rng.normal(0, 5, (6, 2))
+    pred[4] = np.nan  # a lost flash
+    trial = np.repeat(np.arange(6), 3)
+    rows = np.zeros((len(trial), 8))
+    rows[:, 6] = trial
+    rows[:, 4:6] = np.nan_to_num(pred[trial]) + rng.normal(0, 1.3, (len(trial), 2))
+    noise = (1.1, 1.7)
+    s = score(rows, pred, noise, (0, 1), np.random.default_rng(0))
+    keep = trial != 4
+    d = rows[keep, 4:6] - pred[trial[keep]]
+    ll = norm.logpdf(d[:, 0], scale=1.1) + norm.logpdf(d[:, 1], scale=1.7)
+    assert s["n"] == keep.sum() == 15 and s["lost"] == 1
+    assert s["loglik_per_report"][0] == pytest.approx(ll.mean(), rel=1e-12)
+    assert s["rmse_deg"][0] == pytest.approx(math.sqrt(np.mean(d**2)), rel=1e-12)
+    for m in ("loglik_per_report", "rmse_deg"):
+        v, lo, hi = s[m]
+        assert lo <= v <= hi and lo < hi
+    # one axis: the y axis alone, with the noise given for it
+    s1 = score(rows, pred, noise, (1,), np.random.default_rng(0))
+    assert s1["loglik_per_report"][0] == pytest.approx(norm.logpdf(d[:, 1], scale=1.7).mean(), rel=1e-12)
+    assert s1["rmse_deg"][0] == pytest.approx(math.sqrt(np.mean(d[:, 1] ** 2)), rel=1e-12)
+
+
+def test_paired_difference_matches_a_direct_sum():
+    """The paired difference per report over the trials both theories predict; its interval
+    brackets it; a constant lead has a zero-width interval at that lead."""
+    a = {0: (-4.0, 2.0), 1: (-6.0, 2.0), 2: (-3.0, 1.0), 3: (-9.0, 2.0)}
+    b = {0: (-5.0, 2.0), 1: (-6.5, 2.0), 2: (-3.5, 1.0)}  # trial 3 lost by b
+    d, lo, hi, n = paired_difference(a, b, np.random.default_rng(0))
+    assert n == 5 and d == pytest.approx((1.0 + 0.5 + 0.5) / 5)
+    assert lo <= d <= hi
+    shifted = {t: (v - 0.3 * c, c) for t, (v, c) in a.items()}
+    d, lo, hi, _ = paired_difference(a, shifted, np.random.default_rng(0))
+    assert d == pytest.approx(0.3) and lo == pytest.approx(0.3) and hi == pytest.approx(0.3)
+    assert math.isnan(paired_difference(a, {}, np.random.default_rng(0))[0])
+
+
+@pytest.mark.adversarial
+def test_settings_refuse_bad_values():
+    for kw, msg in ((dict(theories=["nope"]), "unknown theory"), (dict(theories=[]), "at least one"),
+                    (dict(data_from=["paper", "paper"]), "listed twice"), (dict(noise_deg=float("nan")), "noise_deg"),
+                    (dict(noise_deg=0.0), "noise_deg")):
+        with pytest.raises(ValueError, match=msg):
+            settings(**kw)
+
+
+# ---------------------------------------------------------------------------------------------- the command
+@pytest.mark.slow
+def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
+    """One row per data set x theory x fit set x scored condition x metric; CIs bracket the values;
+    n = trials x reports; nothing lost at the defaults; the figure and summary exist; the data files
+    load through ``fit``'s reader; the same command again changes nothing."""
+    from experiments.modelfit import read_data
+
+    out, ref = reference
+    rows = _rows(out)
+    assert list(rows[0]) == COLUMNS
+    theories = THEORIES.split(",")
+    scored = sum(1 + len(h) for _, _, h in HELDOUT.values())
+    assert len(rows) == len(theories) * len(theories) * scored * 2
+    keys = [(r["data"], r["theory"], r["fit_set"], r["condition"], r["metric"]) for r in rows]
+    assert len(set(keys)) == len(keys)
+    for r in rows:
+        v, lo, hi = float(r["value"]), float(r["ci_low"]), float(r["ci_high"])
+        assert lo <= v <= hi, r
+        assert int(r["n"]) == 4 * 4 * 2 and int(r["lost"]) == 0, r  # 4 flashes x 4 times x 2 reports
+        assert (v > 0) if r["metric"] == "rmse_deg" else math.isfinite(v)
+    assert {r["role"] for r in rows if r["condition"] in ("dark", "marker", "references (y)")} == {"held-out"}
+    # the paired comparison: best minus runner-up, as the table's own values say
+    pairs = list(csv.DictReader((out / "crossval_pairs.csv").open()))
+    assert list(pairs[0]) == PAIR_COLUMNS and len(pairs) == len(theories) * 3
+    ll = {(r["data"], r["condition"], r["theory"]): float(r["value"]) for r in rows
+          if r["metric"] == "loglik_per_report" and r["role"] == "held-out"}
+    for p in pairs:
+        best, second = ll[p["data"], p["condition"], p["best"]], ll[p["data"], p["condition"], p["runner_up"]]
+        assert best >= second and best == max(v for (d, c, _), v in ll.items() if (d, c) == (p["data"], p["condition"]))
+        d = float(p["delta_loglik_per_report"])
+        assert d == pytest.approx(best - second, abs=2e-6)
+        assert float(p["ci_low"]) <= d <= float(p["ci_high"])
+        assert p["separated"] == str(float(p["ci_low"]) > 0)
+    assert (out / "crossval.png").stat().st_size > 5000
+    text = (out / "summary.txt").read_text()
+    assert "not predicted: separation" in text and "simulated observers" in text
+    cfg = json.loads((out / "crossval.json").read_text())
+    assert cfg["settings"]["theories"] == theories and cfg["settings"]["quick"] is True
+    for gen in theories:
+        for cond in ("references", "dark", "marker"):
+            assert len(read_data(out / "data" / gen / f"{cond}.csv")) == 32
+    assert main(["crossval", "--out", str(out), *QUICK]) == 0
+    assert (out / "crossval.csv").read_bytes() == ref
+    assert not (out / ".lock").exists()
+
+
+@pytest.mark.slow
+def test_each_theory_predicts_its_own_held_out_conditions_best(reference):
+    """Ground truth by construction: data simulated by theory G (motor and report noise; no fitted
+    theory reads out the observations the data came from). Fitted on the references condition, G
+    predicts the held-out dark and marker conditions and, fitted on x alone, the y errors with a
+    higher log-likelihood per report than the theory of another kind."""
+    out, _ = reference
+    rows = [r for r in _rows(out) if r["role"] == "held-out" and r["metric"] == "loglik_per_report"]
+    by = {(r["data"], r["condition"], r["theory"]): float(r["value"]) for r in rows}
+    for gen, other in (("observer", "paper"), ("paper", "observer")):
+        for cond in ("dark", "marker", "references (y)"):
+            mine, theirs = by[f"simulated:{gen}", cond, gen], by[f"simulated:{gen}", cond, other]
+            assert mine > theirs, (gen, cond, mine, theirs)
+    assert "best in 6 of 6 cases" in (out / "summary.txt").read_text()
+
+
+@pytest.mark.slow
+def test_kill_9_then_resume_gives_the_uninterrupted_table(reference, tmp_path):
+    """kill -9 in the middle of the fits; the same command continues to the same table, byte for byte."""
+    _, ref = reference
+    out = tmp_path / "k9"
+    cmd = [sys.executable, "-m", "experiments", "crossval", "--out", str(out), *QUICK]
+    proc = subprocess.Popen(cmd, env=ENV, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        logs = out / "fits" / "observer" / "references"
+        deadline = time.monotonic() + 300
+        while proc.poll() is None and time.monotonic() < deadline:
+            done = [p for p in logs.glob("*/fit_log.csv") if p.read_bytes().count(b"\n") > 5]
+            if done:
+                break
+            time.sleep(0.02)
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+        assert not (out / "crossval.csv").exists()  # killed before it finished
+        r = subprocess.run(cmd, env=ENV, cwd=ROOT, capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        assert (out / "crossval.csv").read_bytes() == ref
+        assert not (out / ".lock").exists()
+    finally:
+        reap(proc, [])
+
+
+@pytest.mark.slow
+def test_sigterm_says_how_to_resume(tmp_path):
+    """SIGTERM during the work: exit 143, one line saying how to resume, no traceback, no lock left."""
+    out = tmp_path / "term"
+    cmd = [sys.executable, "-m", "experiments", "crossval", "--out", str(out), *QUICK]
+    proc = subprocess.Popen(cmd, env=ENV, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 300
+        while proc.poll() is None and time.monotonic() < deadline and not (out / "crossval.json").exists():
+            time.sleep(0.02)
+        time.sleep(1.0)  # into the warm-up or the observing
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+        assert proc.returncode == 143, err
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert len(lines) == 1 and "Traceback" not in err, err
+        assert "interrupted (SIGTERM)" in lines[0] and "run the same command again" in lines[0]
+        assert not (out / ".lock").exists()
+    finally:
+        reap(proc, [])
+
+
+# ---------------------------------------------------------------------------------------------- hostile options
+def _usage(argv: list[str], capsys, *words: str) -> None:
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    err = capsys.readouterr().err
+    assert e.value.code == 2, err
+    assert "Traceback" not in err and "usage:" in err
+    for w in words:
+        assert w in err, err
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("extra, word", [
+    (["--reports", "0"], "--reports"), (["--noise-deg", "nan"], "--noise-deg"), (["--noise-deg", "-1"], "--noise-deg"),
+    (["--theories", "nope"], "--theories"), (["--theories", "paper,paper"], "listed twice"),
+    (["--data-from", ""], "--data-from"), (["--image-size", "8"], "--image-size"), (["--max-evals", "5"], "--max-evals"),
+    (["--seed", "-1"], "--seed"), (["--seed", "1.5"], "--seed"), (["--workers", "0"], "--workers"),
+    (["--backend", "slurm"], "--backend"), (["--ray-address", "auto"], "--ray-address"), (["--quik"], "--quick"),
+])
+def test_bad_options_are_usage_errors(extra, word, capsys, tmp_path):
+    _usage(["crossval", "--out", str(tmp_path / "o"), *extra], capsys, word)
+
+
+@pytest.mark.adversarial
+def test_folders_it_cannot_use(capsys, tmp_path):
+    """A file as --out, a folder of another configuration, a damaged crossval.json: usage errors
+    before any work; a folder in use by another process: exit 1, one line."""
+    f = tmp_path / "file"
+    f.write_text("x")
+    _usage(["crossval", "--out", str(f), "--quick"], capsys, "--out", "not a folder")
+    _usage(["crossval"], capsys, "--out")
+    other = tmp_path / "other"
+    other.mkdir()
+    _claim_folder(other, settings(quick=True, seed=1))
+    _usage(["crossval", "--out", str(other), "--quick", "--seed", "0"], capsys, "another configuration", "seed")
+    (other / "crossval.json").write_text('{"key": "0", "settings": {}}')
+    _usage(["crossval", "--out", str(other), "--quick"], capsys, "damaged")
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    with holding("experiments.psychophysics.runner.folder_lock", busy, ENV):
+        assert main(["crossval", "--out", str(busy), "--quick", "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert "in use by another run" in err and "Traceback" not in err
