@@ -129,8 +129,9 @@ def reset_info(sim_time_ms, remap_error: dict) -> dict[str, Any]:
 
 
 def saccade_info(plan) -> dict[str, Any]:
-    """The saccade's entries (:data:`SACCADE_INFO`) of a plan or a batch of plans, as the plan holds them."""
-    return {k: get(plan) for k, (_, get) in SACCADE_INFO.items()}
+    """The saccade's entries (:data:`SACCADE_INFO`) of one ``models.SaccadePlan``: floats and array copies
+    (the batched env fills its worlds' arrays from a ``models.SaccadePlans`` through the same table)."""
+    return {k: get(plan).copy() if shape else float(get(plan)) for k, (shape, get) in SACCADE_INFO.items()}
 
 
 def step_info(sim_time_ms, remap_error: dict, saccade: dict, landing_error_deg, eye_angles, clipped,

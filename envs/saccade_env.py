@@ -223,8 +223,8 @@ class BinocularSaccadeEnv(gym.Env):
         self._saccades += 1
         terminated, truncated = (bool(f) for f in core.episode_end(success, self._saccades, self.task.max_saccades))
         landing = _gaze_errors_deg(self.head, plan.intended_target).mean()
-        saccade = {k: float(v) if np.ndim(v) == 0 else np.array(v) for k, v in core.saccade_info(plan).items()}
-        info = core.step_info(self.head.time_ms, errors, saccade, float(landing), self.head.eye_angles, clipped, tinfo)
+        info = core.step_info(self.head.time_ms, errors, core.saccade_info(plan), float(landing), self.head.eye_angles,
+                              clipped, tinfo)
         return self._observation(), float(reward), terminated, truncated, info
 
     @property
