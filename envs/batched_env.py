@@ -271,9 +271,9 @@ class BatchedBinocularSaccade(VectorEnv):
             saccade[k] = np.zeros((n,) + shape) if len(shape) < 2 else np.broadcast_to(np.eye(3), (n,) + shape).copy()
             if plans is not None:
                 saccade[k][act] = get(plans)
-        task_info = {"success": success & active, **{k: np.where(active, v, 0.0) for k, v in parts.items()}}
-        if self._target_gid is not None and not isinstance(self.task, FreeViewingTask):
-            task_info = {"target_error_deg": np.where(active, target_err.mean(axis=1), 0.0), **task_info}
+        has_target = self._target_gid is not None and not isinstance(self.task, FreeViewingTask)
+        task_info = core.task_info(success & active, {k: np.where(active, v, 0.0) for k, v in parts.items()},
+                                   np.where(active, target_err.mean(axis=1), 0.0) if has_target else None)
         info = core.masked(core.step_info(self.planner.time_ms.copy(),
                                           {m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)},
                                           saccade, landing, eye_q, clipped, task_info), active)

@@ -2,9 +2,10 @@
 
 The single env (one head, numpy) and the batched env (N worlds, torch on a device) are adapters over
 these: the reset checks and the heads' seeds, the spaces, the observation's entries, the ``info`` of a
-reset and of a step (its keys, their order, the saccade's entries), the end of an episode (termination
-on the task's success, truncation by the saccade budget) and the refusal to be copied. The batched env
-adds gymnasium's ``_key`` masks to the same ``info`` (:func:`masked`); each backend computes the arrays.
+reset and of a step (its keys, their order, the saccade's and the task's entries), the end of an
+episode (termination on the task's success, truncation by the saccade budget) and the refusal to be
+copied. The batched env adds gymnasium's ``_key`` masks to the same ``info`` (:func:`masked`); each
+backend computes the arrays.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from conformal import checks
 __all__ = [
     "MAX_FIXATION_MS", "SACCADE_INFO", "action_space", "check_options", "check_seed", "episode_end", "head_seed",
     "masked", "no_copy", "observation", "observation_space", "require_reset", "reset_info", "saccade_budget",
-    "saccade_info", "step_info", "world_seeds",
+    "saccade_info", "step_info", "task_info", "world_seeds",
 ]
 
 #: The longest fixation after a saccade (ms): 10 s, far beyond human fixations (180-320 ms).
@@ -132,6 +133,13 @@ def saccade_info(plan) -> dict[str, Any]:
     """The saccade's entries (:data:`SACCADE_INFO`) of one ``models.SaccadePlan``: floats and array copies
     (the batched env fills its worlds' arrays from a ``models.SaccadePlans`` through the same table)."""
     return {k: get(plan).copy() if shape else float(get(plan)) for k, (shape, get) in SACCADE_INFO.items()}
+
+
+def task_info(success, parts: dict, target_error_deg=None) -> dict[str, Any]:
+    """The task's entries of a step's info, in order: ``target_error_deg`` (tasks with a target; None:
+    none), ``success``, the reward's components ``reward_*`` (``Task.reward_keys``)."""
+    head = {} if target_error_deg is None else {"target_error_deg": target_error_deg}
+    return {**head, "success": success, **parts}
 
 
 def step_info(sim_time_ms, remap_error: dict, saccade: dict, landing_error_deg, eye_angles, clipped,
