@@ -201,12 +201,6 @@ def map_points(zr, zi, kinds, params, r0, r_outer, fovea_pictures, fovea_spacing
 
 
 @_inline
-def _angle_scratch(n_cols):  # pragma: no cover - compiled
-    """Scratch rows (re, im, rot_c, rot_s) of the angular tables' recurrence."""
-    return np.empty(n_cols), np.empty(n_cols), np.empty(n_cols), np.empty(n_cols)
-
-
-@_inline
 def _start_angles(wr, wi, r2, e, cos_theta0, sin_theta0, re, im, rot_c, rot_s):  # pragma: no cover - compiled
     """Eye e's rotations e^{i y_p} = (w_p / |w_p|) e^{-i theta_0} as (rot_c, rot_s), and (re, im) = e^{i 0 y_p}."""
     for p in range(re.shape[0]):
@@ -225,14 +219,6 @@ def _next_angle(re, im, rot_c, rot_s, p):  # pragma: no cover - compiled
     a = re[p] * rot_c[p] - im[p] * rot_s[p]
     im[p] = re[p] * rot_s[p] + im[p] * rot_c[p]
     re[p] = a
-
-
-@_inline
-def _ring_scratch(partial, values):  # pragma: no cover - compiled
-    """The ring sum's number of rings and scratch: the sums (C, K P), cos((m - 1) t), cos(m t)."""
-    n_ch = values.shape[3]
-    n_cols = partial.shape[2]
-    return partial.shape[1] // n_ch, np.empty((n_ch, n_cols)), np.empty(n_cols), np.empty(n_cols)
 
 
 @_inline
@@ -280,7 +266,7 @@ def tabulate_angles(wr, wi, r2, cos_theta0, sin_theta0, cs):  # pragma: no cover
     by repeated rotation in double precision, row by row (vectorised over p)."""
     n_eyes, n_j, n_cols = cs.shape
     nh = n_j // 2
-    re, im, rot_c, rot_s = _angle_scratch(n_cols)
+    re, im, rot_c, rot_s = np.empty(n_cols), np.empty(n_cols), np.empty(n_cols), np.empty(n_cols)
     for e in range(n_eyes):
         _start_angles(wr, wi, r2, e, cos_theta0, sin_theta0, re, im, rot_c, rot_s)
         for n in range(nh):
@@ -297,9 +283,13 @@ def contract_rings(cos_t, partial, series, values):  # pragma: no cover - compil
     ``partial`` = (weighted series coefficients (M C, J)) @ cs: the angular sum done. cos(m t)
     comes from ``cos_t`` by the Chebyshev recurrence (double precision, vectorised over p).
     """
-    m_rings, acc, prev, cur = _ring_scratch(partial, values)
-    n_cols = acc.shape[1]
-    for e in range(series.shape[0]):
+    n_eyes, n_maps, n_pts = series.shape
+    n_ch, n_cols = values.shape[3], n_maps * n_pts
+    # the sums (C, K P) and cos((m - 1) t), cos(m t), allocated in the kernel (LLVM then sees they alias
+    # nothing and vectorises as before the helpers)
+    acc, prev, cur = np.empty((n_ch, n_cols)), np.empty(n_cols), np.empty(n_cols)
+    m_rings = partial.shape[1] // n_ch
+    for e in range(n_eyes):
         _start_rings(partial, e, acc)
         for p in range(n_cols):
             prev[p] = 1.0
@@ -461,7 +451,7 @@ def tabulate_angles_pooled(wr, wi, r2, cos_theta0, sin_theta0, rho, cs):  # prag
     of variance -2 ln rho in theta), by the recurrence a_{n+1} = a_n b_n, b_{n+1} = b_n rho^2."""
     n_eyes, n_j, n_cols = cs.shape
     nh = n_j // 2
-    re, im, rot_c, rot_s = _angle_scratch(n_cols)
+    re, im, rot_c, rot_s = np.empty(n_cols), np.empty(n_cols), np.empty(n_cols), np.empty(n_cols)
     amp = np.empty(n_cols)
     step = np.empty(n_cols)
     sq = np.empty(n_cols)
@@ -484,13 +474,15 @@ def tabulate_angles_pooled(wr, wi, r2, cos_theta0, sin_theta0, rho, cs):  # prag
 def contract_rings_pooled(cos_t, rho, partial, series, values):  # pragma: no cover - compiled
     """``contract_rings`` with ring frequency m at point p damped by rho[e, p]^(m^2) (as
     ``tabulate_angles_pooled``)."""
-    m_rings, acc, prev, cur = _ring_scratch(partial, values)
-    n_cols = acc.shape[1]
+    n_eyes, n_maps, n_pts = series.shape
+    n_ch, n_cols = values.shape[3], n_maps * n_pts
+    acc, prev, cur = np.empty((n_ch, n_cols)), np.empty(n_cols), np.empty(n_cols)  # as contract_rings
+    m_rings = partial.shape[1] // n_ch
     damped = np.empty(n_cols)
     amp = np.empty(n_cols)
     step = np.empty(n_cols)
     sq = np.empty(n_cols)
-    for e in range(series.shape[0]):
+    for e in range(n_eyes):
         _start_rings(partial, e, acc)  # m = 0, undamped
         for p in range(n_cols):
             rh = rho[e, p]
