@@ -285,8 +285,8 @@ def contract_rings(cos_t, partial, series, values):  # pragma: no cover - compil
     """
     n_eyes, n_maps, n_pts = series.shape
     n_ch, n_cols = values.shape[3], n_maps * n_pts
-    # the sums (C, K P) and cos((m - 1) t), cos(m t), allocated in the kernel (LLVM then sees they alias
-    # nothing and vectorises as before the helpers)
+    # the sums (C, K P) and cos((m - 1) t), cos(m t), allocated here, not in a helper: LLVM then sees that
+    # they alias nothing and vectorises the sums
     acc, prev, cur = np.empty((n_ch, n_cols)), np.empty(n_cols), np.empty(n_cols)
     m_rings = partial.shape[1] // n_ch
     for e in range(n_eyes):
