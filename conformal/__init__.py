@@ -5,6 +5,9 @@ checks its arguments (``conformal.checks``): bad input raises a ``ValueError`` o
 naming the argument, and sizes are bounded.
 Equation names refer to the ``\\label``s of the paper (J. Turski, *Geometric Analysis of the
 Conformal Camera for Intermediate-Level Vision and Perisaccadic Perception*).
+
+``conformal.TorchRemapPlan`` (the DPFT and the remapping series in torch, ``conformal.torch_plan``) is
+loaded on first use: ``import conformal`` never imports torch.
 """
 
 from .cortex import BinocularCortex, binocular_cortex, cortical_map, hemifields, schwartz_map
@@ -69,3 +72,12 @@ __all__ = [
     "rotation_from_su2", "rotation_homography", "rotation_matrix", "schwartz_map", "su2_from_rotation",
     "target_shift_map", "transform", "transform_image", "warp",
 ]
+
+
+def __getattr__(name: str):
+    """``TorchRemapPlan`` on first use (PEP 562), so that torch stays optional."""
+    if name == "TorchRemapPlan":
+        from .torch_plan import TorchRemapPlan
+
+        return TorchRemapPlan
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -62,6 +62,17 @@ def _scalar(value):
     return value
 
 
+def _real_scalar(value, exact: type, what):
+    """``value`` itself when its type is ``exact``, else as a Python scalar (numpy's unwrapped), which must
+    be a real number and not a bool (else :class:`InputTypeError` with ``what()``, the check's demand)."""
+    if type(value) is exact:
+        return value
+    v = _scalar(value)
+    if type(v) is not exact and (isinstance(v, bool) or not isinstance(v, numbers.Real)):
+        raise InputTypeError(f"{what()}; got {_show(value)} of type {type(value).__name__}")
+    return v
+
+
 def integer(name: str, value, lo: int | None = None, hi: int | None = None, *, hint: str = "") -> int:
     """``value`` as an ``int`` in [lo, hi] (either bound may be None).
 
@@ -69,15 +80,12 @@ def integer(name: str, value, lo: int | None = None, hi: int | None = None, *, h
     numbers (``7.5``: ``ValueError``, never truncated), NaN and infinity (``ValueError``) and
     bools, strings, complex numbers and other types (:class:`InputTypeError`).
     """
-    v = value if type(value) is int else _scalar(value)
-
     def what() -> str:  # the message is built only for a refusal (this check sits on hot paths)
         return f"{name} must be an integer{_interval(lo, hi)}{f' ({hint})' if hint else ''}"
 
+    v = _real_scalar(value, int, what)
     if type(v) is int:
         i = v
-    elif isinstance(v, bool) or not isinstance(v, numbers.Real):
-        raise InputTypeError(f"{what()}; got {_show(value)} of type {type(value).__name__}")
     elif isinstance(v, numbers.Integral):
         i = operator.index(v)
     else:
@@ -98,15 +106,12 @@ def real(name: str, value, lo: float | None = None, hi: float | None = None, *, 
     Rejects NaN, infinity and values outside the interval (``ValueError``) and bools, strings,
     ``None``, complex numbers and other types (:class:`InputTypeError`).
     """
-    v = value if type(value) is float else _scalar(value)
-
     def what() -> str:  # the message is built only for a refusal (this check sits on hot paths)
         return f"{name} must be a finite real number{_interval(lo, hi, lo_open, hi_open)}{f' ({hint})' if hint else ''}"
 
+    v = _real_scalar(value, float, what)
     if type(v) is float:
         f = v
-    elif isinstance(v, bool) or not isinstance(v, numbers.Real):
-        raise InputTypeError(f"{what()}; got {_show(value)} of type {type(value).__name__}")
     else:
         try:
             f = float(v)

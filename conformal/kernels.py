@@ -200,6 +200,65 @@ def map_points(zr, zi, kinds, params, r0, r_outer, fovea_pictures, fovea_spacing
                     valid[e, k, i] = True
 
 
+@_inline
+def _start_angles(wr, wi, r2, e, cos_theta0, sin_theta0, re, im, rot_c, rot_s):  # pragma: no cover - compiled
+    """Eye e's rotations e^{i y_p} = (w_p / |w_p|) e^{-i theta_0} as (rot_c, rot_s), and (re, im) = e^{i 0 y_p}."""
+    for p in range(re.shape[0]):
+        inv = 1.0 / math.sqrt(r2[e, p])
+        x = wr[e, p] * inv
+        y = wi[e, p] * inv
+        rot_c[p] = x * cos_theta0 + y * sin_theta0
+        rot_s[p] = y * cos_theta0 - x * sin_theta0
+        re[p] = 1.0
+        im[p] = 0.0
+
+
+@_inline
+def _next_angle(re, im, rot_c, rot_s, p):  # pragma: no cover - compiled
+    """(re, im)[p] = e^{i n y_p} -> e^{i (n + 1) y_p}: one step of the rotation."""
+    a = re[p] * rot_c[p] - im[p] * rot_s[p]
+    im[p] = re[p] * rot_s[p] + im[p] * rot_c[p]
+    re[p] = a
+
+
+@_inline
+def _start_rings(partial, e, acc):  # pragma: no cover - compiled
+    """acc = the m = 0 term of eye e's ring sum (cos(0) = 1)."""
+    for c in range(acc.shape[0]):
+        for p in range(acc.shape[1]):
+            acc[c, p] = partial[e, c, p]
+
+
+@_inline
+def _add_ring(acc, factor, partial, e, m):  # pragma: no cover - compiled
+    """acc[c, p] += factor[p] partial[e, m C + c, p]: ring frequency m's term of eye e's ring sum."""
+    n_ch = acc.shape[0]
+    for c in range(n_ch):
+        row = m * n_ch + c
+        for p in range(acc.shape[1]):
+            acc[c, p] += factor[p] * partial[e, row, p]
+
+
+@_inline
+def _next_ring(cos_t, e, prev, cur, p):  # pragma: no cover - compiled
+    """cos((m + 1) t_p) = 2 cos(t_p) cos(m t_p) - cos((m - 1) t_p) (Chebyshev), stepped in (prev, cur)."""
+    nxt = 2.0 * cos_t[e, p] * cur[p] - prev[p]
+    prev[p] = cur[p]
+    cur[p] = nxt
+    return nxt
+
+
+@_inline
+def _add_series(acc, series, e, values):  # pragma: no cover - compiled
+    """values[e, k, i] += acc[:, k P + i] where the series is evaluated (``series[e, k, i]``)."""
+    n_maps, n_pts = series.shape[1], series.shape[2]
+    for k in range(n_maps):
+        for i in range(n_pts):
+            if series[e, k, i]:
+                for c in range(acc.shape[0]):
+                    values[e, k, i, c] += acc[c, k * n_pts + i]
+
+
 @_jit
 def tabulate_angles(wr, wi, r2, cos_theta0, sin_theta0, cs):  # pragma: no cover - compiled
     """The angular factor table of the mirror series at the mapped points, points last:
@@ -207,26 +266,14 @@ def tabulate_angles(wr, wi, r2, cos_theta0, sin_theta0, cs):  # pragma: no cover
     by repeated rotation in double precision, row by row (vectorised over p)."""
     n_eyes, n_j, n_cols = cs.shape
     nh = n_j // 2
-    re = np.empty(n_cols)
-    im = np.empty(n_cols)
-    rot_c = np.empty(n_cols)
-    rot_s = np.empty(n_cols)
+    re, im, rot_c, rot_s = np.empty(n_cols), np.empty(n_cols), np.empty(n_cols), np.empty(n_cols)
     for e in range(n_eyes):
-        for p in range(n_cols):
-            inv = 1.0 / math.sqrt(r2[e, p])
-            x = wr[e, p] * inv
-            y = wi[e, p] * inv
-            rot_c[p] = x * cos_theta0 + y * sin_theta0
-            rot_s[p] = y * cos_theta0 - x * sin_theta0
-            re[p] = 1.0
-            im[p] = 0.0
+        _start_angles(wr, wi, r2, e, cos_theta0, sin_theta0, re, im, rot_c, rot_s)
         for n in range(nh):
             for p in range(n_cols):
                 cs[e, n, p] = re[p]
                 cs[e, nh + n, p] = -im[p]
-                a = re[p] * rot_c[p] - im[p] * rot_s[p]
-                im[p] = re[p] * rot_s[p] + im[p] * rot_c[p]
-                re[p] = a
+                _next_angle(re, im, rot_c, rot_s, p)
 
 
 @_jit
@@ -237,33 +284,21 @@ def contract_rings(cos_t, partial, series, values):  # pragma: no cover - compil
     comes from ``cos_t`` by the Chebyshev recurrence (double precision, vectorised over p).
     """
     n_eyes, n_maps, n_pts = series.shape
-    n_ch = values.shape[3]
+    n_ch, n_cols = values.shape[3], n_maps * n_pts
+    # the sums (C, K P) and cos((m - 1) t), cos(m t), allocated here, not in a helper: LLVM then sees that
+    # they alias nothing and vectorises the sums
+    acc, prev, cur = np.empty((n_ch, n_cols)), np.empty(n_cols), np.empty(n_cols)
     m_rings = partial.shape[1] // n_ch
-    n_cols = n_maps * n_pts
-    acc = np.empty((n_ch, n_cols))
-    prev = np.empty(n_cols)
-    cur = np.empty(n_cols)
     for e in range(n_eyes):
-        for c in range(n_ch):
-            for p in range(n_cols):
-                acc[c, p] = partial[e, c, p]  # m = 0: cos(0) = 1
+        _start_rings(partial, e, acc)
         for p in range(n_cols):
             prev[p] = 1.0
             cur[p] = cos_t[e, p]
         for m in range(1, m_rings):
-            for c in range(n_ch):
-                row = m * n_ch + c
-                for p in range(n_cols):
-                    acc[c, p] += cur[p] * partial[e, row, p]
+            _add_ring(acc, cur, partial, e, m)
             for p in range(n_cols):
-                nxt = 2.0 * cos_t[e, p] * cur[p] - prev[p]
-                prev[p] = cur[p]
-                cur[p] = nxt
-        for k in range(n_maps):
-            for i in range(n_pts):
-                if series[e, k, i]:
-                    for c in range(n_ch):
-                        values[e, k, i, c] += acc[c, k * n_pts + i]
+                _next_ring(cos_t, e, prev, cur, p)
+        _add_series(acc, series, e, values)
 
 
 @nb.njit(inline="always")
@@ -416,22 +451,13 @@ def tabulate_angles_pooled(wr, wi, r2, cos_theta0, sin_theta0, rho, cs):  # prag
     of variance -2 ln rho in theta), by the recurrence a_{n+1} = a_n b_n, b_{n+1} = b_n rho^2."""
     n_eyes, n_j, n_cols = cs.shape
     nh = n_j // 2
-    re = np.empty(n_cols)
-    im = np.empty(n_cols)
-    rot_c = np.empty(n_cols)
-    rot_s = np.empty(n_cols)
+    re, im, rot_c, rot_s = np.empty(n_cols), np.empty(n_cols), np.empty(n_cols), np.empty(n_cols)
     amp = np.empty(n_cols)
     step = np.empty(n_cols)
     sq = np.empty(n_cols)
     for e in range(n_eyes):
+        _start_angles(wr, wi, r2, e, cos_theta0, sin_theta0, re, im, rot_c, rot_s)
         for p in range(n_cols):
-            inv = 1.0 / math.sqrt(r2[e, p])
-            x = wr[e, p] * inv
-            y = wi[e, p] * inv
-            rot_c[p] = x * cos_theta0 + y * sin_theta0
-            rot_s[p] = y * cos_theta0 - x * sin_theta0
-            re[p] = 1.0
-            im[p] = 0.0
             amp[p] = 1.0
             step[p] = rho[e, p]
             sq[p] = rho[e, p] * rho[e, p]
@@ -439,9 +465,7 @@ def tabulate_angles_pooled(wr, wi, r2, cos_theta0, sin_theta0, rho, cs):  # prag
             for p in range(n_cols):
                 cs[e, n, p] = re[p] * amp[p]
                 cs[e, nh + n, p] = -im[p] * amp[p]
-                a = re[p] * rot_c[p] - im[p] * rot_s[p]
-                im[p] = re[p] * rot_s[p] + im[p] * rot_c[p]
-                re[p] = a
+                _next_angle(re, im, rot_c, rot_s, p)
                 amp[p] *= step[p]
                 step[p] *= sq[p]
 
@@ -451,20 +475,15 @@ def contract_rings_pooled(cos_t, rho, partial, series, values):  # pragma: no co
     """``contract_rings`` with ring frequency m at point p damped by rho[e, p]^(m^2) (as
     ``tabulate_angles_pooled``)."""
     n_eyes, n_maps, n_pts = series.shape
-    n_ch = values.shape[3]
+    n_ch, n_cols = values.shape[3], n_maps * n_pts
+    acc, prev, cur = np.empty((n_ch, n_cols)), np.empty(n_cols), np.empty(n_cols)  # as contract_rings
     m_rings = partial.shape[1] // n_ch
-    n_cols = n_maps * n_pts
-    acc = np.empty((n_ch, n_cols))
-    prev = np.empty(n_cols)
-    cur = np.empty(n_cols)
     damped = np.empty(n_cols)
     amp = np.empty(n_cols)
     step = np.empty(n_cols)
     sq = np.empty(n_cols)
     for e in range(n_eyes):
-        for c in range(n_ch):
-            for p in range(n_cols):
-                acc[c, p] = partial[e, c, p]  # m = 0: cos(0) = 1, undamped
+        _start_rings(partial, e, acc)  # m = 0, undamped
         for p in range(n_cols):
             rh = rho[e, p]
             prev[p] = 1.0
@@ -474,22 +493,13 @@ def contract_rings_pooled(cos_t, rho, partial, series, values):  # pragma: no co
             sq[p] = rh * rh
             damped[p] = cur[p] * rh
         for m in range(1, m_rings):
-            for c in range(n_ch):
-                row = m * n_ch + c
-                for p in range(n_cols):
-                    acc[c, p] += damped[p] * partial[e, row, p]
+            _add_ring(acc, damped, partial, e, m)
             for p in range(n_cols):
-                nxt = 2.0 * cos_t[e, p] * cur[p] - prev[p]
-                prev[p] = cur[p]
-                cur[p] = nxt
+                nxt = _next_ring(cos_t, e, prev, cur, p)
                 amp[p] *= step[p]
                 step[p] *= sq[p]
                 damped[p] = nxt * amp[p]
-        for k in range(n_maps):
-            for i in range(n_pts):
-                if series[e, k, i]:
-                    for c in range(n_ch):
-                        values[e, k, i, c] += acc[c, k * n_pts + i]
+        _add_series(acc, series, e, values)
 
 
 @_jit

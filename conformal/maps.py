@@ -12,7 +12,7 @@ eye's homography the points behind the old eye (w3 < 0) are not seen either, so 
 w3 < ``POLE_TOL`` (:func:`behind`). A caller that must map every point raises ``ValueError`` at a pole
 (``geometry.act``, ``geometry.apply_homography``, for which w3 < 0 is a valid point); the remapping maps
 (``remap.MobiusMap``, ``remap.ProjectiveMap``) give NaN there; the compiled kernels
-(``kernels.map_points``) and the batched torch path (``envs.batched_vision``) mark the point invalid.
+(``kernels.map_points``) and the torch series (``conformal.torch_plan``) mark the point invalid.
 
 **Two arithmetic forms of each map.** :func:`mobius` and :func:`homography` are the complex form of the
 numpy callers (numpy divides complex numbers by Smith's method). :func:`mobius_point` and

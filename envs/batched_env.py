@@ -41,7 +41,8 @@ from gymnasium.vector.utils import batch_space
 from conformal import checks
 
 from models import BatchedPlanner, SettledReset
-from .saccade_env import _NO_COPY, BinocularSaccadeEnv
+from . import core
+from .saccade_env import BinocularSaccadeEnv
 from .actions import decode_actions
 from .tasks import FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors
 
@@ -120,7 +121,7 @@ class BatchedBinocularSaccade(VectorEnv):
         self.num_envs = checks.integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
         self.output = checks.choice("output", output, ("torch", "numpy"))
         chunk_ms = checks.integer("chunk_ms", chunk_ms, 1, 1000)
-        self.settle_ms = checks.integer("settle_ms", settle_ms, 0, BinocularSaccadeEnv.MAX_FIXATION_MS)
+        self.settle_ms = checks.integer("settle_ms", settle_ms, 0, core.MAX_FIXATION_MS)
         modes = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
         if isinstance(autoreset_mode, AutoresetMode):
             autoreset_mode = {m: k for k, m in modes.items()}.get(autoreset_mode, autoreset_mode.value)
@@ -132,11 +133,7 @@ class BatchedBinocularSaccade(VectorEnv):
             retina_rays = checks.integer("retina_rays", retina_rays, 1, MAX_SUBSAMPLES,
                                          hint="sub-rays per receptive-field side, or None for pinhole images")
         self.retina_rays = retina_rays
-        if max_episode_steps is None or max_episode_steps == -1:  # gymnasium.make's -1: no TimeLimit
-            max_episode_steps = Task.MAX_SACCADES  # the largest budget: the task's own then decides
-        else:
-            max_episode_steps = checks.integer("max_episode_steps", max_episode_steps, 1, None,
-                                               hint="or -1 or None: no limit beyond the task's max_saccades")
+        max_episode_steps = core.saccade_budget(Task.MAX_SACCADES, max_episode_steps)  # checked before the env
         device = _resolve_device(device, wp, torch)
         if kwargs.get("render_mode") is not None:
             raise ValueError("the batched env does not render for display (render_mode must be None); "
@@ -150,7 +147,7 @@ class BatchedBinocularSaccade(VectorEnv):
             raise ValueError(f"the batched env scores the built-in tasks fixate, search and free on the device; "
                              f"got a {type(env.task).__name__}")
         self.task = env.task
-        self._max_steps = min(env.task.max_saccades, max_episode_steps)  # the budget, capped as TimeLimit(K) would
+        self._max_steps = core.saccade_budget(env.task.max_saccades, max_episode_steps)  # as TimeLimit(K) caps it
         self.single_observation_space = env.observation_space
         self.single_action_space = env.action_space
         self.observation_space = batch_space(env.observation_space, self.num_envs)
@@ -187,19 +184,8 @@ class BatchedBinocularSaccade(VectorEnv):
     def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
         self._check_open()
         n = self.num_envs
-        if seed is None:
-            seeds = [None] * n
-        elif isinstance(seed, (list, tuple)):
-            if len(seed) != n:
-                raise ValueError(f"seed must be an int, None or a list of {n} seeds (one per world); got {len(seed)}")
-            seeds = [None if s is None else checks.integer("seed", s, 0, None, hint="or None") for s in seed]
-        else:
-            s0 = checks.integer("seed", seed, 0, None, hint="or None, or a list of one seed per world")
-            seeds = [s0 + i for i in range(n)]  # as gymnasium's SyncVectorEnv seeds its sub-envs
-        if options is not None and not isinstance(options, dict):
-            raise checks.InputTypeError(f"options must be a dict or None; got {type(options).__name__}")
-        if options:
-            raise ValueError(f"this environment takes no reset options; got {', '.join(map(str, options))}")
+        seeds = core.world_seeds(seed, n)
+        core.check_options(options)
         for i, s in enumerate(seeds):
             if s is not None or self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(s)
@@ -208,12 +194,12 @@ class BatchedBinocularSaccade(VectorEnv):
         self._load(np.arange(n))
         self._see()
         self._remapped = self._cortical_now()
-        return self._observation(), self._info({m: np.zeros(n) for m in self.remap_models})
+        info = core.reset_info(self.planner.time_ms.copy(), {m: np.zeros(n) for m in self.remap_models})
+        return self._observation(), core.masked(info, np.ones(n, bool))
 
     def step(self, actions):
         self._check_open()
-        if self._frame is None:
-            raise RuntimeError("call reset() before step()")
+        core.require_reset(self._frame is not None)
         torch = self._torch
         n, g = self.num_envs, self.grid
         part = self._part
@@ -274,34 +260,23 @@ class BatchedBinocularSaccade(VectorEnv):
             target_err, landing = self._gaze_errors(plans, act, active)
             reward, success, parts = self.task.score_errors(target_err)
         self._saccades[active] += 1
-        terminated = active & success
-        truncated = active & ~terminated & (self._saccades >= self._max_steps)
+        terminated, truncated = core.episode_end(success, self._saccades, self._max_steps, active)
         reward = np.where(active, reward, 0.0)
         if self.autoreset_mode is AutoresetMode.NEXT_STEP:
             self._autoreset = terminated | truncated
 
         errors = errors.double().cpu().numpy()
-        info = self._info({m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)})
-        per_world = {
-            "saccade_amplitude_deg": ((), lambda p: np.rad2deg(p.amplitude)),
-            "saccade_duration_ms": ((), lambda p: p.duration_ms),
-            "peak_velocity_deg_s": ((), lambda p: np.degrees(p.peak_velocity)),
-            "endpoint_error_deg": ((2,), lambda p: p.endpoint_error_deg),
-            "efference_copy": ((2, 3, 3), lambda p: p.efference_copy),
-            "executed_rotation": ((2, 3, 3), lambda p: p.executed_rotation),
-        }
-        for k, (shape, get) in per_world.items():
-            v = np.zeros((n,) + shape) if not shape or shape == (2,) else np.broadcast_to(np.eye(3), (n,) + shape).copy()
+        saccade = {}
+        for k, (shape, get) in core.SACCADE_INFO.items():  # zeros, and identities for the rotations
+            saccade[k] = np.zeros((n,) + shape) if len(shape) < 2 else np.broadcast_to(np.eye(3), (n,) + shape).copy()
             if plans is not None:
-                v[act] = get(plans)
-            info[k], info["_" + k] = v, active.copy()
-        for k, v in (("landing_error_deg", landing), ("eye_angles", eye_q), ("clipped", clipped)):
-            info[k], info["_" + k] = v, active.copy()
-        if self._target_gid is not None and not isinstance(self.task, FreeViewingTask):
-            info["target_error_deg"], info["_target_error_deg"] = np.where(active, target_err.mean(axis=1), 0.0), active.copy()
-        info["success"], info["_success"] = success & active, active.copy()
-        for k, v in parts.items():  # the reward's components (task.reward_keys), as the single env's info
-            info[k], info["_" + k] = np.where(active, v, 0.0), active.copy()
+                saccade[k][act] = get(plans)
+        has_target = self._target_gid is not None and not isinstance(self.task, FreeViewingTask)
+        task_info = core.task_info(success & active, {k: np.where(active, v, 0.0) for k, v in parts.items()},
+                                   np.where(active, target_err.mean(axis=1), 0.0) if has_target else None)
+        info = core.masked(core.step_info(self.planner.time_ms.copy(),
+                                          {m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)},
+                                          saccade, landing, eye_q, clipped, task_info), active)
         with part("host sync"):
             obs = self._observation()
         done = terminated | truncated
@@ -315,7 +290,7 @@ class BatchedBinocularSaccade(VectorEnv):
 
     def __reduce_ex__(self, protocol):
         # pickle and copy refuse it before a half-built copy of its GL renderer or device state is made
-        raise TypeError(_NO_COPY.format(type(self).__name__).replace("gymnasium.make(", "gymnasium.make_vec("))
+        raise core.no_copy(type(self).__name__, "gymnasium.make_vec")
 
     # ------------------------------------------------------------------ helpers
     def _check_open(self) -> None:
@@ -337,8 +312,8 @@ class BatchedBinocularSaccade(VectorEnv):
         with self._part("host sync"):
             obs = self._observation()
         # the reset worlds' remapping errors are a reset's (zeros), as BinocularSaccadeEnv.reset reports
-        info = {**self._info({m: np.where(done, 0.0, v) for m, v in final_info["remap_error"].items()
-                              if not m.startswith("_")}),
+        errors = {m: np.where(done, 0.0, v) for m, v in final_info["remap_error"].items() if not m.startswith("_")}
+        info = {**core.masked(core.reset_info(self.planner.time_ms.copy(), errors), np.ones(self.num_envs, bool)),
                 "final_obs": final_obs, "_final_obs": done.copy(),
                 "final_info": self._mask_info(final_info, done), "_final_info": done.copy()}
         for k, v in final_info.items():  # the running worlds' step info stays where it was
@@ -369,7 +344,7 @@ class BatchedBinocularSaccade(VectorEnv):
             rng = self._rngs[i]
             if rng is None:
                 self._rngs[i] = rng = seeding.np_random(None)[0]
-            seed = int(rng.integers(2**31 - 1))  # as a world's head.reset(seed=...)
+            seed = core.head_seed(rng)  # as a world's head.reset(seed=...)
             if self._settled.usable:
                 seeds.append(seed)
                 places.append(self.task.placements(rng))
@@ -416,23 +391,13 @@ class BatchedBinocularSaccade(VectorEnv):
             out["_" + k] = info["_" + k] & mask
         return out
 
-    def _info(self, remap_error: dict[str, np.ndarray]) -> dict[str, Any]:
-        """The info of every reset and step: the clock and each model's remapping error, in every world."""
-        every = np.ones(self.num_envs, bool)
-        return {"sim_time_ms": self.planner.time_ms.copy(), "_sim_time_ms": every.copy(), "_remap_error": every,
-                "remap_error": {**remap_error, **{"_" + m: every.copy() for m in remap_error}}}
-
     def _observation(self) -> dict:
         torch = self._torch
         f = self._frame
-        obs = {
-            "cortical": self._cortical_now(),
-            "fovea": f.fovea.clamp(0.0, 1.0),
-            "remapped": self._remapped.clone(),
-            "eyes": torch.as_tensor(self.planner.eye_position_signal(), dtype=torch.float32, device=self.device),
-        }
-        if self._template.include_coeffs:
-            obs["coeffs"] = torch.view_as_real(f.coeffs).to(torch.float32)
+        obs = core.observation(
+            self._cortical_now(), f.fovea.clamp(0.0, 1.0), self._remapped.clone(),
+            torch.as_tensor(self.planner.eye_position_signal(), dtype=torch.float32, device=self.device),
+            torch.view_as_real(f.coeffs).to(torch.float32) if self._template.include_coeffs else None)
         if self.output == "numpy":
             obs = {k: v.cpu().numpy() for k, v in obs.items()}
         return obs

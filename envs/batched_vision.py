@@ -17,8 +17,10 @@ set of tensor operations on the device ("cuda" or "cpu"):
 * ``cortical``: the env's ``cortical`` observation (``BinocularSaccadeEnv._cortical``, with
   ``conformal.binocular_cortex``'s hemifield routing).
 
-Everything that depends only on the grid (the pooling operator, the DPFT weights and phases, the
-mirror-series map, the angular and ring frequencies, the foveal lattice look-up) is built once in
+The DPFT and the series evaluation are conformal's torch variant (``conformal.TorchRemapPlan``, beside
+the compiled kernels); this module adds the pooling, the checks, the models' parameters, the errors and
+the cortex. Everything that depends only on the grid (the pooling operator, the DPFT weights and phases,
+the mirror-series map, the angular and ring frequencies, the foveal lattice look-up) is built once in
 float64 numpy from the CPU ``Vision`` and kept on the device in float32 (complex64); the per-frame
 work runs in float32. So the numbers are the CPU path's up to float32 rounding (the CPU samples and
 transforms in float64 and evaluates the series with float32 tables): ``tests/test_batched_vision.py``
@@ -32,18 +34,13 @@ single worlds).
 
 from __future__ import annotations
 
-import contextlib
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from conformal import checks, hemifields
-from conformal.dpft import dpft_tables, dpft_weight, mirror_map
-from conformal.fovea import fovea_indices
 from conformal.remap import point_map_params
 from conformal.maps import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
-from conformal.maps import homography_point, mobius_point  # the point maps and their pole rule, on tensors
 
 from .vision import REMAP_MODELS, Vision, rotation_faults
 
@@ -52,6 +49,8 @@ try:
 except ImportError:  # pragma: no cover - the module is only imported with torch (the gpu extra)
     raise ImportError("envs.batched_vision needs torch: pip install -e \".[gpu]\" (torch's CPU build serves "
                       "without a GPU)") from None
+
+from conformal.torch_plan import TorchRemapPlan, ieee_matmul as _ieee_matmul  # noqa: E402  (after torch's check)
 
 __all__ = ["TorchVision", "TorchFrame", "KIND_PROJECTIVE", "KIND_MOBIUS"]
 
@@ -130,44 +129,8 @@ class TorchVision:
         self._empty = torch.as_tensor(np.flatnonzero(retina.empty), device=dev) if self._fill != 0.0 else None
         self.valid = torch.as_tensor(np.array(vision._valid), device=dev)
 
-        # --- DPFT (dpft.dpft_prechecked): w e^{u_k} per ring, the phase e^{-i (2 pi m u_0 / T + n theta_0)}
-        phase, _, exp_u, _ = dpft_tables(g)
-        self._dpft_weight = torch.as_tensor(dpft_weight(g) * np.array(exp_u), dtype=f32, device=dev).view(g.M, 1, 1)
-        self._dpft_phase = torch.as_tensor(np.array(phase), dtype=torch.complex64, device=dev).view(g.M, g.N, 1)
-
-        # --- the mirror series (dpft.mirror_map / _mirror_series): H = A F, D[q] = H[q] b1 + conj(H[-q]) b2
-        A, b1, b2, neg = mirror_map(g)
-        self._nh = len(b1)
-        self._series_A = torch.as_tensor(np.array(A), dtype=torch.complex64, device=dev)
-        self._series_b1 = torch.as_tensor(np.array(b1), dtype=torch.complex64, device=dev).view(-1, 1)
-        self._series_b2 = torch.as_tensor(np.array(b2), dtype=torch.complex64, device=dev).view(-1, 1)
-        self._series_neg = torch.as_tensor(np.array(neg), dtype=torch.int64, device=dev)
-        # the angular frequencies n = 0..N/2 and the ring frequencies m = 0..M-1 (kernels.tabulate_angles,
-        # kernels.contract_rings: their cos/sin tables at the mapped points)
-        self._freq_n = torch.arange(self._nh, dtype=f32, device=dev).view(-1, 1)
-        self._freq_m = torch.arange(g.M, dtype=f32, device=dev).view(-1, 1)
-        self._cos_theta0, self._sin_theta0 = math.cos(g.theta[0]), math.sin(g.theta[0])
-        self._u0 = float(g.u[0])
-        self._t_scale = math.pi / (g.M * g.delta)
-        self._t_offset = math.pi / (2 * g.M)
-
-        self._indices: dict[tuple[int, ...], torch.Tensor] = {}
-
-        # --- the output points (RemapPlan: the foveal points, then the periphery) and the validity radii
-        z = np.concatenate([g.fovea_points, g.points.ravel()])
-        self._zr = torch.as_tensor(z.real, dtype=f32, device=dev)
-        self._zi = torch.as_tensor(z.imag, dtype=f32, device=dev)
-        self._r0 = float(g.r0)
-        self._r0_sq = float(g.r0) ** 2
-        self._r_outer_sq = float(g.ring_edges[-1]) ** 2
-
-        # --- the foveal lattice (fovea.fovea_indices): lattice cell -> foveal sample (N_f: a zero)
-        rows, cols, size = fovea_indices(g)
-        lut = np.full(size * size, g.n_fovea, np.int64)
-        lut[rows * size + cols] = np.arange(g.n_fovea)
-        self._fovea_size = size
-        self._fovea_lut = torch.as_tensor(lut, device=dev)
-        self._fovea_spacing = float(g.fovea_spacing)
+        # --- the DPFT and the point prediction's tables (conformal's torch series)
+        self.plan = TorchRemapPlan(g, self.device)
 
         # --- the cortex (cortex.hemifields): right and left hemifield sectors from the upper meridian
         self._hemifields = None
@@ -226,10 +189,8 @@ class TorchVision:
         g, n_f = self.grid, self.grid.n_fovea
         b, e, _, c = samples.shape
         periphery = samples[:, :, n_f:].view(b, e, g.M, g.N, c)
-        weighted = (periphery * self._dpft_weight).to(torch.complex64)
-        coeffs = torch.fft.fft2(weighted, dim=(2, 3))
-        coeffs.mul_(self._dpft_phase)
-        return TorchFrame(samples=samples, periphery=periphery, fovea=samples[:, :, :n_f], coeffs=coeffs)
+        return TorchFrame(samples=samples, periphery=periphery, fovea=samples[:, :, :n_f],
+                          coeffs=self.plan.dpft(periphery))
 
     def _float_tensor(self, name: str, x, form: str, tail: tuple, extra: str, shape_ok) -> "torch.Tensor":
         """``x`` as float32 after checking it is a floating-point tensor on this device of shape ``form``
@@ -303,89 +264,12 @@ class TorchVision:
         params = params.to(torch.float32).reshape(be, n_maps, 9)
         values = torch.empty((be, n_maps, n_pts, c), dtype=torch.float32, device=self.device)
         valid = torch.empty((be, n_maps, n_pts), dtype=torch.bool, device=self.device)
-        # float32 per (world, eye) in the largest tables: cs (J, K P), cos(m t) (M, K P), partial (M C, K P)
-        per_eye = 4 * n_maps * n_pts * (2 * self._nh + g.M + g.M * c + 16)
-        chunk = max(1, min(be, self.chunk_bytes // per_eye))
+        chunk = max(1, min(be, self.chunk_bytes // self.plan.table_bytes(n_maps, c)))
         with _ieee_matmul(self.device):
             for s in range(0, be, chunk):
                 sl = slice(s, min(be, s + chunk))
-                values[sl], valid[sl] = self.evaluate_prechecked(coeffs[sl], fovea[sl], kinds, params[sl])
+                values[sl], valid[sl] = self.plan.evaluate_prechecked(coeffs[sl], fovea[sl], kinds, params[sl])
         return values.view(b, e, n_maps, n_pts, c), valid.view(b, e, n_maps, n_pts)
-
-    def evaluate_prechecked(self, F: torch.Tensor, fov: torch.Tensor, kinds: tuple[int, ...],
-                  params: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """``RemapPlan._evaluate`` (pooled=False) for n eyes: F (n, M, N, C) complex64, fov (n, N_f, C),
-        params (n, K, 9) float32. Returns values (n, K, P, C) float32 and valid (n, K, P)."""
-        g = self.grid
-        n, c = F.shape[0], F.shape[3]
-        n_maps, n_pts = len(kinds), self.n_points
-        # --- map_points: w = map(z) for every map and point, sorted by where it lands
-        u = torch.empty((n, n_maps, n_pts), dtype=torch.float32, device=self.device)
-        v = torch.empty_like(u)
-        ok = torch.empty((n, n_maps, n_pts), dtype=torch.bool, device=self.device)
-        x, y = self._zr, self._zi
-        for kind in (KIND_PROJECTIVE, KIND_MOBIUS):
-            ks = [k for k, kk in enumerate(kinds) if kk == kind]
-            if not ks:
-                continue
-            idx = self._index(tuple(ks))
-            p = params[:, idx].unsqueeze(-1)  # (n, K', 9, 1)
-            pk = [p[:, :, j] for j in range(9)]  # each (n, K', 1)
-            point = homography_point if kind == KIND_PROJECTIVE else mobius_point  # as kernels.map_points
-            uu, vv, unseen = point(pk, x, y)  # unseen: a pole, or behind the old eye
-            u[:, idx], v[:, idx], ok[:, idx] = uu, vv, ~unseen
-        rr = u * u + v * v
-        series = ok & (rr >= self._r0_sq) & (rr < self._r_outer_sq)
-        in_fovea = ok & (rr < self._r0_sq)
-        valid = series | in_fovea
-
-        # --- the old fovea: bilinear on the foveal lattice (zeros off it), as kernels.map_points
-        size, half, h = self._fovea_size, self._fovea_size / 2, self._fovea_spacing
-        fu = torch.where(in_fovea, u, 0.0)
-        fv = torch.where(in_fovea, v, 0.0)
-        col = fu / h + (half - 0.5)
-        row = (half - 0.5) - fv / h
-        c0 = torch.floor(col).clamp_(0, size - 2)
-        q0 = torch.floor(row).clamp_(0, size - 2)
-        fc = (col - c0).clamp_(0.0, 1.0).unsqueeze(-1)
-        fr = (row - q0).clamp_(0.0, 1.0).unsqueeze(-1)
-        corner = (q0.long() * size + c0.long()).view(n, n_maps * n_pts)
-        fov_ext = torch.cat([fov, fov.new_zeros((n, 1, c))], dim=1)  # (n, N_f + 1, C)
-
-        def lattice(offset: int) -> torch.Tensor:
-            i = self._fovea_lut[corner + offset].unsqueeze(-1).expand(-1, -1, c)
-            return torch.gather(fov_ext, 1, i).view(n, n_maps, n_pts, c)
-
-        fovea_values = (lattice(0) * ((1 - fr) * (1 - fc)) + lattice(1) * ((1 - fr) * fc)
-                        + lattice(size) * (fr * (1 - fc)) + lattice(size + 1) * (fr * fc))
-
-        # --- the series: points not for it sit at w = r0 (as map_points), harmless for the tables
-        su = torch.where(series, u, self._r0).view(n, 1, n_maps * n_pts)
-        sv = torch.where(series, v, 0.0).view(n, 1, n_maps * n_pts)
-        r2 = torch.where(series, rr, self._r0_sq).view(n, 1, n_maps * n_pts)
-        # tabulate_angles: y with e^{i y} = (w / |w|) e^{-i theta_0}; rows cos(n y), then sin(n y) (the sign
-        # of kernels.tabulate_angles' -sin(n y) is folded into the coefficients below)
-        ang = torch.atan2(sv * self._cos_theta0 - su * self._sin_theta0, su * self._cos_theta0 + sv * self._sin_theta0)
-        nh = self._nh
-        cs = torch.empty((n, 2 * nh, n_maps * n_pts), dtype=torch.float32, device=self.device)
-        torch.mul(self._freq_n, ang, out=cs[:, :nh])  # n y
-        torch.sin(cs[:, :nh], out=cs[:, nh:])
-        cs[:, :nh].cos_()
-        # dpft._mirror_series: H = A F, D[q] = H[q] b1[q] + conj(H[-q]) b2[q]; rows m C + c, columns Re D, -Im D
-        H = torch.matmul(self._series_A, F.reshape(n, g.M, g.N * c)).view(n, g.M, g.N, c)
-        D = H[:, :, : self._nh] * self._series_b1 + H[:, :, self._series_neg].conj() * self._series_b2
-        Dm = torch.cat([D.real, -D.imag], dim=2).permute(0, 1, 3, 2).reshape(n, g.M * c, 2 * self._nh)
-        partial = torch.bmm(Dm, cs)  # (n, M C, K P): the angular sum
-        del cs
-        # contract_rings: sum_m cos(m t) partial[m C + c], t = pi (2 (fractional ring index) + 1) / 2M
-        t = (0.5 * torch.log(r2) - self._u0) * self._t_scale + self._t_offset
-        cos_mt = torch.mul(self._freq_m, t).cos_()  # (n, M, K P)
-        partial = partial.view(n, g.M, c, n_maps * n_pts)
-        partial.mul_(cos_mt.unsqueeze(2))
-        series_values = partial.sum(dim=1).view(n, c, n_maps, n_pts).permute(0, 2, 3, 1)
-        values = torch.where(series.unsqueeze(-1), series_values,
-                             torch.where(in_fovea.unsqueeze(-1), fovea_values, 0.0))
-        return values, valid
 
     def errors(self, values: torch.Tensor, valid: torch.Tensor, frame: TorchFrame) -> torch.Tensor:
         """(B, E, K) float32: each prediction's normalized RMS error against the frame's samples
@@ -436,12 +320,6 @@ class TorchVision:
         right, left = self._hemifields
         # left hemisphere: both eyes' right hemifields; right hemisphere: both eyes' left hemifields
         return torch.stack([p[:, :, :, right], p[:, :, :, left]], dim=1).clamp_(0.0, 1.0)
-
-    def _index(self, ks: tuple[int, ...]) -> torch.Tensor:
-        """The models' positions ``ks`` as an index tensor on the device (made once per tuple)."""
-        if ks not in self._indices:
-            self._indices[ks] = torch.as_tensor(ks, device=self.device)
-        return self._indices[ks]
 
     # ------------------------------------------------------------------ checks
     def _check_device(self, name: str, t: torch.Tensor) -> None:
@@ -532,21 +410,3 @@ def _resolve_device(device) -> torch.device:
 
 def _same_device(a: torch.device, b: torch.device) -> bool:
     return a.type == b.type and (a.type == "cpu" or a.index == b.index)
-
-
-@contextlib.contextmanager
-def _ieee_matmul(device: torch.device):
-    """Full float32 matrix products on CUDA for the duration (cuBLAS without TF32), the caller's setting
-    restored after it. Through ``torch.backends.cuda.matmul.fp32_precision`` where torch has it (reading
-    the legacy ``allow_tf32`` raises once a caller has used that newer API), else ``allow_tf32``."""
-    matmul = torch.backends.cuda.matmul  # torch < 2.9 has the legacy flag only
-    flag, ieee = ("fp32_precision", "ieee") if hasattr(matmul, "fp32_precision") else ("allow_tf32", False)
-    before = getattr(matmul, flag) if device.type == "cuda" else ieee
-    if before == ieee:  # not CUDA, or TF32 already off
-        yield
-        return
-    setattr(matmul, flag, ieee)
-    try:
-        yield
-    finally:
-        setattr(matmul, flag, before)

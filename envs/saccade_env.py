@@ -3,28 +3,20 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 import conformal as C
 import models
 from conformal import checks
 
+from . import core
 from .actions import cell_angles, decode_actions
 from .tasks import Task, _gaze_errors_deg, make_task
 from .vision import POOLED_REMAP_DEFAULT, REMAP_MODELS, EyeView, Vision
 
 __all__ = ["BinocularSaccadeEnv"]
-
-_NO_COPY = ("a {} cannot be pickled or copied (pickle, copy.deepcopy, copy.copy): it holds a compiled MuJoCo "
-            "model and an OpenGL context. Make a new env with the same arguments instead (gymnasium.make(env.spec.id, "
-            "**env.spec.kwargs) for one made by gymnasium.make, else the class with the same keyword arguments); for the "
-            "same state, reset the new env with the same seed and replay the same actions (the env is deterministic "
-            "under a seed)")
-
 
 class BinocularSaccadeEnv(gym.Env):
     """A binocular head whose eyes are conformal cameras, making one saccade per step.
@@ -126,7 +118,7 @@ class BinocularSaccadeEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
     #: The longest fixation after a saccade (ms): 10 s, far beyond human fixations (180-320 ms).
-    MAX_FIXATION_MS = 10_000
+    MAX_FIXATION_MS = core.MAX_FIXATION_MS
 
     def __init__(self, scene: str | None = None, task: str | Task = "fixate", action_mode: str = "vector",
                  image_size: int = 128, render_mode: str | None = None, *, fixation_ms: int = 250,
@@ -191,21 +183,8 @@ class BinocularSaccadeEnv(gym.Env):
         except Exception:
             self.head.close()
             raise
-        c = self.vision.channels
-        cort_shape = (2, g.M, g.N, c) if cortex == "eyes" else (2, 2, g.M, g.N // 2, c)
-        obs = {
-            "cortical": spaces.Box(0.0, 1.0, cort_shape, np.float32),
-            "fovea": spaces.Box(0.0, 1.0, (2, g.n_fovea, c), np.float32),
-            "remapped": spaces.Box(0.0, 1.0, cort_shape, np.float32),
-            "eyes": spaces.Box(-math.pi, math.pi, (2, 3), np.float32),
-        }
-        if include_coeffs:
-            obs["coeffs"] = spaces.Box(-np.inf, np.inf, (2, g.M, g.N, c, 2), np.float32)
-        self.observation_space = spaces.Dict(obs)
-        if action_mode == "vector":
-            self.action_space = spaces.Box(-1.0, 1.0, (3 if vergence else 2,), np.float32)
-        else:
-            self.action_space = spaces.Discrete(g.M * g.N)
+        self.observation_space = core.observation_space(g, self.vision.channels, cortex, include_coeffs)
+        self.action_space = core.action_space(action_mode, vergence, g)
         self._cells = None if action_mode == "vector" else cell_angles(g.points)  # saccade to each cell
         self._views: tuple[EyeView, EyeView] | None = None
         self._seen = None  # the last frame's views and arrays (vision._Frame)
@@ -215,25 +194,18 @@ class BinocularSaccadeEnv(gym.Env):
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        if seed is not None:
-            seed = checks.integer("seed", seed, 0, None, hint="or None")
-        if options is not None and not isinstance(options, dict):
-            raise checks.InputTypeError(f"options must be a dict or None; got {type(options).__name__}")
-        if options:
-            raise ValueError(f"this environment takes no reset options; got {', '.join(map(str, options))}")
+        seed = core.check_seed(seed)
+        core.check_options(options)
         super().reset(seed=seed)
-        head_seed = int(self.np_random.integers(2**31 - 1))
-        self.head.reset(seed=head_seed)
+        self.head.reset(seed=core.head_seed(self.np_random))
         self.task.initialize_episode(self.head, self.np_random)
         self._saccades = 0
         self._see()
         self._remapped = self._cortical(self._seen.periphery)
-        info = {"sim_time_ms": self.head.time_ms, "remap_error": {m: 0.0 for m in self.remap_models}}
-        return self._observation(), info
+        return self._observation(), core.reset_info(self.head.time_ms, {m: 0.0 for m in self.remap_models})
 
     def step(self, action):
-        if self._views is None:
-            raise RuntimeError("call reset() before step()")
+        core.require_reset(self._views is not None)
         h, v, dist_factor = self._decode(action)
         plan, clipped = self._plan(h, v, dist_factor)
         # the per-step path: the views, coefficients and models were checked (or made) by this env,
@@ -249,23 +221,10 @@ class BinocularSaccadeEnv(gym.Env):
         self._remapped = self._cortical(chosen.reshape(2, g.M, g.N, -1))
         reward, success, tinfo = self.task.score(self.head)
         self._saccades += 1
-        terminated = bool(success)
-        truncated = bool(not terminated and self._saccades >= self.task.max_saccades)
+        terminated, truncated = (bool(f) for f in core.episode_end(success, self._saccades, self.task.max_saccades))
         landing = _gaze_errors_deg(self.head, plan.intended_target).mean()
-        info: dict[str, Any] = {
-            "sim_time_ms": self.head.time_ms,
-            "remap_error": errors,
-            "saccade_amplitude_deg": plan.amplitude_deg,
-            "saccade_duration_ms": plan.duration_ms,
-            "peak_velocity_deg_s": math.degrees(plan.peak_velocity),
-            "landing_error_deg": float(landing),
-            "endpoint_error_deg": plan.endpoint_error_deg,
-            "efference_copy": plan.efference_copy.copy(),
-            "executed_rotation": plan.executed_rotation.copy(),
-            "eye_angles": self.head.eye_angles,
-            "clipped": clipped,
-            **tinfo,
-        }
+        info = core.step_info(self.head.time_ms, errors, core.saccade_info(plan), float(landing), self.head.eye_angles,
+                              clipped, tinfo)
         return self._observation(), float(reward), terminated, truncated, info
 
     @property
@@ -277,8 +236,7 @@ class BinocularSaccadeEnv(gym.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        if self._frame is None:
-            raise RuntimeError("call reset() before render()")
+        core.require_reset(self._frame is not None, "render()")
         from .display import compose_frame
 
         return compose_frame(self._frame, self._views, self.vision)
@@ -289,7 +247,7 @@ class BinocularSaccadeEnv(gym.Env):
     def __reduce_ex__(self, protocol):
         # pickle, copy.deepcopy and copy.copy all come here first: refuse before anything (a half-built
         # copy of the GL renderer, whose __del__ would print a traceback) is made
-        raise TypeError(_NO_COPY.format(type(self).__name__))
+        raise core.no_copy(type(self).__name__)
 
     # ------------------------------------------------------------------ helpers
     def _see(self) -> None:
@@ -307,17 +265,13 @@ class BinocularSaccadeEnv(gym.Env):
         return np.clip(out, 0.0, 1.0).astype(np.float32, copy=False)
 
     def _observation(self) -> dict[str, np.ndarray]:
-        views = self._views
-        obs = {
-            "cortical": self._cortical(self._seen.periphery),
-            "fovea": np.clip(self._seen.fovea, 0.0, 1.0).astype(np.float32),
-            "remapped": self._remapped.copy(),
-            "eyes": self.head.eye_position_signal().astype(np.float32),
-        }
+        coeffs = None
         if self.include_coeffs:
-            cf = np.stack([v.coeffs for v in views])
-            obs["coeffs"] = np.stack([cf.real, cf.imag], axis=-1).astype(np.float32)
-        return obs
+            cf = np.stack([v.coeffs for v in self._views])
+            coeffs = np.stack([cf.real, cf.imag], axis=-1).astype(np.float32)
+        return core.observation(self._cortical(self._seen.periphery),
+                                np.clip(self._seen.fovea, 0.0, 1.0).astype(np.float32), self._remapped.copy(),
+                                self.head.eye_position_signal().astype(np.float32), coeffs)
 
     def _decode(self, action) -> tuple[float, float, float]:
         """Action -> (horizontal, vertical) Fick increments (rad) and a fixation-distance factor."""

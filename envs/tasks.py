@@ -20,6 +20,8 @@ import models
 from conformal import checks
 from conformal.kernels import DISK_CACHE
 
+from . import core
+
 __all__ = ["Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "gaze_errors_deg", "gaze_errors", "make_task"]
 
 
@@ -135,8 +137,7 @@ class Task:
         (``target_error_deg``). :meth:`score_errors` for one head."""
         err = _gaze_errors_deg(head, self.target_position(head))  # (target_position checks head)
         reward, success, parts = self.score_errors(err[None])
-        info = {"target_error_deg": float(err.mean()), "success": bool(success[0]),
-                **{k: float(v[0]) for k, v in parts.items()}}
+        info = core.task_info(bool(success[0]), {k: float(v[0]) for k, v in parts.items()}, float(err.mean()))
         return float(reward[0]), bool(success[0]), info
 
     def score_errors(self, err_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
@@ -227,7 +228,7 @@ class FreeViewingTask(Task):
 
     def score(self, head) -> tuple[float, bool, dict]:
         _check_head(head)
-        return 0.0, False, {"success": False}  # no target: no target_error_deg
+        return 0.0, False, core.task_info(False, {})  # no target: no target_error_deg
 
     def score_errors(self, err_deg):
         n = len(err_deg)
