@@ -2,5 +2,5 @@
 saccade agents, with the command line ``python -m experiments {run,visualize,train,evaluate}``.
 
 Subpackages and modules are imported on use (``experiments.psychophysics``,
-``experiments.recording``, ``experiments.rl``), so importing ``experiments`` is cheap.
+``experiments.recording``, ``experiments.agents.cli``), so importing ``experiments`` is cheap.
 """

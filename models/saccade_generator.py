@@ -75,7 +75,7 @@ DETECTION_THRESHOLD_DEG_S = 30.0
 #: Ceiling of eye speed (deg/s) that no parameter set may exceed (``models.MAX_PEAK_VELOCITY``).
 MAX_PEAK_VELOCITY_DEG_S = 700.0
 #: The accepted range (inclusive) of every parameter: what ``BurstGenerator`` accepts is what a fit
-#: (``experiments.generator_fit``) may return, so every fitted file loads. The table's peak-velocity
+#: (``experiments.oculomotor.generator_fit``) may return, so every fitted file loads. The table's peak-velocity
 #: ceiling (``MAX_PEAK_VELOCITY_DEG_S``) is a further joint bound the fit also respects.
 PARAMETER_BOUNDS = {"burst_max_deg_s": (1.0, 2000.0), "burst_scale_deg": (0.01, 50.0), "burst_lag_ms": (0.1, 50.0),
                     "adaptation_gain": (0.0, 5.0), "adaptation_ms": (0.1, 500.0), "plant_t2_ms": (0.5, 50.0),

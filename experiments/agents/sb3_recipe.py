@@ -9,7 +9,7 @@ Needs the optional ``rl`` extra (``stable-baselines3``, which needs torch; on Li
 CPU wheel first)::
 
     pip install -e ".[rl]"
-    python -m experiments.sb3_recipe --out runs/ppo_fixate --timesteps 2048 --n-envs 2
+    python -m experiments.agents.sb3_recipe --out runs/ppo_fixate --timesteps 2048 --n-envs 2
     python -m experiments evaluate --task fixate --policy runs/ppo_fixate --episodes 100 --seed 1
 
 Training prints one progress line per PPO rollout (steps, elapsed time, the rollout's episode
@@ -193,7 +193,7 @@ def evaluate_ppo(path: str | Path, episodes: int = 50, seed: int = 0) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m experiments.sb3_recipe",
+    p = argparse.ArgumentParser(prog="python -m experiments.agents.sb3_recipe",
                                 description="PPO (Stable-Baselines3, MultiInputPolicy) on the cell-action saccade env; "
                                             "saves the model and prints one JSON line of evaluation results.")
     p.add_argument("--out", required=True, type=out_dir, help="output directory")

@@ -3,8 +3,8 @@
 Needs the ``gpu`` extra (mujoco-warp, warp-lang, torch, skrl)::
 
     pip install -e ".[gpu]"
-    python -m experiments.skrl_recipe --out runs/ppo_search --device cuda --num-envs 4096 --task search --timesteps 300
-    python -m experiments.skrl_recipe --out runs/ppo_cpu --device cpu --num-envs 8 --task fixate --timesteps 48
+    python -m experiments.agents.skrl_recipe --out runs/ppo_search --device cuda --num-envs 4096 --task search --timesteps 300
+    python -m experiments.agents.skrl_recipe --out runs/ppo_cpu --device cpu --num-envs 8 --task fixate --timesteps 48
 
 Why skrl (Serrano-Muñoz, Chrysostomou, Arana-Arexolaleiba & Arana-Arexolaleiba 2023, JMLR 24:254):
 a maintained PyTorch RL library whose PPO stores rollouts as torch tensors on the env's device and
@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from .folders import save_figure, write_json
+from ..folders import save_figure, write_json
 
 from experiments.cli import int_in, out_dir
 
@@ -354,7 +354,7 @@ def _plot(rows, path: Path, title: str) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m experiments.skrl_recipe", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m experiments.agents.skrl_recipe", description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=out_dir, required=True, help="folder for the curve, the checkpoint and ppo.json")
     ap.add_argument("--device", default=None, help="cuda, cuda:<i> or cpu (default: cuda when available)")
     ap.add_argument("--num-envs", type=int_in(1, 65536), default=8)

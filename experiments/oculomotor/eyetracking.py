@@ -3,7 +3,7 @@
 ``python -m experiments saccades --recording FILE --out DIR`` reads a recording with
 :func:`read_recording`, finds its saccades with :func:`detect_saccades`, measures them with
 :func:`main_sequence_rows` (``main_sequence.csv``), checks that they are plausible
-(:func:`check_plausible`) and fits the burst generator to them (``experiments.generator_fit``).
+(:func:`check_plausible`) and fits the burst generator to them (``experiments.oculomotor.generator_fit``).
 
 Formats
 -------
@@ -47,10 +47,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .oculomotor.asc import AscError, parse_asc
-from .oculomotor.kinematics import (SKEWNESS_MIN_RATE_HZ, THRESHOLD_DEG_S, engbert_kliegl, measure_saccade,
+from .asc import AscError, parse_asc
+from .kinematics import (SKEWNESS_MIN_RATE_HZ, THRESHOLD_DEG_S, engbert_kliegl, measure_saccade,
                                     speed_deg_s, steps_ok)
-from .oculomotor.tables import PRESETS, TIME_UNITS, Columns, TableError, decode, read_table
+from .tables import PRESETS, TIME_UNITS, Columns, TableError, decode, read_table
 
 __all__ = ["Screen", "Recording", "RecordingError", "read_recording", "read_recordings", "detect_saccades",
            "measure_saccade", "main_sequence_rows", "check_plausible", "write_recording", "speed_deg_s",
@@ -500,7 +500,7 @@ def check_plausible(rec: Recording, rows: list[dict]) -> tuple[list[dict], list[
 
 def write_rows(rows: list[dict], path) -> None:
     """The main-sequence rows as a CSV (columns ``ROW_FIELDS``), written atomically."""
-    from .folders import write_csv
+    from ..folders import write_csv
 
     write_csv(path, list(ROW_FIELDS), rows)
 

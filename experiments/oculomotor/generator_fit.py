@@ -1,6 +1,6 @@
 """Fit the burst generator's parameters to a recorded main sequence.
 
-:func:`fit_generator` takes the rows of ``experiments.eyetracking.main_sequence_rows`` (one per
+:func:`fit_generator` takes the rows of ``experiments.oculomotor.eyetracking.main_sequence_rows`` (one per
 saccade: amplitude, duration, peak velocity) and finds the ``models.BurstGenerator`` parameters
 named in ``fit`` (by default the burst's saturation ``burst_max_deg_s``, its scale
 ``burst_scale_deg`` and its lag ``burst_lag_ms``; the others keep their defaults and the result
@@ -43,7 +43,7 @@ import numpy as np
 
 from models.saccade_generator import PARAMETER_BOUNDS
 
-from .folders import save_figure
+from ..folders import save_figure
 
 __all__ = ["FitResult", "fit_generator", "identifiability", "coverage", "BOUND_TOLERANCE", "PARAMETER_BOUNDS", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
 
@@ -90,7 +90,7 @@ class FitResult:
 
     def to_file(self, path, **source) -> None:
         """Write ``generator.json`` (``BurstGenerator.to_file``) with the fit's CIs and provenance."""
-        from .folders import json_safe
+        from ..folders import json_safe
 
         if self.problems:
             raise ValueError(f"this fit is not identified ({'; '.join(self.problems)}): no generator file is written")

@@ -37,8 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
-from .psychophysics.scoring import SCORE_COLUMNS
+from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
+from .scoring import SCORE_COLUMNS
 
 __all__ = ["add_subcommand", "ROWS", "THEORIES", "COLUMNS", "REPETITIONS", "measure", "score", "bootstrap",
            "statistics", "resample_cells", "markdown_table"]
@@ -109,7 +109,7 @@ ROWS = {
 def _designs(quick: bool = False) -> dict:
     """name -> (Design, TrialConfig overrides): everything the rows need (``quick``: 8 flash
     positions instead of 24, 2 repetitions instead of ``REPETITIONS``)."""
-    from .psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design
+    from . import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design
 
     pos = MORRONE_OFFSETS_DEG if quick else FIG11_OFFSETS_DEG
     reps = 2 if quick else REPETITIONS
@@ -132,7 +132,7 @@ def _designs(quick: bool = False) -> dict:
 
 
 def _displacement(quick: bool = False):
-    from .psychophysics import Design
+    from . import Design
 
     steps = tuple(float(s) for s in range(-3, 4)) if quick else STEPS_DEG
     return Design(amplitudes_deg=(20.0,), flash_offsets_deg=tuple((s, 0.0) for s in steps),
@@ -143,7 +143,7 @@ def _model_config(base, model: str):
     """``base`` read out by ``model`` (``baseline``: the true eye, no remapping, no references)."""
     import dataclasses
 
-    from .psychophysics import RemapTimeCourse
+    from . import RemapTimeCourse
 
     if model == "baseline":
         return dataclasses.replace(base, model="paper", timecourse=RemapTimeCourse(peak_gain=0.0), eye_position="true")
@@ -160,10 +160,10 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
     table}}, the localization tables holding the participant's reports (``participant.add_report_noise``;
     ``DIR/tables/`` keeps the models' percepts). Saccades land with the participant's motor noise.
     ``generator``: the burst generator's parameters (``models.BurstGenerator``; None: its defaults)."""
-    from .folders import write_csv
-    from .modelfit.observe import observe_trials
-    from .psychophysics import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner, read_table, run_trials
-    from .psychophysics.participant import PARTICIPANT, add_report_noise
+    from ..folders import write_csv
+    from ..modelfit.observe import observe_trials
+    from . import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner, read_table, run_trials
+    from .participant import PARTICIPANT, add_report_noise
 
     noise = PARTICIPANT.endpoint_noise
     tables: dict = {m: {} for m in models}
@@ -272,7 +272,7 @@ def _focus(t: dict) -> float:
 
 
 def _threshold_ratio(t: dict, start: dict | None = None) -> float:
-    from .psychophysics import displacement_psychometrics
+    from . import displacement_psychometrics
 
     fits = displacement_psychometrics(t, start=start)
     return float(fits[0]["threshold_deg"] / fits[250]["threshold_deg"])
@@ -348,7 +348,7 @@ def bootstrap(tab: dict, n: int = BOOT, seed: int = 0) -> dict[str, tuple[float,
     """95 % percentile CIs of ``statistics``: the experiment repeated -- each localization design's
     reports resampled within its cells (``resample_cells``), the displacement reports within each
     step and blank."""
-    from .psychophysics import displacement_psychometrics
+    from . import displacement_psychometrics
 
     rng = np.random.default_rng(seed)
     start = {b: (r["pse_deg"], r["threshold_deg"]) for b, r in displacement_psychometrics(tab["displacement"]).items()}
@@ -377,7 +377,7 @@ def bootstrap(tab: dict, n: int = BOOT, seed: int = 0) -> dict[str, tuple[float,
 
 def _note(name: str, model: str, tab: dict, value: float, ci: tuple) -> str:
     """What a reader of the row must know: an undefined value or CI, a non-monotone psychometric fit."""
-    from .psychophysics import displacement_psychometrics
+    from . import displacement_psychometrics
 
     notes = []
     if not np.isfinite(value):
@@ -411,7 +411,7 @@ def _fmt(v: float) -> float | str:
 def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
     """One row per (phenomenon, model) with ``scoring.SCORE_COLUMNS``, the verdicts set by
     ``scoring.finalize`` from ``experiments/data/calibration.csv``."""
-    from .psychophysics.scoring import finalize
+    from .scoring import finalize
 
     rows = []
     for model, tab in tables.items():
@@ -475,7 +475,7 @@ def plot(tables: dict, out: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .psychophysics import displacement_psychometrics
+    from . import displacement_psychometrics
 
     paths = []
     models = list(tables)
@@ -512,15 +512,15 @@ def plot(tables: dict, out: Path) -> list[Path]:
 
 
 def _save(fig, path: Path) -> Path:
-    from .folders import save_figure
+    from ..folders import save_figure
 
     fig.tight_layout()
     return save_figure(fig, path, dpi=100)
 
 
 def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:
-    from .folders import atomic_write_text, write_csv
-    from .psychophysics.scoring import counts
+    from ..folders import atomic_write_text, write_csv
+    from .scoring import counts
 
     rows = score(tables, n_boot)
     write_csv(out / "phenomena.csv", COLUMNS, rows)
@@ -540,8 +540,8 @@ def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:
 
 def run(args: argparse.Namespace) -> int:
     """The command: one process per folder (a lock), interruptible and resumable, one-line errors."""
-    from .cli import guarded
-    from .psychophysics.runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
+    from ..cli import guarded
+    from .runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
 
     parser = getattr(args, "_parser", None)
     try:

@@ -5,13 +5,13 @@
 tree; :func:`record_env_run` records a few saccades of ``envs.BinocularSaccadeEnv``; the
 ``visualize`` command runs it (``python -m experiments visualize --out run.rrd``; ``--serve`` hosts
 the web viewer on 127.0.0.1 with no display needed, :class:`WebViewer`; ``--spawn`` opens a native
-viewer and needs a display). The layout is :func:`experiments.blueprint.blueprint`, sent with the
+viewer and needs a display). The layout is :func:`experiments.recording.blueprint.blueprint`, sent with the
 recording (``"run"``; ``"study"`` for the ``conformal_head_study`` app of ``study.rrd``).
 
 Timelines (:data:`TIMELINES`): ``sim_time`` (a duration: simulated ms, shown in Rerun as seconds =
 ms / 1000) in every recording. A run of ``visualize`` adds ``episode`` (0) and ``env_step`` (0 at
 reset, k for what is logged during the k-th saccade and its fixation). ``study.rrd``
-(``experiments.study.record_study``) adds ``flash_time`` (ms re saccade onset: the time axis of a
+(``experiments.psychophysics.study.record_study``) adds ``flash_time`` (ms re saccade onset: the time axis of a
 perisaccadic experiment) and ``trial`` (trial_id); its ``sim_time`` holds the example trials' flash
 instants (saccade onset + t, the onset 210 ms after each trial's reset) for the 3-D replay.
 

@@ -14,7 +14,7 @@ import rerun as rr
 
 import conformal as C
 
-from ..blueprint import blueprint
+from .blueprint import blueprint
 from .display import _no_display_message, display_available
 from .colour import gain_scaled, log_scaled, symmetric_scaled
 from .images import grid_strips, hemisphere_image, pinhole_matrix
