@@ -77,7 +77,7 @@ from pathlib import Path
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import numpy as np  # noqa: E402
+import numpy as np  # noqa: E402  (after the BLAS thread variables above are set)
 
 try:
     import conformal
@@ -85,7 +85,7 @@ except ImportError:  # run from a checkout without installing the package
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import conformal
 
-import cv2
+import cv2  # noqa: E402  (after the threads are set and conformal is found, as numpy above)
 
 H = W = 512
 PPU = 4.0

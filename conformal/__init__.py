@@ -7,6 +7,7 @@ Equation names refer to the ``\\label``s of the paper (J. Turski, *Geometric Ana
 Conformal Camera for Intermediate-Level Vision and Perisaccadic Perception*).
 """
 
+from . import checks, kernels
 from .cortex import BinocularCortex, binocular_cortex, cortical_map, hemifields, schwartz_map
 from .dpft import (
     OffGridEvaluator,
@@ -41,7 +42,6 @@ from .geometry import (
     transform_image,
 )
 from .grid import RetinaGrid
-from . import checks, kernels
 from .maps import POLE_TOL
 from .remap import (
     MobiusMap,

@@ -41,9 +41,13 @@ import numpy as np
 from conformal import checks, hemifields
 from conformal.dpft import dpft_tables, dpft_weight, mirror_map
 from conformal.fovea import fovea_indices
+from conformal.maps import (  # RemapPlan's map kinds: a homography, a Mobius map  # the point maps and their pole rule, on tensors
+    KIND_MOBIUS,
+    KIND_PROJECTIVE,
+    homography_point,
+    mobius_point,
+)
 from conformal.remap import point_map_params
-from conformal.maps import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
-from conformal.maps import homography_point, mobius_point  # the point maps and their pole rule, on tensors
 
 from .vision import REMAP_MODELS, Vision, rotation_faults
 
@@ -231,7 +235,7 @@ class TorchVision:
         coeffs.mul_(self._dpft_phase)
         return TorchFrame(samples=samples, periphery=periphery, fovea=samples[:, :, :n_f], coeffs=coeffs)
 
-    def _float_tensor(self, name: str, x, form: str, tail: tuple, extra: str, shape_ok) -> "torch.Tensor":
+    def _float_tensor(self, name: str, x, form: str, tail: tuple, extra: str, shape_ok) -> torch.Tensor:
         """``x`` as float32 after checking it is a floating-point tensor on this device of shape ``form``
         (``shape_ok``), its trailing sizes ``tail``; errors name ``name``."""
         if not isinstance(x, torch.Tensor):

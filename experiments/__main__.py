@@ -49,7 +49,7 @@ COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values())
 
 def _register(module_name: str, subparsers) -> None:
     module = importlib.import_module(module_name)
-    register = getattr(module, "add_subcommands", None) or getattr(module, "add_subcommand")
+    register = getattr(module, "add_subcommands", None) or module.add_subcommand
     register(subparsers)
 
 

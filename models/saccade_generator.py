@@ -140,7 +140,7 @@ class SaccadeProfile:
         return self._values(t_rel, plant, True)
 
 
-def simulate(generator: "BurstGenerator", amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS,
+def simulate(generator: BurstGenerator, amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS,
              dt_ms: float = _SIM_DT_MS, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Simulate the burst-generator loop (module docstring) directly for each amplitude.
 
@@ -211,7 +211,9 @@ class BurstGenerator:
             object.__setattr__(self, name, checks.real(name, getattr(self, name), lo, hi))
 
     # ------------------------------------------------------------------ the table
-    @functools.lru_cache(maxsize=None)  # one table per parameter set (frozen: hashed by value)
+    # B019: the cache holds the instance, on purpose: one table per parameter set (frozen: hashed by
+    # value), and the parameter sets of a process are few
+    @functools.cache  # noqa: B019
     def _table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         amps = np.arange(0.0, _AMP_MAX_DEG + _AMP_STEP_DEG / 2, _AMP_STEP_DEG)
         pos, burst = simulate(self, amps, every=int(round(_TABLE_DT_MS / _SIM_DT_MS)))
@@ -248,7 +250,7 @@ class BurstGenerator:
             raise ValueError(f"path {path}: cannot write the burst generator there ({exc.strerror or exc})") from None
 
     @classmethod
-    def from_file(cls, path) -> "BurstGenerator":
+    def from_file(cls, path) -> BurstGenerator:
         """Parameters from a JSON file written by :meth:`to_file` (e.g. the ``generator.json`` of
         ``python -m experiments saccades --recording``); parameters it omits keep their defaults.
         An unreadable file, another model, an unknown or out-of-range parameter or a parameter set

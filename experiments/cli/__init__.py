@@ -4,8 +4,20 @@ options several commands share, each declared once with one range (:mod:`.option
 Importing this package imports no command module, numba, MuJoCo, torch or Rerun.
 """
 
-from .parsing import (GENERATOR_HELP, DefaultsHelpFormatter, HintingParser, amplitude_list, bounded,
-                      check_path_text, generator_file, guarded, int_in, out_dir, out_file, whole_number)
+from .parsing import (
+                      GENERATOR_HELP,
+                      DefaultsHelpFormatter,
+                      HintingParser,
+                      amplitude_list,
+                      bounded,
+                      check_path_text,
+                      generator_file,
+                      guarded,
+                      int_in,
+                      out_dir,
+                      out_file,
+                      whole_number,
+)
 
 __all__ = ["GENERATOR_HELP", "DefaultsHelpFormatter", "HintingParser", "amplitude_list", "bounded",
            "check_path_text", "generator_file", "guarded", "int_in", "out_dir", "out_file", "whole_number"]

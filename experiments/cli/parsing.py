@@ -14,8 +14,8 @@ import math
 import os
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 __all__ = ["DefaultsHelpFormatter", "HintingParser", "int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded", "check_path_text",
            "guarded"]

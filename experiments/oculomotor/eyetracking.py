@@ -48,8 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from .asc import AscError, parse_asc
-from .kinematics import (SKEWNESS_MIN_RATE_HZ, THRESHOLD_DEG_S, engbert_kliegl, measure_saccade,
-                                    speed_deg_s, steps_ok)
+from .kinematics import SKEWNESS_MIN_RATE_HZ, THRESHOLD_DEG_S, engbert_kliegl, measure_saccade, speed_deg_s, steps_ok
 from .tables import PRESETS, TIME_UNITS, Columns, TableError, decode, read_table
 
 __all__ = ["Screen", "Recording", "RecordingError", "read_recording", "read_recordings", "detect_saccades",
@@ -103,7 +102,7 @@ class Screen:
         if (self.width_px is None) != (self.height_px is None):
             raise RecordingError("screen width_px and height_px go together (both given, or both from the file)")
 
-    def with_resolution(self, width_px: int, height_px: int) -> "Screen":
+    def with_resolution(self, width_px: int, height_px: int) -> Screen:
         return Screen(int(width_px), int(height_px), self.width_cm, self.height_cm, self.distance_cm)
 
     def px_per_cm(self) -> tuple[float, float]:
