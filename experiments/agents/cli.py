@@ -17,15 +17,20 @@ import sys
 from pathlib import Path
 
 from ..cli import int_in, out_dir
+from ..cli.options import (
+    TASKS,
+    add_backend_options,
+    add_workers_option,
+    check_backend_options,
+    image_size_type,
+    seed_type,
+)
 
 __all__ = ["add_subcommand", "baselines_command", "evaluate_command", "train_command"]
 
-TASKS = ("fixate", "search")
-
-
 _positive = int_in(1, 10**6)
-_seed = int_in(0, 2**32 - 1)
-_image_size = int_in(16, 512)
+_seed = seed_type()
+_image_size = image_size_type()
 
 
 def add_subcommand(subparsers) -> None:
@@ -106,7 +111,9 @@ def add_subcommand(subparsers) -> None:
     b.add_argument("--image-size", type=_image_size, help="pixels per side of each eye's image (default 96)")
     b.add_argument("--ppo-hyperparams", type=Path, help="a YAML file instead of experiments/hyperparams/ppo.yml")
     b.add_argument("--sac-hyperparams", type=Path, help="a YAML file instead of experiments/hyperparams/sac.yml")
-    b.set_defaults(func=baselines_command)
+    add_workers_option(b, default=1, what="runs trained at once (processes / Ray actors)")
+    add_backend_options(b, "where the runs train")
+    b.set_defaults(func=baselines_command, _parser=b)
 
 
 def _cem_config(args: argparse.Namespace):
@@ -137,7 +144,7 @@ def train_command(args: argparse.Namespace) -> int:
             print(f"train: error: {', '.join(cem_only)} apply to --algo cem only", file=sys.stderr)
             return 2
         try:
-            import stable_baselines3  # noqa: F401
+            import stable_baselines3  # noqa: F401  (imported only to check that it is installed)
         except ImportError:
             print("train: error: --algo ppo/sac needs the 'rl' extra: pip install -e '.[rl]' (CPU torch first)",
                   file=sys.stderr)
@@ -153,9 +160,9 @@ def train_command(args: argparse.Namespace) -> int:
 
 
 def _train_cem(args: argparse.Namespace) -> int:
+    from ..folders import path_lock
     from .cem import train_cem
     from .curve import plot_learning_curve
-    from ..folders import path_lock
 
     cfg = _cem_config(args)
     cfg.validate()
@@ -173,10 +180,10 @@ def _train_cem(args: argparse.Namespace) -> int:
 
 def _train_sb3(args: argparse.Namespace) -> int:
     """``train --algo ppo|sac``: :func:`experiments.agents.sb3.train_sb3` with the algorithm's YAML entry."""
+    from ..folders import path_lock
     from .baselines import quick_hyperparams
     from .hyperparams import load_hyperparams
     from .sb3 import train_sb3
-    from ..folders import path_lock
 
     hp = load_hyperparams(args.algo, args.task, args.hyperparams)
     if args.image_size:
@@ -279,10 +286,11 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def baselines_command(args: argparse.Namespace) -> int:
     """``baselines``: :func:`experiments.agents.baselines.run_baselines`; prints the Markdown table."""
-    from .baselines import run_baselines
     from ..cli import guarded
     from ..folders import LockBusyError
+    from .baselines import run_baselines
 
+    check_backend_options(args, args._parser)
     hyper = {k: v for k, v in (("ppo", args.ppo_hyperparams), ("sac", args.sac_hyperparams)) if v is not None}
     unused = [f"--{k}-hyperparams" for k in hyper if k not in args.agents]
     if args.timesteps is not None and not {"ppo", "sac"} & set(args.agents):
@@ -296,7 +304,8 @@ def baselines_command(args: argparse.Namespace) -> int:
         run_baselines(args.out, args.task, tuple(args.agents), tuple(args.seeds), episodes=args.episodes,
                       eval_seed=args.eval_seed, timesteps=args.timesteps, quick=args.quick,
                       image_size=args.image_size, hyperparams=hyper,
-                      log=lambda msg: print(msg, file=sys.stderr, flush=True))
+                      log=lambda msg: print(msg, file=sys.stderr, flush=True), workers=args.workers,
+                      backend=args.backend, ray_address=args.ray_address)
         print((Path(args.out) / "table.md").read_text(), end="")
         return 0
 

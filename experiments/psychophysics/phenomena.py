@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
+from ..cli.options import add_backend_options, add_workers_option, check_backend_options
 from .scoring import SCORE_COLUMNS
 
 __all__ = ["add_subcommand", "ROWS", "THEORIES", "COLUMNS", "REPETITIONS", "measure", "score", "bootstrap",
@@ -155,11 +156,12 @@ def _columns(rows: list[dict]) -> dict[str, np.ndarray]:
 
 
 def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False, image_size: int = IMAGE_SIZE,
-            quick: bool = False, generator=None) -> dict:
+            quick: bool = False, generator=None, backend: str = "local", ray_address: str | None = None) -> dict:
     """Observe every design once (cached), read it out with every model; returns {model: {design:
     table}}, the localization tables holding the participant's reports (``participant.add_report_noise``;
     ``DIR/tables/`` keeps the models' percepts). Saccades land with the participant's motor noise.
-    ``generator``: the burst generator's parameters (``models.BurstGenerator``; None: its defaults)."""
+    ``generator``: the burst generator's parameters (``models.BurstGenerator``; None: its defaults).
+    ``workers``, ``backend``, ``ray_address``: where the trials run (``backends``)."""
     from ..folders import write_csv
     from ..modelfit.observe import observe_trials
     from . import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner, read_table, run_trials
@@ -173,7 +175,7 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
         runner = TrialRunner(base)
         try:
             obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
-                                 runner=runner)
+                                 runner=runner, backend=backend, ray_address=ray_address)
             for m in models:
                 rows = [{**runner.readout(o, _model_config(base, m)), "model": m} for o in obs]
                 write_csv(out / "tables" / f"{m}_{name}.csv", list(ROW_COLUMNS + TEXT_COLUMNS), rows)
@@ -183,7 +185,8 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
     for m in models:
         cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement",
                                         generator=generator, endpoint_noise=noise), m)
-        path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress)
+        path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress,
+                          backend=backend, ray_address=ray_address)
         tables[m]["displacement"] = read_table(path)
     return tables
 
@@ -417,7 +420,7 @@ def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
     for model, tab in tables.items():
         point = statistics(tab)
         ci = bootstrap(tab, n_boot)
-        for name, (statement, source, rng, unit) in ROWS.items():
+        for name, (_statement, source, rng, _unit) in ROWS.items():
             rows.append({"phenomenon": name, "model": model, "source": source,
                          "published_low": "" if rng is None else rng[0],
                          "published_high": "" if rng is None else rng[1],
@@ -544,6 +547,8 @@ def run(args: argparse.Namespace) -> int:
     from .runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
 
     parser = getattr(args, "_parser", None)
+    if parser is not None:
+        check_backend_options(args, parser)
     try:
         out = prepare_output_folder(args.out)
     except (OutputFolderError, TypeError) as e:
@@ -555,7 +560,8 @@ def run(args: argparse.Namespace) -> int:
         with folder_lock(out):
             tables = measure(out, workers=args.workers, progress=not args.no_progress,
                              image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False),
-                             generator=getattr(args, "generator", None))
+                             generator=getattr(args, "generator", None), backend=getattr(args, "backend", "local"),
+                             ray_address=getattr(args, "ray_address", None))
             text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT))
         print(text, end="")
         print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
@@ -574,8 +580,8 @@ def add_subcommand(subparsers) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=out_dir, default="results/phenomena",
                    help="output folder (created; its tables/ are resumed)")
-    p.add_argument("--workers", type=int, choices=range(1, 17), default=2, metavar="N",
-                   help="worker processes per design (1-16; 1 = in-process)")
+    add_workers_option(p)
+    add_backend_options(p)
     p.add_argument("--image-size", type=bounded("image_size"), default=IMAGE_SIZE, metavar="PX",
                    help=f"eye image side (default {IMAGE_SIZE}; smaller is faster and adds the retina's sampling error)")
     p.add_argument("--bootstrap", type=int_in(100, 100_000), default=BOOT, metavar="N",

@@ -26,6 +26,7 @@ import sys
 from pathlib import Path
 
 from ...cli import GENERATOR_HELP, amplitude_list, bounded, check_path_text, generator_file
+from ...cli.options import add_backend_options, add_workers_option, check_backend_options
 from ...folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
 from ...folders import interruptible as _interruptible
 from ..bounds import LIMITS, MAX_TRIALS
@@ -182,8 +183,8 @@ def add_subcommand(subparsers) -> None:
                    help=f"delay from a flash to its cortical response, {b['visual_latency_ms']}: the flash is "
                         "read with the eye-position signal this much later")
     r = p.add_argument_group("execution and output")
-    r.add_argument("--workers", type=_num_type("workers"), default=2,
-                   help=f"worker processes (spawn context), {b['workers']}; 1 = in-process")
+    add_workers_option(r)
+    add_backend_options(r)
     r.add_argument("--formats", type=_formats, default="png,svg",
                    help="figure formats, comma-separated (png, svg, pdf)")
     r.add_argument("--no-recording", action="store_true", help="do not write study.rrd")
@@ -352,6 +353,7 @@ def _handler(args: argparse.Namespace) -> int:
     parser = args._parser
     from ..runner import FolderBusyError, OutputFolderError, prepare_output_folder
 
+    check_backend_options(args, parser)
     design, config, formats = _build(args)
     try:
         out = prepare_output_folder(args.out)
@@ -361,7 +363,8 @@ def _handler(args: argparse.Namespace) -> int:
     try:
         with _interruptible():
             res = run_study(design, config, out, workers=args.workers, progress=not args.no_progress,
-                            formats=formats, recording=not args.no_recording)
+                            formats=formats, recording=not args.no_recording, backend=args.backend,
+                            ray_address=args.ray_address)
     except KeyboardInterrupt as e:
         signum = getattr(e, "signum", signal.SIGINT)
         print(f"{PROG}: interrupted ({signal.Signals(signum).name}) with {_saved(csv_path)} of {design.n_trials} "

@@ -43,8 +43,10 @@ def check_finite(table: dict, csv_path: Path) -> None:
 
 
 def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = True,
-              formats: tuple[str, ...] = ("png", "svg"), recording: bool = True) -> dict:
-    """Run (or resume) the design, then write summary, figures and the recording into ``out``.
+              formats: tuple[str, ...] = ("png", "svg"), recording: bool = True, backend: str = "local",
+              ray_address: str | None = None) -> dict:
+    """Run (or resume) the design, then write summary, figures and the recording into ``out``
+    (the trials on ``workers`` local processes or Ray actors: ``runner.run_trials``' ``backend``).
 
     The folder is locked for the whole run (``FolderBusyError`` if another run holds it); trials that
     produced NaN where a number was expected raise ``NonFiniteResultError`` after the table is written.
@@ -55,7 +57,8 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
 
     keep = [t.trial_id for t in example_trials(design)] if recording and config.paradigm != "displacement" else []
     with folder_lock(out) as out:
-        csv_path = run_trials(design, config, out, workers=workers, progress=progress, examples=keep)
+        csv_path = run_trials(design, config, out, workers=workers, progress=progress, examples=keep,
+                              backend=backend, ray_address=ray_address)
         table = read_table(csv_path)
         check_finite(table, csv_path)
         if config.paradigm == "displacement":
