@@ -40,10 +40,9 @@ def test_models_type_checking_block_names_every_lazy_name_from_its_home():
 LONG_DOCSTRINGS = {
     "conformal/remap_plan.py", "models/plant.py", "models/saccade_generator.py", "models/simulation.py:Head",
     "models/vergence.py", "envs/batched_env.py:BatchedBinocularSaccade", "envs/batched_physics.py",
-    "envs/batched_vision.py", "envs/saccade_env.py:BinocularSaccadeEnv", "experiments/modelfit/data.py",
-    "experiments/oculomotor/eyetracking.py", "experiments/oculomotor/generator_fit.py",
-    "experiments/psychophysics/mechanisms.py", "experiments/psychophysics/observer.py",
-    "experiments/psychophysics/population.py", "experiments/psychophysics/trial.py:TrialConfig",
+    "envs/batched_vision.py", "envs/saccade_env.py:BinocularSaccadeEnv", "experiments/psychophysics/mechanisms.py",
+    "experiments/psychophysics/observer.py", "experiments/psychophysics/population.py",
+    "experiments/psychophysics/trial.py:TrialConfig",
     "benchmarks/retina.py",
 }
 MAX_DOCSTRING_LINES = 30

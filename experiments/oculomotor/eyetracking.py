@@ -5,21 +5,10 @@
 :func:`main_sequence_rows` (``main_sequence.csv``), checks that they are plausible
 (:func:`check_plausible`) and fits the burst generator to them (``experiments.oculomotor.generator_fit``).
 
-Formats
--------
-* **EyeLink ASC** (``edf2asc`` output; ``.asc``; ``experiments.oculomotor.asc``): monocular or
-  binocular, remote mode (``HTARGET``), 250-2000 Hz (whole-ms stamps written twice at 2000 Hz),
-  any number of START/END blocks. The resolution comes from ``GAZE_COORDS``, else
-  ``DISPLAY_COORDS`` (EyeLink I/II), else ``--screen`` with five numbers; the physical size and
-  distance always from ``--screen``. One eye is measured: ``eye='left'|'right'``, or by default the
-  only one recorded, or in a binocular file the one with fewer lost samples (the reason is in
-  ``Recording.eye_reason``); only that eye's ``SSACC/ESACC`` and ``SBLINK/EBLINK`` events are used.
-* **CSV/TSV of samples** (``.csv``, ``.tsv``, ``.txt``; ``experiments.oculomotor.tables``): any
-  tracker's export, columns named by ``columns`` (``--columns time=NAME,x=NAME,y=NAME[,eye=NAME]``)
-  or a preset (SMI BeGaze, Tobii Pro Lab, Gazepoint, pymovements' GazeBase / JuDo1000 / PoTeC, the
-  project's own ``time_ms, x_deg, y_deg`` or ``x_px, y_px``), time in ms, µs or s, gaze in degrees
-  (y up) or pixels (origin upper left, y down; needs the screen). Blinks / track loss are empty or
-  ``nan`` cells.
+Formats (the docs' eye-tracker page, ``docs/eyetracker.md``, has the details): **EyeLink ASC**
+(``experiments.oculomotor.asc``: monocular or binocular, remote mode, 250-2000 Hz, any number of
+blocks; one eye measured, the reason in ``Recording.eye_reason``) and **CSV/TSV of samples**
+(``experiments.oculomotor.tables``: named columns or a preset; ms, µs or s; degrees or pixels).
 
 Missing data split the trace: no velocity is computed across a block boundary, a pause (a step
 longer than 1.25 sampling periods) or a lost sample (``experiments.oculomotor.kinematics``), so
