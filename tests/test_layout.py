@@ -43,7 +43,6 @@ LONG_DOCSTRINGS = {
     "envs/batched_vision.py", "envs/saccade_env.py:BinocularSaccadeEnv", "experiments/psychophysics/mechanisms.py",
     "experiments/psychophysics/observer.py", "experiments/psychophysics/population.py",
     "experiments/psychophysics/trial.py:TrialConfig",
-    "benchmarks/retina.py",
 }
 MAX_DOCSTRING_LINES = 30
 
