@@ -565,6 +565,7 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
         "** VERSION: EYELINK II 1",
         "** SOURCE: EYELINK CL",
         "** EYELINK II CL v6.12 Feb  1 2018 (EyeLink Portable Duo)",
+        # the module's name before it moved into oculomotor/, kept: written files stay byte-identical
         "** RECORDED BY conformal-head experiments.eyetracking.write_recording",
         "**",
         "",
