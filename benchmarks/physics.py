@@ -45,6 +45,7 @@ def record(n: int, device: str, steps: int, seed: int = 0) -> tuple[envs.Batched
 def replay(env, runs: list[dict], skip_solver: bool) -> dict:
     """Each recorded run again on a fresh WarpHeads: seconds and launches per physics step, end eye angles."""
     import warp as wp
+
     from envs.batched_physics import WarpHeads
 
     ph = WarpHeads(env.head, env.num_envs, str(env.physics.device), chunk_ms=env.physics.chunk_ms,

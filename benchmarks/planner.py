@@ -22,8 +22,8 @@ import numba
 import numpy as np
 
 import models
-from models import BatchedPlanner, SettledReset, plan_clipped
 from envs.tasks import TASKS
+from models import BatchedPlanner, SettledReset, plan_clipped
 
 FIXATION_MS = 250
 

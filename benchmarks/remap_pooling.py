@@ -21,11 +21,10 @@ import argparse
 import time
 
 import numpy as np
+from env import SACCADE, bare_loop, env_loop  # benchmarks/env.py
 
 import envs
 from models import plan_clipped
-
-from env import SACCADE, bare_loop, env_loop  # benchmarks/env.py
 
 
 def errors(scene: str, amplitude_deg: float) -> dict[str, dict[str, dict[str, float]]]:
@@ -34,7 +33,7 @@ def errors(scene: str, amplitude_deg: float) -> dict[str, dict[str, dict[str, fl
              for p in (False, True)}
     out: dict[str, dict[str, dict[str, float]]] = {}
     for sign, side in ((1, "right"), (-1, "left")):
-        for p, e in envs_.items():
+        for e in envs_.values():
             e.reset(seed=0)
         for leg, a in (("outward", sign * amplitude_deg), ("return", -sign * amplitude_deg)):
             action = np.array([a / 30.0, 0.0], np.float32)

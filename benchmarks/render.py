@@ -8,9 +8,8 @@ one physics step. Prints a table; never used as a timed assertion.
 from __future__ import annotations
 
 import argparse
-import time
-
 import sys
+import time
 from pathlib import Path
 
 import numpy as np

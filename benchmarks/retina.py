@@ -9,57 +9,10 @@ repeated ``time.perf_counter`` measurements after a warm-up, with ``cv2.setNumTh
 sums, is limited to one thread through ``OPENBLAS_NUM_THREADS=1``), on one uint8 RGB frame
 shared by all methods. The dense OpenCV route is also timed with OpenCV's default thread count.
 
-Methods compared (all give one value per periphery cell, indexed [ring k, sector l]):
-
-* conformal pooled: ``Retina(grid, (512, 512, 3), 4).sample(img)`` - receptive-field averages
-  (its one-off construction is timed separately).
-* conformal bilinear: ``Retina(..., mode="bilinear")`` - a bilinear point sample at each cell centre.
-* OpenCV point route: ``cv2.warpPolar(WARP_POLAR_LOG | INTER_LINEAR)``. OpenCV pixel centres are
-  at integer coordinates, so centre = ((W-1)/2, (H-1)/2) is conformal's z = 0 (``sampling.py``:
-  pixel (row, col) sits at z = ((col-(W-1)/2) - i(row-(H-1)/2))/ppu); maxRadius = grid.rb * ppu.
-  OpenCV's output has rows = angle and columns = log-radius, and (checked numerically below on
-  coordinate images) column c samples radius exp(c ln(maxRadius)/width) - 1 pixels, row j angle
-  2 pi j / height measured *clockwise* on screen (y down), whereas conformal's theta runs
-  counter-clockwise (x1 up) with sector l spanning [2 pi l/N, 2 pi (l+1)/N), centre (2l+1) pi/N.
-  Because of the "-1" the OpenCV columns are not geometric in r, so no dsize makes them land on
-  conformal's ring centres. What is done: height = 2N, so row 2N-1-2l is *exactly* the
-  counter-clockwise angle (2l+1) pi/N (flip + odd rows); width is chosen (a few thousand) so that the
-  nearest column lies within 0.25 px (radially) of every ring centre radius grid.radii[k]*ppu and
-  that column is picked (no extra interpolation, so these stay genuine point samples). The cost
-  of this aligned route is what is timed; the time of a plain warpPolar straight to dsize
-  (M, N) is shown too (it is not cell-aligned, so it gets no error figure).
-* OpenCV anti-aliased route: dense ``cv2.warpPolar`` (512 x 512, and a finer 2048 x 2048 whose
-  sample spacing is <= ~1 px up to the picture edge), then one ``cv2.remap`` (fixed-point maps
-  built once) that (a) flips/rolls rows to counter-clockwise angles at the centres of N*q equal
-  angular sub-bins (half-row shift, wrapping), and (b) resamples columns linearly onto p
-  sub-bins per ring that are uniform in ln r and aligned with conformal's ring edges
-  r0 e^{k delta}; then ``cv2.resize(..., interpolation=cv2.INTER_AREA)`` to (M, N), which
-  averages exactly the p x q sub-bins of each cell. (INTER_AREA averages uniformly in
-  (ln r, theta), i.e. it weights the cell's inner part a little more than an area average does;
-  that is inherent to this route and left as is.)
-
-Alignment is verified before timing on a smooth, asymmetric test picture: every OpenCV route
-must agree with conformal (pooled or bilinear) within a small tolerance on all cells wholly
-inside the picture, and several times better than conformal shifted by one sector, mirrored in
-angle, or shifted by one ring would.
-
-Aliasing: a separable (non-radial) zone plate f(x, y) = 1/2 + 1/4 cos(a x^2) + 1/4 cos(a y^2)
-(x, y in pixels from the picture centre, a = pi / (2 * 256), so the local frequency a|x|/pi
-reaches 0.5 cycles/pixel at the picture edge and stays below it inside) is rendered at pixel
-centres (float32, one channel). The reference is the exact cell average of the analytic f:
-the integral over the annular sector [r0 e^{k delta}, r0 e^{(k+1) delta}) x [2 pi l/N,
-2 pi (l+1)/N) (in pixels: radii times ppu), in r dr dtheta, divided by the cell's area, by
-composite Gauss-Legendre quadrature (8 nodes per sub-interval, sub-intervals <= 2 px) - computed
-independently of conformal, and checked against a second 12-node rule. Only cells wholly inside
-the picture are scored. RMS and max error are reported per method.
-
-Off-grid rendering (the paper's series, ``extension="paper"``): ``OffGridEvaluator(grid, points)(coeffs)`` (finufft, planned once; the
-construction plus first call is reported as the one-off) against ``evaluate_direct`` on the paper
-grid and on a 64 x 128 grid, at the M*N points grid.points * exp(0.3 delta + 0.2 i), with RGB
-DPFT coefficients. ``evaluate_direct`` sums over n with one BLAS matrix product, then over m;
-an independent re-implementation of the same sum (checked against ``evaluate_direct``) is timed
-too. For reference, OpenCV's nearest analogue (bilinear ``cv2.remap`` of the
-log-polar samples at the same (u, theta), not a spectral evaluation) is timed as well.
+The methods compared (conformal pooled and bilinear; OpenCV's aligned point route and its
+anti-aliased dense route), how each is aligned with conformal's cells and checked before timing,
+the zone-plate aliasing reference and the off-grid rendering comparison: ``docs/benchmarks.md``,
+"How benchmarks/retina.py compares the methods".
 """
 
 from __future__ import annotations
@@ -77,7 +30,7 @@ from pathlib import Path
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import numpy as np  # noqa: E402
+import numpy as np  # noqa: E402  (after the BLAS thread variables above are set)
 
 try:
     import conformal
@@ -85,7 +38,7 @@ except ImportError:  # run from a checkout without installing the package
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import conformal
 
-import cv2
+import cv2  # noqa: E402  (after the threads are set and conformal is found, as numpy above)
 
 H = W = 512
 PPU = 4.0

@@ -73,7 +73,7 @@ def _fields(b: bytes) -> list[tuple[int, int | bytes]]:
 
 def _get(b: bytes, *path: int):
     """The first value at a path of field numbers, or None."""
-    for k, f in enumerate(path):
+    for _k, f in enumerate(path):
         vals = [v for n, v in _fields(b) if n == f]
         if not vals:
             return None

@@ -10,6 +10,7 @@ Conformal Camera for Intermediate-Level Vision and Perisaccadic Perception*).
 loaded on first use: ``import conformal`` never imports torch.
 """
 
+from . import checks, kernels
 from .cortex import BinocularCortex, binocular_cortex, cortical_map, hemifields, schwartz_map
 from .dpft import (
     OffGridEvaluator,
@@ -44,7 +45,6 @@ from .geometry import (
     transform_image,
 )
 from .grid import RetinaGrid
-from . import checks, kernels
 from .maps import POLE_TOL
 from .remap import (
     MobiusMap,

@@ -97,7 +97,7 @@ class RetinaGrid:
         *,
         extent: str = "diagonal",
         r0_decimals: int | None = None,
-    ) -> "RetinaGrid":
+    ) -> RetinaGrid:
         """The paper's design rules (§6.2) for an A x B picture shown at K dots per unit length.
 
         pi r0^2 = N_f / K^2;  N = [2 pi r0 K + pi];  delta = ln(1 + 1/(r0 K));
@@ -130,7 +130,7 @@ class RetinaGrid:
         return cls(r0=r0, delta=delta, M=max(m, 2), N=n, fovea_spacing=1 / k, n_fovea=foveal_pixels)
 
     @classmethod
-    def from_field_of_view(cls, rb: float, r0: float, n_sectors: int = 64) -> "RetinaGrid":
+    def from_field_of_view(cls, rb: float, r0: float, n_sectors: int = 64) -> RetinaGrid:
         """A grid covering radii r0 .. rb (image-plane units) with ``n_sectors`` sectors.
 
         Uses the same rules as ``from_picture`` with the sampling density K implied by N
@@ -152,7 +152,7 @@ class RetinaGrid:
         return cls(r0=r0, delta=delta, M=m, N=n_sectors, fovea_spacing=1 / k, n_fovea=n_f)
 
     @classmethod
-    def from_angles(cls, field_deg: float, fovea_deg: float = 1.0, n_sectors: int = 64) -> "RetinaGrid":
+    def from_angles(cls, field_deg: float, fovea_deg: float = 1.0, n_sectors: int = 64) -> RetinaGrid:
         """``from_field_of_view`` with eccentricities in degrees: rb = tan(field), r0 = tan(fovea)."""
         f = checks.real("field_deg", field_deg, 0.0, 90.0, lo_open=True, hi_open=True)
         fo = checks.real("fovea_deg", fovea_deg, 0.0, 90.0, lo_open=True, hi_open=True)

@@ -21,7 +21,7 @@ samples (bilinear on the lattice), points beyond r_b are reported in the mask.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray

@@ -49,8 +49,8 @@ the point prediction's (the field's centre). About 1.35x the point prediction's 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import lru_cache
-from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -60,7 +60,12 @@ from .dpft import _mirror_series
 from .fovea import fovea_indices
 from .grid import RetinaGrid
 from .kernels import (
-    contract_rings, contract_rings_pooled, map_footprints, map_points, tabulate_angles, tabulate_angles_pooled,
+    contract_rings,
+    contract_rings_pooled,
+    map_footprints,
+    map_points,
+    tabulate_angles,
+    tabulate_angles_pooled,
 )
 from .remap import MobiusMap, ProjectiveMap
 from .sampling import RetinaSamples

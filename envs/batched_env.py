@@ -39,11 +39,11 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from conformal import checks
-
 from models import BatchedPlanner, SettledReset
+
 from . import core
-from .saccade_env import BinocularSaccadeEnv
 from .actions import decode_actions
+from .saccade_env import BinocularSaccadeEnv
 from .tasks import FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors
 
 __all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]

@@ -46,9 +46,9 @@ __all__ = ["WarpHeads", "require_gpu_extra"]
 def require_gpu_extra():
     """Import and return (warp, mujoco_warp, torch), or raise ImportError saying how to install them."""
     try:
+        import mujoco_warp as mjw
         import torch
         import warp as wp
-        import mujoco_warp as mjw
     except ImportError as e:
         raise ImportError(
             f"the batched env needs the gpu extra ({e.name} is missing): pip install -e \".[gpu]\" "

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from conformal import checks, hemifields
-from conformal.remap import point_map_params
 from conformal.maps import KIND_MOBIUS, KIND_PROJECTIVE  # RemapPlan's map kinds: a homography, a Mobius map
+from conformal.remap import point_map_params
 
 from .vision import REMAP_MODELS, Vision, rotation_faults
 
@@ -50,7 +50,8 @@ except ImportError:  # pragma: no cover - the module is only imported with torch
     raise ImportError("envs.batched_vision needs torch: pip install -e \".[gpu]\" (torch's CPU build serves "
                       "without a GPU)") from None
 
-from conformal.torch_plan import TorchRemapPlan, ieee_matmul as _ieee_matmul  # noqa: E402  (after torch's check)
+from conformal.torch_plan import TorchRemapPlan  # noqa: E402  (after torch's check)
+from conformal.torch_plan import ieee_matmul as _ieee_matmul
 
 __all__ = ["TorchVision", "TorchFrame", "KIND_PROJECTIVE", "KIND_MOBIUS"]
 
@@ -192,7 +193,7 @@ class TorchVision:
         return TorchFrame(samples=samples, periphery=periphery, fovea=samples[:, :, :n_f],
                           coeffs=self.plan.dpft(periphery))
 
-    def _float_tensor(self, name: str, x, form: str, tail: tuple, extra: str, shape_ok) -> "torch.Tensor":
+    def _float_tensor(self, name: str, x, form: str, tail: tuple, extra: str, shape_ok) -> torch.Tensor:
         """``x`` as float32 after checking it is a floating-point tensor on this device of shape ``form``
         (``shape_ok``), its trailing sizes ``tail``; errors name ``name``."""
         if not isinstance(x, torch.Tensor):

@@ -30,7 +30,7 @@ def _check_head(head) -> None:
         raise checks.InputTypeError(f"head must be a models.Head; got {type(head).__name__}")
 
 
-def gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
+def gaze_errors_deg(head: models.Head, point: np.ndarray) -> np.ndarray:
     """Angle (deg) between each eye's optical axis and its line of sight to ``point`` (a finite world
     3-vector, not at an eye's nodal point): shape (2,)."""
     _check_head(head)
@@ -61,7 +61,7 @@ def _gaze_errors(pos, axes, points, out):  # pragma: no cover - compiled
             out[w, e] = math.degrees(math.atan2(cross, ax * dx + ay * dy + az * dz))
 
 
-def _gaze_errors_deg(head: "models.Head", point: np.ndarray) -> np.ndarray:
+def _gaze_errors_deg(head: models.Head, point: np.ndarray) -> np.ndarray:
     """``gaze_errors_deg`` for a head and a point that the caller knows to be valid (a finite
     3-vector from the head itself: an object's position, a saccade's target)."""
     p = np.asarray(point, dtype=float)
@@ -105,14 +105,14 @@ class Task:
         self.tolerance_deg = checks.real("tolerance_deg", self.tolerance_deg, 0.0, 45.0, lo_open=True)
         self.saccade_cost = checks.real("saccade_cost", self.saccade_cost, 0.0, 10.0)
 
-    def check_scene(self, head: "models.Head") -> None:
+    def check_scene(self, head: models.Head) -> None:
         """Raise ValueError if ``head``'s scene lacks what this task needs."""
         _check_head(head)
         if "target" not in head.scene.objects:
             raise ValueError(f"task {self.name!r} needs a 'target' object; scene {head.scene.name!r} has none "
                              f"(use scene 'dots' or 'search', or task 'free')")
 
-    def initialize_episode(self, head: "models.Head", rng: np.random.Generator) -> None:
+    def initialize_episode(self, head: models.Head, rng: np.random.Generator) -> None:
         """Place the task's objects (the head has just been reset; ``rng`` a ``numpy.random.Generator``):
         each of :meth:`placements` with ``Head.set_object_position``."""
         _check_head(head)
@@ -127,11 +127,11 @@ class Task:
             raise checks.InputTypeError(f"rng must be a numpy.random.Generator; got {type(rng).__name__}")
         return {}
 
-    def target_position(self, head: "models.Head") -> np.ndarray:
+    def target_position(self, head: models.Head) -> np.ndarray:
         _check_head(head)
         return head.object_position("target")
 
-    def score(self, head: "models.Head") -> tuple[float, bool, dict]:
+    def score(self, head: models.Head) -> tuple[float, bool, dict]:
         """(reward, terminated, info) after a saccade has landed; info holds the ``reward_keys``
         components, which sum to the reward, the success and the mean gaze error to the target
         (``target_error_deg``). :meth:`score_errors` for one head."""
@@ -238,7 +238,7 @@ class FreeViewingTask(Task):
 TASKS = {"fixate": FixateTask, "search": SearchTask, "free": FreeViewingTask}
 
 
-def make_task(task: "str | Task", **kwargs) -> Task:
+def make_task(task: str | Task, **kwargs) -> Task:
     """A task by name (``"fixate"``, ``"search"``, ``"free"``) with its keyword arguments, or a ready
     ``Task`` instance (then no keyword arguments)."""
     if isinstance(task, Task):

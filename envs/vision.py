@@ -231,7 +231,7 @@ class Vision:
                                      f"[{im.min():.4g}, {im.max():.4g}] (pass uint8 images for 0..255)")
         return imgs, (1.0 / 255.0 if is_uint8[0] else 1.0)
 
-    def _see_frame(self, images) -> "_Frame":
+    def _see_frame(self, images) -> _Frame:
         """``see_eyes`` for a per-step caller (the env), as a ``_Frame`` (the views and the arrays
         behind them). uint8 pictures of this Vision's shape (what ``models.Head.render`` returns)
         go straight to the sampler; anything else takes ``see_eyes``' checks first."""
@@ -241,7 +241,7 @@ class Vision:
         imgs, scale = self._check_images(images)
         return self._frame(self.retina.sample_many(imgs, scale))
 
-    def _frame(self, samples: NDArray[np.float64]) -> "_Frame":
+    def _frame(self, samples: NDArray[np.float64]) -> _Frame:
         """Views of sampled pictures (E, N_f + M N, 3): channels, periphery, one DPFT for all eyes."""
         if self.grayscale:
             samples = samples.mean(axis=-1, keepdims=True)
@@ -310,7 +310,7 @@ class Vision:
         fovea = np.stack([v.fovea for v in views])
         return self.plan(coeffs, fovea, maps, pooled=pooled)
 
-    def _predict_frame(self, frame: "_Frame", models: tuple[str, ...],
+    def _predict_frame(self, frame: _Frame, models: tuple[str, ...],
                        rotations_eye) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """``predict_arrays(frame.views, models, rotations_eye)`` (``pooled`` as this Vision's
         ``pooled_remap``) for a ``_Frame`` of this Vision (``_see_frame``) and ``models`` already
@@ -321,7 +321,7 @@ class Vision:
         kinds, params = self.map_params(models, rotations_eye)
         return self.plan.evaluate_prechecked(frame.coeffs, frame.fovea, kinds, params, self.pooled_remap)
 
-    def _frame_errors(self, values: NDArray, valid: NDArray, frame: "_Frame") -> NDArray[np.float64]:
+    def _frame_errors(self, values: NDArray, valid: NDArray, frame: _Frame) -> NDArray[np.float64]:
         """``errors(values, valid, frame.views)`` for ``_predict_frame``'s output and a ``_Frame``."""
         return _errors(values, valid, frame.samples, self._valid)
 

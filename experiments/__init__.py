@@ -1,6 +1,13 @@
-"""Experiments on the conformal-camera head: perisaccadic psychophysics, Rerun recordings and
-saccade agents, with the command line ``python -m experiments {run,visualize,train,evaluate}``.
+"""Experiments on the conformal-camera head, by product, and their command line
+``python -m experiments COMMAND`` (``python -m experiments --help`` lists every command):
 
-Subpackages and modules are imported on use (``experiments.psychophysics``,
-``experiments.recording``, ``experiments.rl``), so importing ``experiments`` is cheap.
+- ``psychophysics``: perisaccadic flash localization (``run``: ``psychophysics.study``), the
+  theories and their registry, the scoreboard of published phenomena (``phenomena``);
+- ``modelfit``: fitting the theories to a lab's data (``fit``, ``compare``, ``simulate``, ``recovery``);
+- ``oculomotor``: eye-tracker recordings, saccade kinematics and the generator fit (``saccades``);
+- ``recording``: Rerun recordings and their blueprints (``visualize``, ``view``);
+- ``agents``: saccade agents and their recipes (``train``, ``evaluate``, ``baselines``);
+- ``cli``: the shared parsing and options; ``folders``: locked, atomic, resumable results folders.
+
+Subpackages are imported on use, so importing ``experiments`` is cheap.
 """

@@ -20,11 +20,11 @@ from .cli import HintingParser
 #: command -> (module that registers it, one-line help), in the order ``--help`` lists them. A
 #: module that registers several commands lists them here consecutively, in its own order.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "run": ("experiments.study",
+    "run": ("experiments.psychophysics.study.cli",
             "perisaccadic flash-localization study (table, figures, summary, Rerun recording)"),
-    "saccades": ("experiments.saccades",
+    "saccades": ("experiments.oculomotor.saccades",
                  "saccade kinematics vs the published main sequence (figure, table)"),
-    "phenomena": ("experiments.phenomena",
+    "phenomena": ("experiments.psychophysics.phenomena",
                   "which published perisaccadic phenomena each theory predicts (table with CIs, "
                   "calibrated/predicted, figures)"),
     "fit": ("experiments.modelfit.cli", "fit a perception model to localization data (maximum likelihood)"),
@@ -40,9 +40,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
                   "record a run of the environment in Rerun (--out FILE.rrd, --serve or --spawn)"),
     "view": ("experiments.recording",
              "open .rrd recordings in Rerun's web viewer on 127.0.0.1 (no display needed)"),
-    "train": ("experiments.rl", "train a saccade agent: CEM linear cell policy (default), PPO or SAC"),
-    "evaluate": ("experiments.rl", "evaluate a saved, random or heuristic policy; prints one JSON line"),
-    "baselines": ("experiments.rl",
+    "train": ("experiments.agents.cli", "train a saccade agent: CEM linear cell policy (default), PPO or SAC"),
+    "evaluate": ("experiments.agents.cli", "evaluate a saved, random or heuristic policy; prints one JSON line"),
+    "baselines": ("experiments.agents.cli",
                   "train and evaluate agents x seeds on a task: IQM table with bootstrap CIs and curves"),
 }
 
@@ -52,7 +52,7 @@ COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values())
 
 def _register(module_name: str, subparsers) -> None:
     module = importlib.import_module(module_name)
-    register = getattr(module, "add_subcommands", None) or getattr(module, "add_subcommand")
+    register = getattr(module, "add_subcommands", None) or module.add_subcommand
     register(subparsers)
 
 

@@ -26,8 +26,9 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 __all__ = ["Interrupted", "interruptible", "LockBusyError", "path_lock", "atomic_write_text", "atomic_write_bytes", "save_figure",
            "write_json", "write_csv", "json_safe", "die_with_parent", "die_with", "check_path_length", "os_error_text"]

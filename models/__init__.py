@@ -9,6 +9,7 @@ code can use ``models.eye_kinematics`` (the formulas that need no MuJoCo) withou
 from __future__ import annotations
 
 import importlib
+from typing import TYPE_CHECKING
 
 from ._gl_default import set_default_backend
 
@@ -38,6 +39,47 @@ _HOMES: dict[str, str] = {
 }
 
 __all__ = list(_HOMES)
+
+if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load on first use (below)
+    from ._gl import GLBackendError, gl_install_hint
+    from ._plan_kernels import limit_plan_threads
+    from .build import (
+        DEFAULT_FOVY_DEG,
+        DEFAULT_IPD,
+        HEAD_XML,
+        QUALITIES,
+        ModelFileError,
+        build_model,
+        build_spec,
+        export_xml,
+        load_model,
+    )
+    from .eye_kinematics import (
+        MAX_PEAK_VELOCITY,
+        MainSequence,
+        OculomotorRangeError,
+        cyclopean_amplitude,
+        displaced,
+        fick_angles,
+        fick_matrix,
+        fixation_angles,
+        fixation_batch,
+        gaze_direction,
+        listing_torsion,
+        rotation_vector,
+    )
+    from .eye_position_signal import VISUAL_LATENCY_MS, EyePositionSignal
+    from .oculomotor import SACCADE_MODELS, SaccadePlan
+    from .oculomotor_state import OculomotorState
+    from .planner import BatchedPlanner, SettledReset, plan_clipped
+    from .plant import EYE_DRIVES, OrbitalPlant
+    from .render import EYES, EyeImage, EyeRenderer, ForkedGLContextError, StereoFrame
+    from .saccade_generator import PLANTS, BurstGenerator, SaccadeProfile
+    from .saccade_plans import Profiles, SaccadePlans, profiles
+    from .scenes import CYCLOPEAN_EYE, SCENES, SceneInfo, screen_point
+    from .servo import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, servo_setpoints
+    from .simulation import EyeState, EyeTrace, Head
+    from .vergence import VergenceDynamics
 
 
 def __getattr__(name: str):

@@ -39,7 +39,7 @@ class GLBackendError(RuntimeError):
 
 
 try:
-    import mujoco  # noqa: E402
+    import mujoco
 except (ImportError, AttributeError, OSError) as _exc:  # PyOpenGL fails inside mujoco's import
     raise GLBackendError(
         f"cannot import mujoco with MUJOCO_GL={os.environ['MUJOCO_GL']!r} ({type(_exc).__name__}: {_exc}). "

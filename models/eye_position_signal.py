@@ -29,7 +29,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-
 from conformal import checks
 
 __all__ = ["EyePositionSignal", "VISUAL_LATENCY_MS"]

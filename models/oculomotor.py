@@ -122,7 +122,7 @@ class SaccadePlan:
         self.efference_copy_eye = b.efference_copy_eye[0]
 
     @classmethod
-    def from_batch(cls, plans, k: int) -> "SaccadePlan":
+    def from_batch(cls, plans, k: int) -> SaccadePlan:
         """Plan ``k`` of a ``models.SaccadePlans`` batch as a single plan."""
         return cls(onset_ms=int(plans.onset_ms[k]), start_angles=plans.start[k], end_angles=plans.end[k],
                    amplitude=float(plans.amplitude[k]), generator=plans.generator, target=plans.target[k],
@@ -193,7 +193,7 @@ class SaccadePlan:
         from ``signal_start_angles`` to ``intended_end_angles``."""
         return self._at(t_ms, self._batch.eye_position_signal, self.eye_position)
 
-    def with_eye_position(self, eye_position) -> "SaccadePlan":
+    def with_eye_position(self, eye_position) -> SaccadePlan:
         """This plan read through another eye-position signal timing (an ``EyePositionSignal``): a copy
         that shares the validated trajectory (no re-validation, unlike ``dataclasses.replace``)."""
         if not isinstance(eye_position, EyePositionSignal):

@@ -51,7 +51,7 @@ class OculomotorState:
     flashes: dict[str, int] = field(default_factory=dict)
     opacity: dict[str, float] = field(default_factory=dict)
 
-    def copy(self) -> "OculomotorState":
+    def copy(self) -> OculomotorState:
         """A copy whose arrays and dicts are new (the generator and the plans are shared)."""
         return OculomotorState(int(self.time_ms), self.hold.copy(), self.signal_hold.copy(),
                                self.fixation_head.copy(), self.rng, self.seed, self.plan, self.signal_plan,

@@ -23,8 +23,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .eye_kinematics import (NULL_SACCADE, OculomotorRangeError, cyclopean_amplitude, displaced, fixation_batch,
-                             noisy_endpoints)
+from .eye_kinematics import (
+    NULL_SACCADE,
+    OculomotorRangeError,
+    cyclopean_amplitude,
+    displaced,
+    fixation_batch,
+    noisy_endpoints,
+)
 from .oculomotor import SaccadePlan
 from .oculomotor_state import OculomotorState
 from .saccade_plans import SaccadePlans
@@ -117,7 +123,7 @@ class BatchedPlanner:
         self.qpos[i], self.qvel[i], self.ctrl[i] = d.qpos, d.qvel, d.ctrl
         self._last[i] = None
 
-    def take_settled(self, worlds, settled: "SettledReset", seeds, placements=None) -> None:
+    def take_settled(self, worlds, settled: SettledReset, seeds, placements=None) -> None:
         """:meth:`take_reset` of many worlds at once, without the scratch head: world ``worlds[k]`` as if
         ``settled.apply(head, seeds[k])`` had reset the head (then each ``placements[k]``, a dict of
         movable object name -> world position, had been set with ``Head.set_object_position``, as a

@@ -119,7 +119,7 @@ def focal_pixels(height: int, fovy: float) -> float:
     return 0.5 * height / np.tan(fovy / 2.0)
 
 
-def _sample_textures_bilinear(renderer: "mujoco.Renderer") -> None:
+def _sample_textures_bilinear(renderer: mujoco.Renderer) -> None:
     """Sample every texture of ``renderer``'s GL context at full resolution with bilinear filtering
     (``GL_LINEAR``), as MuJoCo Warp's ray-traced renderer does, instead of MuJoCo's trilinear mipmaps
     (``GL_LINEAR_MIPMAP_LINEAR``, which blur a texture seen from afar): so the single env and the batched
@@ -217,7 +217,7 @@ class EyeRenderer:
         if r is not None and getattr(self, "_pid", None) == os.getpid():
             r.close()
 
-    def __enter__(self) -> "EyeRenderer":
+    def __enter__(self) -> EyeRenderer:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -75,7 +75,7 @@ DETECTION_THRESHOLD_DEG_S = 30.0
 #: Ceiling of eye speed (deg/s) that no parameter set may exceed (``models.MAX_PEAK_VELOCITY``).
 MAX_PEAK_VELOCITY_DEG_S = 700.0
 #: The accepted range (inclusive) of every parameter: what ``BurstGenerator`` accepts is what a fit
-#: (``experiments.generator_fit``) may return, so every fitted file loads. The table's peak-velocity
+#: (``experiments.oculomotor.generator_fit``) may return, so every fitted file loads. The table's peak-velocity
 #: ceiling (``MAX_PEAK_VELOCITY_DEG_S``) is a further joint bound the fit also respects.
 PARAMETER_BOUNDS = {"burst_max_deg_s": (1.0, 2000.0), "burst_scale_deg": (0.01, 50.0), "burst_lag_ms": (0.1, 50.0),
                     "adaptation_gain": (0.0, 5.0), "adaptation_ms": (0.1, 500.0), "plant_t2_ms": (0.5, 50.0),
@@ -140,7 +140,7 @@ class SaccadeProfile:
         return self._values(t_rel, plant, True)
 
 
-def simulate(generator: "BurstGenerator", amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS,
+def simulate(generator: BurstGenerator, amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS,
              dt_ms: float = _SIM_DT_MS, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Simulate the burst-generator loop (module docstring) directly for each amplitude.
 
@@ -211,7 +211,9 @@ class BurstGenerator:
             object.__setattr__(self, name, checks.real(name, getattr(self, name), lo, hi))
 
     # ------------------------------------------------------------------ the table
-    @functools.lru_cache(maxsize=None)  # one table per parameter set (frozen: hashed by value)
+    # B019: the cache holds the instance, on purpose: one table per parameter set (frozen: hashed by
+    # value), and the parameter sets of a process are few
+    @functools.cache  # noqa: B019
     def _table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         amps = np.arange(0.0, _AMP_MAX_DEG + _AMP_STEP_DEG / 2, _AMP_STEP_DEG)
         pos, burst = simulate(self, amps, every=int(round(_TABLE_DT_MS / _SIM_DT_MS)))
@@ -248,7 +250,7 @@ class BurstGenerator:
             raise ValueError(f"path {path}: cannot write the burst generator there ({exc.strerror or exc})") from None
 
     @classmethod
-    def from_file(cls, path) -> "BurstGenerator":
+    def from_file(cls, path) -> BurstGenerator:
         """Parameters from a JSON file written by :meth:`to_file` (e.g. the ``generator.json`` of
         ``python -m experiments saccades --recording``); parameters it omits keep their defaults.
         An unreadable file, another model, an unknown or out-of-range parameter or a parameter set

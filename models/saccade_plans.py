@@ -25,10 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _plan_kernels as K
-from .eye_position_signal import EyePositionSignal
 from .eye_kinematics.fick import PRIMARY_EYE_BASIS, fick_matrix, gaze_direction, with_listing
 from .eye_kinematics.main_sequence import MainSequence
 from .eye_kinematics.ranges import OculomotorRangeError
+from .eye_position_signal import EyePositionSignal
 from .saccade_generator import _AMP_STEP_DEG, _TABLE_DT_MS, DETECTION_THRESHOLD_DEG_S, BurstGenerator
 from .vergence import VergenceDynamics
 
@@ -51,7 +51,7 @@ class _BurstTable:
     bound: np.ndarray
 
 
-@functools.lru_cache(maxsize=None)  # one table per parameter set (a frozen dataclass: hashed by value)
+@functools.cache  # one table per parameter set (a frozen dataclass: hashed by value)
 def _burst_table(gen: BurstGenerator) -> _BurstTable:
     amps, norm, _ = gen._table()
     normT = np.ascontiguousarray(np.moveaxis(norm, 2, 0))  # (A, 3, K)
@@ -294,14 +294,14 @@ class SaccadePlans:
         hv = start + (self.intended_end[:, None, :, :2] - start) * smooth.reshape(t.shape + (2, 2))
         return with_listing(hv)
 
-    def take(self, rows) -> "SaccadePlans":
+    def take(self, rows) -> SaccadePlans:
         """The plans of ``rows`` (indices) as a new batch."""
         rows = np.asarray(rows, np.intp)
         return SaccadePlans(*(getattr(self, k)[rows] for k in _FIELDS), generator=self.generator,
                             vergence=self.vergence, eye_position=self.eye_position)
 
     @staticmethod
-    def concatenate(batches: "list[SaccadePlans]", order: np.ndarray | None = None) -> "SaccadePlans":
+    def concatenate(batches: list[SaccadePlans], order: np.ndarray | None = None) -> SaccadePlans:
         """One batch of the plans of ``batches`` (one model), in ``order`` of their concatenation."""
         b0 = batches[0]
         cols = [np.concatenate([getattr(b, k) for b in batches]) for k in _FIELDS]

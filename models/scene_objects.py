@@ -9,7 +9,7 @@ change an object's alpha until ``Head.reset`` (or ``Head.set_state``) restores t
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

@@ -23,8 +23,8 @@ Presets (``SCENES``):
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -142,8 +142,8 @@ def _dots(spec) -> SceneInfo:
     _mocap(spec, "target", screen_point(np.deg2rad(DOTS_TARGET_DEG), 0, DOTS_DISTANCE),
            rgba=[1, 0.9, 0.1, 1], **dot)
     flashes = []
-    for r, el in enumerate(FLASH_ELEVATIONS_DEG):
-        for c, az in enumerate(FLASH_AZIMUTHS_DEG):
+    for _r, el in enumerate(FLASH_ELEVATIONS_DEG):
+        for _c, az in enumerate(FLASH_AZIMUTHS_DEG):
             name = f"flash_{len(flashes):02d}"
             _mocap(spec, name, screen_point(np.deg2rad(az), np.deg2rad(el), DOTS_DISTANCE),
                    rgba=[0.3, 1, 0.3, 0], **dot)

@@ -11,8 +11,8 @@ settled end with the burst generator) + 250 ms of fixation ~2.2 ms (``benchmarks
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, fields
-from typing import Iterator, Sequence
 
 import numpy as np
 
@@ -20,19 +20,26 @@ from conformal import checks
 
 from ._gl import mujoco
 from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, build_spec
+from .eye_kinematics import (
+    MainSequence,
+    OculomotorRangeError,
+    check_point,
+    cyclopean_amplitude,
+    displaced,
+    fixation_angles,
+    noisy_endpoints,
+)
 from .eye_position_signal import EyePositionSignal
-from .eye_kinematics import (MainSequence, OculomotorRangeError, check_point, cyclopean_amplitude, displaced,
-                             fixation_angles, noisy_endpoints)
-from .oculomotor_state import OculomotorState
-from .oculomotor import SACCADE_MODELS, SaccadePlan
-from .saccade_generator import BurstGenerator
-from .vergence import VergenceDynamics
-from .render import EYES, MAX_IMAGE_SIDE, EyeRenderer, focal_pixels
-from .scenes import SCENES, SceneInfo
 from .head_rendering import HeadRendering
-from .scene_objects import SceneObjects
-from .servo import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, EyeServo, _ms, _substeps
+from .oculomotor import SACCADE_MODELS, SaccadePlan
+from .oculomotor_state import OculomotorState
 from .plant import EYE_DRIVES, OrbitalPlant
+from .render import EYES, MAX_IMAGE_SIDE, EyeRenderer, focal_pixels
+from .saccade_generator import BurstGenerator
+from .scene_objects import SceneObjects
+from .scenes import SCENES, SceneInfo
+from .servo import DEFAULT_SACCADE_TIMESTEP_MS, DEFAULT_TIMESTEP_MS, EyeServo, _ms, _substeps
+from .vergence import VergenceDynamics
 
 __all__ = ["Head", "EyeState", "EyeTrace"]
 
@@ -77,7 +84,7 @@ class EyeTrace:
     eye_position_signal: np.ndarray | None = None  #: (K, 2, 3) the brain's estimate of eye orientation
 
     @classmethod
-    def concatenate(cls, traces: "list[EyeTrace]") -> "EyeTrace":
+    def concatenate(cls, traces: list[EyeTrace]) -> EyeTrace:
         """Consecutive pieces (e.g. one per :meth:`Head.step_ms` call) as one trace; a field that the
         first piece lacks (``None``) stays ``None``."""
         traces = list(traces)
@@ -274,7 +281,7 @@ class Head(SceneObjects, HeadRendering):
             self._renderer.close()
             self._renderer = None
 
-    def __enter__(self) -> "Head":
+    def __enter__(self) -> Head:
         return self
 
     def __exit__(self, *exc) -> None:

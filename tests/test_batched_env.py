@@ -412,13 +412,13 @@ def test_retina_rays_observations():
 
 
 def test_skrl_recipe(tmp_path):
-    """The PPO recipe (experiments/skrl_recipe.py) trains two updates on 2 worlds and writes its curve,
+    """The PPO recipe (experiments/agents/skrl_recipe.py) trains two updates on 2 worlds and writes its curve,
     checkpoint and summary; its CLI refuses a run shorter than one rollout."""
     pytest.importorskip("skrl")
     import csv
     import json
 
-    from experiments import skrl_recipe
+    from experiments.agents import skrl_recipe
 
     out = tmp_path / "ppo"
     assert skrl_recipe.main(["--out", str(out), "--device", DEVICE, "--num-envs", "2", "--timesteps", "4",
@@ -523,7 +523,7 @@ def test_recipe_reports_truncation_as_termination():
     """The saccade budget is not observed, so the skrl wrapper reports a truncated episode as terminated
     (no bootstrap from the next episode's first observation) and keeps returns on the host."""
     pytest.importorskip("skrl")
-    from experiments.skrl_recipe import DeviceVectorWrapper
+    from experiments.agents.skrl_recipe import DeviceVectorWrapper
 
     env = BatchedBinocularSaccade(N, device=DEVICE, image_size=32, task="fixate", task_kwargs={"max_saccades": 1},
                                   autoreset_mode="same_step")

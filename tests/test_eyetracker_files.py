@@ -13,7 +13,7 @@ import re
 import numpy as np
 import pytest
 
-from experiments import eyetracking as et
+from experiments.oculomotor import eyetracking as et
 
 TRUE = dict(burst_max_deg_s=600.0, burst_scale_deg=4.0)
 SCREEN = et.Screen(1920, 1080, 60.0, 33.75, 57.0)

@@ -1,4 +1,4 @@
-"""Eye-tracker recordings in, a fitted burst generator out (experiments.eyetracking, generator_fit).
+"""Eye-tracker recordings in, a fitted burst generator out (experiments.oculomotor.eyetracking, generator_fit).
 
 Recordings are written from the generator's own traces (``synthetic_session``: 60 saccades of
 2-30 deg in random directions, Gaussian tracker noise, blinks) at 250/500/1000 Hz in both formats,
@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from experiments import eyetracking as et
+from experiments.oculomotor import eyetracking as et
 
 TRUE = dict(burst_max_deg_s=600.0, burst_scale_deg=4.0)
 SCREEN = et.Screen(1920, 1080, 60.0, 33.75, 57.0)
@@ -160,7 +160,7 @@ def test_no_saccades_is_a_usage_error(tmp_path, capsys):
 @pytest.mark.slow
 @pytest.mark.parametrize("fmt,rate,noise", [("asc", 1000, 0.02), ("csv", 500, 0.03), ("asc", 250, 0.02)])
 def test_round_trip_recovers_generating_parameters(tmp_path, fmt, rate, noise):
-    from experiments import generator_fit as gf
+    from experiments.oculomotor import generator_fit as gf
 
     s = _session(rate, noise=noise, seed=11 + rate)
     rec = et.read_recording(_write(tmp_path, s, rate, fmt), screen=SCREEN)

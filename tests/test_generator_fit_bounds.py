@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import models
-from experiments import generator_fit as gf
+from experiments.oculomotor import generator_fit as gf
 from models.saccade_generator import PARAMETER_BOUNDS
 
 

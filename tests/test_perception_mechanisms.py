@@ -144,7 +144,7 @@ def test_phenomena_command_writes_the_report(tmp_path):
     import csv
 
     from experiments.__main__ import main
-    from experiments.phenomena import COLUMNS, ROWS, THEORIES
+    from experiments.psychophysics.phenomena import COLUMNS, ROWS, THEORIES
     from experiments.psychophysics.scoring import check_scoreboard
 
     args = ["phenomena", "--out", str(tmp_path), "--no-progress", "--image-size", "64", "--bootstrap", "100",

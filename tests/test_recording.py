@@ -21,7 +21,7 @@ from rerun.chunk import RrdReader
 
 import conformal as C
 from experiments.__main__ import main
-from experiments.blueprint import SCENE_LOOK_TARGET, blueprint
+from experiments.recording.blueprint import SCENE_LOOK_TARGET, blueprint
 from experiments.recording import Recorder, grid_strips, record_env_run
 
 IMAGE_SIZE = 96

@@ -84,7 +84,7 @@ def _config():
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
-    from experiments.study import run_study
+    from experiments.psychophysics.study import run_study
 
     out = tmp_path_factory.mktemp("study")
     res = run_study(_design(), _config(), out, workers=1, progress=False, formats=("png",))
@@ -226,7 +226,7 @@ def test_recording_runs_no_trial_and_resumed_run_records_the_same(study, tmp_pat
     trials makes the same file); a run interrupted after one trial and resumed records the same."""
     from experiments.psychophysics import read_table, run_trials
     from experiments.psychophysics.trial import TrialRunner
-    from experiments.study import record_study, run_study
+    from experiments.psychophysics.study import record_study, run_study
 
     out, res = study
     ref = content(out / "study.rrd")
@@ -254,7 +254,7 @@ def test_lost_or_foreign_snapshots_are_run_again_and_bad_ones_refused(study, tmp
 
     from experiments.psychophysics import read_table, run_trials
     from experiments.psychophysics.snapshots import SnapshotError, example_trials, snapshot_path
-    from experiments.study import record_study
+    from experiments.psychophysics.study import record_study
 
     out, res = study
     work = tmp_path / "copy"
@@ -280,7 +280,7 @@ def test_lost_or_foreign_snapshots_are_run_again_and_bad_ones_refused(study, tmp
 def test_blueprint_panels_are_titled_in_words(tmp_path):
     import rerun as rr
 
-    from experiments.blueprint import blueprint
+    from experiments.recording.blueprint import blueprint
 
     for layout, timeline in (("run", "sim_time"), ("study", "flash_time")):
         path = str(tmp_path / f"{layout}.rrd")
@@ -324,7 +324,7 @@ def test_3d_labels_do_not_overlap_at_the_default_camera(which, request):
     the 800 x 380 px panel of the README's 1600 x 1000 screenshot (Rerun's default vertical field of
     view, 55 deg, assumed; 7.5 px per character, 18 px high). The unlabelled placement (labels on the
     points themselves) overlaps for the env run's target 9 deg below-right of fixation."""
-    from experiments.blueprint import SCENE_EYE_POSITION, SCENE_LOOK_TARGET
+    from experiments.recording.blueprint import SCENE_EYE_POSITION, SCENE_LOOK_TARGET
 
     path = request.getfixturevalue("study")[0] / "study.rrd" if which == "study" else request.getfixturevalue("env_run")
     c = chunks(path)
@@ -340,7 +340,7 @@ def test_3d_labels_do_not_overlap_at_the_default_camera(which, request):
 def test_label_placement_separates_objects_whose_labels_would_overlap(tmp_path):
     """A target 5 deg right of fixation at the same height: labels on the points overlap in the default
     view; placed by the recorder (the first of equal heights above, the other below), they do not."""
-    from experiments.blueprint import SCENE_EYE_POSITION, SCENE_LOOK_TARGET
+    from experiments.recording.blueprint import SCENE_EYE_POSITION, SCENE_LOOK_TARGET
     from experiments.recording import Recorder
 
     fix, tgt = np.array([1.082, 0.0, 1.2]), np.array([1.082, -1.082 * math.tan(math.radians(5)), 1.2])

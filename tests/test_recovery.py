@@ -4,21 +4,30 @@ from __future__ import annotations
 
 import csv
 import json
+import warnings
 
 import pytest
 
 from experiments.__main__ import main
+from experiments.modelfit.data import DataConventionWarning
 
 
 @pytest.mark.slow
-def test_recovery_confusion_matrix(tmp_path):
+def test_recovery_confusion_matrix(tmp_path, capsys):
     """Each theory's simulated data (with motor noise) is fitted by every theory through a forward
     model without it; the table has one row per (generating, fitted) pair, delta AIC 0 for exactly
     one fitted model per data set, and at this (small, seeded) size each generating model wins on
-    its own data. A second run resumes: nothing is simulated or fitted again, the table is the same."""
-    args = ["recovery", "--out", str(tmp_path), "--size", "small", "--max-evals", "15", "--image-size", "64",
-            "--no-progress"]
-    assert main(args) == 0
+    its own data. A second run resumes: nothing is simulated or fitted again, the table is the same.
+    On a fresh folder it says nothing about an override nobody gave, evaluations "read back" from a
+    folder that did not exist, or conventions of its own simulated data (issue 37, the first hour)."""
+    args = ["recovery", "--out", str(tmp_path), "--size", "small", "--max-evals", "15", "--image-size", "64"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main(args) == 0  # with progress: the read-back line is shown only then
+    err = capsys.readouterr().err
+    assert "override" not in err and "read back" not in err, err
+    assert not [w for w in caught if issubclass(w.category, DataConventionWarning)], [str(w.message) for w in caught]
+    args.append("--no-progress")
     rows = list(csv.DictReader((tmp_path / "recovery.csv").open()))
     models = ("observer", "population", "paper")
     assert {(r["generating"], r["fitted"]) for r in rows} == {(g, f) for g in models for f in models}

@@ -264,7 +264,7 @@ def test_evaluate_rejects_corrupt_policy_folders(case, tmp_path, capsys):
 @pytest.mark.parametrize("value", ["nan", "0", "-3", "2.5", "1e12", "abc"])
 @pytest.mark.parametrize("option", ["--timesteps", "--n-envs", "--n-steps", "--eval-episodes", "--seed"])
 def test_sb3_recipe_rejects_bad_options(option, value, tmp_path, capsys):
-    from experiments import sb3_recipe
+    from experiments.agents import sb3_recipe
 
     if option == "--seed" and value == "0":
         pytest.skip("0 is a valid seed")
@@ -278,7 +278,7 @@ def test_sb3_recipe_rejects_bad_options(option, value, tmp_path, capsys):
 @pytest.mark.skipif(importlib.util.find_spec("stable_baselines3") is None,
                     reason="needs the optional 'rl' extra (stable-baselines3 + CPU torch)")
 def test_sb3_recipe_runs(tmp_path):
-    from experiments import sb3_recipe
+    from experiments.agents import sb3_recipe
 
     path = sb3_recipe.train_ppo(tmp_path, total_timesteps=64, n_envs=2, n_steps=32, vec="dummy", seed=0)
     assert path.exists() and (tmp_path / "ppo.json").exists()
@@ -293,7 +293,7 @@ def test_sb3_recipe_prints_progress_and_evaluate_loads_it(tmp_path):
     """The recipe's command prints a line per rollout and its result; ``python -m experiments
     evaluate --policy DIR`` loads what it saved and, on the same episodes, reports the same numbers."""
     out = tmp_path / "ppo"
-    r = subprocess.run([sys.executable, "-m", "experiments.sb3_recipe", "--out", str(out), "--timesteps", "64",
+    r = subprocess.run([sys.executable, "-m", "experiments.agents.sb3_recipe", "--out", str(out), "--timesteps", "64",
                         "--n-envs", "1", "--n-steps", "32", "--vec", "dummy", "--eval-episodes", "3", "--seed", "4"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -572,7 +572,7 @@ def test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu(tmp_path):
     """The batched engine's learner with the wrap-around cortical encoder and cell actions: two PPO
     updates on 2 worlds (CPU backend), its summary names the policy, and the curve CSV is written
     (a header at the start, rows appended per rollout)."""
-    from experiments import skrl_recipe
+    from experiments.agents import skrl_recipe
 
     out = tmp_path / "skrl"
     assert skrl_recipe.main(["--out", str(out), "--device", "cpu", "--num-envs", "2", "--timesteps", "4",
@@ -589,6 +589,19 @@ def test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu(tmp_path):
     assert (out / "learning_curve.csv").read_text().splitlines()[0] == "env_steps,episodes,mean_return,success_rate"
     with pytest.raises(SystemExit):  # cell actions need the cortical policy
         skrl_recipe.main(["--out", str(tmp_path / "x"), "--action-mode", "cell", "--timesteps", "8"])
+
+
+@pytest.mark.slow
+def test_baselines_with_cem_alone_writes_its_curves(tmp_path, capsys):
+    """The quick example of docs/rl.md (``--agents cem``, no PPO or SAC) writes the ``curves.png`` that
+    ``--help`` promises: CEM's validation curve, IQM over the seeds (issue 37, the first hour)."""
+    from experiments.__main__ import main
+
+    out = tmp_path / "b"
+    assert main(["baselines", "--task", "fixate", "--agents", "cem", "--seeds", "0", "1", "--out", str(out),
+                 "--quick", "--image-size", "48", "--episodes", "3"]) == 0
+    assert "CEM" in capsys.readouterr().out
+    assert (out / "curves.png").stat().st_size > 1000
 
 
 @pytest.mark.slow

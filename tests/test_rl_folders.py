@@ -188,7 +188,7 @@ def test_saved_agent_is_rebuilt_to_the_trained_models_numbers(tmp_path, capsys):
     import stable_baselines3 as sb3
     import torch
 
-    from experiments.sb3_recipe import export_sb3_zip
+    from experiments.agents.sb3_recipe import export_sb3_zip
 
     model = sb3.PPO.load(export_sb3_zip(out, tmp_path / "exported.zip"), device="cpu")
     mine, theirs = agent.model.state_dict(), model.policy.state_dict()

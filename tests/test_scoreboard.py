@@ -156,7 +156,7 @@ def _committed() -> list[dict]:
 
 
 def test_committed_scoreboard_keeps_the_rules():
-    from experiments.phenomena import COLUMNS, ROWS, THEORIES
+    from experiments.psychophysics.phenomena import COLUMNS, ROWS, THEORIES
 
     rows = _committed()
     assert list(rows[0]) == COLUMNS == scoring.SCORE_COLUMNS
@@ -175,7 +175,7 @@ def test_committed_scoreboard_keeps_the_rules():
 
 
 def test_readme_scoreboard_is_generated_from_the_committed_csv():
-    from experiments.phenomena import markdown_table
+    from experiments.psychophysics.phenomena import markdown_table
 
     assert markdown_table(_committed()) in (ROOT / "docs" / "psychophysics" / "theories.md").read_text()
 
@@ -223,7 +223,7 @@ def test_bootstrap_ci_covers_a_known_compression_at_its_nominal_rate():
     whose true compression along the saccade is 0.5: the 95 % CIs of ``resample_cells`` hold 0.5 in
     88-99 % of them (the binomial s.d. of 95 % over 200 is 1.5 %); a plain within-cell resample of 4
     repetitions would fall short (its variance is 3/4 of the truth's)."""
-    from experiments.phenomena import _cells, _index, resample_cells
+    from experiments.psychophysics.phenomena import _cells, _index, resample_cells
 
     rng = np.random.default_rng(7)
     hits, widths = 0, []
@@ -239,7 +239,7 @@ def test_bootstrap_ci_covers_a_known_compression_at_its_nominal_rate():
 
 
 def test_resample_cells_keeps_each_cell_and_its_variance():
-    from experiments.phenomena import _cells, resample_cells
+    from experiments.psychophysics.phenomena import _cells, resample_cells
 
     rng = np.random.default_rng(0)
     t = _observer_table(rng, 0.5, 1.0, 4)

@@ -37,7 +37,7 @@ def test_every_model_is_a_registered_theory():
 
 def _sources() -> list[Path]:
     pkg = ROOT / "experiments" / "psychophysics"
-    return [pkg / "trial.py", pkg / "analysis.py", ROOT / "experiments" / "phenomena.py",
+    return [pkg / "trial.py", pkg / "analysis.py", pkg / "phenomena.py",
             *sorted((pkg / "theories").glob("*.py")), *sorted((ROOT / "experiments" / "modelfit").glob("*.py"))]
 
 

@@ -21,8 +21,7 @@ so the numpy agents need neither.
 
 from .cem import CEMConfig, train_cem
 from .curve import plot_learning_curve, plot_runs, plot_training_log, read_training_log
-from .policies import (BrightestCellPolicy, LinearCellPolicy, RandomPolicy, cell_features,
-                       feature_names, load_policy)
+from .policies import BrightestCellPolicy, LinearCellPolicy, RandomPolicy, cell_features, feature_names, load_policy
 from .rollout import DEFAULT_ENV_KWARGS, Evaluation, episode_seeds, evaluate, make_env
 from .runfolder import check_settings
 from .saved import read_unit, write_unit

@@ -25,8 +25,9 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -99,11 +100,13 @@ def _load(run: Path, agent: str, deterministic: bool):
 def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, seeds: tuple[int, ...] = (0, 1, 2),
                   episodes: int = 100, eval_seed: int = 1, timesteps: int | None = None, quick: bool = False,
                   image_size: int | None = None, hyperparams: dict[str, str | Path] | None = None,
-                  log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+                  log: Callable[[str], None] = print, workers: int = 1, backend: str = "local",
+                  ray_address: str | None = None) -> list[dict[str, Any]]:
     """Train and evaluate ``agents`` x ``seeds`` on ``task`` into ``out`` (see the module docstring),
     resuming a folder of the same study; returns the table's rows. ``timesteps`` overrides the PPO/SAC
     budget, ``quick`` shrinks every run (tests), ``image_size`` overrides the env's (96 by default),
-    ``hyperparams`` maps ``ppo``/``sac`` to YAML files other than ``experiments/hyperparams/<algo>.yml``."""
+    ``hyperparams`` maps ``ppo``/``sac`` to YAML files other than ``experiments/hyperparams/<algo>.yml``.
+    ``workers``, ``backend``, ``ray_address``: the runs to train at once, on local processes or Ray actors."""
     from .hyperparams import load_hyperparams
 
     agents, seeds = tuple(agents), tuple(int(s) for s in seeds)
@@ -114,6 +117,9 @@ def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, 
         raise ValueError("agents and seeds must be non-empty and without repeats")
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1; got {episodes}")
+    from ..psychophysics.backends import check_backend
+
+    check_backend(backend, ray_address)
     if quick and timesteps is None:
         timesteps = 256
     hyperparams = dict(hyperparams or {})
@@ -126,7 +132,7 @@ def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, 
             hps[a] = quick_hyperparams(a, hp) if quick else hp
     if hps:
         try:
-            import stable_baselines3  # noqa: F401
+            import stable_baselines3  # noqa: F401  (imported only to check that it is installed)
         except ImportError:
             raise ValueError("agents ppo/sac need the 'rl' extra: pip install -e '.[rl]' (CPU torch first)") from None
     study = {"version": STUDY_VERSION, "task": task, "episodes": int(episodes), "eval_seed": int(eval_seed),
@@ -138,7 +144,8 @@ def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, 
         size = int(image_size or 96)
         held_seeds = episode_seeds(eval_seed, episodes, EVAL_STREAM)  # = evaluate --episodes N --seed S
         reference = _reference(out / "reference.json", task, size, held_seeds, eval_seed, log)
-        results: dict[str, list[dict]] = {a: [] for a in agents}
+        finished: dict[tuple[str, int], dict] = {}
+        todo = []
         for a in agents:
             for s in seeds:
                 run = _run_dir(out, a, s)
@@ -147,24 +154,79 @@ def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, 
                     raise ValueError(f"{run} was trained with other {a} hyper-parameters than the current ones; "
                                      "use another --out, or delete that run to train it again")
                 if done is None:
-                    log(f"baselines {task}: training {a} seed {s} ...")
-                    trained = _train_one(run, a, task, s, hps.get(a), timesteps, quick, size, log)
-                    done = {"agent": a, "seed": s, **trained, "hyperparams": hps.get(a)}
-                    for mode in ((True, False) if a != "cem" else (True,)):
-                        pol = _load(run, a, deterministic=mode)
-                        if a != "cem":
-                            pol.seed(eval_seed)
-                        env = make_env(task, **pol.metadata.get("env_kwargs", {}))
-                        try:
-                            done["deterministic" if mode else "stochastic"] = _held_out(env, pol, held_seeds, eval_seed)
-                        finally:
-                            env.close()
-                    write_json(run / "heldout.json", done)
+                    todo.append((run, a, task, s, hps.get(a), timesteps, quick, size, held_seeds, eval_seed))
+                else:
+                    finished[a, s] = done
+        for job, done in zip(todo, _train_all(todo, workers, backend, ray_address, log)):
+            finished[job[1], job[3]] = done
+        results: dict[str, list[dict]] = {a: [] for a in agents}
+        for a in agents:
+            for s in seeds:
+                done = finished[a, s]
                 log(f"baselines {task}: {a} seed {s}: held-out success {done['deterministic']['success_rate']:.2f}"
                     + (f" (sampled {done['stochastic']['success_rate']:.2f})" if "stochastic" in done else ""))
                 results[a].append(done)
         rows = _table(out, task, results, reference)
     return rows
+
+
+def _train_and_evaluate(run: Path, a: str, task: str, s: int, hp: dict | None, timesteps: int | None, quick: bool,
+                        size: int, held_seeds: np.ndarray, eval_seed: int, log: Callable[[str], None] = print) -> dict:
+    """One run: train (or resume) it, evaluate it on the held-out episodes, write ``heldout.json``."""
+    log(f"baselines {task}: training {a} seed {s} ...")
+    trained = _train_one(run, a, task, s, hp, timesteps, quick, size, log)
+    done = {"agent": a, "seed": s, **trained, "hyperparams": hp}
+    for mode in ((True, False) if a != "cem" else (True,)):
+        pol = _load(run, a, deterministic=mode)
+        if a != "cem":
+            pol.seed(eval_seed)
+        env = make_env(task, **pol.metadata.get("env_kwargs", {}))
+        try:
+            done["deterministic" if mode else "stochastic"] = _held_out(env, pol, held_seeds, eval_seed)
+        finally:
+            env.close()
+    write_json(run / "heldout.json", done)
+    return done
+
+
+def _job(job: tuple) -> dict:
+    """A worker's run (in a spawned process or a Ray actor): its log lines go to stderr."""
+    import sys
+
+    return _train_and_evaluate(*job, log=lambda msg: print(msg, file=sys.stderr, flush=True))
+
+
+def _no_setup() -> None:
+    pass
+
+
+def _train_all(todo: list[tuple], workers: int, backend: str, ray_address: str | None, log) -> list[dict]:
+    """The runs of ``todo``, in its order: in this process (``workers`` 1, local), on spawned
+    processes, or on Ray actors (``psychophysics.backends``). Each run is seeded, so where it runs
+    changes no number (its wall time aside)."""
+    if not todo:
+        return []
+    if backend == "ray":
+        from ..psychophysics.backends import ray_map
+
+        out: list = [None] * len(todo)
+
+        def done(k: int, result: list) -> None:
+            out[k] = result[0]
+
+        ray_map(_no_setup, (), _jobs, [[job] for job in todo], done, workers=workers, address=ray_address)
+        return out
+    if workers == 1 or len(todo) == 1:
+        return [_train_and_evaluate(*job, log=log) for job in todo]
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(min(workers, len(todo)), mp_context=mp.get_context("spawn")) as pool:
+        return list(pool.map(_job, todo))
+
+
+def _jobs(batch: list[tuple]) -> list[dict]:
+    return [_job(job) for job in batch]
 
 
 def _check_study(path: Path, study: dict) -> None:
@@ -259,7 +321,12 @@ def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict
                                                   "mean_return": summarize_runs(ret)["iqm"]}
     for k, v in reference.items():
         lines[f"{NAMES[k]}, held-out"] = {"success_rate": v["success_rate"], "mean_return": v["mean_reward"]}
+    keys = ("success_rate", "mean_return", "train_success_rate")
+    if not curves and "cem" in results:  # CEM alone: its validation curve (training_log.csv, a row per iteration)
+        logs = [read_training_log(_run_dir(out, "cem", r["seed"]) / "training_log.csv") for r in results["cem"]]
+        curves = {_name("cem", results["cem"]): [{**log, "mean_return": log["mean_reward"]} for log in logs]}
+        keys = ("success_rate", "mean_return")
     if curves:
-        plot_runs(curves, lines, out / "curves.png", keys=("success_rate", "mean_return", "train_success_rate"),
+        plot_runs(curves, lines, out / "curves.png", keys=keys,
                   title=f"{task}: IQM over seeds with a bootstrap 95 % band; lines: held-out")
     return rows

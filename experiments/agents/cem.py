@@ -45,7 +45,7 @@ class CEMConfig:
     eval_episodes: int = 40  # validation episodes per iteration (and for the baselines)
 
     @classmethod
-    def quick(cls) -> "CEMConfig":
+    def quick(cls) -> CEMConfig:
         return cls(iterations=5, population=12, episodes=4, eval_episodes=16)
 
     def validate(self) -> None:

@@ -15,7 +15,7 @@ periphery are not neighbours), so a stack of them is *equivariant* to rolls alon
   (the spatial soft-argmax of Levine, Finn, Darrell & Abbeel 2016), for the continuous ``Box`` action.
 
 Pure torch; :mod:`experiments.agents.sb3` wraps them for Stable-Baselines3, and
-:mod:`experiments.skrl_recipe` uses :class:`CorticalEncoder` for the batched engine's learner.
+:mod:`experiments.agents.skrl_recipe` uses :class:`CorticalEncoder` for the batched engine's learner.
 """
 
 from __future__ import annotations

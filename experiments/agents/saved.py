@@ -141,7 +141,10 @@ def unpack(skeleton: Any, arrays: dict[str, np.ndarray], tensors: bool = False) 
 def _bound(a: np.ndarray) -> Any:
     flat = np.unique(a)
     one = flat[0] if flat.size == 1 else None
-    enc = (lambda x: x if math.isfinite(x) else repr(x))
+
+    def enc(x):
+        return x if math.isfinite(x) else repr(x)
+
     return enc(float(one)) if one is not None else [enc(float(x)) for x in a.ravel()]
 
 

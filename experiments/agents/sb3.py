@@ -37,7 +37,17 @@ from ..folders import append_csv_row, write_csv, write_json
 from .extractors import CorticalEncoder, SoftArgmaxSaccade, cell_saccade_vectors
 from .rollout import episode_seeds, evaluate, make_env
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
-from .saved import file_sha256, pack, read_unit, rng_state, set_rng_state, space_from_json, space_to_json, unpack, write_unit
+from .saved import (
+    file_sha256,
+    pack,
+    read_unit,
+    rng_state,
+    set_rng_state,
+    space_from_json,
+    space_to_json,
+    unpack,
+    write_unit,
+)
 
 __all__ = ["CURVE_COLUMNS", "VALIDATION_STREAM", "CorticalActorCritic", "CorticalFeatures", "CorticalSAC",
            "SB3Agent", "architecture", "finished_meta", "load_agent", "make_rl_env", "plan_run", "read_agent_meta",

@@ -10,7 +10,7 @@ equals the mean; the interval is then wide, as it should be.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 from scipy import stats

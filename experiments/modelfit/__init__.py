@@ -5,13 +5,14 @@
 sets and their provenance (``modelfit.published``, ``experiments/data/published/``).
 """
 
+from .crossval import CrossvalFolderError, crossvalidate
 from .data import OPTIONAL, REQUIRED, DataConventionWarning, DataFormatError, LocalizationData, read_data
 from .fitting import IMAGE_SIZE, FitError, FitFolderError, compare, fit, fit_key, simulate_data
 from .forward import ForwardModel, ForwardModelError, forward_model
 from .likelihood import FIT_MODELS, NESTED, FitModel, Parameter
 from .observe import BACKENDS, observe_trials
-from .crossval import CrossvalFolderError, crossvalidate
-from .published import PUBLISHED_DIR, check as check_published
+from .published import PUBLISHED_DIR
+from .published import check as check_published
 
 __all__ = ["REQUIRED", "OPTIONAL", "DataFormatError", "DataConventionWarning", "LocalizationData", "read_data", "fit",
            "compare", "simulate_data", "IMAGE_SIZE", "FitError", "FitFolderError", "fit_key", "ForwardModel",

@@ -152,6 +152,7 @@ def _unpack(a: dict, n_flash: int, trials: list, runner) -> list:
     import dataclasses
 
     import models
+
     from ..psychophysics.targetmap import CentredSamples
     from ..psychophysics.trial import Observation
 

@@ -27,6 +27,7 @@ import argparse
 from pathlib import Path
 
 from ..cli import GENERATOR_HELP, amplitude_list, bounded, generator_file, guarded, int_in, out_dir, out_file
+from ..cli.options import add_backend_options, add_workers_option, check_backend_options, seed_type
 
 __all__ = ["add_subcommands", "bundled_data"]
 
@@ -103,12 +104,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", type=bundled_data, required=True,
                    help=f"CSV or Parquet data file (bundled: {EXAMPLE.name}, found by that name)")
     p.add_argument("--out", type=out_dir, required=True, help="output folder (created; the same fit there resumes)")
-    p.add_argument("--backend", choices=("local", "ray"), default="local",
-                   help="where trials are observed: local processes, or Ray (local instance, or --ray-address)")
-    p.add_argument("--ray-address", default=None, metavar="ADDR",
-                   help="with --backend ray: a Ray cluster to join (e.g. ray://head:10001 or auto); default: "
-                        "start a local instance")
-    p.add_argument("--workers", type=int_in(1, 256), default=2, help="processes / Ray actors, 1-256")
+    add_backend_options(p)
+    add_workers_option(p)
     p.add_argument("--max-evals", type=int_in(10, 100000), default=300,
                    help="likelihood evaluations of the optimizer per model, 10-100000")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -123,13 +120,7 @@ def _prepare(args):
     from .forward import ForwardModelError, forward_model
 
     parser = args._parser
-    if args.ray_address is not None and args.backend != "ray":
-        parser.error("argument --ray-address: only with --backend ray (the local backend starts no cluster)")
-    if args.backend == "ray":
-        try:
-            import ray  # noqa: F401
-        except ImportError:
-            parser.error("argument --backend: ray is not installed: pip install -e \".[ray]\"")
+    check_backend_options(args, parser)
     try:
         data = read_data(args.data)
     except DataFormatError as e:
@@ -267,8 +258,8 @@ def add_subcommands(subparsers) -> None:
     p.add_argument("--amplitudes", type=amplitude_list, default=(16.0, 24.0), metavar="DEG,...",
                    help="saccade amplitudes (deg), each once")
     p.add_argument("--reports", type=int_in(1, 100), default=3, help="noisy reports per trial, 1-100")
-    p.add_argument("--seed", type=int_in(0, 2**31 - 1), default=0, help="seed of the trials and the report noise")
-    p.add_argument("--workers", type=int_in(1, 256), default=1, help="processes observing the trials, 1-256")
+    p.add_argument("--seed", type=seed_type(), default=0, help="seed of the trials and the report noise")
+    add_workers_option(p, default=1, what="processes observing the trials")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--out", type=out_file(".csv"), required=True,
                    help="CSV file to write (a .json of the same name beside it holds the parameters and the "

@@ -15,58 +15,18 @@ perceived_x_deg,           yes       where it was reported (the mean, for a cond
 perceived_y_deg                      +-90 deg; ``perceived_y_deg`` may be empty where a study measured
                                      only the error along the saccade (1-D localization: the row's
                                      likelihood uses x alone)
-condition                  no        ``references`` (default) or ``dark`` (case and surrounding
-                                     spaces ignored)
+condition                  no        ``references`` (default) or ``dark`` (case, spaces ignored)
 n                          no        trials behind the row: a whole number in [1, 10**9] (default 1:
                                      a single trial)
 sd_x_deg, sd_y_deg         no        per-axis SD of the reports of a condition mean, in [0, 90]
                                      (needs n >= 2); an empty cell (Parquet: null) = not given
 =========================  ========  =============================================================
 
-The trials table that ``python -m experiments run`` writes has these columns, so a simulated run
-can be fitted as it is; other columns are ignored. CSV or Parquet (by the file's suffix:
-``.parquet`` or ``.pq`` is Parquet, anything else CSV).
+``run``'s trials table has these columns (a simulated run is fitted as it is; other columns are
+ignored). CSV or Parquet (suffix ``.parquet`` or ``.pq``).
 
-What is checked (every problem is a :class:`DataFormatError` whose message names the file, the rows
-and the column, and says how to fix it; rows count the header as row 1, as a spreadsheet does,
-blank lines included; for Parquet, row r is the data row at index r - 2):
-
-* the file: missing, a directory or not a regular file, unreadable (permissions), empty (0 bytes),
-  binary (NUL bytes, UTF-16 such as Excel's "Unicode Text", an Excel workbook, a Parquet file
-  named ``.csv``), not UTF-8 (the line and column of the first bad byte), an unreadable Parquet
-  file, a Parquet file with no columns;
-* the CSV structure: a UTF-8 byte-order mark (Excel's "CSV UTF-8") is read, not reported; spaces
-  around header names are ignored; a header separated by ``;`` or tabs, a first row of numbers (no
-  header), a required or optional column named twice, rows with more fields than the header (empty
-  trailing fields are allowed) or fewer, a repeat of the header line inside the data, a field over
-  the csv module's size limit (usually an unclosed quote) are errors; lines with every field empty
-  are skipped; a header and no data rows is an error;
-* the values: required cells empty or not plain numbers (``.`` as the decimal point, no units;
-  ``inf``/``nan`` are numbers but fail the range checks), booleans and non-numeric Parquet types
-  (strings of numbers are read like CSV cells), the ranges in the table above, whole milliseconds,
-  whole n in [1, 10**9] (so ``1e400`` or ``10**30`` cannot overflow), finite SDs in [0, 90] only
-  on rows with n >= 2 (``inf``/``nan`` SDs are errors: leave the cell empty when not given);
-* duplicated rows (identical in every column of the file) are an error naming both rows: a
-  repeated trial row is almost always a copy-paste mistake; distinct trials with identical values
-  go into one row with n (and ``sd_x_deg = sd_y_deg = 0``, which makes the row equivalent to the
-  separate trials in the likelihood).
-
-Conventions that cannot be decided from the file are read as documented above and reported with a
-:class:`DataConventionWarning` (``warnings.warn``) that says what was assumed, when the file has
-passed every check:
-
-* every ``saccade_amplitude_deg < 1``: looks like radians (40 deg is 0.70 rad); read as degrees;
-* every ``flash_time_ms`` within [-1, 1]: looks like seconds; read as milliseconds (non-whole
-  values in that range are an error whose message says so);
-* every ``true_x_deg < 0``: every flash lies left of straight ahead, on the side the saccade starts
-  from in this format, where flashes usually lie around the target at +A/2; looks like leftward
-  saccades that were not mirrored (negate ``true_x_deg`` and ``perceived_x_deg``); read as given;
-* ``perceived_x_deg`` (or ``_y_``) anti-correlated with ``true_x_deg`` (correlation < -0.5 over at
-  least 10 rows with at least 2 flash positions on that axis): reports fall where flashes rise, a
-  mirrored axis (e.g. screen coordinates, y down, for one of them); read as given.
-
-Not checked (no sound test): a fixation at 0 and target at +A instead of -A/2 and +A/2, flash
-times re saccade offset, SEMs given as SDs.
+The checks (a :class:`DataFormatError` names the file, rows and column), the conventions reported
+with a :class:`DataConventionWarning`, and what is not checked: ``docs/psychophysics/fitting.md``.
 """
 
 from __future__ import annotations

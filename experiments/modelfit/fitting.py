@@ -159,6 +159,7 @@ class _Log:
         self.path, self.key, self.free = path, key, free
         self.header = ["fit_key", "log_likelihood", *free, *_NOISE, "crc32"]
         self.memo: dict[tuple, tuple] = {}
+        self.read: set[tuple] = set()  # the keys read from the file (an earlier run's evaluations)
         self.fh = None
         if path is None:
             return
@@ -182,6 +183,7 @@ class _Log:
         from ..folders import atomic_write_text
 
         atomic_write_text(path, "\n".join([",".join(self.header), *kept]) + "\n")
+        self.read = set(self.memo)
         self.fh = path.open("a", encoding="utf-8")
 
     def _parse(self, line: str):
@@ -269,7 +271,7 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
         k = tuple(repr(float(values[n])) for n in free_names)
         hit = log.memo.get(k)
         if hit is not None:
-            replayed += 1
+            replayed += k in log.read  # a point this run evaluated before is no read-back
             ll, nx, ny = hit
             full = {**{n: float(v) for n, v in zip(free_names, k)}, "noise_x_deg": nx, "noise_y_deg": ny}
         else:
@@ -522,9 +524,11 @@ SIMULATED_COLUMNS = ("saccade_amplitude_deg", "flash_time_ms", "true_x_deg", "tr
 
 def simulate_data(model: str, values: dict, design, conditions=("references", "dark"), reports: int = 1,
                   seed: int = 0, out_csv=None, *, workers: int = 1, image_size: int = IMAGE_SIZE, config=None,
-                  progress: bool = False, meta: dict | None = None) -> LocalizationData:
+                  progress: bool = False, meta: dict | None = None, backend: str = "local",
+                  ray_address: str | None = None) -> LocalizationData:
     """A data set from ``model`` at parameter ``values`` (noise included): every trial of ``design``
-    in each condition, ``reports`` noisy reports each (seeded).
+    in each condition, ``reports`` noisy reports each (seeded); observed on ``workers`` processes or
+    Ray actors (``backend``).
 
     ``config``: the observing ``TrialConfig`` (default: the defaults at ``image_size`` px). Written
     to ``out_csv`` if given (atomically; columns ``SIMULATED_COLUMNS``), with a sidecar
@@ -544,7 +548,8 @@ def simulate_data(model: str, values: dict, design, conditions=("references", "d
     trials = list(design.trials())
     for cond in conditions:
         cfg0 = replace(base, condition=cond)
-        obs = observe_trials(trials, cfg0, None, workers=workers, progress=progress)
+        obs = observe_trials(trials, cfg0, None, workers=workers, progress=progress, backend=backend,
+                             ray_address=ray_address)
         runner = TrialRunner(cfg0)
         cfg = m.trial_config(cfg0, values)
         try:

@@ -125,9 +125,10 @@ def _sidecar(path: Path, cols: dict) -> tuple[dict | None, str]:
     return meta["config"], str(meta_path)
 
 
-def forward_model(data, overrides: dict | None = None) -> ForwardModel:
+def forward_model(data, overrides: dict | None = None, *, note: bool = True) -> ForwardModel:
     """The forward model of ``data`` (a ``LocalizationData`` read from ``data.source``) with the
-    command line's ``overrides`` (``OBSERVING_OPTIONS`` -> value; ``None`` = not given)."""
+    command line's ``overrides`` (``OBSERVING_OPTIONS`` -> value; ``None`` = not given). ``note``: say
+    on stderr which overrides change the data's sidecar (off where the caller sets them by design)."""
     from ..psychophysics import TrialConfig
 
     path = Path(data.source) if data.source else None
@@ -145,7 +146,7 @@ def forward_model(data, overrides: dict | None = None) -> ForwardModel:
                                     "localization reports only: remove those rows")
     given = {k: v for k, v in (overrides or {}).items() if v is not None}
     changed = {k: v for k, v in given.items() if getattr(config, k) != v}
-    if changed and source:
+    if changed and source and note:
         print(f"note: {', '.join(f'{k}={v}' for k, v in changed.items())} from the command line override "
               f"{source}", file=sys.stderr)
     try:

@@ -28,9 +28,9 @@ import sys
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
-__all__ = ["BACKENDS", "observe_trials", "observation_key"]
+from ..psychophysics.backends import BACKENDS
 
-BACKENDS = ("local", "ray")
+__all__ = ["BACKENDS", "observe_trials", "observation_key"]
 _RUNNER = None
 
 
@@ -108,49 +108,21 @@ def _local(trials, config, workers: int, progress) -> list:
 
 
 def _ray(trials, config, workers: int, address: str | None, progress) -> list:
-    try:
-        import ray
-    except ImportError:
-        raise RuntimeError("the ray backend needs Ray: pip install -e \".[ray]\" (or pip install ray)") from None
-    started = False
-    if not ray.is_initialized():
-        if address:
-            ray.init(address=address, include_dashboard=False, log_to_driver=False)
-        else:
-            ray.init(num_cpus=max(1, workers), include_dashboard=False, log_to_driver=False)
-        started = True
-    try:
-        @ray.remote(num_cpus=1)
-        class Observer:
-            def __init__(self, cfg, driver_pid):
-                if driver_pid is not None:  # a local instance: exit with the driver, even after its kill -9
-                    from ..folders import die_with
+    from ..psychophysics.backends import ray_map
 
-                    die_with(driver_pid)
-                _init(cfg)
+    n_actors = max(1, min(workers, len(trials)))
+    batches = _batches(list(range(len(trials))), n_actors)
+    small = [idx[j:j + 8] for idx in batches for j in range(0, len(idx), 8)]
+    out = [None] * len(trials)
 
-            def observe(self, batch):
-                return _observe_batch(batch)
+    def done(k: int, obs: list) -> None:
+        for i, o in zip(small[k], obs):
+            out[i] = o
+        progress(len(small[k]))
 
-        n_actors = max(1, min(workers, len(trials)))
-        actors = [Observer.remote(config, None if address else os.getpid()) for _ in range(n_actors)]
-        batches = _batches(list(range(len(trials))), n_actors)
-        small = [idx[j:j + 8] for idx in batches for j in range(0, len(idx), 8)]
-        refs = {actors[k % n_actors].observe.remote([trials[i] for i in idx]): idx for k, idx in enumerate(small)}
-        out = [None] * len(trials)
-        pending = list(refs)
-        while pending:
-            ready, pending = ray.wait(pending, num_returns=1)
-            for r in ready:
-                for i, o in zip(refs[r], ray.get(r)):
-                    out[i] = o
-                progress(len(refs[r]))
-        for a in actors:
-            ray.kill(a)
-        return out
-    finally:
-        if started:
-            ray.shutdown()
+    ray_map(_init, (config,), _observe_batch, [[trials[i] for i in idx] for idx in small], done,
+            workers=n_actors, address=address)
+    return out
 
 
 def observe_trials(trials: list, config, cache_dir: Path | None = None, *, backend: str = "local", workers: int = 1,

@@ -19,6 +19,7 @@ no-op when finished).
 from __future__ import annotations
 
 import argparse
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,7 @@ MOTOR_NOISE = 0.05  # saccade endpoint s.d., fraction of amplitude (van Beers 20
 
 
 def _design(size: str):
-    from ..psychophysics import Design, MORRONE_OFFSETS_DEG
+    from ..psychophysics import MORRONE_OFFSETS_DEG, Design
 
     if size == "small":  # for tests: 4 flashes x 3 times
         return Design(amplitudes_deg=(20.0,), flash_offsets_deg=MORRONE_OFFSETS_DEG[:4], flash_times_ms=(-150, -25, 50),
@@ -44,12 +45,14 @@ def _design(size: str):
 
 def recover(out: Path, models=GENERATING, *, size: str = "default", reports: int = 2, noise_deg: float = 1.5,
             image_size: int = 128, max_evals: int = 120, workers: int = 1, seed: int = 0,
-            progress: bool = False) -> list[dict]:
-    """Simulate from each model, fit every model to each data set; write and return the rows."""
+            progress: bool = False, backend: str = "local", ray_address: str | None = None) -> list[dict]:
+    """Simulate from each model, fit every model to each data set; write and return the rows.
+    ``workers``, ``backend``, ``ray_address``: where the trials are observed (``backends``)."""
     from ..folders import write_csv
     from ..psychophysics import TrialConfig
-    from .data import read_data
+    from .data import DataConventionWarning, read_data
     from .fitting import compare, simulate_data
+    from .forward import forward_model
     from .likelihood import FIT_MODELS
 
     design = _design(size)
@@ -63,11 +66,17 @@ def recover(out: Path, models=GENERATING, *, size: str = "default", reports: int
         values.update(noise_x_deg=noise_deg, noise_y_deg=noise_deg)
         if not csv_path.is_file() or not csv_path.with_suffix(".json").is_file():
             simulate_data(gen, values, design, reports=reports, seed=seed + g, out_csv=csv_path, workers=workers,
-                          config=config, progress=progress,
+                          config=config, progress=progress, backend=backend, ray_address=ray_address,
                           meta={"recovery": "generated at the model's defaults with motor noise"})
-        data = read_data(csv_path)
+        with warnings.catch_warnings():
+            # the data are this run's own simulation, in the format's conventions; the convention
+            # heuristics (e.g. perceived falling as true rises: compression) would only alarm the user
+            warnings.simplefilter("ignore", DataConventionWarning)
+            data = read_data(csv_path)
+        # the fits' forward model leaves out the motor noise by design (no note about an override)
+        fwd = forward_model(data, {"endpoint_noise": 0.0}, note=False)
         fits = compare(data, list(models), folder / "fits", workers=workers, max_evals=max_evals,
-                       observing={"endpoint_noise": 0.0}, progress=progress)
+                       forward=fwd, progress=progress, backend=backend, ray_address=ray_address)
         best = min(fits, key=lambda r: r["aic"])["model"]
         for r in fits:
             rows.append({"generating": gen, "fitted": r["model"], "log_likelihood": round(r["log_likelihood"], 3),
@@ -104,16 +113,18 @@ def _plot(rows: list[dict], models: list[str], path: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..cli import guarded
+    from ..cli.options import check_backend_options
     from ..folders import path_lock
     from ..psychophysics.runner import FolderBusyError, prepare_output_folder
 
+    check_backend_options(args, args._parser)
     out = prepare_output_folder(args.out)
 
     def work() -> int:
         with path_lock(out / ".recovery.lock"):
             rows = recover(out, size=args.size, reports=args.reports, noise_deg=args.noise_deg,
                            image_size=args.image_size, max_evals=args.max_evals, workers=args.workers,
-                           progress=not args.no_progress)
+                           progress=not args.no_progress, backend=args.backend, ray_address=args.ray_address)
         for gen in GENERATING:
             mine = [r for r in rows if r["generating"] == gen]
             order = ", ".join(f"{r['fitted']} {r['delta_aic']:+.1f}" for r in sorted(mine, key=lambda r: r["aic"]))
@@ -130,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
 
 def add_subcommand(subparsers) -> None:
     from ..cli import int_in, out_dir
+    from ..cli.options import add_backend_options, add_workers_option, image_size_type
 
     p = subparsers.add_parser("recovery", help="model recovery: simulate from each theory, fit every theory, "
                                                "confusion matrix of delta AIC", description=__doc__,
@@ -141,9 +153,10 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--reports", type=int_in(1, 20), default=2, metavar="N", help="noisy reports per trial (1-20)")
     p.add_argument("--noise-deg", type=float, default=1.5, metavar="DEG",
                    help="report noise s.d. of the simulated observers (deg; default 1.5)")
-    p.add_argument("--image-size", type=int_in(32, 512), default=128, metavar="PX", help="eye image side (32-512)")
+    p.add_argument("--image-size", type=image_size_type(), default=128, metavar="PX", help="eye image side (32-1024)")
     p.add_argument("--max-evals", type=int_in(10, 10_000), default=120, metavar="N",
                    help="likelihood evaluations per fit (10-10000)")
-    p.add_argument("--workers", type=int_in(1, 16), default=1, metavar="N", help="observing processes (1-16)")
+    add_workers_option(p, default=1, what="processes / Ray actors observing the trials")
+    add_backend_options(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run, _parser=p)

@@ -1,6 +1,6 @@
 """Eye-tracker recordings as they come from labs: EyeLink ASC files (:mod:`.asc`), tables of samples
 from any tracker (:mod:`.tables`), and the one way a saccade is measured (:mod:`.kinematics`).
-``experiments.eyetracking`` puts them together into a recording's main sequence."""
+``experiments.oculomotor.eyetracking`` puts them together into a recording's main sequence."""
 
 from .asc import AscData, AscError, parse_asc
 from .kinematics import SG_SPAN_MS, engbert_kliegl, measure_saccade, speed_deg_s, steps_ok, velocity

@@ -4,7 +4,7 @@ Trials run through the environment's pipeline (rendering, retina, DPFT, efferenc
 remapping into the target-centred frame, log-radius shift) and the perceived flash position is
 decoded from the remapped map through the eye-position signal and, when seen, the post-saccadic
 references; the perception theories are modules of ``theories``, found through its registry. ``python -m experiments run``
-drives a whole study (``experiments.study``).
+drives a whole study (``experiments.psychophysics.study``).
 
 The names below are imported on first use (PEP 562), so that the command line can read the
 parameter bounds (``bounds``) without loading MuJoCo.

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -38,17 +39,18 @@ import threading
 import time
 import warnings
 import zlib
+from collections.abc import Callable, Collection, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Collection, Iterable, Iterator
 
 import numpy as np
 
+from .backends import check_backend, ray_map
 from .bounds import Limit, check_int
 from .design import Design, Trial
-from .trial import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner
 from .snapshots import write_snapshot
+from .trial import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner
 
 __all__ = ["run_trials", "read_table", "write_parquet", "config_fingerprint", "config_hash", "TABLE_COLUMNS",
            "FolderBusyError", "OutputFolderError", "prepare_output_folder", "folder_lock"]
@@ -108,8 +110,8 @@ def _die_with_parent(parent_pid: int) -> None:
 
 def _init_worker(config: TrialConfig, parent_pid: int | None = None) -> None:
     global _WORKER
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group: the parent stops us
-    if parent_pid is not None:
+    if parent_pid is not None:  # a local pool's worker (a Ray actor is stopped by the driver, ray_map)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group: the parent stops us
         _die_with_parent(parent_pid)
     _WORKER = TrialRunner(config)
     _limit_threads()  # after TrialRunner: every BLAS/OpenMP library it loads is limited
@@ -452,10 +454,13 @@ def run_trials(
     limit: int | None = None,
     on_row: Callable[[dict], None] | None = None,
     examples: Collection[int] = (),
+    backend: str = "local",
+    ray_address: str | None = None,
 ) -> Path:
     """Run every trial of ``design`` not yet in ``out_dir/trials.csv``; returns the CSV path.
 
-    workers : processes (1 = in this process). limit : stop after this many new trials (for
+    workers : processes or Ray actors (1 = in this process). backend : ``local`` (processes) or ``ray``
+    (actors; a local instance, or the cluster at ``ray_address``: ``backends.ray_map``). limit : stop after this many new trials (for
     tests of resumption; the table is then left unsorted/partial, as after an interruption).
     A ``run.json`` beside the table records the design and configuration and every row carries its
     ``config_hash``: resuming with a different one raises ``ValueError``. Torn or damaged rows are
@@ -473,6 +478,7 @@ def run_trials(
     if not isinstance(config, TrialConfig):
         raise TypeError(f"config must be a TrialConfig; got {config!r}")
     workers = check_int("workers", workers)
+    check_backend(backend, ray_address)
     batch_size = check_int("batch_size", batch_size, _BATCH)
     if limit is not None:
         limit = check_int("limit", limit, _LIMIT)
@@ -481,11 +487,13 @@ def run_trials(
         raise ValueError("examples (snapshots for the recording) exist for the localization and separation "
                          "paradigms only")
     with folder_lock(out_dir) as out:
-        return _run_locked(design, config, out, workers, progress, batch_size, limit, on_row, examples)
+        return _run_locked(design, config, out, workers, progress, batch_size, limit, on_row, examples,
+                           backend, ray_address)
 
 
 def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, progress: bool, batch_size: int,
-                limit: int | None, on_row: Callable[[dict], None] | None, examples: frozenset = frozenset()) -> Path:
+                limit: int | None, on_row: Callable[[dict], None] | None, examples: frozenset = frozenset(),
+                backend: str = "local", ray_address: str | None = None) -> Path:
     csv_path, meta_path = out / "trials.csv", out / "run.json"
     fp = config_fingerprint(design, config)
     chash = config_hash(design, config)
@@ -531,7 +539,12 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
                 if bar is not None:
                     bar.update(len(rows))
 
-            if workers == 1 or len(todo) <= batch_size:
+            if backend == "ray" and todo:
+                size = max(1, min(batch_size, math.ceil(len(todo) / (4 * workers))))
+                batches = list(_batches(todo, size))
+                ray_map(_init_worker, (config,), functools.partial(_run_batch, snap=snap), batches,
+                        lambda k, results: emit(results), workers=workers, address=ray_address)
+            elif workers == 1 or len(todo) <= batch_size:
                 with _one_thread():
                     runner = TrialRunner(config)
                     try:

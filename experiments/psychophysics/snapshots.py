@@ -1,5 +1,5 @@
 """Example-trial snapshots: what a trial of the study showed and computed, kept in the results folder
-for the study's Rerun recording (``experiments.study.record_study``), so that the recording shows the
+for the study's Rerun recording (``experiments.psychophysics.study.record_study``), so that the recording shows the
 trials that ran, not a second run of them.
 
 The examples are one trial per flash time of one saccade amplitude (the amplitude nearest 20 deg), at

@@ -45,8 +45,8 @@ from .design import Trial
 from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS
 from .observer import ObserverParams
 from .population import PopulationParams
-from .targetmap import TargetCentredMap
 from .snapshots import scene_state
+from .targetmap import TargetCentredMap
 from .theories import theory
 from .timecourse import RemapTimeCourse
 

@@ -7,12 +7,16 @@ import os
 import signal
 import sys
 
+from ..cli.options import ENV_TASKS
+from ..psychophysics.bounds import LIMITS
 from .display import _no_display_message, display_available
 from .env_run import record_env_run
 from .web_viewer import WebViewer
 
 #: Bounds of the numeric options of ``visualize`` (inclusive).
-OPTION_BOUNDS = {"steps": (1, 100), "seed": (0, 2**32 - 1), "image_size": (16, 1024), "fixation_ms": (1, 10_000),
+#: ``seed`` and ``image_size`` are every command's (``psychophysics.bounds.LIMITS``, ``cli.options``).
+OPTION_BOUNDS = {"steps": (1, 100), "seed": (LIMITS["seed"].lo, LIMITS["seed"].hi),
+                 "image_size": (LIMITS["image_size"].lo, LIMITS["image_size"].hi), "fixation_ms": (1, 10_000),
                  "serve_seconds": (1, 7 * 24 * 3600), "web_port": (0, 65535), "grpc_port": (0, 65535)}
 
 
@@ -211,7 +215,7 @@ def _add_visualize(subparsers) -> None:
                    help=f"number of saccades (env steps) to record, {b['steps'][0]}..{b['steps'][1]} (default 4)")
     p.add_argument("--seed", type=_whole(*b["seed"]), default=0,
                    help=f"seed of the env and of the saccade choices, {b['seed'][0]}..{b['seed'][1]} (default 0)")
-    p.add_argument("--task", choices=("fixate", "search", "free"), default="fixate",
+    p.add_argument("--task", choices=ENV_TASKS, default="fixate",
                    help="env task (default fixate)")
     p.add_argument("--scene", choices=("bar", "dots", "natural", "search"), default=None,
                    help="scene (default: the task's; fixate uses dots, which has flashes)")

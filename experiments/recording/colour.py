@@ -18,7 +18,7 @@ range (0, 0).
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -41,7 +41,7 @@ PANEL_SCALES: dict[str, tuple[str, str]] = {
 LOG_DECADES = 3.0
 
 
-@lru_cache(maxsize=None)
+@cache
 def colormap_lut(name: str) -> np.ndarray:
     """matplotlib's colour map ``name`` as a (256, 3) uint8 table."""
     import matplotlib

@@ -7,16 +7,17 @@ import datetime
 import math
 import os
 import uuid
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import rerun as rr
 
 import conformal as C
 
-from ..blueprint import blueprint
-from .display import _no_display_message, display_available
+from .blueprint import blueprint
 from .colour import gain_scaled, log_scaled, symmetric_scaled
+from .display import _no_display_message, display_available
 from .images import grid_strips, hemisphere_image, pinhole_matrix
 from .scene_geometry import POSE_TOLERANCE, SceneGeometry
 
@@ -122,7 +123,7 @@ class Recorder:
         self._closed = False
 
     # ------------------------------------------------------------------ plumbing
-    def __enter__(self) -> "Recorder":
+    def __enter__(self) -> Recorder:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -241,7 +241,7 @@ class WebViewer:
         if getattr(self, "_log", None) is not None and not self._log.closed:
             self._log.close()
 
-    def __enter__(self) -> "WebViewer":
+    def __enter__(self) -> WebViewer:
         return self
 
     def __exit__(self, *exc) -> None:

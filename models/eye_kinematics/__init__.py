@@ -6,12 +6,28 @@ Numpy (and the compiled kernels of ``models._plan_kernels``) only: pure-numpy co
 without MuJoCo. Angles are radians unless a name ends in ``_deg``; times are milliseconds.
 """
 
-from .fick import (PRIMARY_EYE_BASIS, eye_frame_basis, fick_angles, fick_matrix, gaze_direction, listing_torsion,
-                   rotation_vector, with_listing)
+from .fick import (
+                   PRIMARY_EYE_BASIS,
+                   eye_frame_basis,
+                   fick_angles,
+                   fick_matrix,
+                   gaze_direction,
+                   listing_torsion,
+                   rotation_vector,
+                   with_listing,
+)
 from .fixation import cyclopean_amplitude, displaced, fixation_angles, fixation_batch, noisy_endpoints
 from .main_sequence import MainSequence
-from .ranges import (H_RANGE, MAX_PEAK_VELOCITY, MIN_TARGET_DISTANCE, NULL_SACCADE, T_RANGE, V_RANGE,
-                     OculomotorRangeError, check_point)
+from .ranges import (
+                   H_RANGE,
+                   MAX_PEAK_VELOCITY,
+                   MIN_TARGET_DISTANCE,
+                   NULL_SACCADE,
+                   T_RANGE,
+                   V_RANGE,
+                   OculomotorRangeError,
+                   check_point,
+)
 
 __all__ = [
     "PRIMARY_EYE_BASIS", "fick_matrix", "fick_angles", "gaze_direction", "listing_torsion", "with_listing",

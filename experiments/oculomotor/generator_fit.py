@@ -1,6 +1,6 @@
 """Fit the burst generator's parameters to a recorded main sequence.
 
-:func:`fit_generator` takes the rows of ``experiments.eyetracking.main_sequence_rows`` (one per
+:func:`fit_generator` takes the rows of ``experiments.oculomotor.eyetracking.main_sequence_rows`` (one per
 saccade: amplitude, duration, peak velocity) and finds the ``models.BurstGenerator`` parameters
 named in ``fit`` (by default the burst's saturation ``burst_max_deg_s``, its scale
 ``burst_scale_deg`` and its lag ``burst_lag_ms``; the others keep their defaults and the result
@@ -17,19 +17,10 @@ recording, the threshold's cut of the slow tail and the amplitude measured on a 
 eye bias data and model alike. Predictions at each saccade's measured amplitude are interpolated
 on that grid.
 
-Residuals, per saccade: ``log(peak_obs / peak_model)`` and ``log(duration_obs / duration_model)``
-(relative errors), each divided by its own scatter (estimated from a first, unweighted fit; the
-fit is then repeated with those weights). 95 % CIs: percentile intervals of a bootstrap over the
-saccades (``bootstrap`` refits), and the asymptotic ones (``(J'J)^-1`` scaled by the residual
-variance at the optimum, on the fit's scale) beside them. :func:`identifiability` lists the
-parameters on a bound (``at_bounds``) and the reasons a fit is not identified (an estimate on a
-bound, a CI wider than the parameter's range); :func:`coverage` measures how often the CIs hold
-the generating values over simulated sessions. Tracker noise raises observed peak velocities (the maximum of a
-noisy speed) and shifts the threshold crossings; the forward model adds Gaussian noise of the
-recording's own level (``Recording.noise_deg``, estimated from sample-to-sample differences) to
-the simulated traces (48 draws) to get the measurement's bias at the current estimate, and
-refits the noise-free forward model corrected by that bias (twice): a noisy forward model inside
-the optimiser would make the objective rough (threshold crossings jump with each draw).
+Residuals, per saccade: ``log(peak_obs / peak_model)`` and ``log(duration_obs / duration_model)``,
+each divided by its own scatter (from a first, unweighted fit). 95 % CIs: a bootstrap over the
+saccades, with the asymptotic ones beside; :func:`identifiability` and :func:`coverage` say when
+they can be trusted; the tracker's noise enters through a bias correction (``docs/eyetracker.md``).
 
 :func:`plot_main_sequence` draws the data against the fitted and the default generator.
 """
@@ -43,7 +34,7 @@ import numpy as np
 
 from models.saccade_generator import PARAMETER_BOUNDS
 
-from .folders import save_figure
+from ..folders import save_figure
 
 __all__ = ["FitResult", "fit_generator", "identifiability", "coverage", "BOUND_TOLERANCE", "PARAMETER_BOUNDS", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
 
@@ -90,7 +81,7 @@ class FitResult:
 
     def to_file(self, path, **source) -> None:
         """Write ``generator.json`` (``BurstGenerator.to_file``) with the fit's CIs and provenance."""
-        from .folders import json_safe
+        from ..folders import json_safe
 
         if self.problems:
             raise ValueError(f"this fit is not identified ({'; '.join(self.problems)}): no generator file is written")

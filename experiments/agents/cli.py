@@ -16,21 +16,26 @@ import json
 import sys
 from pathlib import Path
 
-from .cli import int_in, out_dir
+from ..cli import int_in, out_dir
+from ..cli.options import (
+    TASKS,
+    add_backend_options,
+    add_workers_option,
+    check_backend_options,
+    image_size_type,
+    seed_type,
+)
 
 __all__ = ["add_subcommand", "baselines_command", "evaluate_command", "train_command"]
 
-TASKS = ("fixate", "search")
-
-
 _positive = int_in(1, 10**6)
-_seed = int_in(0, 2**32 - 1)
-_image_size = int_in(16, 512)
+_seed = seed_type()
+_image_size = image_size_type()
 
 
 def add_subcommand(subparsers) -> None:
     """Register ``train`` and ``evaluate``."""
-    from .agents.cem import CEMConfig
+    from .cem import CEMConfig
 
     d = CEMConfig()
     p = subparsers.add_parser(
@@ -73,7 +78,7 @@ def add_subcommand(subparsers) -> None:
                     "success_rate, mean_reward (mean episode return), mean_saccades, episodes, seed, policy.")
     e.add_argument("--task", choices=TASKS, default="fixate", help="env task (default: fixate)")
     e.add_argument("--policy", required=True,
-                   help="a folder written by 'train' or by the SB3 recipe (python -m experiments.sb3_recipe), or "
+                   help="a folder written by 'train' or by the SB3 recipe (python -m experiments.agents.sb3_recipe), or "
                         "'random' (uniform over cells), or 'heuristic' (saccade to the brightest cell); these two "
                         "bare names always mean the built-in policies (write ./random for a folder of that name); "
                         "the output's 'source' says which was used")
@@ -106,13 +111,15 @@ def add_subcommand(subparsers) -> None:
     b.add_argument("--image-size", type=_image_size, help="pixels per side of each eye's image (default 96)")
     b.add_argument("--ppo-hyperparams", type=Path, help="a YAML file instead of experiments/hyperparams/ppo.yml")
     b.add_argument("--sac-hyperparams", type=Path, help="a YAML file instead of experiments/hyperparams/sac.yml")
-    b.set_defaults(func=baselines_command)
+    add_workers_option(b, default=1, what="runs trained at once (processes / Ray actors)")
+    add_backend_options(b, "where the runs train")
+    b.set_defaults(func=baselines_command, _parser=b)
 
 
 def _cem_config(args: argparse.Namespace):
     from dataclasses import replace
 
-    from .agents.cem import CEMConfig
+    from .cem import CEMConfig
 
     cfg = CEMConfig.quick() if args.quick else CEMConfig()
     over = {k: getattr(args, a) for k, a in (("iterations", "iterations"), ("population", "population"),
@@ -127,8 +134,8 @@ TRAIN_RESUME = "what finished is kept in --out: run the same command again to re
 def train_command(args: argparse.Namespace) -> int:
     """``train``: one run into ``--out`` (locked; another run's folder refused; resumed after an
     interruption); SIGINT/SIGTERM end it with one line and exit 130/143."""
-    from .cli import guarded
-    from .folders import LockBusyError
+    from ..cli import guarded
+    from ..folders import LockBusyError
 
     if args.algo != "cem":
         cem_only = [o for o, a in (("--iterations", "iterations"), ("--population", "population"),
@@ -137,7 +144,7 @@ def train_command(args: argparse.Namespace) -> int:
             print(f"train: error: {', '.join(cem_only)} apply to --algo cem only", file=sys.stderr)
             return 2
         try:
-            import stable_baselines3  # noqa: F401
+            import stable_baselines3  # noqa: F401  (imported only to check that it is installed)
         except ImportError:
             print("train: error: --algo ppo/sac needs the 'rl' extra: pip install -e '.[rl]' (CPU torch first)",
                   file=sys.stderr)
@@ -153,9 +160,9 @@ def train_command(args: argparse.Namespace) -> int:
 
 
 def _train_cem(args: argparse.Namespace) -> int:
-    from .agents.cem import train_cem
-    from .agents.curve import plot_learning_curve
-    from .folders import path_lock
+    from ..folders import path_lock
+    from .cem import train_cem
+    from .curve import plot_learning_curve
 
     cfg = _cem_config(args)
     cfg.validate()
@@ -173,10 +180,10 @@ def _train_cem(args: argparse.Namespace) -> int:
 
 def _train_sb3(args: argparse.Namespace) -> int:
     """``train --algo ppo|sac``: :func:`experiments.agents.sb3.train_sb3` with the algorithm's YAML entry."""
-    from .agents.baselines import quick_hyperparams
-    from .agents.hyperparams import load_hyperparams
-    from .agents.sb3 import train_sb3
-    from .folders import path_lock
+    from ..folders import path_lock
+    from .baselines import quick_hyperparams
+    from .hyperparams import load_hyperparams
+    from .sb3 import train_sb3
 
     hp = load_hyperparams(args.algo, args.task, args.hyperparams)
     if args.image_size:
@@ -223,15 +230,15 @@ def evaluate_command(args: argparse.Namespace) -> int:
     """``evaluate``: a bare ``random`` or ``heuristic`` is always the built-in policy (a folder of
     that name is evaluated when written as a path, ``./random``); the JSON line's ``source`` says
     which was used."""
-    from .cli import guarded
+    from ..cli import guarded
 
     return guarded("evaluate", lambda: _evaluate(args), resume_hint="nothing was written",
                    errors={ValueError: 2, TypeError: 2, FileNotFoundError: 2, ImportError: 2})
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from .agents.policies import BrightestCellPolicy, RandomPolicy, load_policy
-    from .agents.rollout import EVAL_STREAM, episode_seeds, evaluate, make_env
+    from .policies import BrightestCellPolicy, RandomPolicy, load_policy
+    from .rollout import EVAL_STREAM, episode_seeds, evaluate, make_env
 
     env_kwargs: dict = {"image_size": args.image_size or 96}
     builtin = args.policy in BUILTIN_POLICIES
@@ -246,7 +253,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         policy = None
     elif kind in ("ppo", "sac"):
         try:
-            from .agents.sb3 import load_agent
+            from .sb3 import load_agent
         except ImportError:
             raise ImportError(f"{args.policy} holds a {kind.upper()} model: evaluating it needs the 'rl' extra "
                               "(pip install -e '.[rl]', CPU torch first)") from None
@@ -279,10 +286,11 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def baselines_command(args: argparse.Namespace) -> int:
     """``baselines``: :func:`experiments.agents.baselines.run_baselines`; prints the Markdown table."""
-    from .agents.baselines import run_baselines
-    from .cli import guarded
-    from .folders import LockBusyError
+    from ..cli import guarded
+    from ..folders import LockBusyError
+    from .baselines import run_baselines
 
+    check_backend_options(args, args._parser)
     hyper = {k: v for k, v in (("ppo", args.ppo_hyperparams), ("sac", args.sac_hyperparams)) if v is not None}
     unused = [f"--{k}-hyperparams" for k in hyper if k not in args.agents]
     if args.timesteps is not None and not {"ppo", "sac"} & set(args.agents):
@@ -296,7 +304,8 @@ def baselines_command(args: argparse.Namespace) -> int:
         run_baselines(args.out, args.task, tuple(args.agents), tuple(args.seeds), episodes=args.episodes,
                       eval_seed=args.eval_seed, timesteps=args.timesteps, quick=args.quick,
                       image_size=args.image_size, hyperparams=hyper,
-                      log=lambda msg: print(msg, file=sys.stderr, flush=True))
+                      log=lambda msg: print(msg, file=sys.stderr, flush=True), workers=args.workers,
+                      backend=args.backend, ray_address=args.ray_address)
         print((Path(args.out) / "table.md").read_text(), end="")
         return 0
 

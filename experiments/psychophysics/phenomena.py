@@ -37,8 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
-from .psychophysics.scoring import SCORE_COLUMNS
+from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
+from ..cli.options import add_backend_options, add_workers_option, check_backend_options
+from .scoring import SCORE_COLUMNS
 
 __all__ = ["add_subcommand", "ROWS", "THEORIES", "COLUMNS", "REPETITIONS", "measure", "score", "bootstrap",
            "statistics", "resample_cells", "markdown_table"]
@@ -109,7 +110,7 @@ ROWS = {
 def _designs(quick: bool = False) -> dict:
     """name -> (Design, TrialConfig overrides): everything the rows need (``quick``: 8 flash
     positions instead of 24, 2 repetitions instead of ``REPETITIONS``)."""
-    from .psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design
+    from . import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design
 
     pos = MORRONE_OFFSETS_DEG if quick else FIG11_OFFSETS_DEG
     reps = 2 if quick else REPETITIONS
@@ -132,7 +133,7 @@ def _designs(quick: bool = False) -> dict:
 
 
 def _displacement(quick: bool = False):
-    from .psychophysics import Design
+    from . import Design
 
     steps = tuple(float(s) for s in range(-3, 4)) if quick else STEPS_DEG
     return Design(amplitudes_deg=(20.0,), flash_offsets_deg=tuple((s, 0.0) for s in steps),
@@ -143,7 +144,7 @@ def _model_config(base, model: str):
     """``base`` read out by ``model`` (``baseline``: the true eye, no remapping, no references)."""
     import dataclasses
 
-    from .psychophysics import RemapTimeCourse
+    from . import RemapTimeCourse
 
     if model == "baseline":
         return dataclasses.replace(base, model="paper", timecourse=RemapTimeCourse(peak_gain=0.0), eye_position="true")
@@ -155,15 +156,16 @@ def _columns(rows: list[dict]) -> dict[str, np.ndarray]:
 
 
 def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False, image_size: int = IMAGE_SIZE,
-            quick: bool = False, generator=None) -> dict:
+            quick: bool = False, generator=None, backend: str = "local", ray_address: str | None = None) -> dict:
     """Observe every design once (cached), read it out with every model; returns {model: {design:
     table}}, the localization tables holding the participant's reports (``participant.add_report_noise``;
     ``DIR/tables/`` keeps the models' percepts). Saccades land with the participant's motor noise.
-    ``generator``: the burst generator's parameters (``models.BurstGenerator``; None: its defaults)."""
-    from .folders import write_csv
-    from .modelfit.observe import observe_trials
-    from .psychophysics import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner, read_table, run_trials
-    from .psychophysics.participant import PARTICIPANT, add_report_noise
+    ``generator``: the burst generator's parameters (``models.BurstGenerator``; None: its defaults).
+    ``workers``, ``backend``, ``ray_address``: where the trials run (``backends``)."""
+    from ..folders import write_csv
+    from ..modelfit.observe import observe_trials
+    from . import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner, read_table, run_trials
+    from .participant import PARTICIPANT, add_report_noise
 
     noise = PARTICIPANT.endpoint_noise
     tables: dict = {m: {} for m in models}
@@ -173,7 +175,7 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
         runner = TrialRunner(base)
         try:
             obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
-                                 runner=runner)
+                                 runner=runner, backend=backend, ray_address=ray_address)
             for m in models:
                 rows = [{**runner.readout(o, _model_config(base, m)), "model": m} for o in obs]
                 write_csv(out / "tables" / f"{m}_{name}.csv", list(ROW_COLUMNS + TEXT_COLUMNS), rows)
@@ -183,7 +185,8 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
     for m in models:
         cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement",
                                         generator=generator, endpoint_noise=noise), m)
-        path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress)
+        path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress,
+                          backend=backend, ray_address=ray_address)
         tables[m]["displacement"] = read_table(path)
     return tables
 
@@ -272,7 +275,7 @@ def _focus(t: dict) -> float:
 
 
 def _threshold_ratio(t: dict, start: dict | None = None) -> float:
-    from .psychophysics import displacement_psychometrics
+    from . import displacement_psychometrics
 
     fits = displacement_psychometrics(t, start=start)
     return float(fits[0]["threshold_deg"] / fits[250]["threshold_deg"])
@@ -348,7 +351,7 @@ def bootstrap(tab: dict, n: int = BOOT, seed: int = 0) -> dict[str, tuple[float,
     """95 % percentile CIs of ``statistics``: the experiment repeated -- each localization design's
     reports resampled within its cells (``resample_cells``), the displacement reports within each
     step and blank."""
-    from .psychophysics import displacement_psychometrics
+    from . import displacement_psychometrics
 
     rng = np.random.default_rng(seed)
     start = {b: (r["pse_deg"], r["threshold_deg"]) for b, r in displacement_psychometrics(tab["displacement"]).items()}
@@ -377,7 +380,7 @@ def bootstrap(tab: dict, n: int = BOOT, seed: int = 0) -> dict[str, tuple[float,
 
 def _note(name: str, model: str, tab: dict, value: float, ci: tuple) -> str:
     """What a reader of the row must know: an undefined value or CI, a non-monotone psychometric fit."""
-    from .psychophysics import displacement_psychometrics
+    from . import displacement_psychometrics
 
     notes = []
     if not np.isfinite(value):
@@ -411,13 +414,13 @@ def _fmt(v: float) -> float | str:
 def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
     """One row per (phenomenon, model) with ``scoring.SCORE_COLUMNS``, the verdicts set by
     ``scoring.finalize`` from ``experiments/data/calibration.csv``."""
-    from .psychophysics.scoring import finalize
+    from .scoring import finalize
 
     rows = []
     for model, tab in tables.items():
         point = statistics(tab)
         ci = bootstrap(tab, n_boot)
-        for name, (statement, source, rng, unit) in ROWS.items():
+        for name, (_statement, source, rng, _unit) in ROWS.items():
             rows.append({"phenomenon": name, "model": model, "source": source,
                          "published_low": "" if rng is None else rng[0],
                          "published_high": "" if rng is None else rng[1],
@@ -475,7 +478,7 @@ def plot(tables: dict, out: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .psychophysics import displacement_psychometrics
+    from . import displacement_psychometrics
 
     paths = []
     models = list(tables)
@@ -512,15 +515,15 @@ def plot(tables: dict, out: Path) -> list[Path]:
 
 
 def _save(fig, path: Path) -> Path:
-    from .folders import save_figure
+    from ..folders import save_figure
 
     fig.tight_layout()
     return save_figure(fig, path, dpi=100)
 
 
 def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:
-    from .folders import atomic_write_text, write_csv
-    from .psychophysics.scoring import counts
+    from ..folders import atomic_write_text, write_csv
+    from .scoring import counts
 
     rows = score(tables, n_boot)
     write_csv(out / "phenomena.csv", COLUMNS, rows)
@@ -540,10 +543,12 @@ def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:
 
 def run(args: argparse.Namespace) -> int:
     """The command: one process per folder (a lock), interruptible and resumable, one-line errors."""
-    from .cli import guarded
-    from .psychophysics.runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
+    from ..cli import guarded
+    from .runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
 
     parser = getattr(args, "_parser", None)
+    if parser is not None:
+        check_backend_options(args, parser)
     try:
         out = prepare_output_folder(args.out)
     except (OutputFolderError, TypeError) as e:
@@ -555,7 +560,8 @@ def run(args: argparse.Namespace) -> int:
         with folder_lock(out):
             tables = measure(out, workers=args.workers, progress=not args.no_progress,
                              image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False),
-                             generator=getattr(args, "generator", None))
+                             generator=getattr(args, "generator", None), backend=getattr(args, "backend", "local"),
+                             ray_address=getattr(args, "ray_address", None))
             text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT))
         print(text, end="")
         print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
@@ -574,8 +580,8 @@ def add_subcommand(subparsers) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=out_dir, default="results/phenomena",
                    help="output folder (created; its tables/ are resumed)")
-    p.add_argument("--workers", type=int, choices=range(1, 17), default=2, metavar="N",
-                   help="worker processes per design (1-16; 1 = in-process)")
+    add_workers_option(p)
+    add_backend_options(p)
     p.add_argument("--image-size", type=bounded("image_size"), default=IMAGE_SIZE, metavar="PX",
                    help=f"eye image side (default {IMAGE_SIZE}; smaller is faster and adds the retina's sampling error)")
     p.add_argument("--bootstrap", type=int_in(100, 100_000), default=BOOT, metavar="N",

@@ -3,8 +3,8 @@
 Needs the ``gpu`` extra (mujoco-warp, warp-lang, torch, skrl)::
 
     pip install -e ".[gpu]"
-    python -m experiments.skrl_recipe --out runs/ppo_search --device cuda --num-envs 4096 --task search --timesteps 300
-    python -m experiments.skrl_recipe --out runs/ppo_cpu --device cpu --num-envs 8 --task fixate --timesteps 48
+    python -m experiments.agents.skrl_recipe --out runs/ppo_search --device cuda --num-envs 4096 --task search --timesteps 300
+    python -m experiments.agents.skrl_recipe --out runs/ppo_cpu --device cpu --num-envs 8 --task fixate --timesteps 48
 
 Why skrl (Serrano-Muñoz, Chrysostomou, Arana-Arexolaleiba & Arana-Arexolaleiba 2023, JMLR 24:254):
 a maintained PyTorch RL library whose PPO stores rollouts as torch tensors on the env's device and
@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import sys
 import time
 from pathlib import Path
@@ -41,9 +40,10 @@ from typing import Any
 
 import numpy as np
 
-from .folders import save_figure, write_json
-
 from experiments.cli import int_in, out_dir
+from experiments.cli.options import TASKS, image_size_type, seed_type
+
+from ..folders import save_figure, write_json
 
 __all__ = ["DeviceVectorWrapper", "OBS_KEYS", "train", "main"]
 
@@ -53,8 +53,8 @@ OBS_KEYS = ("cortical", "remapped", "fovea", "eyes")
 
 def _require():
     try:
-        import skrl  # noqa: F401
-        import torch  # noqa: F401
+        import skrl  # noqa: F401  (imported only to check that it is installed)
+        import torch  # noqa: F401  (imported only to check that it is installed)
 
         from envs.batched_physics import require_gpu_extra
     except ImportError as e:
@@ -101,7 +101,7 @@ def DeviceVectorWrapper(env):
         def device(self):
             return self._unwrapped.device
 
-        def _flat(self, obs) -> "torch.Tensor":
+        def _flat(self, obs) -> torch.Tensor:
             n = self._unwrapped.num_envs
             return torch.cat([obs[k].reshape(n, -1) for k in OBS_KEYS], dim=1)
 
@@ -151,8 +151,8 @@ def _cortical_models(obs_space, act_space, device, single_obs_space, vectors, ch
     its soft-argmax, the Gaussian's mean saccade (``Box``); the value reads the pooled features."""
     import gymnasium
     import torch
-    from torch import nn
     from skrl.models.torch import CategoricalMixin, DeterministicMixin, GaussianMixin, Model
+    from torch import nn
 
     from experiments.agents.extractors import CorticalEncoder, SoftArgmaxSaccade
 
@@ -207,8 +207,8 @@ def _cortical_models(obs_space, act_space, device, single_obs_space, vectors, ch
 
 def _models(obs_space, act_space, device, hidden: int):
     import torch
-    from torch import nn
     from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
+    from torch import nn
 
     class Policy(GaussianMixin, Model):
         def __init__(self):
@@ -251,7 +251,6 @@ def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps:
         raise ValueError("the mlp policy is a Gaussian over the vector saccade: use action_mode='vector' "
                          "or policy='cortical' for cell actions")
     _require()
-    import torch
     from skrl.agents.torch.ppo import PPO, PPO_CFG
     from skrl.memories.torch import RandomMemory
     from skrl.resources.preprocessors.torch import RunningStandardScaler
@@ -354,16 +353,16 @@ def _plot(rows, path: Path, title: str) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m experiments.skrl_recipe", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m experiments.agents.skrl_recipe", description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=out_dir, required=True, help="folder for the curve, the checkpoint and ppo.json")
     ap.add_argument("--device", default=None, help="cuda, cuda:<i> or cpu (default: cuda when available)")
     ap.add_argument("--num-envs", type=int_in(1, 65536), default=8)
-    ap.add_argument("--task", choices=("fixate", "search"), default="fixate")
+    ap.add_argument("--task", choices=TASKS, default="fixate")
     ap.add_argument("--timesteps", type=int_in(1, 10**7), default=48, help="batched steps (each num-envs env steps)")
-    ap.add_argument("--image-size", type=int_in(16, 1024), default=64)
+    ap.add_argument("--image-size", type=image_size_type(), default=64)
     ap.add_argument("--rollouts", type=int_in(1, 4096), default=8, help="batched steps per PPO update")
     ap.add_argument("--hidden", type=int_in(8, 4096), default=256)
-    ap.add_argument("--seed", type=int_in(0, 2**31 - 1), default=0)
+    ap.add_argument("--seed", type=seed_type(), default=0)
     ap.add_argument("--policy", choices=("mlp", "cortical"), default="mlp",
                     help="mlp: MLPs on the flattened observation; cortical: the wrap-around cortical convolution")
     ap.add_argument("--action-mode", choices=("vector", "cell"), default="vector",

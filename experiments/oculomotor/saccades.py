@@ -15,7 +15,7 @@ threshold crossings) and writes:
 Both trajectory models (``burst``, the default, and ``legacy``) are measured, so the figure shows
 what the burst generator changed. About 5 s on one core.
 
-With ``--recording FILE`` it measures a person instead (``experiments.eyetracking``): it reads an
+With ``--recording FILE`` it measures a person instead (``experiments.oculomotor.eyetracking``): it reads an
 EyeLink ASC file or a CSV/TSV of samples, finds the saccades (the file's own events of the chosen
 eye or Engbert & Kliegl detection; none across missing data, none near blinks), refuses
 implausible ones, and writes ``recording.json`` (which file, which eye and why), ``main_sequence.csv``
@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import out_dir
-from .folders import LockBusyError, path_lock, save_figure, write_csv
+from ..cli import out_dir
+from ..folders import LockBusyError, path_lock, save_figure, write_csv
 
 __all__ = ["add_subcommand", "measure", "main_sequence_rows", "plot"]
 
@@ -176,7 +176,7 @@ def _fit_parameters(text: str) -> tuple[str, ...]:
 
 
 def _columns(text: str):
-    from .oculomotor.tables import TableError, parse_columns
+    from .tables import TableError, parse_columns
 
     try:
         return parse_columns(text)
@@ -256,7 +256,7 @@ def _claim_folder(out: Path, ident: dict) -> str | None:
     if this run is killed; then write ``recording.json``. Returns the replaced file's name, if any."""
     import json
 
-    from .folders import write_json
+    from ..folders import write_json
 
     old = out / "recording.json"
     previous = None
@@ -319,7 +319,7 @@ def _write_recording_results(args, path: Path, rec, rows: list[dict], bad: list[
 def run(args: argparse.Namespace) -> int:
     """``saccades``: the model's kinematics, or a person's with ``--recording``; one writer per ``--out``
     folder, every file written atomically, SIGINT/SIGTERM ending it with one line."""
-    from .cli import guarded
+    from ..cli import guarded
 
     def work() -> int:
         if getattr(args, "recording", None) is not None:
@@ -356,7 +356,7 @@ def _run_models(args: argparse.Namespace, out: Path) -> int:
 
 
 def _bootstrap(text: str) -> int:
-    from .cli import whole_number
+    from ..cli import whole_number
 
     n = whole_number(text)
     if n != 0 and not 20 <= n <= 10_000:
@@ -372,7 +372,7 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--model", choices=("burst", "legacy", "both"), default="both",
                    help="trajectory model(s) to measure (the figure needs burst)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars (they go to stderr)")
-    g = p.add_argument_group("a person's recording (experiments.eyetracking)")
+    g = p.add_argument_group("a person's recording (experiments.oculomotor.eyetracking)")
     g.add_argument("--recording", metavar="FILE", default=None,
                    help="EyeLink ASC file or CSV/TSV of samples (time_ms and x_deg,y_deg or x_px,y_px); writes "
                         "main_sequence.csv, generator.json and main_sequence.png instead of the model's kinematics")

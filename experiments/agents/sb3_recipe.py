@@ -9,7 +9,7 @@ Needs the optional ``rl`` extra (``stable-baselines3``, which needs torch; on Li
 CPU wheel first)::
 
     pip install -e ".[rl]"
-    python -m experiments.sb3_recipe --out runs/ppo_fixate --timesteps 2048 --n-envs 2
+    python -m experiments.agents.sb3_recipe --out runs/ppo_fixate --timesteps 2048 --n-envs 2
     python -m experiments evaluate --task fixate --policy runs/ppo_fixate --episodes 100 --seed 1
 
 Training prints one progress line per PPO rollout (steps, elapsed time, the rollout's episode
@@ -33,9 +33,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from experiments.cli import int_in, out_dir
-from experiments.folders import LockBusyError
 from experiments.agents.rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, episode_seeds, make_env
+from experiments.cli import int_in, out_dir
+from experiments.cli.options import TASKS, seed_type
+from experiments.folders import LockBusyError
 
 __all__ = ["PPO_META", "evaluate_ppo", "export_sb3_zip", "load_sb3_policy", "main", "make_vec", "train_ppo"]
 
@@ -193,17 +194,17 @@ def evaluate_ppo(path: str | Path, episodes: int = 50, seed: int = 0) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m experiments.sb3_recipe",
+    p = argparse.ArgumentParser(prog="python -m experiments.agents.sb3_recipe",
                                 description="PPO (Stable-Baselines3, MultiInputPolicy) on the cell-action saccade env; "
                                             "saves the model and prints one JSON line of evaluation results.")
     p.add_argument("--out", required=True, type=out_dir, help="output directory")
-    p.add_argument("--task", choices=("fixate", "search"), default="fixate", help="env task (default fixate)")
+    p.add_argument("--task", choices=TASKS, default="fixate", help="env task (default fixate)")
     p.add_argument("--timesteps", type=int_in(1, 10**8), default=4096, help="total env steps (saccades) (default 4096)")
     p.add_argument("--n-envs", type=int_in(1, 64), default=2, help="parallel envs (default 2)")
     p.add_argument("--n-steps", type=int_in(2, 10**6), default=256, help="PPO rollout length per env (default 256)")
     p.add_argument("--vec", choices=("subproc", "dummy"), default="subproc",
                    help="SubprocVecEnv with spawn (default) or DummyVecEnv")
-    p.add_argument("--seed", type=int_in(0, 2**32 - 1), default=0, help="seed (default 0)")
+    p.add_argument("--seed", type=seed_type(), default=0, help="seed (default 0)")
     p.add_argument("--eval-episodes", type=int_in(1, 10**6), default=50, help="evaluation episodes after training (default 50)")
     p.add_argument("--no-progress", action="store_true", help="no progress line per rollout")
     args = p.parse_args(argv)

@@ -25,21 +25,16 @@ import signal
 import sys
 from pathlib import Path
 
-import numpy as np
+from ...cli import GENERATOR_HELP, amplitude_list, bounded, check_path_text, generator_file
+from ...cli.options import add_backend_options, add_workers_option, check_backend_options
+from ...folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
+from ...folders import interruptible as _interruptible
+from ..bounds import LIMITS, MAX_TRIALS
+from .run import NonFiniteResultError, run_study
 
-from .cli import GENERATOR_HELP, amplitude_list, bounded, check_path_text, generator_file
-from .folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
-from .folders import atomic_write_text, write_csv
-from .folders import interruptible as _interruptible
-from .psychophysics.bounds import LIMITS, MAX_TRIALS
-
-__all__ = ["add_subcommand", "run_study", "record_study", "NonFiniteResultError"]
+__all__ = ["add_subcommand"]
 
 PROG = "python -m experiments run"
-
-
-class NonFiniteResultError(RuntimeError):
-    """Trials produced NaN (or inf) where a number was expected."""
 
 
 # ---------------------------------------------------------------------------------------------- option types
@@ -188,8 +183,8 @@ def add_subcommand(subparsers) -> None:
                    help=f"delay from a flash to its cortical response, {b['visual_latency_ms']}: the flash is "
                         "read with the eye-position signal this much later")
     r = p.add_argument_group("execution and output")
-    r.add_argument("--workers", type=_num_type("workers"), default=2,
-                   help=f"worker processes (spawn context), {b['workers']}; 1 = in-process")
+    add_workers_option(r)
+    add_backend_options(r)
     r.add_argument("--formats", type=_formats, default="png,svg",
                    help="figure formats, comma-separated (png, svg, pdf)")
     r.add_argument("--no-recording", action="store_true", help="do not write study.rrd")
@@ -216,7 +211,7 @@ def _markers_arg(text: str) -> tuple[tuple[float, float], ...]:
 
 
 def _mechanisms(text: str) -> tuple[str, ...]:
-    from .psychophysics.mechanisms import MECHANISMS
+    from ..mechanisms import MECHANISMS
 
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     bad = [n for n in names if n not in MECHANISMS]
@@ -263,7 +258,7 @@ def _refuse_pointless(args: argparse.Namespace, parser: argparse.ArgumentParser)
 
 def _build(args: argparse.Namespace):
     """The design and configuration of the command line; ``argparse`` usage errors name the option."""
-    from .psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, RemapTimeCourse, TrialConfig
+    from .. import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, RemapTimeCourse, TrialConfig
 
     parser = args._parser
     base = dict(amplitudes_deg=(20.0,), flash_times_ms=(-150, -100, -50, -25, 0, 50, 150), positions="morrone") \
@@ -312,191 +307,6 @@ def _build(args: argparse.Namespace):
         parser.error(str(e))
     return design, config, args.formats
 
-
-def record_study(out: Path, table: dict, design, config, path: Path | None = None) -> Path:
-    """The study's Rerun recording (default ``out/study.rrd``), made from what the study computed: the
-    trials table and the example trials' snapshots in ``out/examples`` (``psychophysics.snapshots``,
-    written as the trials ran). No trial is run again: the scene is only posed from each snapshot.
-
-    Timelines (``experiments.recording.TIMELINES``): ``trial`` (each trial's true and perceived flash
-    in ``study/true``, ``study/perceived``, ``study/error``), ``flash_time`` (ms re saccade onset: every trial of the example amplitude at that
-    flash time, the compression index and the mean remapping gain per amplitude, the example trial's eye
-    trace, and the example trial of that flash time in full) and ``sim_time`` (the example trials'
-    flash instants, for the 3-D replay). The recording is the same for a resumed and an uninterrupted
-    run of the same design (its recording id is the configuration hash; no wall-clock log time)."""
-    import types
-
-    import rerun as rr
-    from threadpoolctl import threadpool_limits
-
-    from .psychophysics import TrialRunner, compression_index, config_hash
-    from .psychophysics.snapshots import apply_scene_state, example_trials, read_snapshot
-    from .recording import STUDY_APP_ID, Recorder
-
-    out = Path(out)
-    path = out / "study.rrd" if path is None else Path(path)
-    chash = config_hash(design, config)
-    examples = example_trials(design)
-    snaps = [read_snapshot(out, t.trial_id, chash) for t in examples]
-    a = examples[0].amplitude_deg
-    flip = np.array([1.0, -1.0])
-    dot = rr.components.Radius.ui_points(4.0)
-    order = np.argsort(table["trial_id"], kind="stable")
-    col = {k: np.asarray(v)[order] for k, v in table.items()}
-    row_of = {int(i): k for k, i in enumerate(col["trial_id"])}
-    with threadpool_limits(limits=1):
-        runner = TrialRunner(config)  # its head is only posed (apply_scene_state) and its retina samples images
-        try:
-            with Recorder(path, app_id=STUDY_APP_ID, recording_id=f"{STUDY_APP_ID}-{chash}", log_time=False) as rec:
-                # ---- trial: every trial of the table
-                true = np.column_stack([col["true_x_deg"], col["true_y_deg"]]) * flip
-                seen = np.column_stack([col["perceived_x_deg"], col["perceived_y_deg"]]) * flip
-                n = len(col["trial_id"])
-                by_trial = [rr.TimeColumn("trial", sequence=col["trial_id"].astype(np.int64))]
-                ones = np.ones(n, int)  # one point per trial, sent as columns (a few chunks, not n rows)
-                for entity, pts, rgb in (("study/true", true, [40, 200, 40]), ("study/perceived", seen, [230, 40, 40])):
-                    rec.send_columns(entity, by_trial, rr.Points2D.columns(
-                        positions=pts, colors=np.tile(rgb, (n, 1)), radii=np.full(n, -4.0)).partition(ones))  # -4: 4 UI points
-                rec.send_columns("study/error", by_trial, rr.Arrows2D.columns(
-                    vectors=seen - true, origins=true, colors=np.tile([200, 200, 200], (n, 1))).partition(ones))
-                rec.reset_time()
-                # ---- flash_time: per flash time, all trials of the example amplitude; CI and gain per amplitude
-                sel = col["saccade_amplitude_deg"] == a
-                for t in np.unique(col["flash_time_ms"][sel]):
-                    m = sel & (col["flash_time_ms"] == t)
-                    rec.set_time("flash_time", float(t))
-                    rec.log("study/true", rr.Points2D(true[m], radii=dot, colors=[[40, 200, 40]]))
-                    rec.log("study/perceived", rr.Points2D(seen[m], radii=dot, colors=[[230, 40, 40]]))
-                    rec.log("study/error", rr.Arrows2D(vectors=seen[m] - true[m], origins=true[m], colors=[[200, 200, 200]]))
-                rec.reset_time()
-                for amp, (tt, vals) in compression_index(col).items():
-                    rec.send_scalars(f"study/compression_index/{amp:g}deg",
-                                     [rr.TimeColumn("flash_time", duration=np.asarray(tt, float) / 1000.0)], vals)
-                for amp in np.unique(col["saccade_amplitude_deg"]):
-                    ma = col["saccade_amplitude_deg"] == amp
-                    tt = np.unique(col["flash_time_ms"][ma])
-                    gain = [float(np.mean(col["gain"][ma & (col["flash_time_ms"] == t)])) for t in tt]
-                    rec.send_scalars(f"study/gain/{amp:g}deg",
-                                     [rr.TimeColumn("flash_time", duration=np.asarray(tt, float) / 1000.0)], gain)
-                ex = snaps[int(np.argmin([abs(int(s["flash_time_ms"])) for s in snaps]))]  # the trace nearest 0 ms
-                tcol = [rr.TimeColumn("flash_time", duration=np.asarray(ex["trace_ms"], float) / 1000.0)]
-                for e, eye in enumerate(("left", "right")):
-                    for j, ax in enumerate(("h", "v")):
-                        rec.send_scalars(f"eyes/{eye}/angle/{ax}", tcol, ex["angles"][:, e, j])
-                        rec.send_scalars(f"eyes/{eye}/signal/{ax}", tcol, ex["signal"][:, e, j])
-                # ---- each example trial in full, at its flash time and its flash's sim time (3-D replay)
-                grid = runner.retina_grid
-                for trial, snap in zip(examples, snaps):
-                    rec.set_time_ms(float(snap["flash_sim_ms"]))
-                    rec.set_time("flash_time", float(trial.flash_time_ms))
-                    apply_scene_state(runner.head, snap)
-                    rec.log_head(runner.head)
-                    rec.log("world/flashes", rr.Points3D([snap["flash_world"]], radii=0.015, colors=[[255, 255, 0]]))
-                    eyes = [types.SimpleNamespace(image=snap["image"][e], camera_position=snap["camera_position"][e],
-                                                  camera_xmat=snap["camera_xmat"][e],
-                                                  pixels_per_unit=float(snap["pixels_per_unit"])) for e in range(2)]
-                    rec.log_frame(types.SimpleNamespace(left=eyes[0], right=eyes[1]), grid)
-                    scene_views = [runner.vision.see(snap["image"][e]) for e in range(2)]
-                    flash_views = [types.SimpleNamespace(fovea=snap["fovea"][e], periphery=snap["periphery"][e],
-                                                         coeffs=snap["coeffs"][e]) for e in range(2)]
-                    rec.log_views(scene_views, grid, dpft=flash_views, cortex=flash_views)
-                    rec.log_flash_response(flash_views, grid)
-                    k = row_of[trial.trial_id]
-                    rec.log_flash((col["true_x_deg"][k], col["true_y_deg"][k]),
-                                  (col["perceived_x_deg"][k], col["perceived_y_deg"][k]), (a / 2, 0.0), (-a / 2, 0.0))
-        finally:
-            runner.close()
-    return path
-
-
-def _check_finite(table: dict, csv_path: Path) -> None:
-    """``NonFiniteResultError`` naming the trials and columns where a number was expected and NaN
-    (or inf) was written."""
-    from .psychophysics.trial import OPTIONAL_COLUMNS, ROW_COLUMNS
-
-    bad = np.zeros(len(table["trial_id"]), bool)
-    cols = []
-    for c in ROW_COLUMNS:
-        paradigm = str(table["paradigm"][0]) if len(table["paradigm"]) else ""
-        if any(c in cols_ and p != paradigm for p, cols_ in OPTIONAL_COLUMNS.items()):
-            continue  # NaN by design: a column of another paradigm
-        m = ~np.isfinite(table[c])
-        if m.any():
-            cols.append(c)
-            bad |= m
-    if not bad.any():
-        return
-    ids = [int(i) for i in table["trial_id"][bad]]
-    shown = ", ".join(map(str, ids[:12])) + (f", ... ({len(ids) - 12} more)" if len(ids) > 12 else "")
-    raise NonFiniteResultError(
-        f"{len(ids)} of {len(bad)} trials produced NaN where a number was expected (trial_id {shown}; columns "
-        f"{', '.join(cols[:4])}{', ...' if len(cols) > 4 else ''}): the read-out found no flash activity (e.g. a large "
-        f"--peak-gain shifts flashes off the map; a small --image-size or --fovy-deg loses them); the table is in "
-        f"{csv_path}, no summary, figures or recording were written")
-
-
-def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = True,
-              formats: tuple[str, ...] = ("png", "svg"), recording: bool = True) -> dict:
-    """Run (or resume) the design, then write summary, figures and the recording into ``out``.
-
-    The folder is locked for the whole run (``FolderBusyError`` if another run holds it); trials that
-    produced NaN where a number was expected raise ``NonFiniteResultError`` after the table is written.
-    """
-    from .psychophysics import format_summary, read_table, run_trials, save_all, summary
-    from .psychophysics.runner import folder_lock
-
-    from .psychophysics.snapshots import example_trials
-
-    keep = [t.trial_id for t in example_trials(design)] if recording and config.paradigm != "displacement" else []
-    with folder_lock(out) as out:
-        csv_path = run_trials(design, config, out, workers=workers, progress=progress, examples=keep)
-        table = read_table(csv_path)
-        _check_finite(table, csv_path)
-        if config.paradigm == "displacement":
-            return _displacement_outputs(table, config, out, csv_path, formats)
-        rows = summary(table)
-        text = format_summary(rows, n_trials=len(table["trial_id"]), config=config)
-        _write_summary(out, text, rows)
-        # only the paper model has a set time course to draw; the others show their own results alone
-        figures = save_all(table, out, config.timecourse if config.model == "paper" else None, formats)
-        rrd = record_study(out, table, design, config) if recording else None
-    return {"table": csv_path, "summary": text, "figures": figures, "recording": rrd}
-
-
-def _write_summary(out: Path, text: str, rows: list[dict]) -> None:
-    """``summary.txt`` and ``summary.csv`` (the csv module's CRLF rows, as before), each written atomically."""
-    atomic_write_text(out / "summary.txt", text)
-    write_csv(out / "summary.csv", list(rows[0]), rows, lineterminator="\r\n")
-
-
-def _displacement_outputs(table, config, out: Path, csv_path: Path, formats) -> dict:
-    """Summary (per blank: PSE and threshold of the psychometric function) and its figure; no
-    recording (it follows flashes)."""
-    from .psychophysics import displacement_psychometrics, save_displacement
-
-    fits = displacement_psychometrics(table, n_boot=200)
-    rows = [{"blank_ms": b, "pse_deg": round(r["pse_deg"], 3), "pse_ci_low": round(r["pse_ci"][0], 3),
-             "pse_ci_high": round(r["pse_ci"][1], 3), "threshold_deg": round(r["threshold_deg"], 3),
-             "threshold_ci_low": round(r["threshold_ci"][0], 3), "threshold_ci_high": round(r["threshold_ci"][1], 3),
-             "monotonic": r["monotonic"], "n_trials": int(np.sum(table["flash_time_ms"] == b))}
-            for b, r in fits.items()]
-    lines = ["Saccadic suppression of displacement (target steps during the saccade; + = forward)",
-             f"trials: {len(table['trial_id'])}; model: {config.model}, condition: {config.condition}",
-             "blank (ms)   PSE (deg) [95% CI]        threshold (deg) [95% CI]   P(forward) per step " +
-             " ".join(f"{s:+g}" for s in next(iter(fits.values()))["steps_deg"])]
-    for b, r in fits.items():
-        flag = "" if r["monotonic"] else "   NOT MONOTONIC: the threshold is not meaningful"
-        lines.append(f"{b:10d}   {r['pse_deg']:+6.2f} [{r['pse_ci'][0]:+6.2f}, {r['pse_ci'][1]:+6.2f}]   "
-                     f"{r['threshold_deg']:6.2f} [{r['threshold_ci'][0]:6.2f}, {r['threshold_ci'][1]:6.2f}]      " +
-                     " ".join(f"{p:.2f}" for p in r["p_forward"]) + flag)
-    lines.append("CIs: 200 bootstrap resamples of the reports within each step; threshold = s.d. of the "
-                 "cumulative Gaussian")
-    text = "\n".join(lines) + "\n"
-    _write_summary(out, text, rows)
-    figures = save_displacement(table, out, formats)
-    return {"table": csv_path, "summary": text, "figures": figures, "recording": None}
-
-
 # ---------------------------------------------------------------------------------------------- command
 def _command(args: argparse.Namespace) -> str:
     """The command line that gives the same run (options at their defaults left out)."""
@@ -529,7 +339,7 @@ def _command(args: argparse.Namespace) -> str:
 def _saved(csv_path: Path) -> int:
     import warnings
 
-    from .psychophysics import read_table
+    from .. import read_table
 
     try:
         with warnings.catch_warnings():
@@ -541,8 +351,9 @@ def _saved(csv_path: Path) -> int:
 
 def _handler(args: argparse.Namespace) -> int:
     parser = args._parser
-    from .psychophysics.runner import FolderBusyError, OutputFolderError, prepare_output_folder
+    from ..runner import FolderBusyError, OutputFolderError, prepare_output_folder
 
+    check_backend_options(args, parser)
     design, config, formats = _build(args)
     try:
         out = prepare_output_folder(args.out)
@@ -552,7 +363,8 @@ def _handler(args: argparse.Namespace) -> int:
     try:
         with _interruptible():
             res = run_study(design, config, out, workers=args.workers, progress=not args.no_progress,
-                            formats=formats, recording=not args.no_recording)
+                            formats=formats, recording=not args.no_recording, backend=args.backend,
+                            ray_address=args.ray_address)
     except KeyboardInterrupt as e:
         signum = getattr(e, "signum", signal.SIGINT)
         print(f"{PROG}: interrupted ({signal.Signals(signum).name}) with {_saved(csv_path)} of {design.n_trials} "

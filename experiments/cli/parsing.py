@@ -14,8 +14,8 @@ import math
 import os
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 __all__ = ["DefaultsHelpFormatter", "HintingParser", "int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded", "check_path_text",
            "guarded"]
@@ -151,7 +151,7 @@ def _writable_parent(p: Path, text: str) -> None:
 
 def check_path_text(text: str) -> None:
     """``ArgumentTypeError`` for a path with a NUL character or names longer than the file system allows."""
-    from .folders import check_path_length
+    from ..folders import check_path_length
 
     if "\x00" in text:
         raise argparse.ArgumentTypeError(f"the path contains a NUL character: {text!r}")
@@ -203,7 +203,7 @@ def out_file(*suffixes: str) -> Callable[[str], Path]:
 def amplitude_list(text: str) -> tuple[float, ...]:
     """Comma-separated saccade amplitudes (deg), each a finite number within the design's bounds
     (``psychophysics.bounds.LIMITS['amplitudes_deg']``), none repeated."""
-    from .psychophysics.bounds import LIMITS
+    from ..psychophysics.bounds import LIMITS
 
     lim = LIMITS["amplitudes_deg"]
     try:
@@ -242,7 +242,7 @@ def bounded(name: str, what: str = "") -> Callable[[str], float | int]:
     """An argparse type for the parameter ``name`` of ``psychophysics.bounds.LIMITS``: a usage error
     (exit 2, one line naming the option) for anything but a finite number within the bounds (a
     whole number where the limit says so); ``what`` is appended to the message."""
-    from .psychophysics.bounds import LIMITS
+    from ..psychophysics.bounds import LIMITS
 
     lim = LIMITS[name]
 
@@ -269,7 +269,7 @@ def guarded(prog: str, work: Callable[[], int], *, resume_hint: str, errors: dic
     import signal
     import sys
 
-    from .folders import Interrupted, interruptible, os_error_text
+    from ..folders import Interrupted, interruptible, os_error_text
 
     try:
         with interruptible():

@@ -3,23 +3,12 @@
 ``python -m experiments saccades --recording FILE --out DIR`` reads a recording with
 :func:`read_recording`, finds its saccades with :func:`detect_saccades`, measures them with
 :func:`main_sequence_rows` (``main_sequence.csv``), checks that they are plausible
-(:func:`check_plausible`) and fits the burst generator to them (``experiments.generator_fit``).
+(:func:`check_plausible`) and fits the burst generator to them (``experiments.oculomotor.generator_fit``).
 
-Formats
--------
-* **EyeLink ASC** (``edf2asc`` output; ``.asc``; ``experiments.oculomotor.asc``): monocular or
-  binocular, remote mode (``HTARGET``), 250-2000 Hz (whole-ms stamps written twice at 2000 Hz),
-  any number of START/END blocks. The resolution comes from ``GAZE_COORDS``, else
-  ``DISPLAY_COORDS`` (EyeLink I/II), else ``--screen`` with five numbers; the physical size and
-  distance always from ``--screen``. One eye is measured: ``eye='left'|'right'``, or by default the
-  only one recorded, or in a binocular file the one with fewer lost samples (the reason is in
-  ``Recording.eye_reason``); only that eye's ``SSACC/ESACC`` and ``SBLINK/EBLINK`` events are used.
-* **CSV/TSV of samples** (``.csv``, ``.tsv``, ``.txt``; ``experiments.oculomotor.tables``): any
-  tracker's export, columns named by ``columns`` (``--columns time=NAME,x=NAME,y=NAME[,eye=NAME]``)
-  or a preset (SMI BeGaze, Tobii Pro Lab, Gazepoint, pymovements' GazeBase / JuDo1000 / PoTeC, the
-  project's own ``time_ms, x_deg, y_deg`` or ``x_px, y_px``), time in ms, µs or s, gaze in degrees
-  (y up) or pixels (origin upper left, y down; needs the screen). Blinks / track loss are empty or
-  ``nan`` cells.
+Formats (the docs' eye-tracker page, ``docs/eyetracker.md``, has the details): **EyeLink ASC**
+(``experiments.oculomotor.asc``: monocular or binocular, remote mode, 250-2000 Hz, any number of
+blocks; one eye measured, the reason in ``Recording.eye_reason``) and **CSV/TSV of samples**
+(``experiments.oculomotor.tables``: named columns or a preset; ms, µs or s; degrees or pixels).
 
 Missing data split the trace: no velocity is computed across a block boundary, a pause (a step
 longer than 1.25 sampling periods) or a lost sample (``experiments.oculomotor.kinematics``), so
@@ -47,10 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .oculomotor.asc import AscError, parse_asc
-from .oculomotor.kinematics import (SKEWNESS_MIN_RATE_HZ, THRESHOLD_DEG_S, engbert_kliegl, measure_saccade,
-                                    speed_deg_s, steps_ok)
-from .oculomotor.tables import PRESETS, TIME_UNITS, Columns, TableError, decode, read_table
+from .asc import AscError, parse_asc
+from .kinematics import SKEWNESS_MIN_RATE_HZ, THRESHOLD_DEG_S, engbert_kliegl, measure_saccade, speed_deg_s, steps_ok
+from .tables import PRESETS, TIME_UNITS, Columns, TableError, decode, read_table
 
 __all__ = ["Screen", "Recording", "RecordingError", "read_recording", "read_recordings", "detect_saccades",
            "measure_saccade", "main_sequence_rows", "check_plausible", "write_recording", "speed_deg_s",
@@ -103,7 +91,7 @@ class Screen:
         if (self.width_px is None) != (self.height_px is None):
             raise RecordingError("screen width_px and height_px go together (both given, or both from the file)")
 
-    def with_resolution(self, width_px: int, height_px: int) -> "Screen":
+    def with_resolution(self, width_px: int, height_px: int) -> Screen:
         return Screen(int(width_px), int(height_px), self.width_cm, self.height_cm, self.distance_cm)
 
     def px_per_cm(self) -> tuple[float, float]:
@@ -500,7 +488,7 @@ def check_plausible(rec: Recording, rows: list[dict]) -> tuple[list[dict], list[
 
 def write_rows(rows: list[dict], path) -> None:
     """The main-sequence rows as a CSV (columns ``ROW_FIELDS``), written atomically."""
-    from .folders import write_csv
+    from ..folders import write_csv
 
     write_csv(path, list(ROW_FIELDS), rows)
 
@@ -577,6 +565,7 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
         "** VERSION: EYELINK II 1",
         "** SOURCE: EYELINK CL",
         "** EYELINK II CL v6.12 Feb  1 2018 (EyeLink Portable Duo)",
+        # the module's name before it moved into oculomotor/, kept: written files stay byte-identical
         "** RECORDED BY conformal-head experiments.eyetracking.write_recording",
         "**",
         "",

@@ -1,0 +1,79 @@
+"""``--backend local|ray`` and ``--workers`` of the heavy commands (issue 37): one option declaration
+(``experiments.cli.options``), one Ray path (``psychophysics.backends.ray_map``), the same table."""
+
+from __future__ import annotations
+
+import pytest
+
+from experiments.__main__ import build_parser, main
+from experiments.psychophysics import FIG11_OFFSETS_DEG, Design, TrialConfig, run_trials
+from experiments.psychophysics.backends import check_backend
+
+HEAVY = ("run", "phenomena", "fit", "compare", "recovery", "baselines")
+
+
+@pytest.mark.parametrize("command", HEAVY)
+def test_every_heavy_command_offers_the_same_backend_and_workers(command):
+    """Each heavy command's --workers accepts 1-64 and nothing else, and --backend local|ray."""
+    sub = build_parser(command)._subparsers._group_actions[0].choices[command]  # type: ignore[union-attr]
+    opts = {o: a for a in sub._actions for o in a.option_strings}
+    assert opts["--backend"].choices == ("local", "ray") and opts["--backend"].default == "local"
+    workers = opts["--workers"].type
+    assert workers("1") == 1 and workers("64") == 64
+    for bad in ("0", "65", "2.5", "nan"):
+        with pytest.raises(Exception, match="1, 64"):
+            workers(bad)
+
+
+@pytest.mark.parametrize("command", ["run", "phenomena", "recovery", "baselines"])
+def test_a_ray_address_without_the_ray_backend_is_a_usage_error(command, tmp_path, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([command, "--out", str(tmp_path / "x"), "--ray-address", "auto"])
+    assert e.value.code == 2
+    assert "--ray-address: only with --backend ray" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
+def test_check_backend_refuses_what_it_cannot_run():
+    check_backend("local")
+    check_backend("ray", "auto")
+    with pytest.raises(ValueError, match="backend must be one of local, ray"):
+        check_backend("dask")
+    with pytest.raises(ValueError, match="only for the ray backend"):
+        check_backend("local", "auto")
+    with pytest.raises(ValueError, match="backend must be one of"):
+        run_trials(Design(amplitudes_deg=(20.0,), flash_offsets_deg=FIG11_OFFSETS_DEG[:1], flash_times_ms=(0,)),
+                   TrialConfig(image_size=64), "unused", backend="dask")
+
+
+@pytest.mark.slow
+def test_ray_backend_writes_the_local_table(tmp_path):
+    """The same design run in this process and on a local Ray instance (2 actors): byte-identical
+    trials.csv (rows sorted, each with its configuration hash and checksum)."""
+    pytest.importorskip("ray")
+    design = Design(amplitudes_deg=(20.0,), flash_offsets_deg=FIG11_OFFSETS_DEG[:2], flash_times_ms=(-50, 25),
+                    name="backends")
+    cfg = TrialConfig(image_size=64)
+    local = run_trials(design, cfg, tmp_path / "local", workers=1, progress=False, batch_size=1)
+    remote = run_trials(design, cfg, tmp_path / "ray", workers=2, progress=False, batch_size=1, backend="ray")
+    assert local.read_bytes() == remote.read_bytes()
+    assert len(local.read_text().splitlines()) == 1 + design.n_trials
+
+
+@pytest.mark.slow
+def test_baselines_on_two_processes_writes_the_in_process_table(tmp_path, capsys):
+    """CEM x 2 seeds trained one after the other and on 2 spawned processes: the same held-out numbers
+    and the same table rows (wall times aside)."""
+    import json
+
+    common = ["baselines", "--task", "fixate", "--agents", "cem", "--seeds", "0", "1", "--quick", "--image-size",
+              "48", "--episodes", "3"]
+    assert main([*common, "--out", str(tmp_path / "one")]) == 0
+    assert main([*common, "--out", str(tmp_path / "two"), "--workers", "2"]) == 0
+    capsys.readouterr()
+    for s in (0, 1):
+        a, b = (json.loads((tmp_path / d / f"cem_s{s}" / "heldout.json").read_text()) for d in ("one", "two"))
+        assert a["deterministic"] == b["deterministic"] and a["env_steps"] == b["env_steps"]
+    one, two = ([line.rsplit("|", 2)[0] for line in (tmp_path / d / "table.md").read_text().splitlines()]
+                for d in ("one", "two"))  # the last column, the wall time, left out
+    assert one == two
