@@ -63,6 +63,7 @@ def world_seeds(seed: Any, n: int) -> list[int | None]:
             raise ValueError(f"seed must be an int, None or a list of {n} seeds (one per world); got {len(seed)}")
         return [check_seed(s) for s in seed]
     s0 = check_seed(seed, hint="or None, or a list of one seed per world")
+    assert s0 is not None  # seed is not None here
     return [s0 + i for i in range(n)]
 
 
@@ -96,7 +97,7 @@ def observation_space(grid, channels: int, cortex: str, include_coeffs: bool) ->
     ``cortical`` and ``remapped`` (2, M, N, C), or (2, 2, M, N/2, C) with ``cortex="hemispheres"``,
     ``fovea`` (2, N_f, C), ``eyes`` (2, 3), and ``coeffs`` (2, M, N, C, 2) with ``include_coeffs``."""
     cort_shape = (2, grid.M, grid.N, channels) if cortex == "eyes" else (2, 2, grid.M, grid.N // 2, channels)
-    obs = {
+    obs: dict[str, spaces.Space] = {
         "cortical": spaces.Box(0.0, 1.0, cort_shape, np.float32),
         "fovea": spaces.Box(0.0, 1.0, (2, grid.n_fovea, channels), np.float32),
         "remapped": spaces.Box(0.0, 1.0, cort_shape, np.float32),

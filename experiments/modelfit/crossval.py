@@ -66,6 +66,7 @@ import hashlib
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -97,7 +98,7 @@ def conditions() -> dict[str, dict]:
 
 CONDITIONS = ("references", "dark", "marker")
 #: fit set -> (the condition it is fitted on, axes fitted (0 = x, 1 = y), [(held-out name, condition, axes)])
-HELDOUT = {
+HELDOUT: dict[str, tuple[str, tuple[int, ...], list[tuple[str, str, tuple[int, ...]]]]] = {
     "references": ("references", (0, 1), [("dark", "dark", (0, 1)), ("marker", "marker", (0, 1))]),
     "references (x)": ("references", (0,), [("references (y)", "references", (1,))]),
 }
@@ -178,13 +179,13 @@ class _Condition:
     """A condition's trials, observed twice: with motor noise (the data) and without (the fits)."""
 
     name: str
-    config: object  # the fits' TrialConfig
+    config: Any  # the fits' TrialConfig
     trials: list
     observations: list  # without motor noise, one per trial (seeds 0)
-    runner: object
+    runner: Any  # the fits' TrialRunner
 
 
-def _observe(name: str, design, cfg: dict, out: Path, options: dict) -> tuple[_Condition, list, object]:
+def _observe(name: str, design, cfg: dict, out: Path, options: dict) -> tuple[_Condition, list, Any]:
     from ..psychophysics import TrialConfig, TrialRunner
     from .observe import observe_trials
 
@@ -536,10 +537,15 @@ def _plot(rows: list[dict], cfg: dict, path: Path) -> None:
             for d in datas:
                 r = next((r for r in rows if (r["data"], r["theory"], r["fit_set"], r["condition"], r["metric"])
                           == (d, th, fit_set, cond, "loglik_per_report")), None)
-                ok = r is not None and r["value"] != ""
-                vals.append(float(r["value"]) if ok else np.nan)
-                lo.append(float(r["value"]) - float(r["ci_low"]) if ok else 0.0)
-                hi.append(float(r["ci_high"]) - float(r["value"]) if ok else 0.0)
+                if r is not None and r["value"] != "":
+                    v = float(r["value"])
+                    vals.append(v)
+                    lo.append(v - float(r["ci_low"]))
+                    hi.append(float(r["ci_high"]) - v)
+                else:
+                    vals.append(np.nan)
+                    lo.append(0.0)
+                    hi.append(0.0)
             x = np.arange(len(datas)) + (j - (len(theories) - 1) / 2) * width
             ax.errorbar(x, vals, yerr=[lo, hi], fmt="o", color=f"C{j}", label=th, capsize=2, ms=5)
         for k in range(1, len(datas)):

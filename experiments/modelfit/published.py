@@ -72,7 +72,7 @@ def _check_sources(path: Path) -> tuple[list[str], list[dict]]:
         data = (r.get("condition_level_data") or "").strip()
         if data.endswith(".csv") and not (path.parent / data).is_file():
             problems.append(f"{path}: row {i}: condition_level_data {data} is not in the folder")
-    papers = [r.get("paper") for r in rows]
+    papers = [r.get("paper") or "" for r in rows]
     dup = sorted({p for p in papers if papers.count(p) > 1})
     if dup:
         problems.append(f"{path}: {dup[0]} has more than one row")
