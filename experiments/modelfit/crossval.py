@@ -587,18 +587,13 @@ def _noise(text: str) -> float:
 
 def run(args: argparse.Namespace) -> int:
     from ..cli import guarded
+    from ..cli.options import check_backend_options
     from ..folders import LockBusyError
     from ..psychophysics.runner import FolderBusyError, OutputFolderError, prepare_output_folder
     from .fitting import FitError, FitFolderError
 
     parser = args._parser
-    if args.ray_address is not None and args.backend != "ray":
-        parser.error("argument --ray-address: only with --backend ray (the local backend starts no cluster)")
-    if args.backend == "ray":
-        try:
-            import ray  # noqa: F401
-        except ImportError:
-            parser.error("argument --backend: ray is not installed: pip install -e \".[ray]\"")
+    check_backend_options(args, parser)
     try:
         out = prepare_output_folder(args.out)
     except (OutputFolderError, TypeError) as e:
@@ -621,6 +616,7 @@ def run(args: argparse.Namespace) -> int:
 
 def add_subcommand(subparsers) -> None:
     from ..cli import int_in, out_dir
+    from ..cli.options import add_backend_options, add_workers_option, image_size_type, seed_type
 
     p = subparsers.add_parser("crossval", help="cross-validation: fit each theory on some conditions, predict "
                                                "held-out ones (dark, marker, the 2-D shape): which theory generalises",
@@ -629,7 +625,7 @@ def add_subcommand(subparsers) -> None:
     p.add_argument("--quick", action="store_true",
                    help="a small check: 4 flashes x 4 times, data from observer and paper, 64 px, 15 evaluations "
                         "per fit (about a minute on 2 cores)")
-    p.add_argument("--seed", type=int_in(0, 2**31 - 1), default=0,
+    p.add_argument("--seed", type=seed_type(), default=0,
                    help="seed of the motor noise, the report noise and the bootstrap")
     p.add_argument("--theories", type=_names, default=list(THEORIES), metavar="A,B,...",
                    help=f"theories fitted (default {','.join(THEORIES)})")
@@ -640,13 +636,11 @@ def add_subcommand(subparsers) -> None:
                                                                                      "default 2)")
     p.add_argument("--noise-deg", type=_noise, default=1.5, metavar="DEG",
                    help="report noise s.d. of the simulated observers (deg, 0.05-20; default 1.5)")
-    p.add_argument("--image-size", type=int_in(32, 512), default=None, metavar="PX",
-                   help="eye image side (32-512; default 128, --quick 64)")
+    p.add_argument("--image-size", type=image_size_type(), default=None, metavar="PX",
+                   help="eye image side (32-1024; default 128, --quick 64)")
     p.add_argument("--max-evals", type=int_in(10, 10_000), default=None, metavar="N",
                    help="likelihood evaluations per fit (10-10000; default 120, --quick 15)")
-    p.add_argument("--backend", choices=("local", "ray"), default="local",
-                   help="where trials are observed: local processes, or Ray")
-    p.add_argument("--ray-address", default=None, metavar="ADDR", help="with --backend ray: a cluster to join")
-    p.add_argument("--workers", type=int_in(1, 256), default=1, metavar="N", help="observing processes (1-256)")
+    add_backend_options(p)
+    add_workers_option(p, default=1, what="observing processes / Ray actors")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run, _parser=p)
