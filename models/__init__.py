@@ -22,7 +22,7 @@ _HOMES: dict[str, str] = {
     **dict.fromkeys(('VISUAL_LATENCY_MS', 'EyePositionSignal'), 'eye_position_signal'),
     **dict.fromkeys(('MAX_PEAK_VELOCITY', 'MainSequence', 'OculomotorRangeError', 'fick_angles', 'fick_matrix',
                      'fixation_angles', 'gaze_direction', 'listing_torsion', 'rotation_vector', 'cyclopean_amplitude',
-                     'displaced', 'fixation_batch'), 'eye_kinematics'),
+                     'displaced', 'fixation_batch', 'MotorNoise', 'HUMAN_MOTOR_NOISE'), 'eye_kinematics'),
     **dict.fromkeys(('SACCADE_MODELS', 'SaccadePlan'), 'oculomotor'),
     **dict.fromkeys(('EYES', 'EyeImage', 'EyeRenderer', 'ForkedGLContextError', 'StereoFrame'), 'render'),
     **dict.fromkeys(('PLANTS', 'BurstGenerator', 'SaccadeProfile'), 'saccade_generator'),
