@@ -20,7 +20,7 @@ _HOMES: dict[str, str] = {
     **dict.fromkeys(('DEFAULT_FOVY_DEG', 'DEFAULT_IPD', 'HEAD_XML', 'QUALITIES', 'ModelFileError', 'build_model',
                      'build_spec', 'export_xml', 'load_model'), 'build'),
     **dict.fromkeys(('VISUAL_LATENCY_MS', 'EyePositionSignal'), 'eye_position_signal'),
-    **dict.fromkeys(('MAX_PEAK_VELOCITY', 'MainSequence', 'OculomotorRangeError', 'fick_angles', 'fick_matrix',
+    **dict.fromkeys(('MAX_PEAK_VELOCITY', 'MAX_PEAK_VELOCITY_DEG_S', 'MainSequence', 'OculomotorRangeError', 'fick_angles', 'fick_matrix',
                      'fixation_angles', 'gaze_direction', 'listing_torsion', 'rotation_vector', 'cyclopean_amplitude',
                      'displaced', 'fixation_batch', 'MotorNoise', 'HUMAN_MOTOR_NOISE'), 'eye_kinematics'),
     **dict.fromkeys(('SACCADE_MODELS', 'SaccadePlan'), 'oculomotor'),

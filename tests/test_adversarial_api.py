@@ -603,7 +603,7 @@ API: dict[str, Api] = {
                                           types=(KeyError,)),
     # ---------------------------------------------------------------- models: oculomotor plant
     "models.MainSequence": Api(lambda o: models.MainSequence, {}, bad={
-        "m0_deg": bounds(0.0, 100.0, lo_open=True), "vpk_deg_per_ms": bounds(0.0, 0.7, lo_open=True),
+        "m0_deg": bounds(0.0, 100.0, lo_open=True), "vpk_deg_per_ms": bounds(0.0, 1.0, lo_open=True),
         "end_velocity_deg_s": bounds(0.0, 525.0, lo_open=True, hi_open=True), "settle_deg": bounds(0.0, 1.0, lo_open=True)}),
     **{f"models.MainSequence.{m}": Api(lambda o, m=m: getattr(models.MainSequence(), m), dict(t_ms=[1.0], amp_deg=10.0),
                                        bad={"amp_deg": bounds(0.0, 180.0)})

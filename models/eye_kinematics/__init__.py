@@ -11,7 +11,7 @@ from .fick import (PRIMARY_EYE_BASIS, eye_frame_basis, fick_angles, fick_matrix,
 from .fixation import cyclopean_amplitude, displaced, fixation_angles, fixation_batch, noisy_endpoints
 from .main_sequence import MainSequence
 from .motor_noise import HUMAN_MOTOR_NOISE, MotorNoise
-from .ranges import (H_RANGE, MAX_PEAK_VELOCITY, MIN_TARGET_DISTANCE, NULL_SACCADE, T_RANGE, V_RANGE,
+from .ranges import (H_RANGE, MAX_PEAK_VELOCITY, MAX_PEAK_VELOCITY_DEG_S, MIN_TARGET_DISTANCE, NULL_SACCADE, T_RANGE, V_RANGE,
                      OculomotorRangeError, check_point)
 
 __all__ = [
@@ -19,6 +19,6 @@ __all__ = [
     "rotation_vector", "eye_frame_basis",
     "fixation_angles", "fixation_batch", "displaced", "cyclopean_amplitude", "noisy_endpoints",
     "MainSequence", "MotorNoise", "HUMAN_MOTOR_NOISE",
-    "H_RANGE", "V_RANGE", "T_RANGE", "MAX_PEAK_VELOCITY", "MIN_TARGET_DISTANCE", "NULL_SACCADE",
+    "H_RANGE", "V_RANGE", "T_RANGE", "MAX_PEAK_VELOCITY", "MAX_PEAK_VELOCITY_DEG_S", "MIN_TARGET_DISTANCE", "NULL_SACCADE",
     "OculomotorRangeError", "check_point",
 ]
