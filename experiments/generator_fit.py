@@ -292,7 +292,9 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
     for i in range(len(fit)):
         e = np.zeros(len(fit))
         e[i] = _CI_STEP
-        J[:, i] = (resid(res.x + e) - resid(res.x - e)) / (2 * _CI_STEP)
+        # at a bound the difference is one-sided: no parameter leaves its accepted range
+        up, down = np.minimum(res.x + e, hi), np.maximum(res.x - e, lo)
+        J[:, i] = (resid(up) - resid(down)) / (up[i] - down[i])
     dof = max(1, 2 * n - len(fit))
     s2 = float(res.fun @ res.fun) / dof
     try:

@@ -68,3 +68,17 @@ def test_an_unidentified_fit_writes_no_file_and_an_identified_one_strict_json(tm
     assert doc["at_bounds"] == [] and doc["ci95_asymptotic"]["burst_max_deg_s"] == [0.0, None]
     assert doc["bounds"]["burst_max_deg_s"] == list(PARAMETER_BOUNDS["burst_max_deg_s"])
     assert models.BurstGenerator.from_file(tmp_path / "g.json") == gen
+
+
+def test_a_fit_ending_on_a_bound_is_reported_not_a_crash():
+    """Small saccades faster and shorter than the family can make (as on a real 500 Hz recording,
+    ``mne_test_eyelink.asc``: 1-7 deg at 130-400 deg/s in 15-30 ms) drive ``burst_scale_deg`` and
+    ``burst_lag_ms`` onto their lower bounds (here ``burst_max_deg_s`` onto its upper). The CIs' Jacobian then steps one-sided at the bound (it
+    stepped below it, and the run died with a traceback), and the fit lists them in ``at_bounds``."""
+    amps = np.linspace(1.0, 7.0, 24)
+    pr = gf.predict(models.BurstGenerator(), amps, 500.0)
+    rows = [{"amplitude_deg": a, "peak_velocity_deg_s": 1.6 * v * (1.0 + 0.02 * np.sin(7 * i)), "duration_ms": 0.7 * d}
+            for i, (a, v, d) in enumerate(zip(pr["amplitude_deg"], pr["peak_velocity_deg_s"], pr["duration_ms"]))]
+    fit = gf.fit_generator(rows, rate_hz=500.0, bootstrap=0)
+    assert "burst_scale_deg" in fit.at_bounds
+    assert fit.problems  # not identified: no generator.json would be written
