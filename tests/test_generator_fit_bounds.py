@@ -70,6 +70,7 @@ def test_an_unidentified_fit_writes_no_file_and_an_identified_one_strict_json(tm
     assert models.BurstGenerator.from_file(tmp_path / "g.json") == gen
 
 
+@pytest.mark.slow
 def test_a_fit_ending_on_a_bound_is_reported_not_a_crash():
     """Small saccades faster and shorter than the family can make (as on a real 500 Hz recording,
     ``mne_test_eyelink.asc``: 1-7 deg at 130-400 deg/s in 15-30 ms) drive ``burst_scale_deg`` and
