@@ -48,6 +48,21 @@ def test_identifiability_flags_bounds_and_wide_cis():
     assert at == [] and problems == []
 
 
+def test_a_ci_reaching_a_bound_is_not_identified():
+    """``plant_t2_ms`` 0.507 ms against its 0.5 bound, CI [0.4988, 0.5069] (a real 500 Hz recording,
+    ``mne_test_eyelink.asc``, fitted with ``plant_t2_ms``): 1.4 % from the bound, outside the
+    estimate's tolerance, but the data do not exclude the bound: not identified. A CI inside the
+    range near a bound is fine."""
+    fit = ("burst_max_deg_s", "plant_t2_ms")
+    lo, hi = np.log([1.0, 0.5]), np.log([2000.0, 50.0])
+    x = np.log([597.0, 0.507])
+    ci = {"burst_max_deg_s": (564.4, 633.7), "plant_t2_ms": (0.4988, 0.5069)}
+    at, problems = gf.identifiability(fit, x, lo, hi, ci, np.exp)
+    assert at == [] and problems == ["the 95% CI of plant_t2_ms [0.4988, 0.5069] reaches its lower bound (0.5)"]
+    at, problems = gf.identifiability(fit, x, lo, hi, dict(ci, plant_t2_ms=(0.502, 0.53)), np.exp)
+    assert at == [] and problems == []
+
+
 def test_an_unidentified_fit_writes_no_file_and_an_identified_one_strict_json(tmp_path):
     gen = models.BurstGenerator()
     base = dict(generator=gen, fitted=("burst_max_deg_s",), estimates={"burst_max_deg_s": 714.0},
