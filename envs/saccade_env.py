@@ -102,7 +102,7 @@ class BinocularSaccadeEnv(gym.Env):
     step; see ``envs.vision.POOLED_REMAP_DEFAULT``; it changes ``remapped`` and ``remap_error``,
     nothing else), ``grayscale``, ``cortex`` (``"eyes"`` or
     ``"hemispheres"``), ``include_coeffs``, ``fovea_deg`` (3), ``n_sectors``, ``sampling``
-    (``"pool"``), ``fovy_deg`` (70), ``endpoint_noise`` (0), ``saccade_model`` (``"burst"`` or
+    (``"pool"``), ``fovy_deg`` (70), ``endpoint_noise`` (0) or ``motor_noise`` (a ``models.MotorNoise``), ``saccade_model`` (``"burst"`` or
     ``"legacy"``, see ``models.Head``), ``generator`` (a ``models.BurstGenerator``, e.g. one fitted to a
     person's recording: ``models.BurstGenerator.from_file``), ``eye_drive`` (``"plant"``: torques through
     the orbital plant, or ``"servo"``: exact pointing; see ``models.Head``), ``quality`` (``"fast"``),
@@ -128,7 +128,8 @@ class BinocularSaccadeEnv(gym.Env):
                  include_coeffs: bool = False, fovea_deg: float = 3.0, n_sectors: int | None = None,
                  sampling: str = "pool", fovy_deg: float = models.DEFAULT_FOVY_DEG, endpoint_noise: float = 0.0,
                  saccade_model: str = "burst", generator: models.BurstGenerator | None = None,
-                 eye_drive: str = "plant", quality: str = "fast", task_kwargs: dict | None = None) -> None:
+                 eye_drive: str = "plant", quality: str = "fast", task_kwargs: dict | None = None,
+                 motor_noise: models.MotorNoise | None = None) -> None:
         super().__init__()
         checks.choice("action_mode", action_mode, ("vector", "cell"))
         checks.choice("render_mode", render_mode, ("rgb_array",), allow_none=True)
@@ -167,7 +168,7 @@ class BinocularSaccadeEnv(gym.Env):
 
         self.head = models.Head(self.scene, image_size=image_size, fovy_deg=fovy_deg, quality=quality, seed=0,
                                 endpoint_noise=endpoint_noise, saccade_model=saccade_model, generator=generator,
-                                eye_drive=eye_drive)
+                                eye_drive=eye_drive, motor_noise=motor_noise)
         try:
             self.task.check_scene(self.head)
         except ValueError:

@@ -259,13 +259,14 @@ def profile_values(tab, rtab, dt, prof, legacy, m0, vpk, plant, t_rel, rate, out
 
 # ------------------------------------------------------------------------------ plans
 @_inline
-def _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start, end, w, t):  # pragma: no cover
+def _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, w, t):  # pragma: no cover
     """Fick (h, v) of both eyes of saccade w at t ms after onset: (s_nom, h_left, v_left, h_right, v_right).
-    ``plan[w]``: (settle time, saccade offset, version, dv_left, dv_right, vergence_left, vergence_right)."""
+    ``plan[w]``: (settle time, saccade offset, version, dv_left, dv_right, vergence_left, vergence_right,
+    vergence time scale ``tau``: ``models.VergenceDynamics``' for this plan's convergence or divergence)."""
     s_nom = _position(tab, dt, prof, w, t, 0, legacy, m0, vpk)
     if t >= plan[w, 0]:
         return s_nom, end[w, 0, 0], end[w, 0, 1], end[w, 1, 0], end[w, 1, 1]
-    r = _vfrac(t, plan[w, 1], speedup, tau, latency) if verg_on else s_nom
+    r = _vfrac(t, plan[w, 1], speedup, plan[w, 7], latency) if verg_on else s_nom
     s0 = s_nom if plants[w, 0] == 0 else _position(tab, dt, prof, w, t, plants[w, 0], legacy, m0, vpk)
     s1 = s_nom if plants[w, 1] == 0 else _position(tab, dt, prof, w, t, plants[w, 1], legacy, m0, vpk)
     version = plan[w, 2]
@@ -274,7 +275,7 @@ def _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, pl
 
 
 @_par
-def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start, end,
+def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end,
            t_rel, out):  # pragma: no cover - compiled
     """Fick angles (h, v, Listing torsion) of both eyes, out (n, T, 2, 3), of n saccades at ``t_rel``
     (n, T) ms after their onsets. Arguments: see :func:`_hv` (``end``: executed or intended endpoint)."""
@@ -286,14 +287,14 @@ def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency,
                     for c in range(3):
                         out[w, k, e, c] = out[w, k - 1, e, c]
                 continue
-            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start,
+            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start,
                                     end, w, t_rel[w, k])
             out[w, k, 0, 0], out[w, k, 0, 1], out[w, k, 0, 2] = h0, v0, _listing(h0, v0)
             out[w, k, 1, 0], out[w, k, 1, 1], out[w, k, 1, 2] = h1, v1, _listing(h1, v1)
 
 
 @_par
-def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start, end,
+def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end,
           t_rel, out):  # pragma: no cover - compiled
     """Rates (rad/ms) of the Fick angles of both eyes, out (n, T, 2, 3), at ``t_rel`` (n, T); torsion's
     by the chain rule of Listing's ``tan(t/2) = tan(h/2) tan(v/2)``."""
@@ -301,7 +302,7 @@ def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, lat
     for w in nb.prange(n):
         for k in range(T):
             t = t_rel[w, k]
-            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start,
+            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start,
                                     end, w, t)
             if t >= plan[w, 0]:
                 for e in range(2):
@@ -309,7 +310,7 @@ def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, lat
                         out[w, k, e, c] = 0.0
                 continue
             ds = _rate(rtab, dt, prof, w, t, 0, legacy, m0, vpk)
-            dr = _vrate(t, plan[w, 1], speedup, tau, latency) if verg_on else ds
+            dr = _vrate(t, plan[w, 1], speedup, plan[w, 7], latency) if verg_on else ds
             for e in range(2):
                 dsp = ds if plants[w, e] == 0 else _rate(rtab, dt, prof, w, t, plants[w, e], legacy, m0, vpk)
                 dh = plan[w, 2] * dsp + plan[w, 5 + e] * dr
@@ -327,7 +328,7 @@ def _norm(x, s, e, s_nom):  # pragma: no cover - compiled
 
 
 @_par
-def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants, start, end, knot, count,
+def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, knot, count,
             t_rel, sigma, out):  # pragma: no cover - compiled
     """The eye-position signal's normalised time course (``models.EyePositionSignal``), out (n, m, 4)
     [(h, v) of the left eye, then the right], at ``t_rel`` (n, m) (already less the delay): the intended
@@ -341,7 +342,7 @@ def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency
                 out[w, j, c] = 0.0
         p0 = p1 = p2 = p3 = 0.0
         for k in range(count[w]):
-            s_nom, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, tau, speedup, latency, plants,
+            s_nom, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants,
                                         start, end, w, k * knot)
             c0 = _norm(h0, start[w, 0, 0], end[w, 0, 0], s_nom)
             c1 = _norm(v0, start[w, 0, 1], end[w, 0, 1], s_nom)

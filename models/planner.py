@@ -187,9 +187,9 @@ class BatchedPlanner:
         hv = np.asarray(hv, float).reshape(m, 2)
         factor = np.asarray(factor, float).reshape(m)
         head = self.head
-        noise = head.endpoint_noise
-        # vergence actions with endpoint noise are planned by the single env's code, world by world
-        fast = np.ones(m, bool) if noise == 0 else factor == 1.0
+        noise = head.motor_noise.active
+        # vergence actions with motor noise are planned by the single env's code, world by world
+        fast = np.ones(m, bool) if not noise else factor == 1.0
         clipped = np.zeros(m, bool)
         hv2, factor2 = hv.copy(), factor.copy()
         f_idx = np.flatnonzero(fast)
@@ -198,7 +198,7 @@ class BatchedPlanner:
             targets = self._targets(worlds[f_idx], hv[f_idx], factor[f_idx])
             row[f_idx] = np.arange(len(f_idx))
             _, _, _, amp, reach, ok, _ = targets
-            drew = (noise > 0) & reach & (amp > NULL_SACCADE)  # Head._plan_head drew before failing
+            drew = noise & reach & (amp > NULL_SACCADE)  # Head._plan_head drew before failing
             fast[f_idx[~ok & drew]] = False  # (only past the generator's 90 deg): replayed world by world
             out = f_idx[~ok & ~drew]
             if len(out):  # shortened to the range's edge: plan_clipped's bisection, all such worlds at once
@@ -276,7 +276,7 @@ class BatchedPlanner:
         attempt that reaches its target; the last attempt's draw is ``_plan_fast``'s), and the worlds
         whose attempts drew and then failed (past 90 deg: left to the single env's code)."""
         m = len(worlds)
-        noise = self.head.endpoint_noise > 0
+        noise = self.head.motor_noise.active
         lo, hi, best = np.zeros(m), np.ones(m), np.full(m, -1.0)
         wins, last_drew, odd = np.zeros(m, np.int64), np.zeros(m, bool), np.zeros(m, bool)
         for _ in range(10):
@@ -302,7 +302,7 @@ class BatchedPlanner:
         w = worlds[idx]
         p_head, intended_world, end, amp = p_head[idx], intended_world[idx], end[idx], amp[idx]
         end_point, noisy_end, noisy_amp = noisy_endpoints(c, self._centres, fix[idx], p_head, end, amp,
-                                                           self.head.endpoint_noise, [self.rngs[k] for k in w])
+                                                           self.head.motor_noise, [self.rngs[k] for k in w])
         head = self.head
         plans = SaccadePlans(self.time_ms[w], self.hold[w], noisy_end, end, noisy_amp, amp, self.signal_now[w],
                              self._world(end_point), intended_world,

@@ -65,6 +65,8 @@ import numpy as np
 
 from conformal import checks
 
+from .eye_kinematics.ranges import MAX_PEAK_VELOCITY_DEG_S
+
 __all__ = ["BurstGenerator", "SaccadeProfile", "PLANTS", "DETECTION_THRESHOLD_DEG_S", "PARAMETER_BOUNDS"]
 
 #: The three plants of a profile: ``nominal`` (vertical components, the cyclopean eye),
@@ -72,8 +74,6 @@ __all__ = ["BurstGenerator", "SaccadeProfile", "PLANTS", "DETECTION_THRESHOLD_DE
 PLANTS = ("nominal", "abducting", "adducting")
 #: Eye speed (deg/s) whose crossings delimit a saccade's duration.
 DETECTION_THRESHOLD_DEG_S = 30.0
-#: Ceiling of eye speed (deg/s) that no parameter set may exceed (``models.MAX_PEAK_VELOCITY``).
-MAX_PEAK_VELOCITY_DEG_S = 700.0
 #: The accepted range (inclusive) of every parameter: what ``BurstGenerator`` accepts is what a fit
 #: (``experiments.oculomotor.generator_fit``) may return, so every fitted file loads. The table's peak-velocity
 #: ceiling (``MAX_PEAK_VELOCITY_DEG_S``) is a further joint bound the fit also respects.
@@ -220,7 +220,7 @@ class BurstGenerator:
         peak = float((np.diff(pos, axis=1) / _TABLE_DT_MS).max()) * 1000.0
         if peak > MAX_PEAK_VELOCITY_DEG_S:
             raise ValueError(f"these burst-generator parameters drive the eye at {peak:.0f} deg/s, above the "
-                             f"physiological ceiling of {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s; lower "
+                             f"model family's ceiling of {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s (no human saccade is faster); lower "
                              "burst_max_deg_s or raise adaptation_gain")
         with np.errstate(invalid="ignore", divide="ignore"):
             norm = np.where(amps > 0, pos / amps, 0.0)

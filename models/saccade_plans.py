@@ -203,9 +203,11 @@ class SaccadePlans:
         self._parts = {"executed": self._decompose(self.end, prof), "intended": self._decompose(self.intended_end, self.profiles)}
         settle = np.maximum(prof.settle_ms, self.profiles.settle_ms)
         if self.vergence is not None:
-            verg = np.maximum(np.abs(self._parts["executed"][1][:, 5:7]).max(axis=1),
-                              np.abs(self._parts["intended"][1][:, 5:7]).max(axis=1))
-            settle = np.maximum(settle, self.vergence.settle_ms(np.rad2deg(verg), prof.offset_ms, generator.settle_deg))
+            for which in ("executed", "intended"):  # each eye's share of the signed convergence
+                row = self._parts[which][1]
+                share = np.where(row[:, 5] - row[:, 6] >= 0, 1.0, -1.0) * np.abs(row[:, 5:7]).max(axis=1)
+                settle = np.maximum(settle, self.vergence.settle_ms(np.rad2deg(share), prof.offset_ms,
+                                                                    generator.settle_deg))
         self.settle_ms = np.asarray(settle, float)
         for which in ("executed", "intended"):
             self._parts[which][1][:, 0] = self.settle_ms
@@ -219,23 +221,27 @@ class SaccadePlans:
         self.endpoint_error_deg = np.degrees(np.arccos(np.clip((g0 * g1).sum(axis=-1), -1.0, 1.0)))
 
     def _decompose(self, end: np.ndarray, prof: Profiles) -> tuple[np.ndarray, np.ndarray]:
-        """Per plan the plants (n, 2) and the kernels' plan row (n, 7): settle time (filled in later),
-        saccade offset, version, vertical displacements (2) and vergence (2) of each eye."""
+        """Per plan the plants (n, 2) and the kernels' plan row (n, 8): settle time (filled in later),
+        saccade offset, version, vertical displacements (2) and vergence (2) of each eye, and the
+        vergence time scale (``VergenceDynamics._tau_for`` of the convergence ``vergence_left -
+        vergence_right``; 1 for the legacy model)."""
         d = end[:, :, :2] - self.start[:, :, :2]
         version = d[:, :, 0].mean(axis=1)
         vergence = d[:, :, 0] - version[:, None]
         # plant rows: 0 nominal, 1 abducting, 2 adducting; the right eye abducts moving right (h > 0)
         plants = np.where((version > 0)[:, None], [2, 1], [1, 2])
         plants = np.where(((version == 0) | self.legacy)[:, None], 0, plants).astype(np.intp)
+        tau = (np.ones(self.n) if self.vergence is None
+               else self.vergence._tau_for(vergence[:, 0] - vergence[:, 1]) * np.ones(self.n))
         row = np.column_stack([np.zeros(self.n), prof.offset_ms if self.n else np.zeros(0), version,
-                               d[:, :, 1], vergence])
+                               d[:, :, 1], vergence, tau])
         return plants, row
 
     def _args(self, which: str) -> tuple:
         plants, row = self._parts[which]
         vd = self.vergence
         verg_on = vd is not None
-        return (row, verg_on, vd.tau_ms if verg_on else 1.0, vd.saccade_speedup if verg_on else 1.0,
+        return (row, verg_on, vd.saccade_speedup if verg_on else 1.0,
                 vd.latency_ms if verg_on else 0.0, plants,
                 self.start, self.end if which == "executed" else self.intended_end)
 

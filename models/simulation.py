@@ -22,6 +22,7 @@ from ._gl import mujoco
 from .build import DEFAULT_FOVY_DEG, DEFAULT_IPD, build_spec
 from .eye_kinematics import (
     MainSequence,
+    MotorNoise,
     OculomotorRangeError,
     check_point,
     cyclopean_amplitude,
@@ -138,6 +139,9 @@ class Head(SceneObjects, HeadRendering):
             5-10 % of the amplitude (Kowler & Blaser 1995, Vision Res 35:1741; van Beers 2007,
             J Neurosci 27:8757). It acts downstream of the generator: the efference copy keeps the
             intended endpoint.
+        motor_noise: the saccadic motor error as a :class:`models.MotorNoise` (scatter along and
+            across the saccade's direction, undershoot; ``models.HUMAN_MOTOR_NOISE`` for published
+            values), instead of ``endpoint_noise``; default none. Drawn from the seeded stream.
         saccade_model: ``"burst"`` (default: the brainstem burst generator of
             :mod:`models.saccade_generator`, with slower vergence) or ``"legacy"`` (the earlier
             analytic main-sequence planner, for comparison).
@@ -174,7 +178,7 @@ class Head(SceneObjects, HeadRendering):
                  vergence: VergenceDynamics | None = None, eye_position: EyePositionSignal | None = None,
                  timestep_ms: float = DEFAULT_TIMESTEP_MS,
                  saccade_timestep_ms: float = DEFAULT_SACCADE_TIMESTEP_MS, eye_drive: str = "plant",
-                 plant: OrbitalPlant | None = None):
+                 plant: OrbitalPlant | None = None, motor_noise: MotorNoise | None = None):
         if not isinstance(scene, str):
             raise checks.InputTypeError(f"scene must be one of {', '.join(SCENES)}; got {scene!r}")
         self._k_fix = _substeps(timestep_ms, "timestep_ms")
@@ -189,6 +193,12 @@ class Head(SceneObjects, HeadRendering):
         self.image_shape = (h, w)
         self.endpoint_noise = checks.real("endpoint_noise", endpoint_noise, 0.0, 1.0,
                                           hint="the s.d. of the endpoint error as a fraction of the amplitude")
+        if motor_noise is not None and not isinstance(motor_noise, MotorNoise):
+            raise checks.InputTypeError(f"motor_noise must be a models.MotorNoise or None; got {type(motor_noise).__name__}")
+        if motor_noise is not None and self.endpoint_noise > 0:
+            raise ValueError("give endpoint_noise (isotropic) or motor_noise, not both")
+        #: the saccadic motor error both engines draw (``models.MotorNoise``)
+        self.motor_noise = motor_noise if motor_noise is not None else MotorNoise.of(self.endpoint_noise)
         self.saccade_model = checks.choice("saccade_model", saccade_model, SACCADE_MODELS)
         self.eye_drive = checks.choice("eye_drive", eye_drive, EYE_DRIVES)
         if plant is not None and self.eye_drive != "plant":
@@ -502,7 +512,7 @@ class Head(SceneObjects, HeadRendering):
         end = fixation_angles(p[0], self._eye_centres_head)[None]  # validates the intended target
         amp = cyclopean_amplitude(c, self._fix_head[None], p)
         end_point, noisy_end, noisy_amp = noisy_endpoints(c, self._eye_centres_head, self._fix_head[None], p, end, amp,
-                                                          self.endpoint_noise, [self._rng])
+                                                          self.motor_noise, [self._rng])
         legacy = self.saccade_model == "legacy"
         return SaccadePlan(onset_ms=self.time_ms + latency_ms, start_angles=self._hold.copy(), end_angles=noisy_end[0],
                            amplitude=float(noisy_amp[0]), generator=self.main_sequence if legacy else self.generator,

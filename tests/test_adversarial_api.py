@@ -513,7 +513,7 @@ API: dict[str, Api] = {
     "models.Head": Api(lambda o: models.Head, dict(scene="bar", image_size=16, seed=0, generator=models.BurstGenerator(),
                                                    vergence=models.VergenceDynamics(),
                                                    eye_position=models.EyePositionSignal(),
-                                                   plant=models.OrbitalPlant()), bad={
+                                                   plant=models.OrbitalPlant(), motor_noise=models.MotorNoise()), bad={
         "scene": {"unknown": "moon"},
         "image_size": {**counts(1, 4096), "pair_frac": (32, 7.5), "pair_huge": (32, 10**6), "triple": (32, 32, 3)},
         "fovy_deg": bounds(5.0, 170.0), "ipd": bounds(0.01, 0.15), "quality": unknown("fast"),
@@ -524,7 +524,8 @@ API: dict[str, Api] = {
         "vergence": {"dict": {}, "float": 150.0}, "eye_position": {"dict": {}, "float": 50.0},
         "timestep_ms": {**bounds(0.01, 1.0), "not_a_divisor": 0.3, "tiny": 1e-9},
         "saccade_timestep_ms": {**bounds(0.01, 1.0), "not_a_divisor": 0.7},
-        "eye_drive": unknown("plant"), "plant": {"dict": {}, "float": 150.0}},
+        "eye_drive": unknown("plant"), "plant": {"dict": {}, "float": 150.0},
+        "motor_noise": {"dict": {}, "float": 0.1}},
         names={"main_sequence": "main_sequence|saccade_model"},
         free={"main_sequence": "probed by its domain values (valid only with saccade_model='legacy')"}),
     "models.Head.step_ms": Api(lambda o: o.head.step_ms, dict(n=1), bad={"n": {**counts(0, 60_000), "1e9": 1e9}},
@@ -602,7 +603,7 @@ API: dict[str, Api] = {
                                           types=(KeyError,)),
     # ---------------------------------------------------------------- models: oculomotor plant
     "models.MainSequence": Api(lambda o: models.MainSequence, {}, bad={
-        "m0_deg": bounds(0.0, 100.0, lo_open=True), "vpk_deg_per_ms": bounds(0.0, 0.7, lo_open=True),
+        "m0_deg": bounds(0.0, 100.0, lo_open=True), "vpk_deg_per_ms": bounds(0.0, 1.0, lo_open=True),
         "end_velocity_deg_s": bounds(0.0, 525.0, lo_open=True, hi_open=True), "settle_deg": bounds(0.0, 1.0, lo_open=True)}),
     **{f"models.MainSequence.{m}": Api(lambda o, m=m: getattr(models.MainSequence(), m), dict(t_ms=[1.0], amp_deg=10.0),
                                        bad={"amp_deg": bounds(0.0, 180.0)})
@@ -638,7 +639,12 @@ API: dict[str, Api] = {
     "models.SaccadeProfile.rate": Api(lambda o: o.profile.rate, dict(t_rel=np.array([1.0, 2.0]), plant=0),
                                       bad={"plant": {"above": 3}}),
     "models.VergenceDynamics": Api(lambda o: models.VergenceDynamics, {}, bad={
-        p: {"huge": 1e9, "negative": -1e9} for p in ("tau_ms", "saccade_speedup", "latency_ms")}),
+        p: {"huge": 1e9, "negative": -1e9} for p in ("tau_ms", "saccade_speedup", "latency_ms", "divergence_tau_ms")}),
+    "models.VergenceDynamics.peak_velocity_deg_s": Api(lambda o: models.VergenceDynamics().peak_velocity_deg_s,
+                                                       dict(change_deg=np.array([1.0, -2.0]))),
+    "models.MotorNoise": Api(lambda o: models.MotorNoise, {}, bad={
+        "along": bounds(0.0, 1.0), "across": bounds(0.0, 1.0), "gain": bounds(0.5, 1.5), "isotropic": {"str": "yes"}}),
+    "models.MotorNoise.of": Api(lambda o: models.MotorNoise.of, dict(sd=0.1), bad={"sd": bounds(0.0, 1.0)}),
     "models.VergenceDynamics.fraction": Api(lambda o: models.VergenceDynamics().fraction, dict(
         t_rel_ms=np.array([1.0, 20.0]), saccade_offset_ms=30.0)),
     "models.VergenceDynamics.rate": Api(lambda o: models.VergenceDynamics().rate, dict(
@@ -684,7 +690,7 @@ API: dict[str, Api] = {
     # ---------------------------------------------------------------- envs
     "envs.BinocularSaccadeEnv": Api(lambda o: envs.BinocularSaccadeEnv, dict(
         scene="dots", image_size=32, fixation_ms=10, n_sectors=16, remap_models=("homography",), render_mode="rgb_array",
-        task_kwargs={"max_saccades": 3}, generator=models.BurstGenerator()), bad={
+        task_kwargs={"max_saccades": 3}, generator=models.BurstGenerator(), motor_noise=models.MotorNoise()), bad={
         "scene": {"unknown": "moon", "list": ["dots"], "no_target": "bar"}, "task": {"unknown": "dance", "class": envs.FixateTask},
         "generator": {"dict": {}, "main_sequence": models.MainSequence()}, "eye_drive": unknown("plant"),
         "action_mode": unknown("vector"), "image_size": {**counts(16, 1024), "7.5": 7.5},
@@ -694,6 +700,7 @@ API: dict[str, Api] = {
         "shift_rings": bounds(-5.0, 5.0), "cortex": unknown("eyes"), "fovea_deg": bounds(0.0, 30.0, lo_open=True, hi_open=True),
         "n_sectors": {**counts(4, 4096), "100000": 100_000}, "sampling": unknown("pool"), "fovy_deg": bounds(5.0, 170.0),
         "endpoint_noise": bounds(0.0, 1.0), "quality": unknown("fast"), "saccade_model": unknown("burst"),
+        "motor_noise": {"float": 0.1},
         "task_kwargs": {"list": [1], "str": "max_saccades=3", "unknown_key": {"colour": "red"},
                         "max_saccades_frac": {"max_saccades": 2.7}, "max_saccades_zero": {"max_saccades": 0},
                         "max_saccades_huge": {"max_saccades": 10**9}, "tolerance_nan": {"tolerance_deg": NAN},

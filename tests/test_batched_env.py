@@ -20,6 +20,7 @@ pytest.importorskip("mujoco_warp")
 import functools  # noqa: E402
 
 import envs  # noqa: E402
+import models  # noqa: E402
 from envs import BatchedBinocularSaccade as _Batched, BinocularSaccadeEnv as _Single  # noqa: E402
 
 #: The engines' shared vision, remapping, tasks and options are compared with the eyes on the servo
@@ -436,6 +437,7 @@ def test_skrl_recipe(tmp_path):
     {"grayscale": True, "cortex": "hemispheres", "include_coeffs": True},
     {"vergence": True, "remap_model": "shift", "shift_rings": 1.5, "remap_models": ("shift",)},
     {"endpoint_noise": 0.1, "remap_model": "mobius", "fixation_ms": 0},
+    {"motor_noise": models.HUMAN_MOTOR_NOISE, "vergence": True, "fixation_ms": 0},  # anisotropic, undershoot
 ])
 def test_options_agree_with_the_single_env(kwargs):
     """Observation layouts (grayscale, hemispheres, coefficients), vergence actions, the shift model,
@@ -467,6 +469,8 @@ def test_options_agree_with_the_single_env(kwargs):
                 off = int((d > 0.01).sum())
                 assert d.mean() < 0.01 and off <= max(2, 0.02 * d.size), (k, d.mean(), off)
         np.testing.assert_allclose(si["endpoint_error_deg"], bi["endpoint_error_deg"][w], atol=1e-12)
+        if {"endpoint_noise", "motor_noise"} & set(kwargs):  # the noise was drawn, not left out by both
+            assert np.all(np.asarray(bi["endpoint_error_deg"][w]) > 1e-6)
         np.testing.assert_allclose(si["eye_angles"], bi["eye_angles"][w], atol=1e-6)  # measured <= 8.4e-8 rad
         assert si["sim_time_ms"] == bi["sim_time_ms"][w]
         for m, e in si["remap_error"].items():  # that one flipped pixel moves an error by 0.009

@@ -48,6 +48,21 @@ def test_identifiability_flags_bounds_and_wide_cis():
     assert at == [] and problems == []
 
 
+def test_a_ci_reaching_a_bound_is_not_identified():
+    """``plant_t2_ms`` 0.507 ms against its 0.5 bound, CI [0.4988, 0.5069] (a real 500 Hz recording,
+    ``mne_test_eyelink.asc``, fitted with ``plant_t2_ms``): 1.4 % from the bound, outside the
+    estimate's tolerance, but the data do not exclude the bound: not identified. A CI inside the
+    range near a bound is fine."""
+    fit = ("burst_max_deg_s", "plant_t2_ms")
+    lo, hi = np.log([1.0, 0.5]), np.log([2000.0, 50.0])
+    x = np.log([597.0, 0.507])
+    ci = {"burst_max_deg_s": (564.4, 633.7), "plant_t2_ms": (0.4988, 0.5069)}
+    at, problems = gf.identifiability(fit, x, lo, hi, ci, np.exp)
+    assert at == [] and problems == ["the 95% CI of plant_t2_ms [0.4988, 0.5069] reaches its lower bound (0.5)"]
+    at, problems = gf.identifiability(fit, x, lo, hi, dict(ci, plant_t2_ms=(0.502, 0.53)), np.exp)
+    assert at == [] and problems == []
+
+
 def test_an_unidentified_fit_writes_no_file_and_an_identified_one_strict_json(tmp_path):
     gen = models.BurstGenerator()
     base = dict(generator=gen, fitted=("burst_max_deg_s",), estimates={"burst_max_deg_s": 714.0},
@@ -68,3 +83,18 @@ def test_an_unidentified_fit_writes_no_file_and_an_identified_one_strict_json(tm
     assert doc["at_bounds"] == [] and doc["ci95_asymptotic"]["burst_max_deg_s"] == [0.0, None]
     assert doc["bounds"]["burst_max_deg_s"] == list(PARAMETER_BOUNDS["burst_max_deg_s"])
     assert models.BurstGenerator.from_file(tmp_path / "g.json") == gen
+
+
+@pytest.mark.slow
+def test_a_fit_ending_on_a_bound_is_reported_not_a_crash():
+    """Small saccades faster and shorter than the family can make (as on a real 500 Hz recording,
+    ``mne_test_eyelink.asc``: 1-7 deg at 130-400 deg/s in 15-30 ms) drive ``burst_scale_deg`` and
+    ``burst_lag_ms`` onto their lower bounds (here ``burst_max_deg_s`` onto its upper). The CIs' Jacobian then steps one-sided at the bound (it
+    stepped below it, and the run died with a traceback), and the fit lists them in ``at_bounds``."""
+    amps = np.linspace(1.0, 7.0, 24)
+    pr = gf.predict(models.BurstGenerator(), amps, 500.0)
+    rows = [{"amplitude_deg": a, "peak_velocity_deg_s": 1.6 * v * (1.0 + 0.02 * np.sin(7 * i)), "duration_ms": 0.7 * d}
+            for i, (a, v, d) in enumerate(zip(pr["amplitude_deg"], pr["peak_velocity_deg_s"], pr["duration_ms"]))]
+    fit = gf.fit_generator(rows, rate_hz=500.0, bootstrap=0)
+    assert "burst_scale_deg" in fit.at_bounds
+    assert fit.problems  # not identified: no generator.json would be written

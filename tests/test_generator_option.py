@@ -35,9 +35,9 @@ def test_each_command_reads_the_generator(command, gen_file):
     (json.dumps({"model": "MainSequence", "parameters": {}}), "is not a burst-generator file"),
     (json.dumps({"model": "BurstGenerator", "parameters": {"burst_speed": 3}}), "unknown burst-generator parameter"),
     (json.dumps({"model": "BurstGenerator", "parameters": {"burst_max_deg_s": -5}}), "burst_max_deg_s"),
-    # within every parameter's range, but above the 700 deg/s ceiling: refused when read, not mid-run
+    # within every parameter's range, but above the family's 1000 deg/s ceiling: refused when read, not mid-run
     (json.dumps({"model": "BurstGenerator", "parameters": {"burst_max_deg_s": 1800, "adaptation_gain": 0}}),
-     "700 deg/s"),
+     "1000 deg/s"),
     ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
 ])
 def test_a_bad_generator_file_is_a_usage_error(command, content, message, tmp_path, capsys):

@@ -64,11 +64,11 @@ def test_main_sequence_peak_velocity_and_duration(legacy_head, amp_deg):
         assert 390 < v_pub.max() < 410 and 55 < plan.duration_ms < 60  # ~400 deg/s, ~57 ms
 
 
-def test_peak_speed_never_above_700():
+def test_peak_speed_of_the_default_below_700_and_the_ceiling_enforced():
     ms = MainSequence()
     assert max(ms.peak_velocity_deg_s(a) for a in np.linspace(0.1, 90, 50)) < 700
-    with pytest.raises(ValueError, match="700"):
-        MainSequence(vpk_deg_per_ms=0.8)
+    with pytest.raises(ValueError, match="1000 deg/s"):
+        MainSequence(vpk_deg_per_ms=1.1)
 
 
 def test_listing_law_after_and_during_oblique_saccade(head):

@@ -73,3 +73,55 @@ def test_settle_time_is_where_the_remainder_reaches_the_tolerance(offset):
     t = np.linspace(0.0, 900.0, 9001)
     smooth = np.abs(t - offset) > 0.2  # the rate steps down at the saccade's offset
     np.testing.assert_allclose(np.gradient(vd.fraction(t, offset), t)[smooth], vd.rate(t, offset)[smooth], atol=2e-4)
+
+
+@pytest.mark.parametrize("start, target", [(1.5, 0.8), (0.8, 1.5), (1.2, 0.4), (0.4, 1.2)])
+def test_vergence_is_the_target_disparity(start, target):
+    """The vergence command of a pure depth step is the target's disparity relative to fixation, from the
+    angle the target subtends at the two eye centres (crossed: converge; uncrossed: diverge); the eyes'
+    traces reach it but for the orbital plant's slow tail (< 1 %)."""
+    with Head("dots", image_size=16) as head:
+        plan, t, verg, vel = _vergence_trace(head, start, (target, 0.0))
+        c = head.cyclopean_position
+        left, right = (head.to_world(p) for p in head.eye_centres_head)
+    p0, p1 = c + [start, 0.0, 0.0], c + [target, 0.0, 0.0]
+
+    def subtended(p):
+        a, b = p - left, p - right
+        return math.degrees(math.acos(np.dot(a, b) / np.linalg.norm(a) / np.linalg.norm(b)))
+    disparity = subtended(p1) - subtended(p0)
+    (l0, r0), (l1, r1) = plan.start_angles[:, 0], plan.end_angles[:, 0]
+    command = math.degrees((l1 - r1) - (l0 - r0))  # left h - right h: convergence > 0
+    assert command == pytest.approx(disparity, abs=1e-9)
+    assert verg[-1] - verg[0] == pytest.approx(disparity, rel=0.01)
+
+
+def test_vergence_main_sequence_and_convergence_faster_than_divergence():
+    """Pure vergence steps of 1-8 deg on the head's traces: the peak velocity grows with the amplitude
+    (a main sequence, linear: ``|change| / (e tau)``), and a convergence is faster than the divergence
+    of the same size (Hung, Zhu & Ciuffreda 1997) by ``divergence_tau_ms / tau_ms``."""
+    vd = VergenceDynamics()
+    peaks = {True: [], False: []}
+    with Head("dots", image_size=16) as head:
+        ipd = float(np.linalg.norm(np.subtract(*head.eye_centres_head)))
+        far = 2.0
+        for change in (1.0, 2.0, 4.0, 8.0):
+            # the distance at which the vergence angle is that of ``far`` plus ``change``
+            near = ipd / 2 / math.tan((2 * math.atan(ipd / 2 / far) + math.radians(change)) / 2)
+            for converging, (a, b) in ((True, (far, near)), (False, (near, far))):
+                _, t, verg, vel = _vergence_trace(head, a, (b, 0.0))
+                size = abs(verg[-1] - verg[0])
+                peak = np.abs(vel).max()
+                assert peak == pytest.approx(vd.peak_velocity_deg_s(size if converging else -size), rel=0.03)
+                peaks[converging].append((size, peak))
+    for converging in (True, False):
+        sizes, pk = np.array(peaks[converging]).T
+        assert np.all(np.diff(sizes) > 0) and np.all(np.diff(pk) > 0)  # monotone main sequence
+    ratio = np.array(peaks[True])[:, 1] / np.array(peaks[False])[:, 1]
+    np.testing.assert_allclose(ratio, vd.divergence_tau_ms / vd.tau_ms, rtol=0.05)
+    assert np.all(ratio > 1.0)
+
+
+def test_divergence_slower_than_convergence_is_enforced():
+    with pytest.raises(ValueError, match="convergence is faster"):
+        VergenceDynamics(tau_ms=100.0, divergence_tau_ms=80.0)

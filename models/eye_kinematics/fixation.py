@@ -12,6 +12,7 @@ import numpy as np
 from conformal import checks
 
 from .fick import gaze_direction, with_listing
+from .motor_noise import MotorNoise
 from .ranges import H_RANGE, MIN_TARGET_DISTANCE, NULL_SACCADE, V_RANGE, OculomotorRangeError, check_point
 
 __all__ = ["fixation_angles", "fixation_batch", "displaced", "cyclopean_amplitude", "noisy_endpoints"]
@@ -77,18 +78,28 @@ def cyclopean_amplitude(c: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.nda
 
 
 def noisy_endpoints(c: np.ndarray, centres: np.ndarray, fix: np.ndarray, targets: np.ndarray, angles: np.ndarray,
-                    amp: np.ndarray, noise: float, rngs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Signal-dependent endpoint noise on m planned saccades from the fixation points ``fix`` (m, 3) to
-    the head-frame ``targets`` (m, 3) with fixation ``angles`` (m, 2, 3) and cyclopean amplitudes
-    ``amp`` (m,): each saccade larger than ``NULL_SACCADE`` lands off its target by Fick errors drawn
-    from its own generator ``rngs[k]`` with s.d. ``noise * amp`` (horizontal and vertical, about the
-    cyclopean eye ``c``); an endpoint the eyes cannot reach falls back to the target. Returns the
-    executed endpoints (m, 3), their fixation angles (m, 2, 3) and amplitudes (m,)."""
+                    amp: np.ndarray, noise: float | MotorNoise, rngs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Motor error on m planned saccades from the fixation points ``fix`` (m, 3) to the head-frame
+    ``targets`` (m, 3) with fixation ``angles`` (m, 2, 3) and cyclopean amplitudes ``amp`` (m,): each
+    saccade larger than ``NULL_SACCADE`` draws two standard normals from its own generator ``rngs[k]``
+    and lands off its target, about the cyclopean eye ``c``, by ``noise``: a ``MotorNoise`` (scatter
+    along and across the saccade's direction, undershoot), or a float ``sd`` (isotropic: Fick errors of
+    s.d. ``sd * amp``, horizontal and vertical). An endpoint the eyes cannot reach falls back to the
+    target. Returns the executed endpoints (m, 3), their fixation angles (m, 2, 3) and amplitudes (m,)."""
+    if not isinstance(noise, MotorNoise):
+        noise = MotorNoise.of(noise)
     end_point, end, amp = targets.copy(), angles.copy(), np.array(amp, float)
-    draw = np.flatnonzero(amp > NULL_SACCADE) if noise > 0 else np.zeros(0, np.intp)
+    draw = np.flatnonzero(amp > NULL_SACCADE) if noise.active else np.zeros(0, np.intp)
     if len(draw):
-        dhv = np.array([rngs[k].normal(0.0, noise * amp[k], size=2) for k in draw])
-        moved = displaced(c, targets[draw], dhv)
+        if noise.isotropic:
+            dhv = np.array([rngs[k].normal(0.0, noise.along * amp[k], size=2) for k in draw])
+            moved = displaced(c, targets[draw], dhv)
+        else:
+            z = np.array([rngs[k].normal(0.0, 1.0, size=2) for k in draw])
+            d0, d1 = fix[draw] - c, targets[draw] - c
+            dist = np.linalg.norm(d1, axis=1)
+            d0 = d0 / np.linalg.norm(d0, axis=1, keepdims=True)
+            moved = c + dist[:, None] * noise._directions(d0, d1 / dist[:, None], amp[draw], z)
         ang, ok, _ = fixation_batch(moved, centres)
         end_point[draw[ok]], end[draw[ok]] = moved[ok], ang[ok]
         amp[draw] = cyclopean_amplitude(c, fix[draw], end_point[draw])

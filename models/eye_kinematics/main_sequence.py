@@ -14,7 +14,7 @@ import numpy as np
 from conformal import checks
 
 from .._plan_kernels import legacy_position, legacy_rate
-from .ranges import MAX_PEAK_VELOCITY
+from .ranges import MAX_PEAK_VELOCITY_DEG_S
 
 __all__ = ["MainSequence", "times"]
 
@@ -25,7 +25,7 @@ class MainSequence:
 
     ``E(t) = m0 ln[A e^{vpk t/m0} / (1 + A e^{(vpk t - T)/m0})]`` with ``A = 1/(1 - e^{-T/m0})``.
     The velocity ``vpk / (1 + A e^{(vpk t - T)/m0})`` peaks at onset at ``vpk (1 - e^{-T/m0})``
-    (< vpk <= 700 deg/s). Duration is the time until the speed falls below ``end_velocity_deg_s``
+    (< vpk <= ``MAX_PEAK_VELOCITY_DEG_S``). Duration is the time until the speed falls below ``end_velocity_deg_s``
     (20 deg/s, a usual saccade-offset criterion): about 57 ms for 10 deg.
     """
 
@@ -37,8 +37,8 @@ class MainSequence:
     def __post_init__(self):
         object.__setattr__(self, "m0_deg", checks.real("m0_deg", self.m0_deg, 0.0, 100.0, lo_open=True))
         object.__setattr__(self, "vpk_deg_per_ms", checks.real(
-            "vpk_deg_per_ms", self.vpk_deg_per_ms, 0.0, round(np.rad2deg(MAX_PEAK_VELOCITY) / 1000.0, 12),
-            lo_open=True, hint="peak eye speed never exceeds 700 deg/s"))
+            "vpk_deg_per_ms", self.vpk_deg_per_ms, 0.0, MAX_PEAK_VELOCITY_DEG_S / 1000.0,
+            lo_open=True, hint=f"peak eye speed never exceeds {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s"))
         object.__setattr__(self, "end_velocity_deg_s", checks.real(
             "end_velocity_deg_s", self.end_velocity_deg_s, 0.0, 1000.0 * self.vpk_deg_per_ms, lo_open=True,
             hi_open=True, hint="the offset speed lies below the peak speed vpk"))
