@@ -55,8 +55,11 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load
         load_model,
     )
     from .eye_kinematics import (
+        HUMAN_MOTOR_NOISE,
         MAX_PEAK_VELOCITY,
+        MAX_PEAK_VELOCITY_DEG_S,
         MainSequence,
+        MotorNoise,
         OculomotorRangeError,
         cyclopean_amplitude,
         displaced,

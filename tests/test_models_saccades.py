@@ -177,7 +177,7 @@ def test_the_default_stays_average_and_the_family_reaches_fast_people():
 
 def test_the_ceiling_is_the_readers_plausibility_limit():
     """One number: a saccade the eye-tracker reader keeps is never faster than the family can go."""
-    from experiments.eyetracking import MAX_PLAUSIBLE_VELOCITY_DEG_S
+    from experiments.oculomotor.eyetracking import MAX_PLAUSIBLE_VELOCITY_DEG_S
 
     assert models.MAX_PEAK_VELOCITY_DEG_S == MAX_PLAUSIBLE_VELOCITY_DEG_S
 

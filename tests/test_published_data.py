@@ -27,7 +27,7 @@ def test_the_published_folder_has_provenance_for_every_file():
 def test_every_paper_the_scoreboard_cites_has_a_sources_row():
     """Each paper of ``phenomena.ROWS``' citations (the scoreboard's published ranges) is in
     ``sources.csv``, and each row of it is cited there (no stale rows)."""
-    from experiments.phenomena import ROWS
+    from experiments.psychophysics.phenomena import ROWS
 
     cited = {p for _, source, rng, _ in ROWS.values() if rng is not None for p in cited_papers(source)}
     rows = list(csv.DictReader((PUBLISHED_DIR / "sources.csv").open(encoding="utf-8")))

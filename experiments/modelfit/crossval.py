@@ -1,62 +1,28 @@
 """``python -m experiments crossval``: which theory generalises from the conditions it was fitted on?
 
-Cross-validation by condition (Wilson & Collins 2019, eLife 8:e49547, rule 9: "validate the model
-by predicting data it was not fitted to"). For every data set, each theory is fitted by maximum
-likelihood (``fitting``'s optimizer and resume, report noise profiled) on one *fit set* and then
-predicts *held-out* conditions with those parameters, nothing refitted:
-
-======================  ===============================  =============================================
-fit set                 held-out condition               what changes
-======================  ===============================  =============================================
-``references``          ``dark``                         the screen is black; the target goes off at
-                                                         onset (no post-saccadic references)
-``references``          ``marker``                       the target goes off at onset, no ruler; a
-                                                         marker 10 deg before the target appears
-                                                         after the saccade (Zimmermann, Morrone &
-                                                         Burr 2014's design; ``phenomena.MARKER``)
-``references (x)``      ``references (y)``               the 2-D shape: fitted on the error along the
-                                                         saccade alone (1-D data, ``perceived_y_deg``
-                                                         empty), predicting the error across it
-======================  ===============================  =============================================
-
-The training set itself is scored too (role ``training``), so the table shows each theory's
-generalisation gap. What the fit machinery cannot predict, and why: the **separation** paradigm
-(two simultaneous flashes; the likelihood models one report of one flash per trial) and the
-**displacement** paradigm (a two-alternative direction report, not a position: it needs a
-binomial likelihood the fit does not have); ``forward_model`` refuses both.
+Cross-validation by condition (Wilson & Collins 2019, eLife 8:e49547, rule 9): for every data set,
+each theory is fitted by maximum likelihood (``fitting``'s optimizer and resume, report noise
+profiled) on one *fit set* and predicts *held-out* conditions with those parameters (``HELDOUT``):
+fitted on ``references``, it predicts ``dark`` and ``marker`` (Zimmermann, Morrone & Burr 2014's
+design, ``phenomena.MARKER``); fitted on the error along the saccade alone (``references (x)``,
+1-D data), it predicts the error across it (``references (y)``). The training set is scored too
+(role ``training``). Separation (two flashes per trial) and displacement (a two-alternative
+report) need likelihoods the fit does not have; ``forward_model`` refuses both.
 
 **Data.** No condition-level published data set is in the repository
-(``experiments/data/published/README.md``), so the data are *simulated observers*: for each
-generating theory G (``--data-from``), every trial of the design in each condition is observed
-through the real pipeline with saccade motor noise (endpoint s.d. 5 % of the amplitude, each trial
-its own draw, as ``recovery``) and read out by G at its defaults, plus Gaussian report noise
-(``--noise-deg``), ``--reports`` reports per trial. The fitted theories observe the trials without
-that motor noise, so no theory, not even G, reads out the observations the data came from. Each
-data file is written in ``fit``'s format (``DIR/data/<G>/<condition>.csv`` with its ``.json``
-sidecar), so ``python -m experiments fit`` reads it as it is.
+(``experiments/data/published/README.md``), so the data are *simulated observers*: each
+generating theory (``--data-from``) reads out the design's trials observed with saccade motor
+noise (5 % of the amplitude), plus Gaussian report noise (``--noise-deg``); the fitted theories
+observe the trials without that motor noise. Data files are in ``fit``'s format.
 
-**Metrics** (``crossval.csv``, one row per data set, theory, fit set, condition and metric):
-``loglik_per_report``, the mean log-density of the reports under the theory's prediction and its
-fitted report noise (per axis; the y axis held out of a fit on x alone has no fitted y noise and
-uses the fitted x noise: isotropic report noise, an assumption), and ``rmse_deg``, the root mean
-square of report minus prediction over the measured axes. ``ci_low``/``ci_high``: 95 % percentile
-bootstrap over trials (each trial's reports resampled together; 1000 resamples, seeded). ``lost``:
-trials whose flash the theory loses (no activity to read out); the metrics are over the others.
-``crossval_pairs.csv``: per data set and held-out condition, the best theory's log-likelihood per
-report minus the runner-up's, with a paired bootstrap interval over trials (``separated``: the
-interval excludes 0). ``crossval.png`` plots the held-out log-likelihoods; ``summary.txt`` ranks the
-theories per held-out condition and says how often the generating theory wins, and by a lead
-whose interval excludes 0.
-
-The folder keeps ``run``'s promises: one writer (a lock), atomic writes, observations cached and
-each fit's evaluations logged, so the same command after an interruption (even ``kill -9``)
-continues to the same table; ``crossval.json`` holds the configuration, and a folder holding
-another configuration is refused.
+**Outputs**: ``crossval.csv`` (``COLUMNS``: ``loglik_per_report`` and ``rmse_deg`` with bootstrap
+CIs over trials), ``crossval_pairs.csv`` (best theory minus runner-up, paired bootstrap),
+``crossval.png``, ``summary.txt``. The folder keeps ``run``'s promises (lock, atomic writes,
+resume after ``kill -9`` to the same table, ``crossval.json`` refusing another configuration).
+Every column, the assumptions and the measured table: docs/psychophysics/crossval.md.
 
 Exit status: 0 done; 1 a theory cannot be fitted, the folder is in use, or an I/O error; 2 a
-usage error (bad option, a folder of another configuration); 130 / 143 interrupted (run the same
-command again to resume).
-"""
+usage error; 130 / 143 interrupted (run the same command again to resume)."""
 
 from __future__ import annotations
 

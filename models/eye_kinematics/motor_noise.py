@@ -1,37 +1,20 @@
 """Saccadic motor error: scatter elongated along the saccade's direction, and undershoot.
 
-Human saccade endpoints scatter in ellipses whose long axis lies along the saccade's direction:
-the error in amplitude is larger than the error in direction (van Opstal & van Gisbergen 1989,
-Vision Res 29:1183; van Beers 2007, J Neurosci 27:8757), and both grow in proportion to the
-amplitude (signal-dependent noise). Primary saccades to a single target also fall short on average:
-they cover about 90 % of the target's distance, a small corrective saccade doing the rest (Becker
-1989, in Wurtz & Goldberg (eds.), The Neurobiology of Saccadic Eye Movements, pp. 13-67; Kapoula &
-Robinson 1986, Vision Res 26:735, who showed the undershoot shrinks when accuracy is asked for).
+Endpoints scatter in ellipses whose long axis lies along the saccade (van Opstal & van Gisbergen
+1989, Vision Res 29:1183; van Beers 2007, J Neurosci 27:8757), both errors in proportion to the
+amplitude; primary saccades cover about 90 % of the distance (Becker 1989; Kapoula & Robinson
+1986, Vision Res 26:735).
 
-Model: a saccade of cyclopean amplitude ``A`` from the fixation direction ``d0`` to the target
-direction ``d1`` lands at the direction reached by turning ``d1`` about the saccade's axis
-``n = d0 x d1`` by ``(gain - 1) A + along A z1`` (along the great circle, positive beyond the
-target) and then about the direction of motion by ``across A z2``, with ``z1, z2`` standard normal
-draws of the saccade's own generator. The executed amplitude's mean is ``gain A`` and its s.d.
-``along A``; the s.d. across the direction is ``across A``.
+Model: a saccade of cyclopean amplitude ``A`` from ``d0`` to the target direction ``d1`` lands at
+``d1`` turned about ``n = d0 x d1`` by ``(gain - 1) A + along A z1`` and then about the direction of
+motion by ``across A z2`` (``z1, z2`` standard normal draws of the saccade's own generator): mean
+executed amplitude ``gain A``, s.d. ``along A`` along and ``across A`` across.
 
-Parameters (``HUMAN_MOTOR_NOISE``) and their sources:
-
-=========  =====  =============================================================================
-along      0.06   s.d. of the amplitude error / amplitude: 5-6 % of eccentricity for point targets
-                  (Kowler & Blaser 1995, Vision Res 35:1741, abstract).
-across     0.04   s.d. across the direction / amplitude: smaller than ``along``; the ellipses'
-                  elongation is reported by van Opstal & van Gisbergen 1989 and van Beers 2007.
-                  The value (an along/across ratio of 1.5) is this project's choice within those
-                  reports, not a number read from them.
-gain       0.90   mean executed / intended amplitude: the ~10 % undershoot of primary saccades
-                  (Becker 1989; "about 90 % of the target distance", restated by Harris 1995,
-                  Vision Res 35:691). Task-dependent (Kapoula & Robinson 1986).
-=========  =====  =============================================================================
-
-The default of ``models.Head`` is no motor error at all (``MotorNoise()``: a saccade lands on its
-target), as it always was; ``HUMAN_MOTOR_NOISE`` is opted into.
-"""
+``HUMAN_MOTOR_NOISE`` = (along 0.06: Kowler & Blaser 1995, Vision Res 35:1741, 5-6 % of
+eccentricity; across 0.04: an along/across ratio of 1.5, this project's choice within the
+elongation reported above, not a number read from a paper; gain 0.90: Becker 1989, restated by
+Harris 1995, Vision Res 35:691). The table with each source is in docs/head.md. The default of
+``models.Head`` is no motor error (``MotorNoise()``); ``HUMAN_MOTOR_NOISE`` is opted into."""
 
 from __future__ import annotations
 
