@@ -66,13 +66,10 @@ def test_registry_read_outs_are_the_previous_ones():
     the target, mechanisms off; the displacement paradigm) equal those stored from the code before the
     theories moved into the registry (``tests/data/theory_readouts_64px.json``). The observer's
     saccadic suppression and 2-D motor scatter came later: switched off (both 0), its read-outs are
-    the stored ones, so those repairs changed nothing else. Likewise the population's post-saccadic
-    anchor: with its weight ~0 (a reference unit of 1e300: A / unit < 1e-290) the stored ones."""
+    the stored ones, so those repairs changed nothing else."""
     from experiments.psychophysics.observer import ObserverParams
-    from experiments.psychophysics.population import PopulationParams
 
     old_observer = {"observer": ObserverParams(motor_weber=0.0, suppression_log10=0.0)}
-    old_population = {"population": PopulationParams(reference_unit=1e300)}
     want = json.loads(FIXTURE.read_text())
     got = {}
     d = Design(amplitudes_deg=(20.0,), flash_offsets_deg=((8.0, 3.0), (-4.0, -6.0)), flash_times_ms=(-50, 0, 50),
@@ -86,8 +83,7 @@ def test_registry_read_outs_are_the_previous_ones():
         try:
             obs = [r.observe(t) for t in d.trials()]
             for m in MODELS:
-                cfg = dataclasses.replace(base, model=m, observer=old_observer.get(m, base.observer),
-                                          population=old_population.get(m, base.population))
+                cfg = dataclasses.replace(base, model=m, observer=old_observer.get(m, base.observer))
                 got[f"{cond}/{m}"] = [[float(r.readout(o, cfg)[c]) for c in COLS] for o in obs]
         finally:
             r.close()

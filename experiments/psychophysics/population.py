@@ -30,16 +30,8 @@ flash's activity lies.
    into a head-centred direction through the eye-position signal (``models.EyePositionSignal``,
    one for every condition) at the response's arrival.
 
-6. **The post-saccadic anchor** (Hamker, Zirnsak & Lappe 2008, J Vis 8(14):1: post-saccadic
-   mechanisms of visual stability act on the perceived flash): after the saccade the goal is
-   looked for where the retina sees it (the target, else the centroid of the references seen), and
-   the percept is re-anchored on it, ``h = h_eps + w (g_seen - g_eps)``, with ``h_eps`` and
-   ``g_eps`` the flash's and the goal's head-centred directions through the eye-position signal at
-   the flash's response and ``g_seen`` the goal seen after the saccade; ``w = min(1, A /
-   reference_unit)`` grows with the references' retinal activity ``A`` (0 in the dark: the
-   eye-position route alone). The anchor shifts every flash of a trial alike: it removes the
-   eye-position signal's error where references are seen (dark and light differ in the shift), but
-   leaves the compression (the gain field's) the same in the dark and with references.
+It has no term for visual references: the theory predicts the same compression in the dark
+and with references, and with memory-guided saccades (the goal is in the motor plan).
 """
 
 from __future__ import annotations
@@ -66,7 +58,6 @@ class PopulationParams:
     latency_ms: float = 70.0
     response_ms: float = 50.0
     map_a_deg: float = 0.75
-    reference_unit: float = 8.4e-3
 
     def __post_init__(self) -> None:
         check_constants(self, may_be_zero=("gain_per_deg", "latency_ms"))
@@ -83,8 +74,6 @@ POPULATION_SOURCES = {
     "latency_ms": ("assumed", "visual latency of a flash in extrastriate cortex ~70 ms (Schmolesky et al. 1998)"),
     "response_ms": ("assumed", "transient visual response to an 8 ms flash lasts ~50 ms (Schmolesky et al. 1998)"),
     "map_a_deg": ("assumed", "V1 foveal constant 0.75 deg (Horton & Hoyt 1991, Arch Ophthalmol 109:816)"),
-    "reference_unit": ("assumed", "the unit of reference activity of the post-saccadic anchor, eq. 6: the "
-                                  "retina's summed response to the default references (as the observer's)"),
 }
 
 

@@ -6,33 +6,9 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
-
 from ..mechanisms import MECHANISMS
 
-__all__ = ["Theory", "ConstantsTheory", "post_saccadic_anchor"]
-
-
-def post_saccadic_anchor(runner, obs, plan, reference_weight: float, reference_unit: float) -> tuple[np.ndarray, float]:
-    """The post-saccadic anchor (each eye's head-centred position, deg, of what stands for the
-    goal: the target where the retina sees it, else the centroid of the references it sees)
-    through the settled eye-position signal, and the anchored route's weight, graded by the
-    references' retinal activity A (target, ruler and markers together, as rendered):
-    ``reference_weight x min(1, A / reference_unit)``; 0 where nothing is seen to anchor on."""
-    act = obs.ref_activity if obs.ref_activity is not None else np.zeros(2)
-    finite = np.isfinite(act)
-    a = float(np.mean(act[finite])) if finite.any() else 0.0
-    weight = reference_weight * min(max(a, 0.0) / reference_unit, 1.0)
-    axes, origins = runner._pose(plan.eye_position_signal(float(obs.t_post)))
-    refs = obs.ref_z if obs.ref_z is not None else [complex(np.nan, np.nan)] * 2
-    target_seen = all(np.isfinite(z.real) for z in obs.seen_z)
-    seen = np.full((2, 2), np.nan)
-    for e, z in enumerate(obs.seen_z if target_seen else refs):
-        if np.isfinite(z.real):
-            seen[e] = runner._ray_to_screen_deg(origins[e], axes[e], z)
-    if not np.all(np.isfinite(seen)):
-        return seen, 0.0  # nothing seen to anchor on
-    return seen, weight
+__all__ = ["Theory", "ConstantsTheory"]
 
 
 class Theory:

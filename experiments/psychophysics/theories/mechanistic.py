@@ -11,7 +11,7 @@ import numpy as np
 
 from ..mechanisms import MECHANISMS, command_gain
 from . import register
-from .base import Theory, post_saccadic_anchor
+from .base import Theory
 from .shift import shift_read
 
 __all__ = ["Mechanistic"]
@@ -46,9 +46,25 @@ class Mechanistic(Theory):
         return reads, gain, weight
 
     def anchor(self, runner, obs, plan, cfg) -> tuple[np.ndarray, float]:
-        """The post-saccadic anchor and the anchored route's weight (``base.post_saccadic_anchor``
-        with ``reference_weight`` and ``reference_unit``)."""
-        return post_saccadic_anchor(runner, obs, plan, cfg.reference_weight, cfg.reference_unit)
+        """The post-saccadic anchor (each eye's head-centred position, deg, of what stands for the
+        goal: the target where the retina sees it, else the centroid of the references it sees)
+        through the settled eye-position signal, and the anchored route's weight, graded by the
+        references' retinal activity A (target, ruler and markers together, as rendered):
+        ``reference_weight x min(1, A / reference_unit)``."""
+        act = obs.ref_activity if obs.ref_activity is not None else np.zeros(2)
+        finite = np.isfinite(act)
+        a = float(np.mean(act[finite])) if finite.any() else 0.0
+        weight = cfg.reference_weight * min(max(a, 0.0) / cfg.reference_unit, 1.0)
+        axes, origins = runner._pose(plan.eye_position_signal(float(obs.t_post)))
+        refs = obs.ref_z if obs.ref_z is not None else [complex(np.nan, np.nan)] * 2
+        target_seen = all(np.isfinite(z.real) for z in obs.seen_z)
+        seen = np.full((2, 2), np.nan)
+        for e, z in enumerate(obs.seen_z if target_seen else refs):
+            if np.isfinite(z.real):
+                seen[e] = runner._ray_to_screen_deg(origins[e], axes[e], z)
+        if not np.all(np.isfinite(seen)):
+            return seen, 0.0  # nothing seen to anchor on
+        return seen, weight
 
     def stability_weight(self, cfg, mismatch_deg: float, amplitude_deg: float, on: dict) -> float:
         """A target seen at landing within the range of normal landing errors (``stability_tolerance``

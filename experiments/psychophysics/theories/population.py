@@ -1,6 +1,5 @@
 """The ``population`` theory's read-out (the model: ``psychophysics.population``): the gain
-field's population vector per flash and eye, through the eye-position signal, re-anchored on the
-goal seen after the saccade (eq. 6)."""
+field's population vector per flash and eye, through the eye-position signal."""
 
 from __future__ import annotations
 
@@ -10,7 +9,7 @@ import numpy as np
 
 from ..population import cortical_offset, feedback_signal, from_cortical_offset, population_estimate
 from . import register
-from .base import ConstantsTheory, post_saccadic_anchor
+from .base import ConstantsTheory
 
 __all__ = ["Population", "image_to_deg", "deg_to_image"]
 
@@ -41,13 +40,11 @@ class Population(ConstantsTheory):
     name = "population"
 
     def read(self, runner, obs, plan, true_pose, cfg):
-        """The population vector per flash and eye, re-anchored on the goal seen after the saccade
-        (eq. 6); ``gain`` is the gain field's strength, ``weight`` the anchor's."""
+        """The population vector per flash and eye; ``gain`` is the gain field's strength."""
         pp = cfg.population
         t_resp = obs.t_mid + pp.latency_ms + np.linspace(0.0, pp.response_ms, 11)
         strength = pp.gain_per_deg * float(np.mean(feedback_signal(plan, t_resp, pp.tau_ms)))
         axes, origins = runner._pose(plan.eye_position_signal(obs.t_mid + pp.latency_ms))
-        seen, w = post_saccadic_anchor(runner, obs, plan, 1.0, pp.reference_unit)
         reads = []
         for f in obs.flashes:
             per_eye, maps = [], runner.plain_maps(f, cfg.threshold)
@@ -58,13 +55,10 @@ class Population(ConstantsTheory):
                 est = from_cortical_offset(population_estimate(dw, strength, pp.rf_sd, pp.field_sd), goal,
                                            pp.map_a_deg) if np.isfinite(dw.real) else complex(np.nan, np.nan)
                 z_hat = deg_to_image(est)
-                h = runner._ray_to_screen_deg(origins[e], axes[e], z_hat) if np.isfinite(z_hat.real) \
-                    else np.full(2, np.nan)
-                if w > 0:  # eq. (6): re-anchored on the goal as seen after the saccade
-                    h = h + w * (seen[e] - runner._ray_to_screen_deg(origins[e], axes[e], z_t))
-                per_eye.append(h)
+                per_eye.append(runner._ray_to_screen_deg(origins[e], axes[e], z_hat) if np.isfinite(z_hat.real)
+                               else np.full(2, np.nan))
             reads.append((per_eye, per_eye, maps))
-        return reads, strength, w
+        return reads, strength, 0.0
 
 
 register(Population())
