@@ -6,8 +6,19 @@ perceived head-centred position of a flash is the posterior mean of its position
 
 1. **the retinal evidence** -- the flash's retinal position ``r`` (the activity centroid of the
    retina's response, unremapped), with Gaussian sensory noise of s.d.
-   ``sigma_r = floor_deg + weber * eccentricity`` (positional uncertainty grows with eccentricity:
-   White, Levi & Aitsebaomo 1992, Vision Res 32:513; Levi, Klein & Aitsebaomo 1985);
+
+       sigma_r = (floor_deg + weber * eccentricity) * 10^(acuity_contrast_exponent * S(t))     (0)
+
+   (positional uncertainty grows with eccentricity: White, Levi & Aitsebaomo 1992, Vision Res
+   32:513; Levi, Klein & Aitsebaomo 1985). ``S(t)`` is saccadic suppression, the log10 loss of
+   contrast sensitivity at the flash's time ``t`` re the efference copy's saccade: 0 until
+   ``suppression_lead_ms`` before onset, rising linearly to ``suppression_log10`` at onset and
+   falling linearly to 0 ``suppression_lag_ms`` after the saccade's end (Diamond, Ross & Morrone
+   2000, J Neurosci 20:3449, abstract: a 10-fold loss, anticipating saccades by 50 ms, maximal at
+   onset, outlasting them by ~50 ms). A flash seen at a sensitivity reduced by ``10^S`` has the
+   positional precision of a flash of ``10^S`` times lower contrast: position thresholds scale as
+   contrast^-0.8 (Bradley & Skottun 1987, Vision Res 27:1817). The loss is the same on both axes,
+   so the prior (3) pulls across the saccade too, and it is 0 in fixation;
 2. **an eye-position signal with its own uncertainty** -- the brain knows the eye's trajectory from
    the efference copy ``c(t)`` but not exactly when the flash happened relative to it: the flash's
    time is known to s.d. ``temporal_sd_ms`` (Teichert et al. 2010; Binda et al. 2009). The eye
@@ -19,7 +30,15 @@ perceived head-centred position of a flash is the posterior mean of its position
    during fixation and grows around the saccade, only along its direction, by an amount set by
    its amplitude and duration. The flash's measured head position is ``m = r (+) e_hat`` (the ray
    through the retinal point from the eyes at ``e_hat``), with likelihood covariance
-   ``Sigma_r + Sigma_e``, the eye-position error shared by every flash of a trial;
+   ``Sigma_r + Sigma_e``, the eye-position error shared by every flash of a trial. The eye's own
+   motor scatter adds an isotropic (2-D) term: the eye lands with s.d. ``motor_weber`` times the
+   displacement made (Kowler & Blaser 1995; the simulated participant's endpoint noise, horizontal
+   and vertical), so
+
+       Sigma_e(t) += motor_weber^2 E[|c(t') - c_0|^2] I                                     (1b)
+
+   with ``c_0`` the efference copy before the saccade: 0 in fixation before it, the same on both
+   axes after it has begun;
 3. **the visual references present after the saccade** -- the post-saccadic scene offers
    landmarks, and flashes are inferred to lie near them (a prior centred on the references'
    seen position ``rho``; the "attraction to the saccade target" of Binda et al. 2009, centred on
@@ -36,7 +55,8 @@ The posterior mean of k simultaneous flashes' positions ``h`` (per axis, Gaussia
     h = (Lambda + C^-1)^-1 (Lambda rho 1 + C^-1 m),  C = diag(sigma_r^2) + sigma_e^2 1 1^T,  Lambda = lambda I   (3)
 
 Compression (the percept pulled towards ``rho``), its time course and its anisotropy follow from
-(1): only when ``Sigma_e`` is large is the prior's weight large, and only along the saccade.
+(0)-(1b): only when ``Sigma_e`` or ``sigma_r`` is large is the prior's weight large -- mostly
+along the saccade (timing, (1)), less across it (suppression (0) and motor scatter (1b)).
 The shift in the dark follows from ``e_hat`` leading the eye before and lagging it after the
 saccade. Separation is spared because the eye-position error is common to both flashes of (3).
 Displacement detection (``displacement_report``) compares the target's position before and after
@@ -56,8 +76,8 @@ import numpy as np
 
 from .bounds import check_constants
 
-__all__ = ["ObserverParams", "OBSERVER_SOURCES", "eye_estimate", "posterior_mean", "prior_precision",
-           "sensory_sd_deg"]
+__all__ = ["ObserverParams", "OBSERVER_SOURCES", "eye_estimate", "motor_cov", "suppression_log10",
+           "posterior_mean", "prior_precision", "sensory_sd_deg"]
 
 
 @dataclass(frozen=True)
@@ -70,9 +90,14 @@ class ObserverParams:
     floor_deg: float = 0.1
     integration_ms: float = 100.0
     reference_unit: float = 8.4e-3
+    motor_weber: float = 0.05
+    suppression_log10: float = 1.0
+    suppression_lead_ms: float = 50.0
+    suppression_lag_ms: float = 50.0
+    acuity_contrast_exponent: float = 0.8
 
     def __post_init__(self) -> None:
-        check_constants(self, may_be_zero=("floor_deg",))
+        check_constants(self, may_be_zero=("floor_deg", "motor_weber", "suppression_log10"))
 
 
 #: name -> (role, source): ``calibrated`` constants were set from the named published number (which
@@ -90,6 +115,16 @@ OBSERVER_SOURCES = {
     "reference_unit": ("assumed", "the unit of reference activity: the retina's summed response (image-plane "
                                   "area x intensity) to the default references (target dot + ruler at full "
                                   "contrast), measured at 256 px (tests/test_perception_theories.py)"),
+    "motor_weber": ("assumed", "saccade endpoint s.d. ~5 % of amplitude (Kowler & Blaser 1995), horizontal and "
+                               "vertical: the observer's uncertainty about its own motor scatter, eq. (1b)"),
+    "suppression_log10": ("assumed", "saccadic suppression: a 10-fold loss of luminance contrast sensitivity "
+                                     "(Diamond, Ross & Morrone 2000, abstract), eq. (0)"),
+    "suppression_lead_ms": ("assumed", "suppression anticipates saccades by 50 ms (Diamond, Ross & Morrone 2000, "
+                                       "abstract)"),
+    "suppression_lag_ms": ("assumed", "suppression outlasts saccades by ~50 ms (Diamond, Ross & Morrone 2000, "
+                                      "abstract)"),
+    "acuity_contrast_exponent": ("assumed", "vernier thresholds scale as contrast^-0.8 (Bradley & Skottun 1987, "
+                                            "abstract): the positional cost of the lost sensitivity"),
 }
 
 # Gauss-Hermite nodes for E[f(t')], t' ~ N(t, s^2): t' = t + sqrt(2) s x_k, weights w_k / sqrt(pi)
@@ -110,9 +145,34 @@ def eye_estimate(plan, t_ms: float, temporal_sd_ms: float) -> tuple[np.ndarray, 
     return mean, cov
 
 
-def sensory_sd_deg(eccentricity_deg: float | np.ndarray, p: ObserverParams) -> np.ndarray:
-    """The retinal evidence's s.d. (deg) at an eccentricity (deg)."""
-    return p.floor_deg + p.weber * np.abs(np.asarray(eccentricity_deg, float))
+def motor_cov(plan, t_ms: float, temporal_sd_ms: float, motor_weber: float) -> np.ndarray:
+    """Eq. (1b): the isotropic (2 x 2, deg^2) eye-position covariance of the eye's motor scatter,
+    ``motor_weber^2 E[|c(t') - c_0|^2] I`` over the flash's uncertain time ``t'`` (``c`` the
+    cyclopean efference copy, ``c_0`` its value before the saccade)."""
+    ts = float(t_ms) + math.sqrt(2.0) * float(temporal_sd_ms) * _GH_X
+    cyc = np.degrees(plan.intended_angles(ts)[:, :, :2].mean(axis=1))
+    c0 = np.degrees(plan.intended_angles(np.array([float(plan.onset_ms) - 1.0]))[0, :, :2].mean(axis=0))
+    d2 = float(_GH_W @ np.sum((cyc - c0) ** 2, axis=1))
+    return float(motor_weber) ** 2 * d2 * np.eye(2)
+
+
+def suppression_log10(plan, t_ms: float, p: ObserverParams) -> float:
+    """Eq. (0)'s ``S(t)``: the log10 loss of contrast sensitivity at absolute time ``t_ms``, from the
+    efference copy's onset and end: linear from 0 at ``onset - lead`` to ``suppression_log10`` at
+    onset, back to 0 at ``end + lag``."""
+    t, on, end = float(t_ms), float(plan.onset_ms), float(plan.end_ms) + p.suppression_lag_ms
+    if t <= on:
+        frac = 1.0 - (on - t) / p.suppression_lead_ms
+    else:
+        frac = 1.0 - (t - on) / max(end - on, 1e-9)
+    return p.suppression_log10 * min(max(frac, 0.0), 1.0)
+
+
+def sensory_sd_deg(eccentricity_deg: float | np.ndarray, p: ObserverParams, suppression: float = 0.0) -> np.ndarray:
+    """Eq. (0): the retinal evidence's s.d. (deg) at an eccentricity (deg), at a log10 sensitivity
+    loss ``suppression`` (``suppression_log10``; 0: fixation)."""
+    gain = 10.0 ** (p.acuity_contrast_exponent * float(suppression))
+    return (p.floor_deg + p.weber * np.abs(np.asarray(eccentricity_deg, float))) * gain
 
 
 def prior_precision(activity: float, on_ms: float, p: ObserverParams) -> float:

@@ -1,4 +1,4 @@
-"""The ``observer`` theory's read-out (the model: ``psychophysics.observer``): eqs. (1)-(3) of
+"""The ``observer`` theory's read-out (the model: ``psychophysics.observer``): eqs. (0)-(3) of
 that module for every flash of a trial jointly, and its own looks at the target in the
 displacement paradigm (its eye-position estimate and its own noise)."""
 
@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ..observer import eye_estimate, posterior_mean, prior_precision, sensory_sd_deg
+from ..observer import eye_estimate, motor_cov, posterior_mean, prior_precision, sensory_sd_deg, suppression_log10
 from . import register
 from .base import ConstantsTheory
 
@@ -21,10 +21,12 @@ class Observer(ConstantsTheory):
     name = "observer"
 
     def read(self, runner, obs, plan, true_pose, cfg):
-        """Eqs. (1)-(3) for every flash of the trial jointly; ``gain`` is the references' weight
+        """Eqs. (0)-(3) for every flash of the trial jointly; ``gain`` is the references' weight
         along the saccade (the prior's share of the posterior), ``weight`` 0."""
         p = cfg.observer
         e_mean, e_cov = eye_estimate(plan, obs.t_mid, p.temporal_sd_ms)
+        e_cov = e_cov + motor_cov(plan, obs.t_mid, p.temporal_sd_ms, p.motor_weber)
+        supp = suppression_log10(plan, obs.t_mid, p)
         axes, origins = runner._pose(e_mean)
         lam, rho = 0.0, np.zeros(2)
         if obs.ref_z is not None:
@@ -48,7 +50,7 @@ class Observer(ConstantsTheory):
                 m_e.append(runner._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
                 c_e.append(runner._ray_to_screen_deg(origins[e], axes[e], z_true))
                 ecc = math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan
-                v_e.append(float(sensory_sd_deg(ecc, p)) ** 2)
+                v_e.append(float(sensory_sd_deg(ecc, p, supp)) ** 2)
             meas.append(m_e), cf.append(c_e), var.append(v_e)
         meas, cf, var = np.array(meas), np.array(cf), np.array(var)
         post, post_cf = np.full_like(meas, np.nan), np.full_like(cf, np.nan)
@@ -69,12 +71,14 @@ class Observer(ConstantsTheory):
         (each eye's) and its variance along the saccade (sensory + eye position, deg^2)."""
         p = cfg.observer
         e_mean, e_cov = eye_estimate(plan, t_ms, p.temporal_sd_ms)
+        e_cov = e_cov + motor_cov(plan, t_ms, p.temporal_sd_ms, p.motor_weber)
         axes, origins = runner._pose(e_mean)
         pos = [runner._ray_to_screen_deg(origins[e], axes[e], z) for e, z in enumerate(zs) if np.isfinite(z.real)]
         if not pos:
             return np.full(2, np.nan), float("nan")
         ecc = np.nanmean([math.degrees(math.atan(abs(z))) for z in zs if np.isfinite(z.real)])
-        return np.mean(pos, axis=0), float(sensory_sd_deg(ecc, p)) ** 2 + float(e_cov[0, 0])
+        sd = float(sensory_sd_deg(ecc, p, suppression_log10(plan, t_ms, p)))
+        return np.mean(pos, axis=0), sd ** 2 + float(e_cov[0, 0])
 
     def displacement_looks(self, runner, plan, looks, cfg):
         """Both looks through the observer's own eye estimate; the report's noise is its own: the
