@@ -50,7 +50,7 @@ FORMAT = 1
 
 
 def _marker() -> tuple[float, float]:
-    from ..phenomena import MARKER
+    from ..psychophysics.phenomena import MARKER
 
     return MARKER
 
