@@ -14,7 +14,7 @@ ended episode's last observation (``info["final_obs"]``), as Stable-Baselines3 d
   cell actions).
 - The policy: :class:`CellActorCritic`, the wrap-around cortical convolution whose cell-logit map is the
   categorical over the M x N cells; the value reads a second encoder's pooled features.
-- Shaping: :class:`BatchedShaping`, F = gamma * Phi(s') - Phi(s) with ``envs.PotentialShaping``'s potential
+- Shaping: ``envs.BatchedPotentialShaping``, F = gamma * Phi(s') - Phi(s) with ``envs.PotentialShaping``'s potential
   Phi = -(mean gaze error to the target) / scale_deg and Phi = 0 after a termination (Ng, Harada & Russell
   1999). The logged returns and success rates are the task's, without it.
 - Training runs in chunks of ``eval_every`` PPO updates. Each chunk starts from an env reset with world
@@ -49,7 +49,7 @@ from .rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, Evaluation, episode_seeds
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
 from .saved import file_sha256, pack, read_unit, unpack, write_unit
 
-__all__ = ["CURVE_COLUMNS", "FORMAT", "BatchedPPOAgent", "BatchedShaping", "CellActorCritic", "check_device",
+__all__ = ["CURVE_COLUMNS", "FORMAT", "BatchedPPOAgent", "CellActorCritic", "PPOTrainer", "check_device", "deterministic_torch",
            "is_batched_folder", "load_batched_agent", "plan_batched", "run_batched_episodes", "train_batched"]
 
 OBS_KEYS = ("cortical", "fovea", "eyes")
@@ -105,39 +105,6 @@ class CellActorCritic(nn.Module):
 
 def _obs(obs: dict) -> dict[str, torch.Tensor]:
     return {k: obs[k] for k in OBS_KEYS}
-
-
-# --------------------------------------------------------------------------------------------- shaping
-class BatchedShaping:
-    """Potential-based shaping for the batched env (the potential of ``envs.PotentialShaping``:
-    Phi(s) = -e(s) / ``scale_deg``, e the mean gaze error of both eyes to the target; Phi = 0 after a
-    termination). :meth:`start` after a reset; :meth:`step` after each step returns F (N,) and, for the
-    worlds reset within the step (same-step autoreset), takes their new episode's Phi."""
-
-    def __init__(self, env, gamma: float, scale_deg: float) -> None:
-        if not (0 < gamma <= 1) or not (0 < scale_deg <= 180):
-            raise ValueError(f"shaping needs gamma in (0, 1] and scale_deg in (0, 180]; got {gamma}, {scale_deg}")
-        if getattr(env.task, "name", None) == "free":
-            raise ValueError("task 'free' has no target and so no gaze-error potential; use 'fixate' or 'search'")
-        self.env, self.gamma, self.scale = env, float(gamma), float(scale_deg)
-        self.phi = np.zeros(env.num_envs)
-
-    def _phi_now(self) -> np.ndarray:
-        n = self.env.num_envs
-        # the env's own gaze errors of the current state (both eyes, to the target), as its info reports them
-        err, _ = self.env._gaze_errors(None, np.empty(0, np.int64), np.zeros(n, bool))
-        return -err.mean(axis=1) / self.scale
-
-    def start(self) -> None:
-        self.phi = self._phi_now()
-
-    def step(self, info: dict, terminated: np.ndarray, done: np.ndarray) -> np.ndarray:
-        phi_next = np.where(terminated, 0.0, -np.asarray(info["target_error_deg"], np.float64) / self.scale)
-        f = self.gamma * phi_next - self.phi
-        self.phi = phi_next
-        if done.any():
-            self.phi = np.where(done, self._phi_now(), phi_next)
-        return f
 
 
 # --------------------------------------------------------------------------------------------- settings
@@ -273,10 +240,14 @@ class _Rollout:
         self.logp, self.values, self.rewards, self.dones = (torch.empty((t, n), device=dev) for _ in range(4))
 
 
-class _Trainer:
-    """The PPO loop of :func:`train_batched` (state: model, Adam, the sampling generator, counters)."""
+class PPOTrainer:
+    """The PPO loop of :func:`train_batched` (state: model, Adam, the sampling generator, counters):
+    :meth:`chunk_of` runs one chunk of updates from a seeded env reset; :meth:`capture` / :meth:`restore`
+    its state as arrays and JSON."""
 
     def __init__(self, plan: dict[str, Any], env, model: CellActorCritic, log) -> None:
+        from envs import BatchedPotentialShaping
+
         self.plan, self.env, self.model, self.log = plan, env, model, log
         a = plan["algo_kwargs"]
         self.a = a
@@ -285,7 +256,7 @@ class _Trainer:
         self.gen = torch.Generator(device=self.dev)
         self.gen.manual_seed(int(np.random.SeedSequence([plan["seed"], 4]).generate_state(1)[0]))
         sh = plan["shaping"]
-        self.shaping = BatchedShaping(env, a["gamma"], sh["scale_deg"]) if sh.get("enabled") else None
+        self.shaping = BatchedPotentialShaping(env, a["gamma"], sh["scale_deg"]) if sh.get("enabled") else None
         self.updates, self.env_steps, self.chunk = 0, 0, 0
         self.train_eps: list[tuple[float, bool]] = []
 
@@ -390,7 +361,7 @@ class _Trainer:
                 self.opt.step()
 
 
-def _deterministic_torch(device: str) -> None:
+def deterministic_torch(device: str) -> None:
     """The same computation on every run: one torch thread on the CPU (numba's threading layer, the
     env's, started first: its start resets OpenMP's thread count; see ``experiments.agents.sb3``), cuDNN's
     deterministic algorithms on CUDA."""
@@ -491,7 +462,7 @@ def train_batched(out: str | Path, task: str, hyperparams: dict[str, Any], *, se
                              "use another --out")
         log(f"ppo {task}: {out} holds this run, finished; nothing to train")
         return meta
-    _deterministic_torch(device)
+    deterministic_torch(device)
     env = make_batched_env(task, plan["num_envs"], device, plan["env_kwargs"]["image_size"])
     try:
         sp = env.single_observation_space
@@ -499,7 +470,7 @@ def train_batched(out: str | Path, task: str, hyperparams: dict[str, Any], *, se
         model = CellActorCritic(sp["cortical"].shape, sp["fovea"].shape, int(np.prod(sp["eyes"].shape)),
                                 **{k: (tuple(v) if k == "channels" else v) for k, v in plan["policy_kwargs"].items()})
         model = model.to(env.device)
-        trainer = _Trainer(plan, env, model, log)
+        trainer = PPOTrainer(plan, env, model, log)
         val_seeds = episode_seeds(seed, plan["eval_episodes"], VALIDATION_STREAM)
         log_path, ck = out / "training_log.csv", out / CHECKPOINT
         rows: list[dict] = []
