@@ -1,7 +1,7 @@
 """Env-steps/s of the batched PPO trainer (``train --algo ppo --engine batched``) beside the bare batched env.
 
 For each number of worlds, in one process and on one env: the bare env stepped with uniformly random
-cells (the baseline), then the trainer's chunks (policy forward, sampling, shaping, rollout storage and
+cells (the baseline, timed before and after the trainer, averaged), and the trainer's chunks (policy forward, sampling, shaping, rollout storage and
 the PPO updates: :class:`experiments.agents.batched_ppo.PPOTrainer`). The ratio trainer / env is the share
 of the env's speed that training keeps.
 
@@ -44,16 +44,23 @@ def measure(task: str, n: int, device: str, image_size: int, steps: int, updates
         env.step(rng.integers(cells, size=n))  # warm-up: kernels
         trainer.chunk_of(1)  # warm-up: the update's kernels
         sync()
-        t = time.perf_counter()
-        env.reset(seed=list(range(n)))
-        for _ in range(steps * updates):
-            env.step(rng.integers(cells, size=n))
-        sync()
-        bare = n * steps * updates / (time.perf_counter() - t)
+
+        def bare_run() -> float:
+            t = time.perf_counter()
+            env.reset(seed=list(range(n)))
+            for _ in range(steps * updates):
+                env.step(rng.integers(cells, size=n))
+            sync()
+            return time.perf_counter() - t
+
+        before = bare_run()
         t = time.perf_counter()
         trainer.chunk_of(updates)
         sync()
-        train = n * steps * updates / (time.perf_counter() - t)
+        train_s = time.perf_counter() - t
+        after = bare_run()  # the baseline on both sides of the trainer: a shared machine's load drifts
+        bare = n * steps * updates / ((before + after) / 2)
+        train = n * steps * updates / train_s
     finally:
         env.close()
     return {"device": device, "num_envs": n, "image_size": image_size, "steps_per_update": steps, "updates": updates,

@@ -258,7 +258,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     if kind is None:
         policy = None
     elif kind in ("ppo", "sac"):
-        from .agents.batched_cli import is_batched_folder
+        from .agents.batched_folder import is_batched_folder
 
         try:
             if kind == "ppo" and is_batched_folder(args.policy):  # a train --engine batched run: torch only

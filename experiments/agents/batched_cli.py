@@ -8,23 +8,12 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["FORMAT", "QUICK", "batched_train_command", "is_batched_folder"]
+__all__ = ["QUICK", "batched_train_command"]
 
-#: The ``format`` of a batched-PPO folder's ``ppo.json``.
-FORMAT = "batched-ppo-npz-1"
 #: ``--quick``: two PPO updates of 2 steps per world, a validation row after each on 4 episodes, 8 held-out
 #: episodes, 32 px eyes (a smoke test of the whole path; minutes on Warp's CPU backend, mostly compilation).
 QUICK = {"n_steps": 2, "n_minibatches": 2, "n_epochs": 2, "eval_every": 1, "eval_episodes": 4,
          "heldout_episodes": 8, "env_kwargs": {"image_size": 32}}
-
-
-def is_batched_folder(directory: str | Path) -> bool:
-    """Whether ``directory/ppo.json`` names :data:`FORMAT` (a run of ``train --engine batched``)."""
-    try:
-        meta = json.loads((Path(directory) / "ppo.json").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
-        return False
-    return isinstance(meta, dict) and meta.get("format") == FORMAT
 
 
 def _usage(msg: str) -> int:

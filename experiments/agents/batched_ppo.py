@@ -43,14 +43,14 @@ import torch
 from torch import nn
 
 from ..folders import append_csv_row, write_csv, write_json
-from .batched_cli import FORMAT, is_batched_folder
+from .batched_folder import FORMAT, is_batched_folder
 from .extractors import CorticalEncoder
 from .rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, Evaluation, episode_seeds
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
 from .saved import file_sha256, pack, read_unit, unpack, write_unit
 
-__all__ = ["CURVE_COLUMNS", "FORMAT", "BatchedPPOAgent", "CellActorCritic", "PPOTrainer", "check_device", "deterministic_torch",
-           "is_batched_folder", "load_batched_agent", "plan_batched", "run_batched_episodes", "train_batched"]
+__all__ = ["CURVE_COLUMNS", "BatchedPPOAgent", "CellActorCritic", "PPOTrainer", "check_device", "deterministic_torch",
+           "load_batched_agent", "make_batched_env", "plan_batched", "run_batched_episodes", "train_batched"]
 
 OBS_KEYS = ("cortical", "fovea", "eyes")
 VALIDATION_STREAM = 2  # as the SB3 trainer's validation episodes: neither the training nor the held-out ones
