@@ -64,7 +64,8 @@ def measure(task: str, n: int, device: str, image_size: int, steps: int, updates
     finally:
         env.close()
     return {"device": device, "num_envs": n, "image_size": image_size, "steps_per_update": steps, "updates": updates,
-            "env_steps_per_s": round(bare, 2), "trainer_env_steps_per_s": round(train, 2),
+            "env_steps_per_s": round(bare, 2), "env_before_s": round(before, 2), "env_after_s": round(after, 2),
+            "trainer_s": round(train_s, 2), "trainer_env_steps_per_s": round(train, 2),
             "ratio": round(train / bare, 3)}
 
 
@@ -79,10 +80,12 @@ def main(argv=None) -> int:
     ap.add_argument("--csv", help="write the rows to this CSV file")
     args = ap.parse_args(argv)
     rows = [measure(args.task, n, args.device, args.image_size, args.steps, args.updates) for n in args.num_envs]
-    print("| worlds | env alone (env-steps/s) | trainer (env-steps/s) | trainer / env |")
-    print("|---|---|---|---|")
+    print(f"{args.device}, {args.image_size} px, {args.steps} steps per world x {args.updates} update(s)")
+    print("| worlds | env alone (env-steps/s) | env before / after (s) | trainer (env-steps/s) | trainer / env |")
+    print("|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['num_envs']} | {r['env_steps_per_s']:.1f} | {r['trainer_env_steps_per_s']:.1f} | {r['ratio']:.2f} |")
+        print(f"| {r['num_envs']} | {r['env_steps_per_s']:.1f} | {r['env_before_s']:.1f} / {r['env_after_s']:.1f} | "
+              f"{r['trainer_env_steps_per_s']:.1f} | {r['ratio']:.2f} |")
     if args.csv:
         with open(args.csv, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
