@@ -11,6 +11,7 @@ which needs the ``gpu`` extra (imported on first use: without it the single env 
 import gymnasium as gym
 
 from .batched_env import BatchedBinocularSaccade
+from .batched_shaping import BatchedPotentialShaping
 from .display import compose_frame, grid_overlay
 from .saccade_env import BinocularSaccadeEnv
 from .shaping import PotentialShaping
@@ -20,7 +21,7 @@ from .vision import REMAP_MODELS, EyeView, Vision, model_errors, normalized_erro
 __all__ = [
     "BinocularSaccadeEnv", "BatchedBinocularSaccade", "Vision", "EyeView", "REMAP_MODELS", "normalized_error", "model_errors",
     "Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "make_task", "gaze_errors_deg", "gaze_errors",
-    "compose_frame", "grid_overlay", "ENV_IDS", "PotentialShaping",
+    "compose_frame", "grid_overlay", "ENV_IDS", "PotentialShaping", "BatchedPotentialShaping",
 ]
 
 ENV_IDS = ("BinocularSaccade-v0", "BinocularSaccadeSearch-v0")

@@ -14,6 +14,9 @@
   ``hyperparams``: :func:`load_hyperparams` (``experiments/hyperparams/*.yml``); ``baselines``:
   :func:`~experiments.agents.baselines.run_baselines` (agents x seeds on one task, held-out IQM table
   and curves; ``python -m experiments baselines``).
+- ``batched_ppo`` (the ``gpu`` extra): PPO on the batched env with the cortical cell policy
+  (:func:`~experiments.agents.batched_ppo.train_batched`; ``train --engine batched``, options checked in
+  ``batched_cli``), saved as ``ppo.npz`` + ``ppo.json`` and run on the single env by ``evaluate``.
 
 The torch and Stable-Baselines3 modules are imported on use (``from experiments.agents.sb3 import ...``),
 so the numpy agents need neither.

@@ -70,6 +70,12 @@ def add_subcommand(subparsers) -> None:
                    help="pixels per side of each eye's image (default 96, or the hyper-parameter file's; the ~1 deg "
                         "target is often lost at 64)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.add_argument("--engine", choices=("single", "batched"), default="single",
+                   help="single (default): BinocularSaccadeEnv on the CPU; batched: PPO on envs.BatchedBinocularSaccade "
+                        "(MuJoCo Warp, needs the gpu extra) with experiments/hyperparams/ppo_batched.yml")
+    p.add_argument("--device", help="--engine batched: cuda, cuda:<index> or cpu (default: cuda when available)")
+    p.add_argument("--num-envs", type=int_in(1, 65536),
+                   help="--engine batched: worlds stepped together (default: the hyper-parameter file's num_envs)")
     p.set_defaults(func=train_command)
 
     e = subparsers.add_parser(
@@ -137,6 +143,13 @@ def train_command(args: argparse.Namespace) -> int:
     from ..cli import guarded
     from ..folders import LockBusyError
 
+    if getattr(args, "engine", "single") == "batched":
+        from .batched_cli import batched_train_command
+
+        return batched_train_command(args)
+    if getattr(args, "device", None) is not None or getattr(args, "num_envs", None) is not None:
+        print("train: error: --device and --num-envs apply to --engine batched only", file=sys.stderr)
+        return 2
     if args.algo != "cem":
         cem_only = [o for o, a in (("--iterations", "iterations"), ("--population", "population"),
                                    ("--episodes", "episodes")) if getattr(args, a) is not None]
@@ -252,8 +265,13 @@ def _evaluate(args: argparse.Namespace) -> int:
     if kind is None:
         policy = None
     elif kind in ("ppo", "sac"):
+        from .batched_folder import is_batched_folder
+
         try:
-            from .sb3 import load_agent
+            if kind == "ppo" and is_batched_folder(args.policy):  # a train --engine batched run: torch only
+                from .batched_ppo import load_batched_agent as load_agent
+            else:
+                from .sb3 import load_agent
         except ImportError:
             raise ImportError(f"{args.policy} holds a {kind.upper()} model: evaluating it needs the 'rl' extra "
                               "(pip install -e '.[rl]', CPU torch first)") from None
