@@ -797,6 +797,8 @@ EXEMPT = {
     "conformal.checks": "the checks themselves: tests/test_checks.py tries every hostile value on each",
     "conformal.kernels": "numba kernels the checked public functions call with validated arrays",
     "envs.BatchedBinocularSaccade": "needs the gpu extra (Warp); tests/test_batched_env.py checks its arguments and actions",
+    "envs.BatchedPotentialShaping": "wraps a BatchedBinocularSaccade (the gpu extra); tests/test_batched_ppo.py checks its env, gamma and task",
+    "envs.BatchedPotentialShaping.step": "passes the actions to the wrapped batched env's step (its checks: tests/test_batched_env.py)",
     "models.SaccadePlans": "arrays of plans that BatchedPlanner.plan and SaccadePlan (validated) build",
     "models.Profiles": "the profiles SaccadePlans builds from validated amplitudes",
     "models.profiles": "as models.Profiles",
