@@ -208,14 +208,26 @@ def _kill_after_checkpoint(argv: list[str], out: Path) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("algo", ["cem", "ppo", "sac"])
+@pytest.mark.parametrize("algo", ["cem", "ppo", "sac", "sac-drq"])
 def test_killed_training_resumes_to_the_same_weights(algo, tmp_path):
     """``train`` killed (SIGKILL) after its first checkpoint leaves a resumable run (no final model, no
-    lock held); the same command finishes it with the weights, and the log, of a run never stopped."""
+    lock held); the same command finishes it with the weights, and the log, of a run never stopped.
+    ``sac-drq``: SAC with DrQ's shifts of the replay samples and the critic-trained shared encoder."""
     if algo != "cem":
         pytest.importorskip("stable_baselines3")
+    extra = TINY_CEM if algo == "cem" else []
+    if algo == "sac-drq":
+        import yaml
+
+        from experiments.agents.hyperparams import load_hyperparams
+
+        hp = load_hyperparams("sac", "fixate")
+        hp["policy_kwargs"] = {**hp["policy_kwargs"], "critic_encoder": True}
+        hp.update(augment={"pad": 1}, train_freq=1)
+        (tmp_path / "drq.yml").write_text(yaml.safe_dump({"fixate": hp}))
+        algo, extra = "sac", ["--hyperparams", str(tmp_path / "drq.yml")]
     argv = [sys.executable, "-m", "experiments", "train", "--algo", algo, "--quick", "--image-size", "32",
-            "--seed", "2", "--no-progress", *(TINY_CEM if algo == "cem" else [])]
+            "--seed", "2", "--no-progress", *extra]
     whole, cut = tmp_path / "whole", tmp_path / "cut"
     r = subprocess.run(argv + ["--out", str(whole)], capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr[-2000:]

@@ -9,7 +9,8 @@
 - ``saved``: agents on disk as data, never pickle: :func:`write_unit` / :func:`read_unit` (arrays and
   their JSON in one ``.npz``, written atomically); ``runfolder``: :func:`check_settings` (one run's
   settings per training folder, ``train.json``; another run's folder refused).
-- ``extractors`` (torch): :class:`WrapConv2d`, :class:`CorticalEncoder`, :class:`SoftArgmaxSaccade`.
+- ``extractors`` (torch): :class:`WrapConv2d`, :class:`CorticalEncoder`, :class:`SoftArgmaxSaccade`;
+  ``augment`` (torch): :func:`random_shifts` of the cortical map (DrQ; circular in angle).
 - ``sb3`` (the ``rl`` extra): PPO / SAC policies over the cortical map and :func:`train_sb3`;
   ``hyperparams``: :func:`load_hyperparams` (``experiments/hyperparams/*.yml``); ``baselines``:
   :func:`~experiments.agents.baselines.run_baselines` (agents x seeds on one task, held-out IQM table

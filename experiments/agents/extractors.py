@@ -121,6 +121,11 @@ class CorticalEncoder(nn.Module):
         return self.conv(x)
 
     def forward(self, obs: dict[str, torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor]:
+        _, logits, g = self.encode(obs)
+        return logits, g
+
+    def encode(self, obs: dict[str, torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """:meth:`forward` with the feature map too: ``(h (B, F, M, N), logits, global)``."""
         h = self.feature_map(obs["cortical"].float())
         logits = self.logit_gain * self.logit(h).flatten(1)
         parts = [h.mean(dim=(2, 3)), h.amax(dim=(2, 3))]
@@ -128,4 +133,4 @@ class CorticalEncoder(nn.Module):
             parts.append(self.fovea(obs["fovea"].float()))
         if self.eyes_dim:
             parts.append(obs["eyes"].float().flatten(1))
-        return logits, torch.cat(parts, dim=1)
+        return h, logits, torch.cat(parts, dim=1)

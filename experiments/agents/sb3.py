@@ -50,7 +50,7 @@ from .saved import (
 )
 
 __all__ = ["CURVE_COLUMNS", "VALIDATION_STREAM", "CorticalActorCritic", "CorticalFeatures", "CorticalSAC",
-           "SB3Agent", "architecture", "finished_meta", "load_agent", "make_rl_env", "plan_run", "read_agent_meta",
+           "SB3Agent", "ShiftReplayBuffer", "architecture", "finished_meta", "load_agent", "make_rl_env", "plan_run", "read_agent_meta",
            "saccade_vectors", "save_agent", "train_sb3"]
 
 VALIDATION_STREAM = 2  # the CEM trainer's validation episodes: neither the training nor the held-out ones
@@ -185,6 +185,12 @@ class CorticalActorCritic(_actor_critic()):
             self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
 
 
+def _dict_buffer():
+    from stable_baselines3.common.buffers import DictReplayBuffer
+
+    return DictReplayBuffer
+
+
 def _sac_policy():
     from stable_baselines3.sac.policies import SACPolicy
 
@@ -195,11 +201,20 @@ class CorticalSAC(_sac_policy()):
     """SAC policy over :class:`CorticalFeatures`: the actor's mean is atanh of the soft-argmax
     saccade of the logit map (SAC squashes with tanh), its log-std a linear map of the global
     features starting at ``log_std_init``; the critics are MLPs (``net_arch['qf']``) of the features
-    (with ``pointer``, their own map's soft-argmax saccade among them) and the action."""
+    (with ``pointer``, their own map's soft-argmax saccade among them) and the action.
+
+    ``critic_encoder=True`` (DrQ, Kostrikov et al. 2021; SAC-AE, Yarats et al. 2021): one encoder,
+    the critic's, trained by the critic's loss only; the actor reads its feature map and global
+    features detached (:class:`_DetachedCellActor`: its own 1 x 1 logit convolution, soft-argmax
+    saccade and log-std layer), so the actor's loss never moves the encoder. The target critic keeps
+    its own Polyak-averaged copy of the encoder."""
 
     def __init__(self, observation_space, action_space, lr_schedule, saccade_vectors: list | None = None,
                  channels: tuple[int, ...] = (32, 32), logit_gain: float = 1.0, pointer: bool = True,
-                 log_std_init: float = -1.5, **kwargs: Any) -> None:
+                 log_std_init: float = -1.5, critic_encoder: bool = False, **kwargs: Any) -> None:
+        if not isinstance(critic_encoder, bool):
+            raise ValueError(f"critic_encoder must be true or false; got {critic_encoder!r}")
+        self.critic_encoder = critic_encoder
         if saccade_vectors is None:
             raise ValueError("CorticalSAC needs saccade_vectors (experiments.agents.sb3.saccade_vectors(env))")
         if not np.isfinite(log_std_init):
@@ -211,7 +226,24 @@ class CorticalSAC(_sac_policy()):
         kwargs.setdefault("net_arch", {"pi": [], "qf": [256, 256]})
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
 
+    def _build(self, lr_schedule) -> None:
+        if not self.critic_encoder:
+            return super()._build(lr_schedule)
+        self.critic = self.make_critic(features_extractor=None)  # its encoder computes with gradients
+        self.actor = self.make_actor(features_extractor=self.critic.features_extractor)
+        self.actor.optimizer = self.optimizer_class(
+            [p for n, p in self.actor.named_parameters() if not n.startswith("features_extractor.")],
+            lr=lr_schedule(1), **self.optimizer_kwargs)
+        self.critic_target = self.make_critic(features_extractor=None)
+        self.critic_target.load_state_dict(self.critic.state_dict())
+        self.critic.optimizer = self.optimizer_class(self.critic.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
+        self.critic_target.set_training_mode(False)
+
     def make_actor(self, features_extractor=None):
+        if self.critic_encoder:
+            kwargs = self._update_features_extractor(self.actor_kwargs, features_extractor)
+            actor = _DetachedCellActor(**{**kwargs, "log_std_init": self.std_init}, saccade_vectors=self.saccade_vectors)
+            return actor.to(self.device)
         actor = super().make_actor(features_extractor)
         n = actor.features_extractor.n_cells
         dim = int(np.prod(self.action_space.shape))
@@ -222,6 +254,61 @@ class CorticalSAC(_sac_policy()):
             actor.log_std[1].weight.mul_(0.01)
             actor.log_std[1].bias.fill_(self.std_init)
         return actor.to(self.device)
+
+
+def _sac_actor():
+    from stable_baselines3.sac.policies import Actor
+
+    return Actor
+
+
+class _DetachedCellActor(_sac_actor()):
+    """SAC's actor on an encoder it does not train (:class:`CorticalSAC` with ``critic_encoder``):
+    its own 1 x 1 convolution of the encoder's *detached* feature map gives the cell-logit map
+    (times the encoder's ``logit_gain``), whose soft-argmax saccade (through atanh) is the mean; a
+    linear map of the detached global features is the log-std, starting at ``log_std_init``."""
+
+    def __init__(self, *args: Any, saccade_vectors: list, log_std_init: float = -1.5, **kwargs: Any) -> None:
+        super().__init__(*args, log_std_init=log_std_init, **kwargs)
+        enc = self.features_extractor.encoder
+        dim = int(np.prod(self.action_space.shape))
+        self.mu = nn.Conv2d(enc.logit.in_channels, 1, 1)
+        self.saccade = SoftArgmaxSaccade(np.asarray(saccade_vectors, np.float32), atanh=True)
+        self.log_std = nn.Linear(enc.global_dim, dim)
+        with torch.no_grad():  # a near-uniform initial map, the given initial log-std
+            self.mu.weight.mul_(0.01)
+            self.log_std.weight.mul_(0.01)
+            self.log_std.bias.fill_(float(log_std_init))
+
+    def get_action_dist_params(self, obs):
+        from stable_baselines3.common.preprocessing import preprocess_obs
+        from stable_baselines3.sac.policies import LOG_STD_MAX, LOG_STD_MIN
+
+        enc = self.features_extractor.encoder
+        h, _, g = enc.encode(preprocess_obs(obs, self.observation_space, normalize_images=self.normalize_images))
+        h, g = h.detach(), g.detach()
+        mean = self.saccade(enc.logit_gain * self.mu(h).flatten(1))
+        return mean, torch.clamp(self.log_std(g), LOG_STD_MIN, LOG_STD_MAX), {}
+
+
+class ShiftReplayBuffer(_dict_buffer()):
+    """SB3's ``DictReplayBuffer`` whose samples' ``cortical`` maps (observation and next observation,
+    independently) are shifted by :func:`~experiments.agents.augment.random_shifts` of up to ``pad``
+    cells (DrQ's augmentation, K = M = 1; the stored data stay as collected)."""
+
+    def __init__(self, *args: Any, pad: int = 1, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        if isinstance(pad, bool) or not isinstance(pad, int) or pad < 1:
+            raise ValueError(f"augment pad must be a whole number of cells >= 1; got {pad!r}")
+        self.pad = pad
+
+    def _get_samples(self, batch_inds, env=None):
+        from .augment import random_shifts
+
+        s = super()._get_samples(batch_inds, env)
+        obs = {**s.observations, "cortical": random_shifts(s.observations["cortical"], self.pad)}
+        nxt = {**s.next_observations, "cortical": random_shifts(s.next_observations["cortical"], self.pad)}
+        return s._replace(observations=obs, next_observations=nxt)
 
 
 # ---------------------------------------------------------------------------------------------- agents
@@ -415,6 +502,14 @@ def plan_run(algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0,
             "policy_kwargs": dict(hp.pop("policy_kwargs", {}) or {}), "total_timesteps": total}
     if plan["eval_freq"] < 1 or plan["eval_episodes"] < 1 or plan["n_envs"] < 1:
         raise ValueError("n_envs, eval_freq and eval_episodes must be >= 1")
+    augment = hp.pop("augment", None)
+    if augment is not None:  # DrQ's shifts (ShiftReplayBuffer); absent from the plans of runs without them
+        if algo != "sac" or policy != "cortical-sac":
+            raise ValueError("augment (DrQ shifts of the replay samples) applies to SAC with policy 'cortical-sac'")
+        pad = augment.get("pad") if isinstance(augment, dict) and set(augment) == {"pad"} else None
+        if isinstance(pad, bool) or not isinstance(pad, int) or pad < 1:
+            raise ValueError(f"augment must be {{pad: N}} with N >= 1 whole cells; got {augment!r}")
+        plan["augment"] = {"pad": pad}
     plan["algo_kwargs"] = hp
     plan["hyperparams"] = json.loads(json.dumps(hyperparams))
     return plan
@@ -434,8 +529,10 @@ def _make_model(plan: dict[str, Any], venv):
         policy_cls = CorticalActorCritic
         pk = {"head": head, **({"saccade_vectors": vectors} if head == "cell" else {}), **pk}
     cls = sb3.PPO if plan["algo"] == "ppo" else sb3.SAC
-    return cls(policy_cls, venv, seed=plan["seed"], device="cpu", verbose=0, policy_kwargs=pk or None,
-               **plan["algo_kwargs"])
+    kwargs = dict(plan["algo_kwargs"])
+    if "augment" in plan:
+        kwargs.update(replay_buffer_class=ShiftReplayBuffer, replay_buffer_kwargs={"pad": plan["augment"]["pad"]})
+    return cls(policy_cls, venv, seed=plan["seed"], device="cpu", verbose=0, policy_kwargs=pk or None, **kwargs)
 
 
 def _capture(model) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
