@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
+from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir, stage
 from ..cli.options import add_backend_options, add_workers_option, check_backend_options
 from .scoring import SCORE_COLUMNS
 
@@ -177,12 +177,17 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
     noise = PARTICIPANT.endpoint_noise
     tables: dict = {m: {} for m in models}
     (out / "tables").mkdir(parents=True, exist_ok=True)
-    for name, (design, kw) in _designs(quick).items():
+    designs = _designs(quick)
+    for k, (name, (design, kw)) in enumerate(designs.items(), 1):
         base = TrialConfig(image_size=image_size, generator=generator, endpoint_noise=noise, **kw)
+        stage(f"phenomena: design {k}/{len(designs)} ({name}, {design.n_trials} trials): loading the head",
+              enabled=progress)
         runner = TrialRunner(base)
         try:
             obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
                                  runner=runner, backend=backend, ray_address=ray_address)
+            stage(f"phenomena: design {k}/{len(designs)} ({name}): reading out {len(models)} theories",
+                  enabled=progress)
             for m in models:
                 rows = [{**runner.readout(o, _model_config(base, m)), "model": m} for o in obs]
                 write_csv(out / "tables" / f"{m}_{name}.csv", list(ROW_COLUMNS + TEXT_COLUMNS), rows)
@@ -190,6 +195,7 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
         finally:
             runner.close()
     for m in models:
+        stage(f"phenomena: saccadic suppression of displacement, {m}", enabled=progress)
         cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement",
                                         generator=generator, endpoint_noise=noise), m)
         path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress,
@@ -570,6 +576,8 @@ def run(args: argparse.Namespace) -> int:
                              image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False),
                              generator=getattr(args, "generator", None), backend=getattr(args, "backend", "local"),
                              ray_address=getattr(args, "ray_address", None))
+            stage(f"phenomena: scoring with {getattr(args, 'bootstrap', BOOT)} bootstrap resamples, writing the "
+                  "table and figures", enabled=not args.no_progress)
             text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT))
         print(text, end="")
         print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
