@@ -425,12 +425,16 @@ def _fmt(v: float) -> float | str:
     return round(float(v), 3) if np.isfinite(v) else "nan"
 
 
-def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
+def score(tables: dict, n_boot: int = BOOT, progress: bool = False) -> list[dict]:
     """One row per (phenomenon, model) with ``scoring.SCORE_COLUMNS``, the verdicts set by
-    ``scoring.finalize`` from ``experiments/data/calibration.csv``."""
+    ``scoring.finalize`` from ``experiments/data/calibration.csv``; ``progress``: a bar per model on
+    stderr."""
+    from ..cli.progress import Progress
     from .scoring import finalize
 
     rows = []
+    bar = Progress(len(tables), desc=f"bootstrap CIs ({n_boot} resamples)", unit="theory", warmup=None,
+                   enabled=progress)
     for model, tab in tables.items():
         point = statistics(tab)
         ci = bootstrap(tab, n_boot)
@@ -440,6 +444,8 @@ def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
                          "published_high": "" if rng is None else rng[1],
                          "simulated": _fmt(point[name]), "ci_low": _fmt(ci[name][0]), "ci_high": _fmt(ci[name][1]),
                          "note": _note(name, model, tab, point[name], ci[name])})
+        bar.update()
+    bar.close()
     return finalize(rows)
 
 
@@ -535,11 +541,11 @@ def _save(fig, path: Path) -> Path:
     return save_figure(fig, path, dpi=100)
 
 
-def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:
+def _write(out: Path, tables: dict, n_boot: int = BOOT, progress: bool = False) -> tuple[str, list]:
     from ..folders import atomic_write_text, write_csv
     from .scoring import counts
 
-    rows = score(tables, n_boot)
+    rows = score(tables, n_boot, progress)
     write_csv(out / "phenomena.csv", COLUMNS, rows)
     lines = [f"{'phenomenon':34s} {'model':12s} {'role':10s} {'diag':4s} {'simulated':>9s}  {'95% CI':19s} "
              f"{'published':14s} reproduced"]
@@ -576,9 +582,9 @@ def run(args: argparse.Namespace) -> int:
                              image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False),
                              generator=getattr(args, "generator", None), backend=getattr(args, "backend", "local"),
                              ray_address=getattr(args, "ray_address", None))
-            stage(f"phenomena: scoring with {getattr(args, 'bootstrap', BOOT)} bootstrap resamples, writing the "
-                  "table and figures", enabled=not args.no_progress)
-            text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT))
+            stage("phenomena: scoring each theory (bootstrap CIs), writing the table and figures",
+                  enabled=not args.no_progress)
+            text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT), progress=not args.no_progress)
         print(text, end="")
         print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
         return 0
