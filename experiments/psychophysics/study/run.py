@@ -51,8 +51,8 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
     The folder is locked for the whole run (``FolderBusyError`` if another run holds it); trials that
     produced NaN where a number was expected raise ``NonFiniteResultError`` after the table is written.
     """
-    from .. import format_summary, read_table, run_trials, save_all, summary
     from ...cli.progress import stage
+    from .. import format_summary, read_table, run_trials, save_all, summary
     from ..runner import folder_lock
     from ..snapshots import example_trials
 
