@@ -28,6 +28,7 @@ import sys
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
+from ..cli.progress import Progress, stage
 from ..psychophysics.backends import BACKENDS
 
 __all__ = ["BACKENDS", "observe_trials", "observation_key"]
@@ -146,23 +147,16 @@ def observe_trials(trials: list, config, cache_dir: Path | None = None, *, backe
         key = observation_key(trials, config)
         path = cache_dir / f"{config.condition}-{key}.npz"
         runner = runner if runner is not None else TrialRunner(config)
+        if path.exists():
+            stage(f"reading the observation cache {path}", enabled=progress)
         cached, why = cache.load(path, key, trials, runner)
         if cached is not None:
             return cached
         if path.exists():
             print(f"{path}: {why}; observing its {len(trials)} trials again", file=sys.stderr)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(trials), unit="trial", desc=f"observing ({config.condition})")
-    tick = bar.update if bar is not None else (lambda n: None)
-    try:
-        obs = (_ray(trials, config, workers, ray_address, tick) if backend == "ray"
-               else _local(trials, config, workers, tick))
-    finally:
-        if bar is not None:
-            bar.close()
+    with Progress(len(trials), unit="trial", desc=f"observing ({config.condition})", enabled=progress) as bar:
+        obs = (_ray(trials, config, workers, ray_address, bar.update) if backend == "ray"
+               else _local(trials, config, workers, bar.update))
     if path is None:
         return obs
     cache.save(path, obs, key)

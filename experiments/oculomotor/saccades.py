@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cli import out_dir
+from ..cli import Progress, out_dir, stage
 from ..folders import LockBusyError, path_lock, save_figure, write_csv
 
 __all__ = ["add_subcommand", "measure", "main_sequence_rows", "plot"]
@@ -59,11 +59,8 @@ def measure(model: str, amplitudes=AMPLITUDES_DEG, progress: bool = False) -> di
     import models
 
     out = {}
-    with models.Head("dots", image_size=16, seed=0, saccade_model=model) as head:
-        if progress:
-            from tqdm import tqdm
-
-            amplitudes = tqdm(amplitudes, unit="saccade", desc=f"{model} saccades")
+    bar = Progress(len(amplitudes), unit="saccade", desc=f"{model} saccades", enabled=progress)
+    with models.Head("dots", image_size=16, seed=0, saccade_model=model) as head, bar:
         for a in amplitudes:
             head.reset(fixate=models.screen_point(math.radians(-a / 2), 0.0, 1.0))
             plan = head.plan_saccade_to(models.screen_point(math.radians(a / 2), 0.0, 1.0), latency_ms=150)
@@ -74,6 +71,7 @@ def measure(model: str, amplitudes=AMPLITUDES_DEG, progress: bool = False) -> di
                     "right": _kinematics(tr.times_ms, np.abs(w[:, 1])),
                     "version": _kinematics(tr.times_ms, np.abs(w.mean(axis=1)))}
             out[a] = {"plan": plan, "trace": tr, "kinematics": rows}
+            bar.update()
     return out
 
 
@@ -206,6 +204,8 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
             usage(f"argument --screen: {e}")
     path = Path(args.recording)
     eye = getattr(args, "eye", None)
+    show = not getattr(args, "no_progress", False)
+    stage(f"reading {path} and detecting saccades", enabled=show)
     try:
         recs = et.read_recordings(path, screen=screen, fmt=args.format, eye=eye, columns=getattr(args, "columns", None),
                                   preset=getattr(args, "preset", None), time_unit=getattr(args, "time_unit", None),
@@ -298,6 +298,9 @@ def _write_recording_results(args, path: Path, rec, rows: list[dict], bad: list[
         print(f"saccades: error: {path.name} ({rec.eye} eye): only {len(rows)} measurable saccade(s); fitting "
               f"{len(args.fit_parameters)} parameters needs at least {need}: no generator.json written", file=sys.stderr)
         return 3
+    boot = getattr(args, "bootstrap", gf.DEFAULT_BOOTSTRAP)
+    stage(f"fitting the burst generator ({', '.join(args.fit_parameters)}) to {len(rows)} saccades"
+          + (f", {boot} bootstrap refits for the CIs" if boot else ""), enabled=not getattr(args, "no_progress", False))
     fit = gf.fit_generator(rows, fit=args.fit_parameters, rate_hz=rec.rate_hz, noise_deg=noise,
                            bootstrap=getattr(args, "bootstrap", gf.DEFAULT_BOOTSTRAP))
     gf.plot_main_sequence(rows, fit.generator, out / "main_sequence.png", rate_hz=rec.rate_hz, noise_deg=noise,

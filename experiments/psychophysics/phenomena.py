@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir
+from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir, stage
 from ..cli.options import add_backend_options, add_workers_option, check_backend_options
 from .scoring import SCORE_COLUMNS
 
@@ -177,12 +177,17 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
     noise = PARTICIPANT.endpoint_noise
     tables: dict = {m: {} for m in models}
     (out / "tables").mkdir(parents=True, exist_ok=True)
-    for name, (design, kw) in _designs(quick).items():
+    designs = _designs(quick)
+    for k, (name, (design, kw)) in enumerate(designs.items(), 1):
         base = TrialConfig(image_size=image_size, generator=generator, endpoint_noise=noise, **kw)
+        stage(f"phenomena: design {k}/{len(designs)} ({name}, {design.n_trials} trials): loading the head",
+              enabled=progress)
         runner = TrialRunner(base)
         try:
             obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
                                  runner=runner, backend=backend, ray_address=ray_address)
+            stage(f"phenomena: design {k}/{len(designs)} ({name}): reading out {len(models)} theories",
+                  enabled=progress)
             for m in models:
                 rows = [{**runner.readout(o, _model_config(base, m)), "model": m} for o in obs]
                 write_csv(out / "tables" / f"{m}_{name}.csv", list(ROW_COLUMNS + TEXT_COLUMNS), rows)
@@ -190,6 +195,7 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
         finally:
             runner.close()
     for m in models:
+        stage(f"phenomena: saccadic suppression of displacement, {m}", enabled=progress)
         cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement",
                                         generator=generator, endpoint_noise=noise), m)
         path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress,
@@ -419,12 +425,16 @@ def _fmt(v: float) -> float | str:
     return round(float(v), 3) if np.isfinite(v) else "nan"
 
 
-def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
+def score(tables: dict, n_boot: int = BOOT, progress: bool = False) -> list[dict]:
     """One row per (phenomenon, model) with ``scoring.SCORE_COLUMNS``, the verdicts set by
-    ``scoring.finalize`` from ``experiments/data/calibration.csv``."""
+    ``scoring.finalize`` from ``experiments/data/calibration.csv``; ``progress``: a bar per model on
+    stderr."""
+    from ..cli.progress import Progress
     from .scoring import finalize
 
     rows = []
+    bar = Progress(len(tables), desc=f"bootstrap CIs ({n_boot} resamples)", unit="theory", warmup=None,
+                   enabled=progress)
     for model, tab in tables.items():
         point = statistics(tab)
         ci = bootstrap(tab, n_boot)
@@ -434,6 +444,8 @@ def score(tables: dict, n_boot: int = BOOT) -> list[dict]:
                          "published_high": "" if rng is None else rng[1],
                          "simulated": _fmt(point[name]), "ci_low": _fmt(ci[name][0]), "ci_high": _fmt(ci[name][1]),
                          "note": _note(name, model, tab, point[name], ci[name])})
+        bar.update()
+    bar.close()
     return finalize(rows)
 
 
@@ -529,11 +541,11 @@ def _save(fig, path: Path) -> Path:
     return save_figure(fig, path, dpi=100)
 
 
-def _write(out: Path, tables: dict, n_boot: int = BOOT) -> tuple[str, list]:
+def _write(out: Path, tables: dict, n_boot: int = BOOT, progress: bool = False) -> tuple[str, list]:
     from ..folders import atomic_write_text, write_csv
     from .scoring import counts
 
-    rows = score(tables, n_boot)
+    rows = score(tables, n_boot, progress)
     write_csv(out / "phenomena.csv", COLUMNS, rows)
     lines = [f"{'phenomenon':34s} {'model':12s} {'role':10s} {'diag':4s} {'simulated':>9s}  {'95% CI':19s} "
              f"{'published':14s} reproduced"]
@@ -570,7 +582,9 @@ def run(args: argparse.Namespace) -> int:
                              image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False),
                              generator=getattr(args, "generator", None), backend=getattr(args, "backend", "local"),
                              ray_address=getattr(args, "ray_address", None))
-            text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT))
+            stage("phenomena: scoring each theory (bootstrap CIs), writing the table and figures",
+                  enabled=not args.no_progress)
+            text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT), progress=not args.no_progress)
         print(text, end="")
         print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
         return 0

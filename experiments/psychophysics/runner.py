@@ -518,9 +518,9 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
     _write_sorted(csv_path, done, chash)  # drop torn lines before appending
     bar = None
     if progress and todo:
-        from tqdm import tqdm
+        from ..cli.progress import Progress
 
-        bar = tqdm(total=design.n_trials, initial=len(done), unit="trial", desc="flash trials")
+        bar = Progress(design.n_trials, initial=len(done), unit="trial", desc="flash trials")
     try:
         with csv_path.open("a", newline="") as fh:
 

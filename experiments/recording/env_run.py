@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..cli.progress import Progress, stage
 from .recorder import Recorder
 
 
@@ -60,6 +61,8 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
         raise ValueError(f"remap_model must be one of {envs.REMAP_MODELS}; got {remap_model!r}")
     if int(latency_ms) != latency_ms or not 0 <= flash_lead_ms <= latency_ms:
         raise ValueError("need whole latency_ms >= flash_lead_ms >= 0")
+    stage(f"recording: building the head and the {'default' if scene is None else repr(scene)} scene, first render",
+          enabled=progress)
     env = envs.BinocularSaccadeEnv(scene=scene, task=task, image_size=image_size, fixation_ms=fixation_ms,
                                    shift_rings=shift_rings)
     rng = np.random.default_rng(seed)
@@ -88,12 +91,9 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
             log_images(views, frame)
             rec.log_eye_angles(head.eye_angles, np.zeros((2, 3)), head.eye_position_signal())
             previous = None
-            steps_iter = range(int(steps))
-            if progress:
-                from tqdm import tqdm
-
-                steps_iter = tqdm(steps_iter, unit="saccade", desc="recording")
-            for step in steps_iter:
+            bar = Progress(int(steps), unit="saccade", desc="recording", enabled=progress,
+                           warmup="first saccade (compiling numba kernels on a first run)")
+            for step in range(int(steps)):
                 rec.set_time("env_step", step + 1)
                 # alternate object saccades with random ones of 3-20 deg (the main sequence's range)
                 name = _choose_target(head, rng, previous) if step % 2 == 0 else None
@@ -147,6 +147,8 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                                             "peak_velocity_deg_s": math.degrees(plan.peak_velocity),
                                             "duration_ms": plan.duration_ms})
                 summary["remap_error"].append(errors)
+                bar.update()
+            bar.close()
             summary["end_ms"] = float(head.time_ms)
     finally:
         env.close()

@@ -51,6 +51,7 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
     The folder is locked for the whole run (``FolderBusyError`` if another run holds it); trials that
     produced NaN where a number was expected raise ``NonFiniteResultError`` after the table is written.
     """
+    from ...cli.progress import stage
     from .. import format_summary, read_table, run_trials, save_all, summary
     from ..runner import folder_lock
     from ..snapshots import example_trials
@@ -67,6 +68,9 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
         text = format_summary(rows, n_trials=len(table["trial_id"]), config=config)
         write_summary(out, text, rows)
         # only the paper model has a set time course to draw; the others show their own results alone
+        stage(f"writing the summary and figures ({', '.join(formats)}) in {out}", enabled=progress)
         figures = save_all(table, out, config.timecourse if config.model == "paper" else None, formats)
+        if recording:
+            stage(f"writing the Rerun recording {out / 'study.rrd'}", enabled=progress)
         rrd = record_study(out, table, design, config) if recording else None
     return {"table": csv_path, "summary": text, "figures": figures, "recording": rrd}
