@@ -54,8 +54,7 @@ def single_env(args) -> float:
 def batched(args, n: int) -> dict:
     import torch
 
-    env = envs.BatchedBinocularSaccade(n, device=args.device, image_size=args.image_size,
-                                       retina_rays=args.retina_rays)
+    env = envs.BatchedBinocularSaccade(n, device=args.device, image_size=args.image_size, retina_rays=args.retina_rays)
     rng = np.random.default_rng(0)
     actions = [_actions(rng, n) for _ in range(args.steps)]
     env.reset(seed=0)
@@ -94,18 +93,34 @@ def batched(args, n: int) -> dict:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--device", default=None, help="cuda, cuda:<i> or cpu (default: cuda if available)")
-    ap.add_argument("--num-envs", type=int, nargs="+", default=None,
-                    help="worlds per configuration (default: 1 64 1024 4096 on CUDA, 1 4 16 on the CPU)")
+    ap.add_argument(
+        "--num-envs",
+        type=int,
+        nargs="+",
+        default=None,
+        help="worlds per configuration (default: 1 64 1024 4096 on CUDA, 1 4 16 on the CPU)",
+    )
     ap.add_argument("--image-size", type=int, default=128)
     ap.add_argument("--steps", type=int, default=None, help="timed steps per configuration (default 20 CUDA, 3 CPU)")
     ap.add_argument("--single-steps", type=int, default=20)
-    ap.add_argument("--csv", default=None, help="also write the table to this CSV file (one row per number of "
-                    "worlds, the device named in each row)")
-    ap.add_argument("--label", default=None, help="with --csv: what was measured (a branch, a commit), written "
-                    "in a first column 'code' (benchmarks/tables.py shows it)")
-    ap.add_argument("--retina-rays", type=int, default=None,
-                    help="render the retina along s x s rays per receptive field (envs.retina_rays) instead of "
-                         "pinhole pictures (default: pictures)")
+    ap.add_argument(
+        "--csv",
+        default=None,
+        help="also write the table to this CSV file (one row per number of worlds, the device named in each row)",
+    )
+    ap.add_argument(
+        "--label",
+        default=None,
+        help="with --csv: what was measured (a branch, a commit), written "
+        "in a first column 'code' (benchmarks/tables.py shows it)",
+    )
+    ap.add_argument(
+        "--retina-rays",
+        type=int,
+        default=None,
+        help="render the retina along s x s rays per receptive field (envs.retina_rays) instead of "
+        "pinhole pictures (default: pictures)",
+    )
     args = ap.parse_args(argv)
     import torch
     import warp as wp
@@ -116,13 +131,18 @@ def main(argv=None) -> None:
     args.num_envs = args.num_envs or ([1, 4, 16] if cpu else [1, 64, 1024, 4096])
     args.steps = args.steps or (3 if cpu else 20)
     device_name = "CPU backend" if cpu else wp.get_device(args.device).name
-    seen = (f"{args.image_size} px per eye" if args.retina_rays is None else
-            f"retina rays ({args.retina_rays}x{args.retina_rays} per field; the single env: {args.image_size} px)")
+    seen = (
+        f"{args.image_size} px per eye"
+        if args.retina_rays is None
+        else f"retina rays ({args.retina_rays}x{args.retina_rays} per field; the single env: {args.image_size} px)"
+    )
     print(f"device: {args.device} ({device_name}); {seen}; dots scene, fixate task")
     single = single_env(args)
-    print(f"single CPU env (BinocularSaccadeEnv, classic renderer): {single:.0f} steps/s (it simulates the whole "
-          "250 ms fixation; the batched env simulates settle_ms = 20 ms past the last world's saccade and keeps "
-          "the rest as a clock: the x single column compares the same env steps, not the same physics)")
+    print(
+        f"single CPU env (BinocularSaccadeEnv, classic renderer): {single:.0f} steps/s (it simulates the whole "
+        "250 ms fixation; the batched env simulates settle_ms = 20 ms past the last world's saccade and keeps "
+        "the rest as a clock: the x single column compares the same env steps, not the same physics)"
+    )
     rows = []
     for n in args.num_envs:
         r = batched(args, n)
@@ -138,14 +158,33 @@ def main(argv=None) -> None:
     if args.csv:
         from experiments.folders import write_csv
 
-        fields = (["code"] if args.label else []) + ["device", "eyes", "worlds", "env_steps_per_s",
-                                                      "single_env_steps_per_s", "ms_per_step"]
+        fields = (["code"] if args.label else []) + [
+            "device",
+            "eyes",
+            "worlds",
+            "env_steps_per_s",
+            "single_env_steps_per_s",
+            "ms_per_step",
+        ]
         fields += [f"{p.replace(' ', '_')}_ms" for p in PARTS] + ["memory"]
-        write_csv(args.csv, fields, [
-            {**({"code": args.label} if args.label else {}), "device": device_name, "eyes": seen, "worlds": n, "env_steps_per_s": round(r["steps/s"], 1),
-             "single_env_steps_per_s": round(single, 1), "ms_per_step": round(r["ms/step"], 3),
-             **{f"{p.replace(' ', '_')}_ms": round(r["parts"].get(p, 0.0), 3) for p in PARTS}, "memory": r["memory"]}
-            for n, r in rows])
+        write_csv(
+            args.csv,
+            fields,
+            [
+                {
+                    **({"code": args.label} if args.label else {}),
+                    "device": device_name,
+                    "eyes": seen,
+                    "worlds": n,
+                    "env_steps_per_s": round(r["steps/s"], 1),
+                    "single_env_steps_per_s": round(single, 1),
+                    "ms_per_step": round(r["ms/step"], 3),
+                    **{f"{p.replace(' ', '_')}_ms": round(r["parts"].get(p, 0.0), 3) for p in PARTS},
+                    "memory": r["memory"],
+                }
+                for n, r in rows
+            ],
+        )
 
 
 if __name__ == "__main__":

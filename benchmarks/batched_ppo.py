@@ -40,8 +40,12 @@ def measure(task: str, n: int, device: str, image_size: int, steps: int, updates
     try:
         sp = env.single_observation_space
         torch.manual_seed(0)
-        model = CellActorCritic(sp["cortical"].shape, sp["fovea"].shape, int(np.prod(sp["eyes"].shape)),
-                                channels=tuple(plan["policy_kwargs"]["channels"])).to(env.device)
+        model = CellActorCritic(
+            sp["cortical"].shape,
+            sp["fovea"].shape,
+            int(np.prod(sp["eyes"].shape)),
+            channels=tuple(plan["policy_kwargs"]["channels"]),
+        ).to(env.device)
         trainer = PPOTrainer(plan, env, model, log=lambda m: None)
         sync = (lambda: torch.cuda.synchronize(env.device)) if env.device.type == "cuda" else (lambda: None)
         rng = np.random.default_rng(0)
@@ -69,10 +73,19 @@ def measure(task: str, n: int, device: str, image_size: int, steps: int, updates
         train = n * steps * updates / train_s
     finally:
         env.close()
-    return {"device": device, "num_envs": n, "image_size": image_size, "steps_per_update": steps, "updates": updates,
-            "env_steps_per_s": round(bare, 2), "env_before_s": round(before, 2), "env_after_s": round(after, 2),
-            "trainer_s": round(train_s, 2), "trainer_env_steps_per_s": round(train, 2),
-            "ratio": round(train / bare, 3)}
+    return {
+        "device": device,
+        "num_envs": n,
+        "image_size": image_size,
+        "steps_per_update": steps,
+        "updates": updates,
+        "env_steps_per_s": round(bare, 2),
+        "env_before_s": round(before, 2),
+        "env_after_s": round(after, 2),
+        "trainer_s": round(train_s, 2),
+        "trainer_env_steps_per_s": round(train, 2),
+        "ratio": round(train / bare, 3),
+    }
 
 
 def main(argv=None) -> int:
@@ -90,8 +103,10 @@ def main(argv=None) -> int:
     print("| worlds | env alone (env-steps/s) | env before / after (s) | trainer (env-steps/s) | trainer / env |")
     print("|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['num_envs']} | {r['env_steps_per_s']:.1f} | {r['env_before_s']:.1f} / {r['env_after_s']:.1f} | "
-              f"{r['trainer_env_steps_per_s']:.1f} | {r['ratio']:.2f} |")
+        print(
+            f"| {r['num_envs']} | {r['env_steps_per_s']:.1f} | {r['env_before_s']:.1f} / {r['env_after_s']:.1f} | "
+            f"{r['trainer_env_steps_per_s']:.1f} | {r['ratio']:.2f} |"
+        )
     if args.csv:
         with open(args.csv, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))

@@ -104,8 +104,10 @@ def contention(args, n_procs: int, lifted: str | None) -> list[float]:
     """Best steps/s of each of ``n_procs`` env processes running at once."""
     ctx = mp.get_context("spawn")
     barrier, results = ctx.Barrier(n_procs), ctx.Queue()
-    procs = [ctx.Process(target=_worker, args=(args.image_size, args.steps, args.repeats, lifted, barrier, results))
-             for _ in range(n_procs)]
+    procs = [
+        ctx.Process(target=_worker, args=(args.image_size, args.steps, args.repeats, lifted, barrier, results))
+        for _ in range(n_procs)
+    ]
     for p in procs:
         p.start()
     out = [results.get(timeout=600) for _ in procs]
@@ -127,15 +129,21 @@ def main() -> None:
     actions = np.tile(SACCADE, (args.steps // 2, 1))
 
     rows = solo(args, actions)
-    print(f"image {args.image_size}x{args.image_size} per eye, {len(actions)} steps, {args.repeats} alternating runs; "
-          "1 step = saccade (~9 deg) + 250 ms fixation + render both eyes")
+    print(
+        f"image {args.image_size}x{args.image_size} per eye, {len(actions)} steps, {args.repeats} alternating runs; "
+        "1 step = saccade (~9 deg) + 250 ms fixation + render both eyes"
+    )
     print(f"{'configuration':42s} {'env ms':>7s} {'bare ms':>8s} {'steps/s':>8s} {'env/bare':>9s} {'run to run':>11s}")
     for label, t_env, t_bare in rows:
         ratios = t_env / t_bare
-        print(f"{label:42s} {t_env.min() * 1e3:7.2f} {t_bare.min() * 1e3:8.2f} {1 / t_env.min():8.0f} "
-              f"{t_env.min() / t_bare.min():8.2f}x {ratios.min():5.2f}-{ratios.max():.2f}x")
-    print("env ms, bare ms, steps/s and env/bare from the best run of each; run to run: each run's env time over "
-          "the bare run beside it")
+        print(
+            f"{label:42s} {t_env.min() * 1e3:7.2f} {t_bare.min() * 1e3:8.2f} {1 / t_env.min():8.0f} "
+            f"{t_env.min() / t_bare.min():8.2f}x {ratios.min():5.2f}-{ratios.max():.2f}x"
+        )
+    print(
+        "env ms, bare ms, steps/s and env/bare from the best run of each; run to run: each run's env time over "
+        "the bare run beside it"
+    )
     t_env, t_bare = rows[0][1].min(), rows[0][2].min()
     ok_speed, ok_ratio = 1 / t_env >= 150, t_env / t_bare <= 1.3
     print(f"target: default config >= 150 steps/s: {1 / t_env:.0f} -> {'met' if ok_speed else 'not met'}")
@@ -143,8 +151,10 @@ def main() -> None:
     if args.skip_contention:
         return
 
-    print(f"\ncontention: the default env in spawned processes, best of {args.repeats} runs of {len(actions)} steps each; "
-          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} before")
+    print(
+        f"\ncontention: the default env in spawned processes, best of {args.repeats} runs of {len(actions)} steps each; "
+        f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} before"
+    )
     print(f"{'threads':32s} {'1 process':>10s} {'2 at once (each)':>18s} {'kept (each)':>14s}")
     kept_limited = None
     for label, lifted in LIMITS:
@@ -155,8 +165,10 @@ def main() -> None:
             kept_limited = kept
         print(f"{label:32s} {alone:8.0f}/s {pair[0]:8.0f} {pair[1]:7.0f}/s {kept[0]:7.0%} {kept[1]:5.0%}")
     ok = min(kept_limited) >= 0.8
-    print(f"target: each of two envs at once keeps >= 80% of its solo speed: {min(kept_limited):.0%} -> "
-          f"{'met' if ok else 'not met'}")
+    print(
+        f"target: each of two envs at once keeps >= 80% of its solo speed: {min(kept_limited):.0%} -> "
+        f"{'met' if ok else 'not met'}"
+    )
 
 
 if __name__ == "__main__":

@@ -48,8 +48,9 @@ def replay(env, runs: list[dict], skip_solver: bool) -> dict:
 
     from envs.batched_physics import WarpHeads
 
-    ph = WarpHeads(env.head, env.num_envs, str(env.physics.device), chunk_ms=env.physics.chunk_ms,
-                   skip_solver=skip_solver)
+    ph = WarpHeads(
+        env.head, env.num_envs, str(env.physics.device), chunk_ms=env.physics.chunk_ms, skip_solver=skip_solver
+    )
     launches = [0]
     launch = wp.launch
 
@@ -78,8 +79,11 @@ def replay(env, runs: list[dict], skip_solver: bool) -> dict:
     else:
         launches[0] = 0
         once(runs[0], True)
-    return {"s_per_ms": wall / ms, "launches_per_ms": launches[0] / runs[0]["n_ms"] if launches[0] >= 0 else None,
-            "eyes": eyes}
+    return {
+        "s_per_ms": wall / ms,
+        "launches_per_ms": launches[0] / runs[0]["n_ms"] if launches[0] >= 0 else None,
+        "eyes": eyes,
+    }
 
 
 def main(argv=None) -> None:
@@ -91,17 +95,21 @@ def main(argv=None) -> None:
     for n in args.num_envs:
         env, runs = record(n, args.device, args.steps)
         spans = [r["lengths"] for r in runs]
-        print(f"{n} worlds on {env.physics.device}: physics ms per env step "
-              + ", ".join(str(r["n_ms"]) for r in runs)
-              + f" (the slowest world's plan + settle_ms {env.settle_ms}; the worlds' plans: mean "
-              f"{np.mean([s.mean() for s in spans]):.0f} ms, slowest {max(s.max() for s in spans)} ms)")
+        print(
+            f"{n} worlds on {env.physics.device}: physics ms per env step "
+            + ", ".join(str(r["n_ms"]) for r in runs)
+            + f" (the slowest world's plan + settle_ms {env.settle_ms}; the worlds' plans: mean "
+            f"{np.mean([s.mean() for s in spans]):.0f} ms, slowest {max(s.max() for s in spans)} ms)"
+        )
         full, free = replay(env, runs, False), replay(env, runs, True)
         diff = max(np.degrees(np.abs(a - b)).max() for a, b in zip(full["eyes"], free["eyes"]))
         for name, r in (("with the solver", full), ("without (skip_solver)", free)):
             lpm = "n/a (CUDA graph)" if r["launches_per_ms"] is None else f"{r['launches_per_ms']:.1f}"
             print(f"  {name}: {r['s_per_ms'] * 1e3:.3f} ms per physics step, {lpm} launches per physics step")
-        print(f"  speed-up {full['s_per_ms'] / free['s_per_ms']:.2f}x; largest eye-angle difference {diff:.2e} deg "
-              "(issue 38: within 1e-4)")
+        print(
+            f"  speed-up {full['s_per_ms'] / free['s_per_ms']:.2f}x; largest eye-angle difference {diff:.2e} deg "
+            "(issue 38: within 1e-4)"
+        )
         env.close()
 
 

@@ -120,17 +120,26 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     task = TASKS[args.task]()
     base = baseline(task, args.baseline_envs, args.steps, args.resets)
-    print(f"host side on {cpu_name()} ({os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}), task "
-          f"{args.task}, {args.resets:.0%} of worlds reset per step, numba threads {numba.get_num_threads()}; "
-          f"baseline: {args.baseline_envs} worlds of models.Head + SaccadePlan")
-    print("\n| worlds | per-world objects us/world | batched planner us/world | speed-up | host ms per step | "
-          + " | ".join(f"{p} us/world" for p in PARTS) + " |")
+    print(
+        f"host side on {cpu_name()} ({os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}), task "
+        f"{args.task}, {args.resets:.0%} of worlds reset per step, numba threads {numba.get_num_threads()}; "
+        f"baseline: {args.baseline_envs} worlds of models.Head + SaccadePlan"
+    )
+    print(
+        "\n| worlds | per-world objects us/world | batched planner us/world | speed-up | host ms per step | "
+        + " | ".join(f"{p} us/world" for p in PARTS)
+        + " |"
+    )
     print("|---|---|---|---|---|" + "---|" * len(PARTS))
     for n in args.num_envs:
         parts: dict = {}
         b = batched(task, n, args.steps, args.resets, parts)
-        print(f"| {n} | {base * 1e6:.0f} | {b * 1e6:.1f} | {base / b:.0f}x | {b * n * 1e3:.1f} | "
-              + " | ".join(f"{parts[p] * 1e6:.1f}" for p in PARTS) + " |", flush=True)
+        print(
+            f"| {n} | {base * 1e6:.0f} | {b * 1e6:.1f} | {base / b:.0f}x | {b * n * 1e3:.1f} | "
+            + " | ".join(f"{parts[p] * 1e6:.1f}" for p in PARTS)
+            + " |",
+            flush=True,
+        )
     print("target: <= 5 us per world and step (issue 38); parts timed separately: they add up to the total")
 
 

@@ -29,8 +29,9 @@ from models import plan_clipped
 
 def errors(scene: str, amplitude_deg: float) -> dict[str, dict[str, dict[str, float]]]:
     """{leg: {model: {"point", "pooled"}}} for the saccade +amplitude and back, then -amplitude and back."""
-    envs_ = {p: envs.BinocularSaccadeEnv(scene=scene, task="free", image_size=128, pooled_remap=p)
-             for p in (False, True)}
+    envs_ = {
+        p: envs.BinocularSaccadeEnv(scene=scene, task="free", image_size=128, pooled_remap=p) for p in (False, True)
+    }
     out: dict[str, dict[str, dict[str, float]]] = {}
     for sign, side in ((1, "right"), (-1, "left")):
         for e in envs_.values():
@@ -72,8 +73,10 @@ def prediction_cost(models: tuple[str, ...], repeats: int = 300) -> dict[bool, f
 def env_speed(steps: int, repeats: int) -> dict[str, np.ndarray]:
     """Seconds per step of the default env with pooling off and on, and of the bare loop, alternating."""
     actions = np.tile(SACCADE, (steps // 2, 1))
-    runs = {"point": envs.BinocularSaccadeEnv(image_size=128), "pooled": envs.BinocularSaccadeEnv(image_size=128,
-                                                                                                  pooled_remap=True)}
+    runs = {
+        "point": envs.BinocularSaccadeEnv(image_size=128),
+        "pooled": envs.BinocularSaccadeEnv(image_size=128, pooled_remap=True),
+    }
     for e in runs.values():
         e.reset(seed=0)
         env_loop(e, actions[:20])  # warm-up
@@ -93,8 +96,13 @@ def env_speed(steps: int, repeats: int) -> dict[str, np.ndarray]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", nargs="+", default=["bar"], help="scenes for the error table (default: bar)")
-    ap.add_argument("--amplitudes", nargs="+", type=float, default=[20.0],
-                    help="horizontal saccade amplitudes, deg, in (0, 30] (default: 20)")
+    ap.add_argument(
+        "--amplitudes",
+        nargs="+",
+        type=float,
+        default=[20.0],
+        help="horizontal saccade amplitudes, deg, in (0, 30] (default: 20)",
+    )
     ap.add_argument("--steps", type=int, default=200, help="env steps per timed run (default 200)")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs, alternating (default 5)")
     ap.add_argument("--skip-speed", action="store_true", help="only the error table")
@@ -111,8 +119,10 @@ def main() -> None:
         for amp in args.amplitudes:
             for leg, per_model in errors(scene, amp).items():
                 for m, r in per_model.items():
-                    print(f"{scene:8s} {amp:6.0f}deg {leg:15s} {m:11s} {r['point']:7.3f} {r['pooled']:7.3f} "
-                          f"{r['pooled'] / r['point'] - 1:+6.0%}")
+                    print(
+                        f"{scene:8s} {amp:6.0f}deg {leg:15s} {m:11s} {r['point']:7.3f} {r['pooled']:7.3f} "
+                        f"{r['pooled'] / r['point'] - 1:+6.0%}"
+                    )
     if args.skip_speed:
         return
 
@@ -129,8 +139,10 @@ def main() -> None:
         ratios = t[name] / t["bare"]
         label = {"point": "env, pooled_remap=False", "pooled": "env, pooled_remap=True", "bare": "bare MuJoCo loop"}
         best = t[name].min()
-        print(f"{label[name]:28s} {best * 1e3:8.2f} {1 / best:8.0f} {best / t['bare'].min():8.2f}x "
-              f"{ratios.min():5.2f}-{ratios.max():.2f}x")
+        print(
+            f"{label[name]:28s} {best * 1e3:8.2f} {1 / best:8.0f} {best / t['bare'].min():8.2f}x "
+            f"{ratios.min():5.2f}-{ratios.max():.2f}x"
+        )
     print("ms/step, steps/s and env/bare from the best run of each; run to run: each run over the bare run beside it")
 
 

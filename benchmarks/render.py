@@ -43,8 +43,13 @@ def main() -> None:
             with models.Head(args.scene, image_size=size, quality=quality) as head:
                 rows.append((f"render both eyes {size}x{size}", quality, _time(head.render, args.repeats)))
     head = models.Head(args.scene, image_size=16)
-    rows.append((f"physics: 300 ms fixation ({models.DEFAULT_TIMESTEP_MS:g} ms step)", "-",
-                 _time(lambda: head.step_ms(300), args.repeats)))
+    rows.append(
+        (
+            f"physics: 300 ms fixation ({models.DEFAULT_TIMESTEP_MS:g} ms step)",
+            "-",
+            _time(lambda: head.step_ms(300), args.repeats),
+        )
+    )
 
     def saccade_and_fixation():
         head.reset(settle_ms=0)  # excluded below: timed from the plan on
@@ -56,8 +61,13 @@ def main() -> None:
 
     saccade_and_fixation()
     ts = [saccade_and_fixation() for _ in range(args.repeats)]
-    rows.append((f"physics: 10 deg saccade + 250 ms ({models.DEFAULT_SACCADE_TIMESTEP_MS:g} ms step)", "-",
-                 float(np.median(ts)) * 1e3))
+    rows.append(
+        (
+            f"physics: 10 deg saccade + 250 ms ({models.DEFAULT_SACCADE_TIMESTEP_MS:g} ms step)",
+            "-",
+            float(np.median(ts)) * 1e3,
+        )
+    )
     model = models.build_model(args.scene)  # the head's MuJoCo model, stepped bare at the fixation step
     model.opt.timestep = models.DEFAULT_TIMESTEP_MS * 1e-3
     data = mujoco.MjData(model)

@@ -293,7 +293,7 @@ def main(argv=None) -> int:
     frame = np.clip(
         255 * np.stack([smooth, zp, 0.5 * smooth + 0.5 * zp], axis=-1) + rng.normal(0, 8, (H, W, 3)), 0, 255
     ).astype(np.uint8)
-    native = (cv2.WARP_POLAR_LOG | cv2.INTER_LINEAR)
+    native = cv2.WARP_POLAR_LOG | cv2.INTER_LINEAR
     centre = ((W - 1) / 2, (H - 1) / 2)
     times = {
         "conformal pooled": timed(lambda: pooled.sample(frame), reps),
@@ -351,7 +351,9 @@ def main(argv=None) -> int:
         lp = conformal.idpft(cf, g).astype(np.float32)  # (M, N, 3), rows = rings
         zf = pts.ravel()
         mx = ((np.log(np.abs(zf)) - g.u[0]) / g.delta).astype(np.float32).reshape(pts.shape)
-        my = (np.mod(np.angle(zf) - g.theta[0], 2 * math.pi) / (2 * math.pi / g.N)).astype(np.float32).reshape(pts.shape)
+        my = (
+            (np.mod(np.angle(zf) - g.theta[0], 2 * math.pi) / (2 * math.pi / g.N)).astype(np.float32).reshape(pts.shape)
+        )
         lpt = np.ascontiguousarray(lp.transpose(1, 0, 2))  # (N, M, 3): x = ring, y = sector
 
         def cv_render():
@@ -362,16 +364,27 @@ def main(argv=None) -> int:
 
     # ---- report
     base = times["OpenCV dense 512 + INTER_AREA"]
-    print(f"exp-polar retina benchmark: {W}x{H} RGB uint8 frame, grid M={M} N={N} r0={grid.r0:.3f} "
-          f"delta={grid.delta:.4f} ppu={PPU:g}; cv2 {cv2.__version__}, cv2.setNumThreads(1), "
-          f"{'quick' if args.quick else 'full'} run (median of {reps})")
-    print(f"one-off: Retina(pool) build {1e3 * t_build:.0f} ms, Retina(bilinear) build {1e3 * t_build_bil:.0f} ms; "
-          f"OpenCV point route uses warpPolar {cv_point.width}x{cv_point.height} "
-          f"(picked column within {cv_point.radial_err_px:.2f} px of ring centres)")
-    print(f"alignment (smooth picture, {int(inside.sum())} cells wholly inside, max |diff|, tol {tol}): "
-          + ", ".join(f"{n.replace('OpenCV ', '').replace(' vs conformal', ' vs')} {d:.4f}" for n, d in checks)
-          + "; a wrong alignment would give >= " + f"{worst_wrong:.3f} (" + ", ".join(f"{k} {v:.3f}" for k, v in wrong.items()) + ")")
-    print(f"aliasing reference: exact cell averages of the zone plate (Gauss-Legendre; 8- vs 12-node rule differ by {quad_err:.1e})")
+    print(
+        f"exp-polar retina benchmark: {W}x{H} RGB uint8 frame, grid M={M} N={N} r0={grid.r0:.3f} "
+        f"delta={grid.delta:.4f} ppu={PPU:g}; cv2 {cv2.__version__}, cv2.setNumThreads(1), "
+        f"{'quick' if args.quick else 'full'} run (median of {reps})"
+    )
+    print(
+        f"one-off: Retina(pool) build {1e3 * t_build:.0f} ms, Retina(bilinear) build {1e3 * t_build_bil:.0f} ms; "
+        f"OpenCV point route uses warpPolar {cv_point.width}x{cv_point.height} "
+        f"(picked column within {cv_point.radial_err_px:.2f} px of ring centres)"
+    )
+    print(
+        f"alignment (smooth picture, {int(inside.sum())} cells wholly inside, max |diff|, tol {tol}): "
+        + ", ".join(f"{n.replace('OpenCV ', '').replace(' vs conformal', ' vs')} {d:.4f}" for n, d in checks)
+        + "; a wrong alignment would give >= "
+        + f"{worst_wrong:.3f} ("
+        + ", ".join(f"{k} {v:.3f}" for k, v in wrong.items())
+        + ")"
+    )
+    print(
+        f"aliasing reference: exact cell averages of the zone plate (Gauss-Legendre; 8- vs 12-node rule differ by {quad_err:.1e})"
+    )
     print()
     hdr = f"{'method':<42}{'time ms':>9}{'vs base':>9}{'alias RMS':>11}{'alias max':>11}"
     print(hdr)
@@ -385,16 +398,22 @@ def main(argv=None) -> int:
     print(f"{'IDPFT (M,N,3)':<42}{t_idpft:>9.3f}{t_idpft / base:>8.2f}x")
     print(f"{'DPFT + IDPFT (round trip err ' + f'{dpft_err:.0e})':<42}{t_both:>9.3f}{t_both / base:>8.2f}x")
     print(f"{'cv2.dft + cv2.idft per channel':<42}{t_cvdft:>9.3f}{t_cvdft / base:>8.2f}x")
-    print(f"OpenCV with its default {default_threads} threads: dense 512 route {t_dense_mt:.3f} ms, "
-          f"dense 2048 route {t_fine_mt:.3f} ms")
+    print(
+        f"OpenCV with its default {default_threads} threads: dense 512 route {t_dense_mt:.3f} ms, "
+        f"dense 2048 route {t_fine_mt:.3f} ms"
+    )
     print()
-    hdr2 = (f"{'off-grid (RGB)':<14}{'points':>7}{'plan+1st ms':>12}{'finufft ms':>11}"
-            f"{'direct ms':>11}{'speed-up':>9}{'rel diff':>9}{'BLAS direct ms':>15}{'speed-up':>9}{'cv2.remap ms':>13}")
+    hdr2 = (
+        f"{'off-grid (RGB)':<14}{'points':>7}{'plan+1st ms':>12}{'finufft ms':>11}"
+        f"{'direct ms':>11}{'speed-up':>9}{'rel diff':>9}{'BLAS direct ms':>15}{'speed-up':>9}{'cv2.remap ms':>13}"
+    )
     print(hdr2)
     print("-" * len(hdr2))
     for label, npts, t_plan, t_nu, t_dir, rel, t_blas, t_cv in offgrid:
-        print(f"{label:<14}{npts:>7}{t_plan:>12.3f}{t_nu:>11.3f}{t_dir:>11.1f}{t_dir / t_nu:>8.0f}x{rel:>9.0e}"
-              f"{t_blas:>15.2f}{t_blas / t_nu:>8.1f}x{t_cv:>13.3f}")
+        print(
+            f"{label:<14}{npts:>7}{t_plan:>12.3f}{t_nu:>11.3f}{t_dir:>11.1f}{t_dir / t_nu:>8.0f}x{rel:>9.0e}"
+            f"{t_blas:>15.2f}{t_blas / t_nu:>8.1f}x{t_cv:>13.3f}"
+        )
     print("(direct = conformal.evaluate_direct; BLAS direct = the same sum as one matmul + contraction;")
     print(" cv2.remap = bilinear interpolation of the log-polar samples at the same points, not spectral)")
     print()
@@ -403,15 +422,25 @@ def main(argv=None) -> int:
         return "met" if ok else "NOT met"
 
     tp, td = times["conformal pooled"], times["OpenCV dense 512 + INTER_AREA"]
-    ap_, a1, a2 = alias["conformal pooled"][0], alias["OpenCV point warpPolar"][0], alias["OpenCV dense 512 + INTER_AREA"][0]
+    ap_, a1, a2 = (
+        alias["conformal pooled"][0],
+        alias["OpenCV point warpPolar"][0],
+        alias["OpenCV dense 512 + INTER_AREA"][0],
+    )
     a3 = alias["OpenCV dense 2048 + INTER_AREA"][0]
     speed = offgrid[1][4] / offgrid[1][3]
     speed_blas = offgrid[1][6] / offgrid[1][3]
-    print(f"target: pooled no slower than OpenCV anti-aliased route (512): {tp:.3f} vs {td:.3f} ms -> {verdict(tp <= td)}")
-    print(f"target: pooled less aliasing (RMS) than either OpenCV route: {ap_:.4f} vs point {a1:.4f}, "
-          f"dense 512 {a2:.4f} -> {verdict(ap_ < min(a1, a2))} (dense 2048: {a3:.4f} -> {verdict(ap_ < a3)})")
-    print(f"target: finufft >= 20x faster than the direct sum on 64x128: {speed:.0f}x vs evaluate_direct -> "
-          f"{verdict(speed >= 20)} ({speed_blas:.1f}x vs the BLAS direct sum -> {verdict(speed_blas >= 20)})")
+    print(
+        f"target: pooled no slower than OpenCV anti-aliased route (512): {tp:.3f} vs {td:.3f} ms -> {verdict(tp <= td)}"
+    )
+    print(
+        f"target: pooled less aliasing (RMS) than either OpenCV route: {ap_:.4f} vs point {a1:.4f}, "
+        f"dense 512 {a2:.4f} -> {verdict(ap_ < min(a1, a2))} (dense 2048: {a3:.4f} -> {verdict(ap_ < a3)})"
+    )
+    print(
+        f"target: finufft >= 20x faster than the direct sum on 64x128: {speed:.0f}x vs evaluate_direct -> "
+        f"{verdict(speed >= 20)} ({speed_blas:.1f}x vs the BLAS direct sum -> {verdict(speed_blas >= 20)})"
+    )
     return 0
 
 

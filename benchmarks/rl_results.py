@@ -39,10 +39,16 @@ _TABLE = ("agent", "actions", "seeds", "iqm", "ci_low", "ci_high", "per_seed", "
 def _code() -> str:
     """The commit measured: ``git rev-parse --short HEAD`` of this repository (a ``+`` where the tree has edits)."""
     try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                              check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
-                               capture_output=True, text=True, check=True).stdout.strip()
+        head = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         raise ValueError("cannot read the commit measured (not a git checkout): give --code") from None
     return head + ("+" if dirty else "")
@@ -58,19 +64,38 @@ def rows_from_baselines(folder: str | os.PathLike, engine: str, device: str, cod
             reader = csv.DictReader(f)
             table, fields = list(reader), reader.fieldnames or []
     except (OSError, json.JSONDecodeError) as e:
-        raise ValueError(f"{folder} is not a finished `python -m experiments baselines` folder "
-                         f"(study.json and table.csv): {e}") from None
+        raise ValueError(
+            f"{folder} is not a finished `python -m experiments baselines` folder (study.json and table.csv): {e}"
+        ) from None
     missing = [c for c in _TABLE if c not in fields]
     if missing or not table or "task" not in study:
-        raise ValueError(f"{folder}/table.csv is not a baselines table: "
-                         f"{'no column ' + ', '.join(missing) if missing else 'no rows or no task'}")
+        raise ValueError(
+            f"{folder}/table.csv is not a baselines table: "
+            f"{'no column ' + ', '.join(missing) if missing else 'no rows or no task'}"
+        )
     for name, value in (("engine", engine), ("device", device), ("code", code)):
         if not value.strip() or "," in value or "\n" in value:
             raise ValueError(f"--{name} must be a non-empty word without commas, got {value!r}")
-    return [{"agent": r["agent"], "task": study["task"], "engine": engine, "device": device, "actions": r["actions"],
-             "env_steps": r["env_steps"], "wall_s": r["wall_s"], "seeds": "" if r["seeds"] == "-" else r["seeds"],
-             "heldout_success_iqm": r["iqm"], "ci_low": r["ci_low"], "ci_high": r["ci_high"], "per_seed": r["per_seed"],
-             "mean_return": r["mean_return"], "code": code, "note": note} for r in table]
+    return [
+        {
+            "agent": r["agent"],
+            "task": study["task"],
+            "engine": engine,
+            "device": device,
+            "actions": r["actions"],
+            "env_steps": r["env_steps"],
+            "wall_s": r["wall_s"],
+            "seeds": "" if r["seeds"] == "-" else r["seeds"],
+            "heldout_success_iqm": r["iqm"],
+            "ci_low": r["ci_low"],
+            "ci_high": r["ci_high"],
+            "per_seed": r["per_seed"],
+            "mean_return": r["mean_return"],
+            "code": code,
+            "note": note,
+        }
+        for r in table
+    ]
 
 
 def merge(csv_path: str | os.PathLike, rows: list[dict]) -> list[dict]:
@@ -104,7 +129,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--device", default="cpu", help="the device trained on, e.g. cpu or an H100 (default cpu)")
     ap.add_argument("--code", help="the commit measured (default: this checkout's, with + where it has edits)")
     ap.add_argument("--note", default="", help="a note kept with the rows (the machine, its load)")
-    ap.add_argument("--csv", default=str(DEFAULT_CSV), help="the results table (default experiments/data/rl_results.csv)")
+    ap.add_argument(
+        "--csv", default=str(DEFAULT_CSV), help="the results table (default experiments/data/rl_results.csv)"
+    )
     args = ap.parse_args(argv)
     try:
         code = args.code or _code()

@@ -47,8 +47,23 @@ COLUMNS = (
 )
 _OPTIONAL = {"code"}
 #: The RL results table's CSV columns (``experiments/data/rl_results.csv``), in the order they are written.
-RL_COLUMNS = ("agent", "task", "engine", "device", "actions", "env_steps", "wall_s", "seeds", "heldout_success_iqm",
-              "ci_low", "ci_high", "per_seed", "mean_return", "code", "note")
+RL_COLUMNS = (
+    "agent",
+    "task",
+    "engine",
+    "device",
+    "actions",
+    "env_steps",
+    "wall_s",
+    "seeds",
+    "heldout_success_iqm",
+    "ci_low",
+    "ci_high",
+    "per_seed",
+    "mean_return",
+    "code",
+    "note",
+)
 _START = re.compile(r"<!-- table: (?P<csv>\S+) -->\n")
 _END = "<!-- end of table -->"
 
@@ -74,19 +89,30 @@ def _render_rl(path: Path, rows: list[dict], fields: list[str]) -> str:
     """The RL results table: one line per agent, task, engine, device and action mode."""
     missing = [c for c in RL_COLUMNS if c not in fields]
     if missing:
-        raise ValueError(f"{path} is not an RL results table (benchmarks/rl_results.py): no column {', '.join(missing)}")
-    lines = ["| task | agent | engine | device | actions | seeds | env steps per seed | training wall s per seed "
-             "| held-out success IQM [95 % CI] | per seed | mean return | measured with |",
-             "|" + "---|" * 12]
+        raise ValueError(
+            f"{path} is not an RL results table (benchmarks/rl_results.py): no column {', '.join(missing)}"
+        )
+    lines = [
+        "| task | agent | engine | device | actions | seeds | env steps per seed | training wall s per seed "
+        "| held-out success IQM [95 % CI] | per seed | mean return | measured with |",
+        "|" + "---|" * 12,
+    ]
     for i, r in enumerate(rows, start=2):
         where = f"{path} line {i}"
         iqm = float(_cell(r["heldout_success_iqm"], "float", f"{where}, heldout_success_iqm"))
-        ci = "" if not r["ci_low"] else (f" [{float(_cell(r['ci_low'], 'float', where)):.2f}, "
-                                         f"{float(_cell(r['ci_high'], 'float', where)):.2f}]")
+        ci = (
+            ""
+            if not r["ci_low"]
+            else (
+                f" [{float(_cell(r['ci_low'], 'float', where)):.2f}, {float(_cell(r['ci_high'], 'float', where)):.2f}]"
+            )
+        )
         ret = float(_cell(r["mean_return"], "float", f"{where}, mean_return"))
-        lines.append(f"| `{r['task']}` | {_cell(r['agent'], 'text', where)} | {r['engine']} | {r['device']} | "
-                     f"{r['actions']} | {_listed(r['seeds'])} | {_listed(r['env_steps'])} | {_listed(r['wall_s'])} | "
-                     f"{iqm:.2f}{ci} | {_listed(r['per_seed'])} | {ret:+.3f} | {_cell(r['code'], 'text', where)} |")
+        lines.append(
+            f"| `{r['task']}` | {_cell(r['agent'], 'text', where)} | {r['engine']} | {r['device']} | "
+            f"{r['actions']} | {_listed(r['seeds'])} | {_listed(r['env_steps'])} | {_listed(r['wall_s'])} | "
+            f"{iqm:.2f}{ci} | {_listed(r['per_seed'])} | {ret:+.3f} | {_cell(r['code'], 'text', where)} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -114,7 +140,9 @@ def render(path: str | os.PathLike) -> str:
     cols = [c for c in COLUMNS if c[0] in fields]
     lines = ["| " + " | ".join(h for _, h, _ in cols) + " |", "|" + "---|" * len(cols)]
     for i, row in enumerate(rows, start=2):
-        lines.append("| " + " | ".join(_cell(row[c] or "", kind, f"{path} line {i}, {c}") for c, _, kind in cols) + " |")
+        lines.append(
+            "| " + " | ".join(_cell(row[c] or "", kind, f"{path} line {i}, {c}") for c, _, kind in cols) + " |"
+        )
     return "\n".join(lines) + "\n"
 
 

@@ -34,8 +34,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 
 
 # ------------------------------------------------------------------ protobuf wire format (just enough)
@@ -59,12 +66,12 @@ def _fields(b: bytes) -> list[tuple[int, int | bytes]]:
         if wt == 0:
             v, i = _varint(b, i)
         elif wt == 1:
-            v, i = b[i:i + 8], i + 8
+            v, i = b[i : i + 8], i + 8
         elif wt == 5:
-            v, i = b[i:i + 4], i + 4
+            v, i = b[i : i + 4], i + 4
         elif wt == 2:
             n, i = _varint(b, i)
-            v, i = b[i:i + n], i + n
+            v, i = b[i : i + n], i + n
         else:
             raise ValueError(f"unsupported wire type {wt}")
         out.append((f, v))
@@ -125,8 +132,9 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def open_in_chromium(path: Path, timeline: str, *, timeout_s: float, screenshot: Path | None,
-                     size: tuple[int, int] = (1600, 1000)) -> dict:
+def open_in_chromium(
+    path: Path, timeline: str, *, timeout_s: float, screenshot: Path | None, size: tuple[int, int] = (1600, 1000)
+) -> dict:
     """Serve ``path``, open it headless and time it (see the module docstring)."""
     from playwright.sync_api import sync_playwright
 
@@ -200,18 +208,29 @@ def main(argv=None) -> int:
     rows = []
     if not args.no_baseline:
         with tempfile.TemporaryDirectory() as d:
-            rows.append(("empty recording (baseline)",
-                         open_in_chromium(_empty_recording(Path(d)), "sim_time", timeout_s=args.timeout,
-                                          screenshot=None)))
-    rows.append((str(args.recording), open_in_chromium(args.recording, args.timeline, timeout_s=args.timeout,
-                                                      screenshot=args.screenshot)))
+            rows.append(
+                (
+                    "empty recording (baseline)",
+                    open_in_chromium(_empty_recording(Path(d)), "sim_time", timeout_s=args.timeout, screenshot=None),
+                )
+            )
+    rows.append(
+        (
+            str(args.recording),
+            open_in_chromium(args.recording, args.timeline, timeout_s=args.timeout, screenshot=args.screenshot),
+        )
+    )
     base = rows[0][1]["end_s"] if not args.no_baseline else float("nan")
-    print(f"{'recording':<40} {'MB':>6} {'viewer up (s)':>14} {'data shown (s)':>15} {'at its end (s)':>15} "
-          f"{'/ baseline':>10}")
+    print(
+        f"{'recording':<40} {'MB':>6} {'viewer up (s)':>14} {'data shown (s)':>15} {'at its end (s)':>15} "
+        f"{'/ baseline':>10}"
+    )
     for name, r in rows:
-        print(f"{name[-40:]:<40} {r['MB']:6.2f} {r['started_s'] or float('nan'):14.1f} "
-              f"{r['appeared_s'] or float('nan'):15.1f} {r['end_s']:15.1f} {r['end_s'] / base:10.2f}"
-              + (f"   (screenshot settled at {r['settled_s']:.0f} s)" if "settled_s" in r else ""))
+        print(
+            f"{name[-40:]:<40} {r['MB']:6.2f} {r['started_s'] or float('nan'):14.1f} "
+            f"{r['appeared_s'] or float('nan'):15.1f} {r['end_s']:15.1f} {r['end_s'] / base:10.2f}"
+            + (f"   (screenshot settled at {r['settled_s']:.0f} s)" if "settled_s" in r else "")
+        )
     if args.screenshot is not None:
         print(f"screenshot: {args.screenshot}")
     return 0

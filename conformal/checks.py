@@ -80,6 +80,7 @@ def integer(name: str, value, lo: int | None = None, hi: int | None = None, *, h
     numbers (``7.5``: ``ValueError``, never truncated), NaN and infinity (``ValueError``) and
     bools, strings, complex numbers and other types (:class:`InputTypeError`).
     """
+
     def what() -> str:  # the message is built only for a refusal (this check sits on hot paths)
         return f"{name} must be an integer{_interval(lo, hi)}{f' ({hint})' if hint else ''}"
 
@@ -98,14 +99,23 @@ def integer(name: str, value, lo: int | None = None, hi: int | None = None, *, h
     return i
 
 
-def real(name: str, value, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
-         hi_open: bool = False, hint: str = "") -> float:
+def real(
+    name: str,
+    value,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    hint: str = "",
+) -> float:
     """``value`` as a finite ``float`` in the interval given by ``lo``/``hi`` (closed unless
     ``lo_open``/``hi_open``; either bound may be None).
 
     Rejects NaN, infinity and values outside the interval (``ValueError``) and bools, strings,
     ``None``, complex numbers and other types (:class:`InputTypeError`).
     """
+
     def what() -> str:  # the message is built only for a refusal (this check sits on hot paths)
         return f"{name} must be a finite real number{_interval(lo, hi, lo_open, hi_open)}{f' ({hint})' if hint else ''}"
 
@@ -157,13 +167,21 @@ def choice(name: str, value, options: Sequence, *, allow_none: bool = False):
 
 def _kind_words(kinds: str) -> str:
     """'a real (bool, integer or float) array' and the like, for messages."""
-    named = {"biufc": "a numeric", "biuf": "a real (bool, integer or float)", "iuf": "an integer or float",
-             "uf": "an unsigned integer or float", "f": "a float", "b": "a bool", "fc": "a float or complex"}
+    named = {
+        "biufc": "a numeric",
+        "biuf": "a real (bool, integer or float)",
+        "iuf": "an integer or float",
+        "uf": "an unsigned integer or float",
+        "f": "a float",
+        "b": "a bool",
+        "fc": "a float or complex",
+    }
     return named.get(kinds, f"a numeric (dtype kind {', '.join(kinds)})")
 
 
-def array(name: str, a: ArrayLike, *, kinds: str = "biuf", shape: tuple | None = None, ndim=None,
-          finite: bool = True) -> NDArray:
+def array(
+    name: str, a: ArrayLike, *, kinds: str = "biuf", shape: tuple | None = None, ndim=None, finite: bool = True
+) -> NDArray:
     """``a`` as a numpy array (no copy when it already is one) with checked dtype kind, shape and values.
 
     ``kinds``: the accepted numpy dtype kinds ("b" bool, "i"/"u" integers, "f" float, "c" complex);

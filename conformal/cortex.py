@@ -78,8 +78,10 @@ class BinocularCortex:
         lh = checks.array("left_hemisphere", self.left_hemisphere, kinds="biufc", ndim=(3, 4))
         rh = checks.array("right_hemisphere", self.right_hemisphere, kinds="biufc", ndim=(3, 4))
         if lh.shape[0] != 2 or lh.shape != rh.shape:
-            raise ValueError("left_hemisphere and right_hemisphere must both have shape (2, M, N/2[, C]) "
-                             f"(axis 0: the eye); got {lh.shape} and {rh.shape}")
+            raise ValueError(
+                "left_hemisphere and right_hemisphere must both have shape (2, M, N/2[, C]) "
+                f"(axis 0: the eye); got {lh.shape} and {rh.shape}"
+            )
         object.__setattr__(self, "left_hemisphere", lh)
         object.__setattr__(self, "right_hemisphere", rh)
 

@@ -73,8 +73,10 @@ MAX_DIRECT_SAMPLES = 3000
 
 def _check_direct(grid: RetinaGrid) -> None:
     if grid.M * grid.N > MAX_DIRECT_SAMPLES:
-        raise ValueError(f"the direct sum builds an (M N)^2 kernel; M N = {grid.M * grid.N} exceeds "
-                         f"{MAX_DIRECT_SAMPLES}: use the FFT version (dpft / idpft) for this grid")
+        raise ValueError(
+            f"the direct sum builds an (M N)^2 kernel; M N = {grid.M * grid.N} exceeds "
+            f"{MAX_DIRECT_SAMPLES}: use the FFT version (dpft / idpft) for this grid"
+        )
 
 
 def _expand(v: NDArray, ndim: int) -> NDArray:
@@ -297,8 +299,9 @@ class OffGridEvaluator:
         if n_trans not in self._plans:
             import finufft
 
-            p = finufft.Plan(2, (self._rows, self.grid.N), n_trans=n_trans, eps=self._eps, isign=1, modeord=0,
-                             nthreads=1)
+            p = finufft.Plan(
+                2, (self._rows, self.grid.N), n_trans=n_trans, eps=self._eps, isign=1, modeord=0, nthreads=1
+            )
             p.setpts(self._x, self._y)
             self._plans[n_trans] = p
         return self._plans[n_trans]
@@ -323,7 +326,6 @@ class OffGridEvaluator:
             vals = np.asarray(vals).reshape(c, -1)
         out = np.moveaxis(vals * self._scale[None, :], 0, -1).reshape(self.shape + chans)
         return out.real if real else out
-
 
     def _real_mirror(self, F: NDArray) -> NDArray[np.float64]:
         """The mirror series for real images: DCT-II in u, real FFT in theta (a quarter of the work).
@@ -472,6 +474,8 @@ def warp(coeffs: ArrayLike, grid: RetinaGrid, point_map, *, real: bool = True, e
     if w.shape != grid.points.shape:
         raise ValueError(f"point_map must return one point per grid point, shape {grid.points.shape}; got {w.shape}")
     if not np.all(np.isfinite(w)):
-        raise ValueError("point_map returned NaN or infinite points (e.g. behind the eye or at a pole); warp "
-                         "needs a map defined at every grid point: use conformal.predict, which masks them")
+        raise ValueError(
+            "point_map returned NaN or infinite points (e.g. behind the eye or at a pole); warp "
+            "needs a map defined at every grid point: use conformal.predict, which masks them"
+        )
     return evaluate(coeffs, grid, w, real=real, extension=extension)

@@ -61,8 +61,9 @@ def _as_z(z: ArrayLike, name: str = "z") -> NDArray[np.complex128]:
 def _finite_result(w: NDArray, what: str) -> NDArray:
     """``w`` unless some value overflowed the floating-point range (then ``ValueError``)."""
     if not np.all(np.isfinite(w)):
-        raise ValueError(f"{what} sends some points beyond the floating-point range (|z| > 1e308); "
-                         "use smaller coordinates")
+        raise ValueError(
+            f"{what} sends some points beyond the floating-point range (|z| > 1e308); use smaller coordinates"
+        )
     return w
 
 
@@ -112,9 +113,7 @@ def check_sl2(g: ArrayLike, name: str = "g", tol: float = 1e-9) -> NDArray[np.co
     ad, bc = m[0, 0] * m[1, 1], m[0, 1] * m[1, 0]
     det = ad - bc
     if not abs(det - 1.0) <= tol + _DET_RELATIVE_TOL * (abs(ad) + abs(bc)):
-        raise ValueError(
-            f"{name} is not unimodular (det = {det:.6g}, must be 1); divide it by sqrt(det) to normalise"
-        )
+        raise ValueError(f"{name} is not unimodular (det = {det:.6g}, must be 1); divide it by sqrt(det) to normalise")
     return m
 
 
@@ -152,8 +151,9 @@ def compose(*gs: ArrayLike) -> NDArray[np.complex128]:
         for i, g in enumerate(gs):
             out = out @ check_sl2(g, f"g{i + 1}")
     if not np.all(np.isfinite(out)):
-        raise ValueError("the product of the matrices overflows the floating-point range; compose fewer or "
-                         "smaller matrices")
+        raise ValueError(
+            "the product of the matrices overflows the floating-point range; compose fewer or smaller matrices"
+        )
     return out
 
 

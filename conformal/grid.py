@@ -69,19 +69,28 @@ class RetinaGrid:
         object.__setattr__(self, "N", checks.integer("N (sectors)", self.N, 2, MAX_SECTORS))
         object.__setattr__(self, "n_fovea", checks.integer("n_fovea", self.n_fovea, 1, MAX_FOVEAL_SAMPLES))
         if self.M * self.N > MAX_PERIPHERAL_SAMPLES:
-            raise ValueError(f"M * N = {self.M} * {self.N} peripheral samples exceeds {MAX_PERIPHERAL_SAMPLES}; "
-                             "use fewer rings or sectors")
+            raise ValueError(
+                f"M * N = {self.M} * {self.N} peripheral samples exceeds {MAX_PERIPHERAL_SAMPLES}; "
+                "use fewer rings or sectors"
+            )
         if self.M * self.delta > MAX_LOG_PERIOD:
-            raise ValueError(f"the log-radial period M * delta = {self.M * self.delta:.4g} exceeds {MAX_LOG_PERIOD:g} "
-                             "(r_b / r0 = e^(M delta)); use fewer rings or a smaller delta")
+            raise ValueError(
+                f"the log-radial period M * delta = {self.M * self.delta:.4g} exceeds {MAX_LOG_PERIOD:g} "
+                "(r_b / r0 = e^(M delta)); use fewer rings or a smaller delta"
+            )
         object.__setattr__(self, "_fovea_points", self._make_fovea_points())
         self._fovea_points.setflags(write=False)
         # the sample geometry, computed once (read-only: a grid is immutable)
         edges = self.r0 * np.exp(self.delta * np.arange(self.M + 1))
         radii = edges[:-1] * (1 + math.exp(self.delta)) / 2
         theta = (2 * np.arange(self.N) + 1) * math.pi / self.N
-        derived = {"ring_edges": edges, "radii": radii, "u": np.log(radii), "theta": theta,
-                   "points": radii[:, None] * np.exp(1j * theta[None, :])}
+        derived = {
+            "ring_edges": edges,
+            "radii": radii,
+            "u": np.log(radii),
+            "theta": theta,
+            "points": radii[:, None] * np.exp(1j * theta[None, :]),
+        }
         for a in derived.values():
             a.setflags(write=False)
         object.__setattr__(self, "_derived", derived)
@@ -145,8 +154,10 @@ class RetinaGrid:
         k = (n_sectors - math.pi) / (2 * math.pi * r0)
         delta = math.log(1 + 1 / (r0 * k))
         if not (math.isfinite(k) and delta > 0):  # a subnormal r0: the density N / r0 overflows
-            raise ValueError(f"r0 = {r0:.4g} is too small: the sampling density it implies ({n_sectors} sectors "
-                             f"around it) overflows a float; use r0 >= 1e-300")
+            raise ValueError(
+                f"r0 = {r0:.4g} is too small: the sampling density it implies ({n_sectors} sectors "
+                f"around it) overflows a float; use r0 >= 1e-300"
+            )
         m = max(int(round((math.log(rb) - math.log(r0)) / delta)), 2)
         n_f = max(int(round(math.pi * (r0 * k) ** 2)), 1)
         return cls(r0=r0, delta=delta, M=m, N=n_sectors, fovea_spacing=1 / k, n_fovea=n_f)

@@ -34,8 +34,18 @@ import numpy as np
 from .maps import KIND_MOBIUS, KIND_PROJECTIVE, behind, homography_plane, homography_weight, is_pole, mobius_parts
 
 __all__ = [
-    "DISK_CACHE", "KIND_PROJECTIVE", "KIND_MOBIUS", "pool_picture", "series_table", "map_points", "tabulate_angles", "contract_rings",
-    "normalized_errors", "map_footprints", "tabulate_angles_pooled", "contract_rings_pooled",
+    "DISK_CACHE",
+    "KIND_PROJECTIVE",
+    "KIND_MOBIUS",
+    "pool_picture",
+    "series_table",
+    "map_points",
+    "tabulate_angles",
+    "contract_rings",
+    "normalized_errors",
+    "map_footprints",
+    "tabulate_angles_pooled",
+    "contract_rings_pooled",
 ]
 
 
@@ -54,9 +64,12 @@ def _disk_cache_available() -> bool:
     try:
         nb.njit(cache=True)(_cache_probe)
     except RuntimeError as e:  # numba: "cannot cache function ...: no locator available"
-        warnings.warn(f"conformal: numba cannot cache compiled kernels on disk ({e}); they will be compiled "
-                      "in every process (about 2.5 s). Set NUMBA_CACHE_DIR to a writable folder to cache them.",
-                      RuntimeWarning, stacklevel=2)
+        warnings.warn(
+            f"conformal: numba cannot cache compiled kernels on disk ({e}); they will be compiled "
+            "in every process (about 2.5 s). Set NUMBA_CACHE_DIR to a writable folder to cache them.",
+            RuntimeWarning,
+            stacklevel=2,
+        )
         return False
     return True
 
@@ -124,7 +137,9 @@ def series_table(H, b1, b2, neg, out):  # pragma: no cover - compiled
 
 
 @_jit
-def map_points(zr, zi, kinds, params, r0, r_outer, fovea_pictures, fovea_spacing, values, valid, series, wr, wi, r2):  # pragma: no cover - compiled
+def map_points(
+    zr, zi, kinds, params, r0, r_outer, fovea_pictures, fovea_spacing, values, valid, series, wr, wi, r2
+):  # pragma: no cover - compiled
     """Map every point through every eye's point maps and sort the images by where they land.
 
     For eye e, map k and point i (z = zr[i] + i zi[i]) the image w = map_k(z) (``kinds[k]``,
@@ -371,8 +386,30 @@ def _tent_weights(c, sigma, size, ramp, out):  # pragma: no cover - compiled
 
 
 @_jit
-def map_footprints(zr, zi, foot, kinds, params, series, valid, wr, wi, r2, own_u, own_y, own_f, t_scale2, lim_t,
-                   lim_y, fovea_pictures, lattice, fovea_spacing, values, rho_t, rho_y):  # pragma: no cover - compiled
+def map_footprints(
+    zr,
+    zi,
+    foot,
+    kinds,
+    params,
+    series,
+    valid,
+    wr,
+    wi,
+    r2,
+    own_u,
+    own_y,
+    own_f,
+    t_scale2,
+    lim_t,
+    lim_y,
+    fovea_pictures,
+    lattice,
+    fovea_spacing,
+    values,
+    rho_t,
+    rho_y,
+):  # pragma: no cover - compiled
     """Each receptive field's footprint through the point maps (after ``map_points``): the Gaussian
     damping factors of the pooled series and, for fields landing in the old fovea, the pooled lookup.
 

@@ -34,8 +34,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
-    "POLE_TOL", "POLE_TOL_SQ", "KIND_PROJECTIVE", "KIND_MOBIUS", "is_pole", "behind", "mobius", "homography",
-    "mobius_parts", "mobius_point", "homography_weight", "homography_plane", "homography_point",
+    "POLE_TOL",
+    "POLE_TOL_SQ",
+    "KIND_PROJECTIVE",
+    "KIND_MOBIUS",
+    "is_pole",
+    "behind",
+    "mobius",
+    "homography",
+    "mobius_parts",
+    "mobius_point",
+    "homography_weight",
+    "homography_plane",
+    "homography_point",
 ]
 
 #: The one pole tolerance: a denominator of modulus below it is a pole (see the module docstring).

@@ -34,8 +34,20 @@ from .grid import RetinaGrid
 from .maps import KIND_MOBIUS, KIND_PROJECTIVE, behind, homography, mobius
 from .sampling import RetinaSamples
 
-__all__ = ["ProjectiveMap", "MobiusMap", "homography_map", "mobius_map", "mobius_for_rotation", "target_shift_map", "predict", "predict_many", "rotation_matrix",
-           "mobius_params", "point_map_params", "target_shift_matrix"]
+__all__ = [
+    "ProjectiveMap",
+    "MobiusMap",
+    "homography_map",
+    "mobius_map",
+    "mobius_for_rotation",
+    "target_shift_map",
+    "predict",
+    "predict_many",
+    "rotation_matrix",
+    "mobius_params",
+    "point_map_params",
+    "target_shift_matrix",
+]
 
 PointMap = Callable[[NDArray[np.complex128]], NDArray[np.complex128]]
 
@@ -138,17 +150,27 @@ def mobius_for_rotation(R: ArrayLike) -> NDArray[np.complex128]:
 def _su2_of_rotation(r: NDArray[np.float64]) -> NDArray[np.complex128]:
     """``mobius_for_rotation`` of rotations already validated (``check_rotation``), (..., 3, 3) -> (..., 2, 2)."""
     cos_t = (r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1.0) / 2.0
-    s1, s2, s3 = (r[..., 2, 1] - r[..., 1, 2]) / 2.0, (r[..., 0, 2] - r[..., 2, 0]) / 2.0, (r[..., 1, 0] - r[..., 0, 1]) / 2.0
+    s1, s2, s3 = (
+        (r[..., 2, 1] - r[..., 1, 2]) / 2.0,
+        (r[..., 0, 2] - r[..., 2, 0]) / 2.0,
+        (r[..., 1, 0] - r[..., 0, 1]) / 2.0,
+    )
     norm = np.sqrt(np.hypot(cos_t, s2) ** 2 + np.hypot(s1, s3) ** 2)  # 1 up to R's rounding
-    k = np.empty(np.shape(cos_t) + (2, 2), complex)  # [[conj(a), -conj(b)], [b, a]], a = (cos_t + i s2) / norm, b = (s1 - i s3) / norm
+    k = np.empty(
+        np.shape(cos_t) + (2, 2), complex
+    )  # [[conj(a), -conj(b)], [b, a]], a = (cos_t + i s2) / norm, b = (s1 - i s3) / norm
     ar, ai, br, bi = cos_t / norm, s2 / norm, s1 / norm, -s3 / norm
     k[..., 0, 0].real, k[..., 0, 0].imag, k[..., 0, 1].real, k[..., 0, 1].imag = ar, -ai, -br, bi
     k[..., 1, 0].real, k[..., 1, 0].imag, k[..., 1, 1].real, k[..., 1, 1].imag = br, bi, ar, ai
     return k
 
 
-def point_map_params(names, rotations: NDArray[np.float64], shift: float, delta: float,
-                     ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+def point_map_params(
+    names,
+    rotations: NDArray[np.float64],
+    shift: float,
+    delta: float,
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """``RemapPlan``'s description -- kinds (K,) and params (..., K, 9) -- of the point maps ``names``
     (``"homography"``: :func:`homography_map`; ``"mobius"``: :func:`mobius_map`; ``"shift"``:
     :func:`target_shift_map` to the new optical axis, R's second column, on the old retina plane) of
@@ -165,8 +187,9 @@ def point_map_params(names, rotations: NDArray[np.float64], shift: float, delta:
             params[..., k, :] = mobius_params(_su2_of_rotation(r))
         else:
             axis = r[..., :, 1]
-            params[..., k, :] = mobius_params(target_shift_matrix((axis[..., 2] + 1j * axis[..., 0]) / axis[..., 1],
-                                                                  shift, delta))
+            params[..., k, :] = mobius_params(
+                target_shift_matrix((axis[..., 2] + 1j * axis[..., 0]) / axis[..., 1], shift, delta)
+            )
     return kinds, params
 
 
@@ -279,8 +302,10 @@ def predict_many(
     F = _check_samples(coeffs, grid, "coeffs", complex_ok=True)
     fov = checks.array("fovea", fovea, kinds="biuf", ndim=(1, 2)).astype(float)
     if fov.shape != (grid.n_fovea,) + F.shape[2:]:
-        raise ValueError(f"fovea must have shape (N_f[, C]) = {(grid.n_fovea,) + F.shape[2:]} (the channels of coeffs); "
-                         f"got {fov.shape}")
+        raise ValueError(
+            f"fovea must have shape (N_f[, C]) = {(grid.n_fovea,) + F.shape[2:]} (the channels of coeffs); "
+            f"got {fov.shape}"
+        )
     out_grid = grid if on is None else _check_grid(on, "on")
     dtype = _check_float_dtype(dtype)
     if isinstance(point_maps, (str, bytes)) or not hasattr(point_maps, "__len__") or len(point_maps) == 0:

@@ -135,8 +135,9 @@ class RemapPlan:
         self.grid = grid
         self.on = grid if on is None else on
         if not (isinstance(self.grid, RetinaGrid) and isinstance(self.on, RetinaGrid)):
-            raise checks.InputTypeError("grid (and on) must be RetinaGrid objects; got "
-                                        f"{type(grid).__name__} (and {type(on).__name__})")
+            raise checks.InputTypeError(
+                f"grid (and on) must be RetinaGrid objects; got {type(grid).__name__} (and {type(on).__name__})"
+            )
         z = np.concatenate([self.on.fovea_points, self.on.points.ravel()])
         self._zr, self._zi = np.ascontiguousarray(z.real), np.ascontiguousarray(z.imag)
         self.n_points = len(z)
@@ -172,7 +173,11 @@ class RemapPlan:
         return _mirror_series(self._check_coeffs(coeffs), self.grid, np.float32)
 
     def __call__(
-        self, coeffs: ArrayLike, fovea: ArrayLike, maps: Sequence[Sequence[ProjectiveMap | MobiusMap]], *,
+        self,
+        coeffs: ArrayLike,
+        fovea: ArrayLike,
+        maps: Sequence[Sequence[ProjectiveMap | MobiusMap]],
+        *,
         pooled: bool = False,
     ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         pooled = checks.flag("pooled", pooled)
@@ -196,13 +201,48 @@ class RemapPlan:
         values = np.empty((n_eyes, n_maps, self.n_points, n_ch), np.float32)
         valid = np.empty((n_eyes, n_maps, self.n_points), np.bool_)
         series = np.empty((n_eyes, n_maps, self.n_points), np.bool_)
-        map_points(self._zr, self._zi, kinds, params, g.r0, self._r_outer, pictures, g.fovea_spacing,
-                   values, valid, series, wr, wi, r2)
+        map_points(
+            self._zr,
+            self._zi,
+            kinds,
+            params,
+            g.r0,
+            self._r_outer,
+            pictures,
+            g.fovea_spacing,
+            values,
+            valid,
+            series,
+            wr,
+            wi,
+            r2,
+        )
         if pooled:
             rho_t, rho_y = self._damping(n_eyes, n_maps)
-            map_footprints(self._zr, self._zi, self._moments, kinds, params, series, valid, wr, wi, r2,
-                           self._own_u, self._own_y, self._own_f, self._t_scale**2, self._lim_t, self._lim_y,
-                           pictures, self._lattice, g.fovea_spacing, values, rho_t, rho_y)
+            map_footprints(
+                self._zr,
+                self._zi,
+                self._moments,
+                kinds,
+                params,
+                series,
+                valid,
+                wr,
+                wi,
+                r2,
+                self._own_u,
+                self._own_y,
+                self._own_f,
+                self._t_scale**2,
+                self._lim_t,
+                self._lim_y,
+                pictures,
+                self._lattice,
+                g.fovea_spacing,
+                values,
+                rho_t,
+                rho_y,
+            )
             tabulate_angles_pooled(wr, wi, r2, self._cos_theta0, self._sin_theta0, rho_y, cs)
         else:
             tabulate_angles(wr, wi, r2, self._cos_theta0, self._sin_theta0, cs)
@@ -228,13 +268,17 @@ class RemapPlan:
         n_f, o = self.on.n_fovea, self.on
         values = checks.array("values", values, kinds="f", ndim=4, finite=False)
         if values.shape[2] != self.n_points:
-            raise ValueError(f"values must be (E, K, P, C) with P = {self.n_points} (a call's result); got {values.shape}")
+            raise ValueError(
+                f"values must be (E, K, P, C) with P = {self.n_points} (a call's result); got {values.shape}"
+            )
         valid = checks.array("valid", valid, kinds="b", shape=values.shape[:3])
         return [
             [
                 RetinaSamples(
-                    fovea=v[:n_f], periphery=v[n_f:].reshape((o.M, o.N) + v.shape[1:]),
-                    mask=m[n_f:].reshape(o.M, o.N), fovea_mask=m[:n_f],
+                    fovea=v[:n_f],
+                    periphery=v[n_f:].reshape((o.M, o.N) + v.shape[1:]),
+                    mask=m[n_f:].reshape(o.M, o.N),
+                    fovea_mask=m[:n_f],
                 )
                 for v, m in zip(ve, me)
             ]
@@ -264,8 +308,11 @@ class RemapPlan:
         return F, fov
 
     def _maps(self, maps, n_eyes: int) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-        if isinstance(maps, (str, bytes)) or not hasattr(maps, "__len__") or any(
-                isinstance(m, (str, bytes)) or not hasattr(m, "__iter__") for m in maps):
+        if (
+            isinstance(maps, (str, bytes))
+            or not hasattr(maps, "__len__")
+            or any(isinstance(m, (str, bytes)) or not hasattr(m, "__iter__") for m in maps)
+        ):
             raise checks.InputTypeError(f"maps must be a list (one per eye) of lists of point maps; got {maps!r:.80}")
         if len(maps) != n_eyes:
             raise ValueError(f"maps must hold one list of point maps per eye ({n_eyes}); got {len(maps)}")
@@ -314,5 +361,8 @@ class RemapPlan:
         if key not in self._scratch:
             cols = n_maps * self.n_points
             nh = self.grid.N // 2 + 1
-            self._scratch[key] = (np.empty((n_eyes, 2 * nh, cols), np.float32), *(np.empty((n_eyes, cols)) for _ in range(3)))
+            self._scratch[key] = (
+                np.empty((n_eyes, 2 * nh, cols), np.float32),
+                *(np.empty((n_eyes, cols)) for _ in range(3)),
+            )
         return self._scratch[key]

@@ -35,19 +35,33 @@ MAX_SUBPIXELS = 2**28
 #: Channels of a picture (H, W, C): at most this many.
 MAX_CHANNELS = 64
 #: Image dtypes sampled in place; float16 is converted to float32 first (numba has no float16).
-IMAGE_DTYPES = ("bool", "uint8", "uint16", "uint32", "uint64", "int8", "int16", "int32", "int64", "float16",
-                "float32", "float64")
+IMAGE_DTYPES = (
+    "bool",
+    "uint8",
+    "uint16",
+    "uint32",
+    "uint64",
+    "int8",
+    "int16",
+    "int32",
+    "int64",
+    "float16",
+    "float32",
+    "float64",
+)
 
 
 def _image_shape(name: str, shape, ndims: tuple[int, ...] = (2,)) -> tuple[int, ...]:
     """``shape`` as a tuple of checked ints: (H, W) or (H, W, C) per ``ndims``."""
     if isinstance(shape, (str, bytes)) or not hasattr(shape, "__len__"):
-        raise checks.InputTypeError(f"{name} must be a tuple {' or '.join(('(H, W)', '(H, W, C)')[n - 2] for n in ndims)}"
-                                    f"; got {shape!r}")
+        raise checks.InputTypeError(
+            f"{name} must be a tuple {' or '.join(('(H, W)', '(H, W, C)')[n - 2] for n in ndims)}; got {shape!r}"
+        )
     if len(shape) not in ndims:
         raise ValueError(f"{name} must have {' or '.join(map(str, ndims))} entries (H, W[, C]); got {tuple(shape)!r}")
-    out = tuple(checks.integer(f"{name}[{i}]", v, 1, MAX_IMAGE_SIDE if i < 2 else MAX_CHANNELS)
-                for i, v in enumerate(shape))
+    out = tuple(
+        checks.integer(f"{name}[{i}]", v, 1, MAX_IMAGE_SIDE if i < 2 else MAX_CHANNELS) for i, v in enumerate(shape)
+    )
     if out[0] * out[1] > MAX_PIXELS:
         raise ValueError(f"{name} {out[0]}x{out[1]} exceeds {MAX_PIXELS} pixels")
     return out
@@ -84,8 +98,10 @@ class RetinaSamples:
         fov = checks.array("fovea", self.fovea, kinds="biuf", ndim=(1, 2), finite=False)
         per = checks.array("periphery", self.periphery, kinds="biuf", ndim=(2, 3), finite=False)
         if fov.shape[1:] != per.shape[2:]:
-            raise ValueError(f"fovea (N_f[, C]) and periphery (M, N[, C]) must have the same channels; "
-                             f"got {fov.shape} and {per.shape}")
+            raise ValueError(
+                f"fovea (N_f[, C]) and periphery (M, N[, C]) must have the same channels; "
+                f"got {fov.shape} and {per.shape}"
+            )
         checks.array("mask", self.mask, kinds="b", shape=per.shape[:2])
         checks.array("fovea_mask", self.fovea_mask, kinds="b", shape=fov.shape[:1])
 
@@ -130,9 +146,11 @@ class Retina:
         min_coverage = checks.real("min_coverage", min_coverage, 0.0, 1.0, lo_open=True)
         fill = checks.real("fill", fill)
         if mode == "pool" and shape[0] * shape[1] * supersample**2 > MAX_SUBPIXELS:
-            raise ValueError(f"a {shape[0]}x{shape[1]} picture at supersample={supersample} needs "
-                             f"{shape[0] * shape[1] * supersample**2} subpixels (at most {MAX_SUBPIXELS}); "
-                             "use a smaller supersample")
+            raise ValueError(
+                f"a {shape[0]}x{shape[1]} picture at supersample={supersample} needs "
+                f"{shape[0] * shape[1] * supersample**2} subpixels (at most {MAX_SUBPIXELS}); "
+                "use a smaller supersample"
+            )
         self.grid = grid
         self.image_shape = shape
         self.pixels_per_unit = ppu
@@ -224,7 +242,12 @@ class Retina:
             fc = np.clip(col - c0, 0, 1)
             fr = np.clip(row - r0, 0, 1)
             rows, cols, vals = [], [], []
-            for dr, dc, wt in ((0, 0, (1 - fr) * (1 - fc)), (0, 1, (1 - fr) * fc), (1, 0, fr * (1 - fc)), (1, 1, fr * fc)):
+            for dr, dc, wt in (
+                (0, 0, (1 - fr) * (1 - fc)),
+                (0, 1, (1 - fr) * fc),
+                (1, 0, fr * (1 - fc)),
+                (1, 1, fr * fc),
+            ):
                 rows.append(idx[inside])
                 cols.append(((r0 + dr) * w + c0 + dc)[inside])
                 vals.append(wt[inside])
@@ -280,8 +303,10 @@ class Retina:
         """Sample several pictures into one array (E, N_f + M N[, C]) in retina order (the
         rows of ``operator``: fovea, then periphery [k, l]), each value times ``scale`` (finite)."""
         if isinstance(images, np.ndarray) and images.ndim == len(self.image_shape):
-            raise ValueError(f"images must be a sequence of pictures of shape {self.image_shape}; got one picture "
-                             "(use sample for one)")
+            raise ValueError(
+                f"images must be a sequence of pictures of shape {self.image_shape}; got one picture "
+                "(use sample for one)"
+            )
         if isinstance(images, (str, bytes)) or not hasattr(images, "__iter__"):
             raise checks.InputTypeError(f"images must be a sequence of pictures; got {type(images).__name__}")
         scale = checks.real("scale", scale)
@@ -318,12 +343,18 @@ class Retina:
         fov = checks.array("samples.fovea", samples.fovea, kinds="biuf").astype(float)
         chans = per.shape[2:]
         if per.shape[:2] != (g.M, g.N) or fov.shape[:1] != (g.n_fovea,):
-            raise ValueError(f"samples do not match this retina's grid: periphery {per.shape}, fovea {fov.shape}; "
-                             f"expected ({g.M}, {g.N}[, C]) and ({g.n_fovea}[, C])")
+            raise ValueError(
+                f"samples do not match this retina's grid: periphery {per.shape}, fovea {fov.shape}; "
+                f"expected ({g.M}, {g.N}[, C]) and ({g.n_fovea}[, C])"
+            )
         if not hasattr(self, "_render_index"):
             self._render_index = self._make_render_index()
         table = np.concatenate(
-            [fov.reshape(g.n_fovea, -1), per.reshape(g.M * g.N, -1), np.full((1, max(1, int(np.prod(chans)))), background)]
+            [
+                fov.reshape(g.n_fovea, -1),
+                per.reshape(g.M * g.N, -1),
+                np.full((1, max(1, int(np.prod(chans)))), background),
+            ]
         )
         h, w = self.image_shape[:2]
         return table[self._render_index].reshape((h, w) + chans)

@@ -31,8 +31,9 @@ from .maps import KIND_MOBIUS, KIND_PROJECTIVE, homography_point, mobius_point
 try:
     import torch
 except ImportError:  # pragma: no cover - only imported with torch (the gpu extra)
-    raise ImportError("conformal.torch_plan needs torch: pip install -e \".[gpu]\" (torch's CPU build serves "
-                      "without a GPU)") from None
+    raise ImportError(
+        'conformal.torch_plan needs torch: pip install -e ".[gpu]" (torch\'s CPU build serves without a GPU)'
+    ) from None
 
 __all__ = ["TorchRemapPlan", "ieee_matmul"]
 
@@ -106,8 +107,9 @@ class TorchRemapPlan:
         cos(m t) (M, K P), partial (M C, K P), and a margin."""
         return 4 * n_maps * self.n_points * (2 * self.n_half + self.grid.M + self.grid.M * n_channels + 16)
 
-    def evaluate_prechecked(self, F: torch.Tensor, fov: torch.Tensor, kinds: tuple[int, ...],
-                            params: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    def evaluate_prechecked(
+        self, F: torch.Tensor, fov: torch.Tensor, kinds: tuple[int, ...], params: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
         """``RemapPlan._evaluate`` (pooled=False) for n eyes: F (n, M, N, C) complex64, fov (n, N_f, C),
         params (n, K, 9) float32. Returns values (n, K, P, C) float32 and valid (n, K, P)."""
         g = self.grid
@@ -150,8 +152,12 @@ class TorchRemapPlan:
             i = self._fovea_lut[corner + offset].unsqueeze(-1).expand(-1, -1, c)
             return torch.gather(fov_ext, 1, i).view(n, n_maps, n_pts, c)
 
-        fovea_values = (lattice(0) * ((1 - fr) * (1 - fc)) + lattice(1) * ((1 - fr) * fc)
-                        + lattice(size) * (fr * (1 - fc)) + lattice(size + 1) * (fr * fc))
+        fovea_values = (
+            lattice(0) * ((1 - fr) * (1 - fc))
+            + lattice(1) * ((1 - fr) * fc)
+            + lattice(size) * (fr * (1 - fc))
+            + lattice(size + 1) * (fr * fc)
+        )
 
         # --- the series: points not for it sit at w = r0 (as map_points), harmless for the tables
         su = torch.where(series, u, self._r0).view(n, 1, n_maps * n_pts)
@@ -177,8 +183,9 @@ class TorchRemapPlan:
         partial = partial.view(n, g.M, c, n_maps * n_pts)
         partial.mul_(cos_mt.unsqueeze(2))
         series_values = partial.sum(dim=1).view(n, c, n_maps, n_pts).permute(0, 2, 3, 1)
-        values = torch.where(series.unsqueeze(-1), series_values,
-                             torch.where(in_fovea.unsqueeze(-1), fovea_values, 0.0))
+        values = torch.where(
+            series.unsqueeze(-1), series_values, torch.where(in_fovea.unsqueeze(-1), fovea_values, 0.0)
+        )
         return values, valid
 
     def _index(self, ks: tuple[int, ...]) -> torch.Tensor:

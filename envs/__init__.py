@@ -19,15 +19,36 @@ from .tasks import TASKS, FixateTask, FreeViewingTask, SearchTask, Task, gaze_er
 from .vision import REMAP_MODELS, EyeView, Vision, model_errors, normalized_error
 
 __all__ = [
-    "BinocularSaccadeEnv", "BatchedBinocularSaccade", "Vision", "EyeView", "REMAP_MODELS", "normalized_error", "model_errors",
-    "Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "make_task", "gaze_errors_deg", "gaze_errors",
-    "compose_frame", "grid_overlay", "ENV_IDS", "PotentialShaping", "BatchedPotentialShaping",
+    "BinocularSaccadeEnv",
+    "BatchedBinocularSaccade",
+    "Vision",
+    "EyeView",
+    "REMAP_MODELS",
+    "normalized_error",
+    "model_errors",
+    "Task",
+    "FixateTask",
+    "SearchTask",
+    "FreeViewingTask",
+    "TASKS",
+    "make_task",
+    "gaze_errors_deg",
+    "gaze_errors",
+    "compose_frame",
+    "grid_overlay",
+    "ENV_IDS",
+    "PotentialShaping",
+    "BatchedPotentialShaping",
 ]
 
 ENV_IDS = ("BinocularSaccade-v0", "BinocularSaccadeSearch-v0")
 
 if "BinocularSaccade-v0" not in gym.registry:
     for _id, _task in zip(ENV_IDS, ("fixate", "search")):
-        gym.register(id=_id, entry_point="envs.saccade_env:BinocularSaccadeEnv",
-                     vector_entry_point="envs.batched_env:BatchedBinocularSaccade", kwargs={"task": _task},
-                     max_episode_steps=TASKS[_task].max_saccades)  # the task's default budget: 5, 10
+        gym.register(
+            id=_id,
+            entry_point="envs.saccade_env:BinocularSaccadeEnv",
+            vector_entry_point="envs.batched_env:BatchedBinocularSaccade",
+            kwargs={"task": _task},
+            max_episode_steps=TASKS[_task].max_saccades,
+        )  # the task's default budget: 5, 10

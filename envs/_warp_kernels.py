@@ -7,8 +7,15 @@ __all__ = ["servo", "advance", "beyond_range"]
 
 
 @wp.kernel
-def servo(u: wp.array3d(dtype=wp.float32), ncmd: wp.array(dtype=wp.int32), step: wp.array(dtype=wp.int32),
-          pos0: wp.int32, vel0: wp.int32, ff0: wp.int32, ctrl: wp.array2d(dtype=wp.float32)):
+def servo(
+    u: wp.array3d(dtype=wp.float32),
+    ncmd: wp.array(dtype=wp.int32),
+    step: wp.array(dtype=wp.int32),
+    pos0: wp.int32,
+    vel0: wp.int32,
+    ff0: wp.int32,
+    ctrl: wp.array2d(dtype=wp.float32),
+):
     """Set-points of joint k of world w for physics step ``step[0]``: row ``step[0]`` of the world's
     table of ``models.servo_setpoints`` (position, velocity, feed-forward), its last row -- the
     endpoint held with no velocity and no feed-forward -- from then on."""
@@ -26,8 +33,13 @@ def advance(step: wp.array(dtype=wp.int32)):
 
 
 @wp.kernel
-def beyond_range(qpos: wp.array2d(dtype=wp.float32), adr: wp.array(dtype=wp.int32),
-                 lo: wp.array(dtype=wp.float32), hi: wp.array(dtype=wp.float32), left: wp.array(dtype=wp.int32)):
+def beyond_range(
+    qpos: wp.array2d(dtype=wp.float32),
+    adr: wp.array(dtype=wp.int32),
+    lo: wp.array(dtype=wp.float32),
+    hi: wp.array(dtype=wp.float32),
+    left: wp.array(dtype=wp.int32),
+):
     """``left[0] = 1`` where limited joint j of world w is at or beyond its range: the state in which
     MuJoCo's joint-limit constraint acts (``mjCNSTR_LIMIT_JOINT``, active for distance < margin = 0)."""
     w, j = wp.tid()

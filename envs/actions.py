@@ -21,8 +21,15 @@ def cell_angles(points: np.ndarray) -> np.ndarray:
     return np.stack([np.arctan(z.real), np.arctan2(z.imag, np.hypot(1.0, z.real))], axis=1)
 
 
-def decode_actions(actions, shape: tuple[int, ...], *, cells: np.ndarray | None, max_amplitude: float,
-                   vergence: bool, who: str = "action") -> tuple[np.ndarray, np.ndarray]:
+def decode_actions(
+    actions,
+    shape: tuple[int, ...],
+    *,
+    cells: np.ndarray | None,
+    max_amplitude: float,
+    vergence: bool,
+    who: str = "action",
+) -> tuple[np.ndarray, np.ndarray]:
     """Actions of ``shape`` -- the action space's shape, with a leading world axis for many worlds --
     as (n, 2) Fick increments (rad) and (n,) fixation-distance factors; ``cells``: the
     :func:`cell_angles` of a cell action space (else None: continuous). A bad action raises an error
@@ -33,20 +40,25 @@ def decode_actions(actions, shape: tuple[int, ...], *, cells: np.ndarray | None,
         i = int(bad[0])
         return f"world {i} has {a[i].tolist()}" if batched else f"got {a.tolist()}"
 
-    kind = (f"an integer cell index in [0, {len(cells)}){' per world' if batched else ''}" if cells is not None
-            else f"{shape[-1] if shape else 1} real numbers in [-1, 1]")
+    kind = (
+        f"an integer cell index in [0, {len(cells)}){' per world' if batched else ''}"
+        if cells is not None
+        else f"{shape[-1] if shape else 1} real numbers in [-1, 1]"
+    )
     try:
         a = np.asarray(actions)
     except Exception:  # e.g. a ragged list
         raise (checks.InputTypeError if cells is not None else ValueError)(
-            f"{who} must be {kind}; got {actions!r:.60}") from None
+            f"{who} must be {kind}; got {actions!r:.60}"
+        ) from None
     if cells is not None:
         k = len(cells)
         if a.dtype.kind not in "iu":
             raise checks.InputTypeError(f"{who} must be {kind}; got {actions!r:.60} ({a.dtype}, shape {a.shape})")
         if a.shape != shape:
-            raise ValueError(f"{who} must have shape {shape} (a cell index{' per world' if batched else ''}); "
-                             f"got {a.shape}")
+            raise ValueError(
+                f"{who} must have shape {shape} (a cell index{' per world' if batched else ''}); got {a.shape}"
+            )
         bad = np.flatnonzero((a < 0) | (a >= k))
         if bad.size:
             raise ValueError(f"{who} must be a cell index in [0, {k}); {at(bad, a.reshape(-1))}")

@@ -59,16 +59,22 @@ def _resolve_device(device, wp, torch) -> str:
     if device is None:
         return "cuda" if cuda else "cpu"
     if not isinstance(device, str):
-        raise checks.InputTypeError(f"device must be a string such as 'cuda', 'cuda:1' or 'cpu', or None; got {device!r}")
+        raise checks.InputTypeError(
+            f"device must be a string such as 'cuda', 'cuda:1' or 'cpu', or None; got {device!r}"
+        )
     if device != "cpu" and not device.startswith("cuda"):
         raise ValueError(f"device must be 'cuda', 'cuda:<index>' or 'cpu'; got {device!r}")
     if device.startswith("cuda") and not wp.is_cuda_available():
-        raise RuntimeError(f"device={device!r} but Warp finds no CUDA device here; use device='cpu' (Warp's CPU "
-                           "backend: slow, for tests) or run on a machine with an NVIDIA GPU")
+        raise RuntimeError(
+            f"device={device!r} but Warp finds no CUDA device here; use device='cpu' (Warp's CPU "
+            "backend: slow, for tests) or run on a machine with an NVIDIA GPU"
+        )
     if device.startswith("cuda") and not torch.cuda.is_available():
-        raise RuntimeError(f"device={device!r}: Warp finds a CUDA device but this torch is a CPU-only build "
-                           f"(torch {torch.__version__}); install a CUDA build of torch (see pytorch.org) or use "
-                           "device='cpu'")
+        raise RuntimeError(
+            f"device={device!r}: Warp finds a CUDA device but this torch is a CPU-only build "
+            f"(torch {torch.__version__}); install a CUDA build of torch (see pytorch.org) or use "
+            "device='cpu'"
+        )
     return device
 
 
@@ -110,9 +116,19 @@ class BatchedBinocularSaccade(VectorEnv):
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
-    def __init__(self, num_envs: int, device: str | None = None, *, output: str = "torch", chunk_ms: int = 25,
-                 settle_ms: int = 20, autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
-                 retina_rays: int | None = None, max_episode_steps: int | None = None, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        num_envs: int,
+        device: str | None = None,
+        *,
+        output: str = "torch",
+        chunk_ms: int = 25,
+        settle_ms: int = 20,
+        autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+        retina_rays: int | None = None,
+        max_episode_steps: int | None = None,
+        **kwargs: Any,
+    ) -> None:
         from .batched_physics import WarpHeads, require_gpu_extra
         from .batched_vision import TorchVision
 
@@ -130,22 +146,33 @@ class BatchedBinocularSaccade(VectorEnv):
         if retina_rays is not None:
             from .retina_rays import MAX_SUBSAMPLES
 
-            retina_rays = checks.integer("retina_rays", retina_rays, 1, MAX_SUBSAMPLES,
-                                         hint="sub-rays per receptive-field side, or None for pinhole images")
+            retina_rays = checks.integer(
+                "retina_rays",
+                retina_rays,
+                1,
+                MAX_SUBSAMPLES,
+                hint="sub-rays per receptive-field side, or None for pinhole images",
+            )
         self.retina_rays = retina_rays
         max_episode_steps = core.saccade_budget(Task.MAX_SACCADES, max_episode_steps)  # checked before the env
         device = _resolve_device(device, wp, torch)
         if kwargs.get("render_mode") is not None:
-            raise ValueError("the batched env does not render for display (render_mode must be None); "
-                             "use BinocularSaccadeEnv(render_mode='rgb_array') to look at an episode")
+            raise ValueError(
+                "the batched env does not render for display (render_mode must be None); "
+                "use BinocularSaccadeEnv(render_mode='rgb_array') to look at an episode"
+            )
         if kwargs.get("pooled_remap"):
-            raise ValueError("pooled_remap=True is not available in the batched env (its remapping predictions are "
-                             "the point prediction); use BinocularSaccadeEnv for pooled predictions")
+            raise ValueError(
+                "pooled_remap=True is not available in the batched env (its remapping predictions are "
+                "the point prediction); use BinocularSaccadeEnv for pooled predictions"
+            )
         self._template = env = BinocularSaccadeEnv(**kwargs)  # checks every single-env argument
         if type(env.task) not in _TASKS:
             env.close()
-            raise ValueError(f"the batched env scores the built-in tasks fixate, search and free on the device; "
-                             f"got a {type(env.task).__name__}")
+            raise ValueError(
+                f"the batched env scores the built-in tasks fixate, search and free on the device; "
+                f"got a {type(env.task).__name__}"
+            )
         self.task = env.task
         self._max_steps = core.saccade_budget(env.task.max_saccades, max_episode_steps)  # as TimeLimit(K) caps it
         self.single_observation_space = env.observation_space
@@ -222,8 +249,9 @@ class BatchedBinocularSaccade(VectorEnv):
         # once): the command tables are built while the remapping predictions run, and the worlds'
         # clocks and eye-position signals advance while the physics steps.
         with part("remap"):
-            values, valid = self.vision.predict(self._frame, torch.as_tensor(rot_eye, dtype=torch.float32,
-                                                                             device=self.device), self.remap_models)
+            values, valid = self.vision.predict(
+                self._frame, torch.as_tensor(rot_eye, dtype=torch.float32, device=self.device), self.remap_models
+            )
         with part("host"):
             if plans is not None:
                 table, lengths[act] = self.planner.commands(plans)
@@ -251,7 +279,7 @@ class BatchedBinocularSaccade(VectorEnv):
         self._see()
         with part("remap"):
             errors = self.vision.errors(values, valid, self._frame).mean(dim=1)  # (N, K): mean of both eyes
-            chosen = values[:, :, self._chosen, g.n_fovea:].reshape(n, 2, g.M, g.N, -1)
+            chosen = values[:, :, self._chosen, g.n_fovea :].reshape(n, 2, g.M, g.N, -1)
             remapped = self.vision.cortical(chosen, self._template.cortex)
             now = self._cortical_now()
             keep = torch.as_tensor(active, device=self.device).view((n,) + (1,) * (remapped.dim() - 1))
@@ -272,11 +300,23 @@ class BatchedBinocularSaccade(VectorEnv):
             if plans is not None:
                 saccade[k][act] = get(plans)
         has_target = self._target_gid is not None and not isinstance(self.task, FreeViewingTask)
-        task_info = core.task_info(success & active, {k: np.where(active, v, 0.0) for k, v in parts.items()},
-                                   np.where(active, target_err.mean(axis=1), 0.0) if has_target else None)
-        info = core.masked(core.step_info(self.planner.time_ms.copy(),
-                                          {m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)},
-                                          saccade, landing, eye_q, clipped, task_info), active)
+        task_info = core.task_info(
+            success & active,
+            {k: np.where(active, v, 0.0) for k, v in parts.items()},
+            np.where(active, target_err.mean(axis=1), 0.0) if has_target else None,
+        )
+        info = core.masked(
+            core.step_info(
+                self.planner.time_ms.copy(),
+                {m: np.where(active, errors[:, k], 0.0) for k, m in enumerate(self.remap_models)},
+                saccade,
+                landing,
+                eye_q,
+                clipped,
+                task_info,
+            ),
+            active,
+        )
         with part("host sync"):
             obs = self._observation()
         done = terminated | truncated
@@ -313,9 +353,13 @@ class BatchedBinocularSaccade(VectorEnv):
             obs = self._observation()
         # the reset worlds' remapping errors are a reset's (zeros), as BinocularSaccadeEnv.reset reports
         errors = {m: np.where(done, 0.0, v) for m, v in final_info["remap_error"].items() if not m.startswith("_")}
-        info = {**core.masked(core.reset_info(self.planner.time_ms.copy(), errors), np.ones(self.num_envs, bool)),
-                "final_obs": final_obs, "_final_obs": done.copy(),
-                "final_info": self._mask_info(final_info, done), "_final_info": done.copy()}
+        info = {
+            **core.masked(core.reset_info(self.planner.time_ms.copy(), errors), np.ones(self.num_envs, bool)),
+            "final_obs": final_obs,
+            "_final_obs": done.copy(),
+            "final_info": self._mask_info(final_info, done),
+            "_final_info": done.copy(),
+        }
         for k, v in final_info.items():  # the running worlds' step info stays where it was
             if k not in info and not k.startswith("_") and not isinstance(v, dict):
                 info[k], info["_" + k] = v.copy(), final_info["_" + k] & ~done
@@ -395,9 +439,12 @@ class BatchedBinocularSaccade(VectorEnv):
         torch = self._torch
         f = self._frame
         obs = core.observation(
-            self._cortical_now(), f.fovea.clamp(0.0, 1.0), self._remapped.clone(),
+            self._cortical_now(),
+            f.fovea.clamp(0.0, 1.0),
+            self._remapped.clone(),
             torch.as_tensor(self.planner.eye_position_signal(), dtype=torch.float32, device=self.device),
-            torch.view_as_real(f.coeffs).to(torch.float32) if self._template.include_coeffs else None)
+            torch.view_as_real(f.coeffs).to(torch.float32) if self._template.include_coeffs else None,
+        )
         if self.output == "numpy":
             obs = {k: v.cpu().numpy() for k, v in obs.items()}
         return obs
@@ -408,8 +455,14 @@ class BatchedBinocularSaccade(VectorEnv):
         if isinstance(actions, self._torch.Tensor):
             actions = actions.detach().cpu().numpy()
         env = self._template
-        return decode_actions(actions, self.action_space.shape, cells=env._cells, max_amplitude=env.max_amplitude,
-                              vergence=env.vergence, who="actions")
+        return decode_actions(
+            actions,
+            self.action_space.shape,
+            cells=env._cells,
+            max_amplitude=env.max_amplitude,
+            vergence=env.vergence,
+            who="actions",
+        )
 
     def _gaze_errors(self, plans, act: np.ndarray, active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Both eyes' gaze errors (deg) to the task's target (N, 2) and the mean to each saccade's

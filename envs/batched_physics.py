@@ -43,6 +43,7 @@ from models.render import EYES, HIDDEN_GEOM_GROUPS
 
 __all__ = ["WarpHeads", "require_gpu_extra"]
 
+
 def require_gpu_extra():
     """Import and return (warp, mujoco_warp, torch), or raise ImportError saying how to install them."""
     try:
@@ -51,7 +52,7 @@ def require_gpu_extra():
         import warp as wp
     except ImportError as e:
         raise ImportError(
-            f"the batched env needs the gpu extra ({e.name} is missing): pip install -e \".[gpu]\" "
+            f'the batched env needs the gpu extra ({e.name} is missing): pip install -e ".[gpu]" '
             "(mujoco-warp, warp-lang, torch; on a machine without CUDA, torch's CPU build serves)"
         ) from None
     wp.config.quiet = True
@@ -65,11 +66,18 @@ def _solver_skippable(mjm, limited: np.ndarray) -> bool:
     import mujoco
 
     contacts_off = bool(mjm.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    return (mjm.opt.integrator in (mujoco.mjtIntegrator.mjINT_IMPLICITFAST, mujoco.mjtIntegrator.mjINT_IMPLICIT)
-            and contacts_off and mjm.neq == 0 and mjm.nflex == 0 and mjm.nsensor == 0
-            and not np.any(mjm.dof_frictionloss) and not np.any(mjm.tendon_limited)
-            and not np.any(mjm.tendon_frictionloss) and not np.any(mjm.jnt_margin[limited])
-            and np.all(np.isin(mjm.jnt_type[limited], (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE))))
+    return (
+        mjm.opt.integrator in (mujoco.mjtIntegrator.mjINT_IMPLICITFAST, mujoco.mjtIntegrator.mjINT_IMPLICIT)
+        and contacts_off
+        and mjm.neq == 0
+        and mjm.nflex == 0
+        and mjm.nsensor == 0
+        and not np.any(mjm.dof_frictionloss)
+        and not np.any(mjm.tendon_limited)
+        and not np.any(mjm.tendon_frictionloss)
+        and not np.any(mjm.jnt_margin[limited])
+        and np.all(np.isin(mjm.jnt_type[limited], (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)))
+    )
 
 
 class WarpHeads:
@@ -89,8 +97,16 @@ class WarpHeads:
             MuJoCo Warp's ``step`` throughout; None (default): True on the CPU backend, False on CUDA.
     """
 
-    def __init__(self, head: models.Head, num_worlds: int, device: str = "cuda", *, chunk_ms: int = 25,
-                 retina_directions: np.ndarray | None = None, skip_solver: bool | None = None) -> None:
+    def __init__(
+        self,
+        head: models.Head,
+        num_worlds: int,
+        device: str = "cuda",
+        *,
+        chunk_ms: int = 25,
+        retina_directions: np.ndarray | None = None,
+        skip_solver: bool | None = None,
+    ) -> None:
         wp, mjw, torch = require_gpu_extra()
         self._wp, self._mjw, self._torch = wp, mjw, torch
         self.device = wp.get_device(device)
@@ -135,8 +151,16 @@ class WarpHeads:
             self.data = mjw.make_data(mjm, nworld=n)
             if retina_directions is None:
                 self.render_context = mjw.create_render_context(
-                    mjm, nworld=n, cam_res=(w, h), render_rgb=True, render_depth=False, use_textures=True,
-                    use_shadows=False, enabled_geom_groups=groups, cam_active=self.cam_ids)
+                    mjm,
+                    nworld=n,
+                    cam_res=(w, h),
+                    render_rgb=True,
+                    render_depth=False,
+                    use_textures=True,
+                    use_shadows=False,
+                    enabled_geom_groups=groups,
+                    cam_active=self.cam_ids,
+                )
                 self._rgb = [wp.zeros((n, h, w), dtype=wp.vec3f) for _ in EYES]
                 self.retina = None
             else:
@@ -157,8 +181,12 @@ class WarpHeads:
         # qacc_smooth, and qacc_smooth is computed (both need njmax == 0)
         self._free_data = dataclasses.replace(self.data, njmax=0)
         # and the model with its constraints switched off (no limit rows are made)
-        self._free_model = dataclasses.replace(self.model, opt=dataclasses.replace(
-            self.model.opt, disableflags=int(self.model.opt.disableflags) | int(mjw.DisableBit.CONSTRAINT)))
+        self._free_model = dataclasses.replace(
+            self.model,
+            opt=dataclasses.replace(
+                self.model.opt, disableflags=int(self.model.opt.disableflags) | int(mjw.DisableBit.CONSTRAINT)
+            ),
+        )
         self._stepped = 0
         t = wp.to_torch
         d = self.data
@@ -221,7 +249,9 @@ class WarpHeads:
         if out is None:
             out = torch.empty((q.shape[0], T, 18), dtype=torch.float64, device=dev)
         if self._plant is None:
-            return servo_setpoints(ext, dt, self._inertia * torch.eye(6, dtype=torch.float64, device=dev), out, end=ends)
+            return servo_setpoints(
+                ext, dt, self._inertia * torch.eye(6, dtype=torch.float64, device=dev), out, end=ends
+            )
         I, K, B = (torch.as_tensor(a, dtype=torch.float64, device=dev) for a in self._plant)
         return servo_setpoints(ext, dt, I, out, stiffness=K, damping=B, end=ends)  # ext[ends] = q[ends - 1]
 
@@ -314,15 +344,22 @@ class WarpHeads:
                 reason = f"{type(e).__name__}: {e}"
         import warnings
 
-        warnings.warn(f"the batched physics runs without a CUDA graph ({reason}); each physics step is launched "
-                      "from Python (slower, same result)", RuntimeWarning, stacklevel=3)
+        warnings.warn(
+            f"the batched physics runs without a CUDA graph ({reason}); each physics step is launched "
+            "from Python (slower, same result)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
         return False
 
     def _physics_step(self, solver: bool = False) -> None:
         wp, mjw = self._wp, self._mjw
-        wp.launch(self._servo, dim=(self.num_worlds, 6),
-                  inputs=[self._cmd, self._ncmd, self._step, self._pos0, self._vel0, self._ff0],
-                  outputs=[self.data.ctrl])
+        wp.launch(
+            self._servo,
+            dim=(self.num_worlds, 6),
+            inputs=[self._cmd, self._ncmd, self._step, self._pos0, self._vel0, self._ff0],
+            outputs=[self.data.ctrl],
+        )
         if solver or not self.skip_solver:
             mjw.step(self.model, self.data)
         else:
@@ -344,8 +381,12 @@ class WarpHeads:
         wp.copy(d.efc.Ma, d.qfrc_smooth)
         mjw.implicit(m, d)
         if self._limit_adr.shape[0]:
-            wp.launch(self._beyond_range, dim=(self.num_worlds, self._limit_adr.shape[0]),
-                      inputs=[d.qpos, self._limit_adr, self._limit_lo, self._limit_hi], outputs=[self._left])
+            wp.launch(
+                self._beyond_range,
+                dim=(self.num_worlds, self._limit_adr.shape[0]),
+                inputs=[d.qpos, self._limit_adr, self._limit_lo, self._limit_hi],
+                outputs=[self._left],
+            )
 
     # ------------------------------------------------------------------ rendering
     def render_retina(self):

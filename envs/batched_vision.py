@@ -47,8 +47,9 @@ from .vision import REMAP_MODELS, Vision, rotation_faults
 try:
     import torch
 except ImportError:  # pragma: no cover - the module is only imported with torch (the gpu extra)
-    raise ImportError("envs.batched_vision needs torch: pip install -e \".[gpu]\" (torch's CPU build serves "
-                      "without a GPU)") from None
+    raise ImportError(
+        'envs.batched_vision needs torch: pip install -e ".[gpu]" (torch\'s CPU build serves without a GPU)'
+    ) from None
 
 from conformal.torch_plan import TorchRemapPlan  # noqa: E402  (after torch's check)
 from conformal.torch_plan import ieee_matmul as _ieee_matmul
@@ -98,8 +99,9 @@ class TorchVision:
     restored after each call.
     """
 
-    def __init__(self, vision: Vision, device: str | torch.device = "cpu", *,
-                 chunk_bytes: int = _DEFAULT_CHUNK_BYTES) -> None:
+    def __init__(
+        self, vision: Vision, device: str | torch.device = "cpu", *, chunk_bytes: int = _DEFAULT_CHUNK_BYTES
+    ) -> None:
         if not isinstance(vision, Vision):
             raise checks.InputTypeError(f"vision must be an envs.vision.Vision; got {type(vision).__name__}")
         if vision.pooled_remap:
@@ -165,8 +167,9 @@ class TorchVision:
             cols.copy_(view)
             cols = cols.view(h * w, b * e * 3)
         picked = cols.index_select(0, self._pool_pixels).mul_(self._pool_weights)  # (nnz, B E C)
-        pooled = torch.segment_reduce(picked, "sum", offsets=self._pool_offsets, axis=0, unsafe=True,
-                                      initial=0.0)  # (P, B E C)
+        pooled = torch.segment_reduce(
+            picked, "sum", offsets=self._pool_offsets, axis=0, unsafe=True, initial=0.0
+        )  # (P, B E C)
         del picked
         samples = pooled.view(self.n_points, b, e, self.channels).permute(1, 2, 0, 3).contiguous()
         samples.mul_(scale)
@@ -178,8 +181,14 @@ class TorchVision:
         """A frame from retina samples already taken (``Vision._frame``): samples (B, E, P, 3) floats in
         [0, 1] (not checked) on this device in retina order (e.g. rendered along the receptive fields'
         rays: ``WarpHeads.render_retina``); in grayscale the channels are averaged."""
-        s = self._float_tensor("samples", samples, "(B, E, P, 3)", (self.n_points, 3), " with B, E >= 1",
-                               lambda t: t.dim() == 4 and t.shape[2:] == (self.n_points, 3) and 0 not in t.shape[:2])
+        s = self._float_tensor(
+            "samples",
+            samples,
+            "(B, E, P, 3)",
+            (self.n_points, 3),
+            " with B, E >= 1",
+            lambda t: t.dim() == 4 and t.shape[2:] == (self.n_points, 3) and 0 not in t.shape[:2],
+        )
         if self.grayscale:
             s = s.mean(dim=-1, keepdim=True)
         return self._frame(s.contiguous())
@@ -190,8 +199,9 @@ class TorchVision:
         g, n_f = self.grid, self.grid.n_fovea
         b, e, _, c = samples.shape
         periphery = samples[:, :, n_f:].view(b, e, g.M, g.N, c)
-        return TorchFrame(samples=samples, periphery=periphery, fovea=samples[:, :, :n_f],
-                          coeffs=self.plan.dpft(periphery))
+        return TorchFrame(
+            samples=samples, periphery=periphery, fovea=samples[:, :, :n_f], coeffs=self.plan.dpft(periphery)
+        )
 
     def _float_tensor(self, name: str, x, form: str, tail: tuple, extra: str, shape_ok) -> torch.Tensor:
         """``x`` as float32 after checking it is a floating-point tensor on this device of shape ``form``
@@ -228,17 +238,21 @@ class TorchVision:
         bad, behind = rotation_faults(rot, "shift" in models)
         if bad.any():
             w, k = (int(i) for i in np.argwhere(bad)[0])
-            raise ValueError(f"rotations_eye[{w}, {k}] (world {w}, eye {k}) must be a proper rotation matrix "
-                             "(orthogonal, det +1)")
+            raise ValueError(
+                f"rotations_eye[{w}, {k}] (world {w}, eye {k}) must be a proper rotation matrix (orthogonal, det +1)"
+            )
         if behind.any():
             w, k = (int(i) for i in np.argwhere(behind)[0])
-            raise ValueError(f"world {w}, eye {k}: the shift model needs the new optical axis in front of the old eye "
-                             "(a rotation below 90 degrees)")
+            raise ValueError(
+                f"world {w}, eye {k}: the shift model needs the new optical axis in front of the old eye "
+                "(a rotation below 90 degrees)"
+            )
         kinds, params = point_map_params(models, rot, self.shift_rings, self.grid.delta)  # conformal's numbers
         return tuple(int(k) for k in kinds), torch.as_tensor(params, device=r.device)
 
-    def predict(self, frame: TorchFrame, rotations_eye: torch.Tensor,
-                models: tuple[str, ...]) -> tuple[torch.Tensor, torch.Tensor]:
+    def predict(
+        self, frame: TorchFrame, rotations_eye: torch.Tensor, models: tuple[str, ...]
+    ) -> tuple[torch.Tensor, torch.Tensor]:
         """The remapping models' point predictions of the post-saccadic retina of every world's eyes from
         the frame's pre-saccadic coefficients and foveal samples and the efference copies
         (``Vision._predict_frame`` with ``pooled=False``: ``RemapPlan._evaluate``, point prediction).
@@ -281,17 +295,22 @@ class TorchVision:
         b, e = frame.batch_shape
         c = frame.samples.shape[-1]
         if not isinstance(values, torch.Tensor) or not isinstance(valid, torch.Tensor):
-            raise checks.InputTypeError(f"values and valid must be torch tensors (predict's output); got "
-                              f"{type(values).__name__} and {type(valid).__name__}")
+            raise checks.InputTypeError(
+                f"values and valid must be torch tensors (predict's output); got "
+                f"{type(values).__name__} and {type(valid).__name__}"
+            )
         if values.dim() != 5 or values.shape[:2] != (b, e) or values.shape[3:] != (self.n_points, c):
-            raise ValueError(f"values must be (B, E, K, P, C) = ({b}, {e}, K, {self.n_points}, {c}) "
-                             "(predict's output); "
-                             f"got {tuple(values.shape)}")
+            raise ValueError(
+                f"values must be (B, E, K, P, C) = ({b}, {e}, K, {self.n_points}, {c}) "
+                "(predict's output); "
+                f"got {tuple(values.shape)}"
+            )
         if values.dtype != torch.float32:
             raise checks.InputTypeError(f"values must be float32; got {values.dtype}")
         if valid.dtype != torch.bool or valid.shape != values.shape[:4]:
-            raise ValueError(f"valid must be bool of shape {tuple(values.shape[:4])}; got {valid.dtype} "
-                             f"{tuple(valid.shape)}")
+            raise ValueError(
+                f"valid must be bool of shape {tuple(values.shape[:4])}; got {valid.dtype} {tuple(valid.shape)}"
+            )
         self._check_device("values", values)
         self._check_device("valid", valid)
         actual = frame.samples.unsqueeze(2)  # (B, E, 1, P, C)
@@ -310,8 +329,14 @@ class TorchVision:
         each hemisphere the contralateral hemifield of both eyes (``conformal.binocular_cortex``)."""
         checks.choice("cortex", cortex, ("eyes", "hemispheres"))
         g = self.grid
-        p = self._float_tensor("periphery", periphery, "(B, E, M, N, C)", (g.M, g.N, "C"), "",
-                               lambda t: t.dim() == 5 and t.shape[2:4] == (g.M, g.N))
+        p = self._float_tensor(
+            "periphery",
+            periphery,
+            "(B, E, M, N, C)",
+            (g.M, g.N, "C"),
+            "",
+            lambda t: t.dim() == 5 and t.shape[2:4] == (g.M, g.N),
+        )
         if cortex == "eyes":
             return p.clamp(0.0, 1.0)
         if self._hemifields is None:
@@ -325,21 +350,27 @@ class TorchVision:
     # ------------------------------------------------------------------ checks
     def _check_device(self, name: str, t: torch.Tensor) -> None:
         if not _same_device(t.device, self.device):
-            raise ValueError(f"{name} is on {t.device}, but this TorchVision works on {self.device}; move it "
-                             f"there first (.to({str(self.device)!r}))")
+            raise ValueError(
+                f"{name} is on {t.device}, but this TorchVision works on {self.device}; move it "
+                f"there first (.to({str(self.device)!r}))"
+            )
 
     def _check_images(self, images, check_range: bool) -> torch.Tensor:
         h, w = self.image_shape
         if not isinstance(images, torch.Tensor):
-            raise checks.InputTypeError(f"images must be a torch.Tensor (B, E, {h}, {w}, 3); "
-                                        f"got {type(images).__name__}")
+            raise checks.InputTypeError(
+                f"images must be a torch.Tensor (B, E, {h}, {w}, 3); got {type(images).__name__}"
+            )
         check_range = checks.flag("check_range", check_range)
         if images.dim() != 5 or images.shape[2:] != (h, w, 3) or 0 in images.shape[:2]:
-            raise ValueError(f"images must be (B, E, H, W, 3) = (B, E, {h}, {w}, 3) with B, E >= 1 (this Vision's "
-                             f"image shape); got {tuple(images.shape)}")
+            raise ValueError(
+                f"images must be (B, E, H, W, 3) = (B, E, {h}, {w}, 3) with B, E >= 1 (this Vision's "
+                f"image shape); got {tuple(images.shape)}"
+            )
         if images.dtype != torch.uint8 and not images.is_floating_point():
-            raise checks.InputTypeError(f"images must be uint8 (0..255) or floating point in [0, 1]; "
-                                        f"got {images.dtype}")
+            raise checks.InputTypeError(
+                f"images must be uint8 (0..255) or floating point in [0, 1]; got {images.dtype}"
+            )
         self._check_device("images", images)
         if images.dtype == torch.uint8:
             return images
@@ -349,41 +380,55 @@ class TorchVision:
             stats = torch.stack([bad.to(lo.dtype), lo, hi]).cpu()
             if stats[0].any():
                 i = int(torch.nonzero(stats[0])[0])
-                raise ValueError(f"float images must hold intensities in [0, 1]; world {i} has values in "
-                                 f"[{float(stats[1, i]):.4g}, {float(stats[2, i]):.4g}] (pass uint8 images for 0..255)")
+                raise ValueError(
+                    f"float images must hold intensities in [0, 1]; world {i} has values in "
+                    f"[{float(stats[1, i]):.4g}, {float(stats[2, i]):.4g}] (pass uint8 images for 0..255)"
+                )
         return images
 
     def _check_frame(self, frame) -> None:
         if not isinstance(frame, TorchFrame):
-            raise checks.InputTypeError(f"frame must be a TorchFrame (from TorchVision.see); "
-                                        f"got {type(frame).__name__}")
+            raise checks.InputTypeError(
+                f"frame must be a TorchFrame (from TorchVision.see); got {type(frame).__name__}"
+            )
         g = self.grid
         if frame.coeffs.shape[2:4] != (g.M, g.N) or frame.samples.shape[2] != self.n_points:
-            raise ValueError(f"frame does not belong to this TorchVision's retina ({g.M} rings x {g.N} sectors, "
-                             f"{self.n_points} points)")
+            raise ValueError(
+                f"frame does not belong to this TorchVision's retina ({g.M} rings x {g.N} sectors, "
+                f"{self.n_points} points)"
+            )
         self._check_device("frame", frame.samples)
 
     def _check_models(self, models) -> tuple[str, ...]:
         if isinstance(models, str) or not isinstance(models, (list, tuple)) or not models:
-            raise checks.InputTypeError(f"models must be a non-empty tuple of model names from {REMAP_MODELS}; "
-                                        f"got {models!r:.60}")
+            raise checks.InputTypeError(
+                f"models must be a non-empty tuple of model names from {REMAP_MODELS}; got {models!r:.60}"
+            )
         for m in models:
             checks.choice("each model", m, REMAP_MODELS)
         if "shift" in models and abs(self.shift_rings * self.grid.delta) > 40:  # target_shift_map's message
-            raise ValueError(f"shift * delta = {self.shift_rings * self.grid.delta:.4g}: the scale e^(shift delta) "
-                             "must lie within e^(+-40)")
+            raise ValueError(
+                f"shift * delta = {self.shift_rings * self.grid.delta:.4g}: the scale e^(shift delta) "
+                "must lie within e^(+-40)"
+            )
         return tuple(models)
 
     def _check_rotation_tensor(self, rotations_eye, batch: tuple[int, int] | None = None) -> torch.Tensor:
         if not isinstance(rotations_eye, torch.Tensor):
-            raise checks.InputTypeError(f"rotations_eye must be a torch.Tensor (B, E, 3, 3); "
-                                        f"got {type(rotations_eye).__name__}")
+            raise checks.InputTypeError(
+                f"rotations_eye must be a torch.Tensor (B, E, 3, 3); got {type(rotations_eye).__name__}"
+            )
         if not rotations_eye.is_floating_point():
             raise checks.InputTypeError(f"rotations_eye must be floating point; got {rotations_eye.dtype}")
-        want = ("(B, E, 3, 3)" if batch is None
-                else f"(B, E, 3, 3) = ({batch[0]}, {batch[1]}, 3, 3) (one per world's eye)")
-        if rotations_eye.dim() != 4 or rotations_eye.shape[2:] != (3, 3) or 0 in rotations_eye.shape[:2] or (
-                batch is not None and tuple(rotations_eye.shape[:2]) != batch):
+        want = (
+            "(B, E, 3, 3)" if batch is None else f"(B, E, 3, 3) = ({batch[0]}, {batch[1]}, 3, 3) (one per world's eye)"
+        )
+        if (
+            rotations_eye.dim() != 4
+            or rotations_eye.shape[2:] != (3, 3)
+            or 0 in rotations_eye.shape[:2]
+            or (batch is not None and tuple(rotations_eye.shape[:2]) != batch)
+        ):
             raise ValueError(f"rotations_eye must be {want}; got {tuple(rotations_eye.shape)}")
         self._check_device("rotations_eye", rotations_eye)
         return rotations_eye

@@ -19,9 +19,24 @@ from gymnasium import spaces
 from conformal import checks
 
 __all__ = [
-    "MAX_FIXATION_MS", "SACCADE_INFO", "action_space", "check_options", "check_seed", "episode_end", "head_seed",
-    "masked", "no_copy", "observation", "observation_space", "require_reset", "reset_info", "saccade_budget",
-    "saccade_info", "step_info", "task_info", "world_seeds",
+    "MAX_FIXATION_MS",
+    "SACCADE_INFO",
+    "action_space",
+    "check_options",
+    "check_seed",
+    "episode_end",
+    "head_seed",
+    "masked",
+    "no_copy",
+    "observation",
+    "observation_space",
+    "require_reset",
+    "reset_info",
+    "saccade_budget",
+    "saccade_info",
+    "step_info",
+    "task_info",
+    "world_seeds",
 ]
 
 #: The longest fixation after a saccade (ms): 10 s, far beyond human fixations (180-320 ms).
@@ -29,11 +44,13 @@ MAX_FIXATION_MS = 10_000
 #: The largest seed a head's reset draws (exclusive): a head is reset with ``rng.integers(HEAD_SEEDS)``.
 HEAD_SEEDS = 2**31 - 1
 
-_NO_COPY = ("a {} cannot be pickled or copied (pickle, copy.deepcopy, copy.copy): it holds a compiled MuJoCo "
-            "model and an OpenGL context. Make a new env with the same arguments instead (gymnasium.make(env.spec.id, "
-            "**env.spec.kwargs) for one made by gymnasium.make, else the class with the same keyword arguments); for the "
-            "same state, reset the new env with the same seed and replay the same actions (the env is deterministic "
-            "under a seed)")
+_NO_COPY = (
+    "a {} cannot be pickled or copied (pickle, copy.deepcopy, copy.copy): it holds a compiled MuJoCo "
+    "model and an OpenGL context. Make a new env with the same arguments instead (gymnasium.make(env.spec.id, "
+    "**env.spec.kwargs) for one made by gymnasium.make, else the class with the same keyword arguments); for the "
+    "same state, reset the new env with the same seed and replay the same actions (the env is deterministic "
+    "under a seed)"
+)
 
 #: The saccade's entries of a step's ``info``: key -> (shape per world, its value from a ``models.SaccadePlan``
 #: or a batch of them, ``models.SaccadePlans``). A world that made no saccade reports zeros and identities.
@@ -143,8 +160,9 @@ def task_info(success, parts: dict, target_error_deg=None) -> dict[str, Any]:
     return {**head, "success": success, **parts}
 
 
-def step_info(sim_time_ms, remap_error: dict, saccade: dict, landing_error_deg, eye_angles, clipped,
-              task_info: dict) -> dict[str, Any]:
+def step_info(
+    sim_time_ms, remap_error: dict, saccade: dict, landing_error_deg, eye_angles, clipped, task_info: dict
+) -> dict[str, Any]:
     """A step's info, keys in order: ``sim_time_ms``, ``remap_error``, the saccade's entries (``saccade``,
     :func:`saccade_info`) with ``landing_error_deg`` after the kinematics, ``eye_angles``, ``clipped``, then
     the task's (``target_error_deg`` where the task has a target, ``success``, the reward's ``reward_*``)."""
@@ -176,14 +194,16 @@ def masked(info: dict[str, Any], active: np.ndarray) -> dict[str, Any]:
         out["_" + k] = mask.copy()
     return out
 
+
 # ---------------------------------------------------------------------------------------- episode end
 def saccade_budget(max_saccades: int, max_episode_steps: Any = None) -> int:
     """The steps after which an episode is truncated: the task's ``max_saccades``, capped at
     ``max_episode_steps`` K >= 1 as gymnasium's ``TimeLimit(K)`` would cap it (None or -1: no cap)."""
     if max_episode_steps is None or max_episode_steps == -1:  # gymnasium.make's -1: no TimeLimit
         return max_saccades
-    k = checks.integer("max_episode_steps", max_episode_steps, 1, None,
-                       hint="or -1 or None: no limit beyond the task's max_saccades")
+    k = checks.integer(
+        "max_episode_steps", max_episode_steps, 1, None, hint="or -1 or None: no limit beyond the task's max_saccades"
+    )
     return min(max_saccades, k)
 
 

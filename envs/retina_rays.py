@@ -70,8 +70,9 @@ class RetinaRenderContext:
     each camera): ``render(m, d)`` then returns each camera's P averaged samples, (N, cameras, P, 3)
     float32 in [0, 1] as a torch tensor on the device."""
 
-    def __init__(self, mjm, nworld: int, cam_ids: list[int], directions: NDArray[np.float32],
-                 enabled_geom_groups: list[int]) -> None:
+    def __init__(
+        self, mjm, nworld: int, cam_ids: list[int], directions: NDArray[np.float32], enabled_geom_groups: list[int]
+    ) -> None:
         import mujoco_warp as mjw
         import warp as wp
 
@@ -82,13 +83,24 @@ class RetinaRenderContext:
             raise ValueError(f"directions must be (s^2, P, 3); got {directions.shape}")
         self.n_rays, self.cam_ids = n_rays, list(cam_ids)
         self.rc = mjw.create_render_context(
-            mjm, nworld=nworld, cam_res=[(n_rays, 1)] * len(cam_ids), render_rgb=True, render_depth=False,
-            use_textures=True, use_shadows=False, enabled_geom_groups=enabled_geom_groups, cam_active=self.cam_ids,
-            samples_per_pixel=s, use_precomputed_rays=True)
+            mjm,
+            nworld=nworld,
+            cam_res=[(n_rays, 1)] * len(cam_ids),
+            render_rgb=True,
+            render_depth=False,
+            use_textures=True,
+            use_shadows=False,
+            enabled_geom_groups=enabled_geom_groups,
+            cam_active=self.cam_ids,
+            samples_per_pixel=s,
+            use_precomputed_rays=True,
+        )
         table = np.ascontiguousarray(np.repeat(directions[:, None], len(cam_ids), axis=1).reshape(-1, 3))
         if self.rc.ray.shape != (len(table),):
-            raise RuntimeError(f"mujoco-warp's render context holds {self.rc.ray.shape} rays, not the {len(table)} "
-                               "expected: its internal ray layout changed (this module was written for mujoco-warp 4.0)")
+            raise RuntimeError(
+                f"mujoco-warp's render context holds {self.rc.ray.shape} rays, not the {len(table)} "
+                "expected: its internal ray layout changed (this module was written for mujoco-warp 4.0)"
+            )
         self.rc.ray.assign(table)
         self._out = [wp.zeros((nworld, 1, n_rays), dtype=wp.vec3f) for _ in cam_ids]
 

@@ -18,6 +18,7 @@ from .vision import POOLED_REMAP_DEFAULT, REMAP_MODELS, EyeView, Vision
 
 __all__ = ["BinocularSaccadeEnv"]
 
+
 class BinocularSaccadeEnv(gym.Env):
     """A binocular head whose eyes are conformal cameras, making one saccade per step.
 
@@ -120,16 +121,36 @@ class BinocularSaccadeEnv(gym.Env):
     #: The longest fixation after a saccade (ms): 10 s, far beyond human fixations (180-320 ms).
     MAX_FIXATION_MS = core.MAX_FIXATION_MS
 
-    def __init__(self, scene: str | None = None, task: str | Task = "fixate", action_mode: str = "vector",
-                 image_size: int = 128, render_mode: str | None = None, *, fixation_ms: int = 250,
-                 max_amplitude_deg: float = 30.0, vergence: bool = False, remap_model: str = "homography",
-                 remap_models: tuple[str, ...] | None = None, shift_rings: float = 0.0,
-                 pooled_remap: bool = POOLED_REMAP_DEFAULT, grayscale: bool = False, cortex: str = "eyes",
-                 include_coeffs: bool = False, fovea_deg: float = 3.0, n_sectors: int | None = None,
-                 sampling: str = "pool", fovy_deg: float = models.DEFAULT_FOVY_DEG, endpoint_noise: float = 0.0,
-                 saccade_model: str = "burst", generator: models.BurstGenerator | None = None,
-                 eye_drive: str = "plant", quality: str = "fast", task_kwargs: dict | None = None,
-                 motor_noise: models.MotorNoise | None = None) -> None:
+    def __init__(
+        self,
+        scene: str | None = None,
+        task: str | Task = "fixate",
+        action_mode: str = "vector",
+        image_size: int = 128,
+        render_mode: str | None = None,
+        *,
+        fixation_ms: int = 250,
+        max_amplitude_deg: float = 30.0,
+        vergence: bool = False,
+        remap_model: str = "homography",
+        remap_models: tuple[str, ...] | None = None,
+        shift_rings: float = 0.0,
+        pooled_remap: bool = POOLED_REMAP_DEFAULT,
+        grayscale: bool = False,
+        cortex: str = "eyes",
+        include_coeffs: bool = False,
+        fovea_deg: float = 3.0,
+        n_sectors: int | None = None,
+        sampling: str = "pool",
+        fovy_deg: float = models.DEFAULT_FOVY_DEG,
+        endpoint_noise: float = 0.0,
+        saccade_model: str = "burst",
+        generator: models.BurstGenerator | None = None,
+        eye_drive: str = "plant",
+        quality: str = "fast",
+        task_kwargs: dict | None = None,
+        motor_noise: models.MotorNoise | None = None,
+    ) -> None:
         super().__init__()
         checks.choice("action_mode", action_mode, ("vector", "cell"))
         checks.choice("render_mode", render_mode, ("rgb_array",), allow_none=True)
@@ -138,15 +159,22 @@ class BinocularSaccadeEnv(gym.Env):
         if remap_models is None:
             remap_models = REMAP_MODELS
         elif isinstance(remap_models, str) or not isinstance(remap_models, (list, tuple)):
-            raise checks.InputTypeError(f"remap_models must be a tuple of model names from {REMAP_MODELS} or None; "
-                                        f"got {remap_models!r}")
-        remap_models = tuple(dict.fromkeys(checks.choice("each of remap_models", m, REMAP_MODELS)
-                                           for m in remap_models))
+            raise checks.InputTypeError(
+                f"remap_models must be a tuple of model names from {REMAP_MODELS} or None; got {remap_models!r}"
+            )
+        remap_models = tuple(
+            dict.fromkeys(checks.choice("each of remap_models", m, REMAP_MODELS) for m in remap_models)
+        )
         if remap_model not in remap_models:
             remap_models = remap_models + (remap_model,)
         image_size = checks.integer("image_size", image_size, 16, 1024)
-        self.fixation_ms = checks.integer("fixation_ms", fixation_ms, 0, self.MAX_FIXATION_MS,
-                                          hint="whole milliseconds of fixation after each saccade")
+        self.fixation_ms = checks.integer(
+            "fixation_ms",
+            fixation_ms,
+            0,
+            self.MAX_FIXATION_MS,
+            hint="whole milliseconds of fixation after each saccade",
+        )
         max_amplitude_deg = checks.real("max_amplitude_deg", max_amplitude_deg, 0.0, 60.0, lo_open=True)
         self.vergence = checks.flag("vergence", vergence)
         self.include_coeffs = checks.flag("include_coeffs", include_coeffs)
@@ -157,7 +185,8 @@ class BinocularSaccadeEnv(gym.Env):
         self.task = make_task(task, **(task_kwargs or {}))
         if scene is not None and scene not in models.SCENES:
             raise (ValueError if isinstance(scene, str) else checks.InputTypeError)(
-                f"unknown scene {scene!r}; choose one of {', '.join(models.SCENES)}")
+                f"unknown scene {scene!r}; choose one of {', '.join(models.SCENES)}"
+            )
         self.scene = scene or self.task.scene
         self.action_mode = action_mode
         self.render_mode = render_mode
@@ -166,18 +195,34 @@ class BinocularSaccadeEnv(gym.Env):
         self.remap_models = remap_models
         self.cortex = cortex
 
-        self.head = models.Head(self.scene, image_size=image_size, fovy_deg=fovy_deg, quality=quality, seed=0,
-                                endpoint_noise=endpoint_noise, saccade_model=saccade_model, generator=generator,
-                                eye_drive=eye_drive, motor_noise=motor_noise)
+        self.head = models.Head(
+            self.scene,
+            image_size=image_size,
+            fovy_deg=fovy_deg,
+            quality=quality,
+            seed=0,
+            endpoint_noise=endpoint_noise,
+            saccade_model=saccade_model,
+            generator=generator,
+            eye_drive=eye_drive,
+            motor_noise=motor_noise,
+        )
         try:
             self.task.check_scene(self.head)
         except ValueError:
             self.head.close()
             raise
         try:
-            self.vision = Vision(self.head.image_shape, self.head.pixels_per_unit, fovea_deg=fovea_deg,
-                                 n_sectors=n_sectors, grayscale=grayscale, sampling=sampling, shift_rings=shift_rings,
-                                 pooled_remap=pooled_remap)
+            self.vision = Vision(
+                self.head.image_shape,
+                self.head.pixels_per_unit,
+                fovea_deg=fovea_deg,
+                n_sectors=n_sectors,
+                grayscale=grayscale,
+                sampling=sampling,
+                shift_rings=shift_rings,
+                pooled_remap=pooled_remap,
+            )
             g = self.vision.grid
             if cortex == "hemispheres" and g.N % 4:
                 raise ValueError(f"cortex='hemispheres' needs N divisible by 4; got n_sectors={g.N}")
@@ -218,14 +263,15 @@ class BinocularSaccadeEnv(gym.Env):
         per_eye_errors = self.vision._frame_errors(values, valid, self._seen)
         errors = {m: float(e) for m, e in zip(self.remap_models, per_eye_errors.mean(axis=0))}
         g = self.vision.grid
-        chosen = values[:, self.remap_models.index(self.remap_model), g.n_fovea:]  # invalid cells hold 0
+        chosen = values[:, self.remap_models.index(self.remap_model), g.n_fovea :]  # invalid cells hold 0
         self._remapped = self._cortical(chosen.reshape(2, g.M, g.N, -1))
         reward, success, tinfo = self.task.score(self.head)
         self._saccades += 1
         terminated, truncated = (bool(f) for f in core.episode_end(success, self._saccades, self.task.max_saccades))
         landing = _gaze_errors_deg(self.head, plan.intended_target).mean()
-        info = core.step_info(self.head.time_ms, errors, core.saccade_info(plan), float(landing), self.head.eye_angles,
-                              clipped, tinfo)
+        info = core.step_info(
+            self.head.time_ms, errors, core.saccade_info(plan), float(landing), self.head.eye_angles, clipped, tinfo
+        )
         return self._observation(), float(reward), terminated, truncated, info
 
     @property
@@ -270,14 +316,19 @@ class BinocularSaccadeEnv(gym.Env):
         if self.include_coeffs:
             cf = np.stack([v.coeffs for v in self._views])
             coeffs = np.stack([cf.real, cf.imag], axis=-1).astype(np.float32)
-        return core.observation(self._cortical(self._seen.periphery),
-                                np.clip(self._seen.fovea, 0.0, 1.0).astype(np.float32), self._remapped.copy(),
-                                self.head.eye_position_signal().astype(np.float32), coeffs)
+        return core.observation(
+            self._cortical(self._seen.periphery),
+            np.clip(self._seen.fovea, 0.0, 1.0).astype(np.float32),
+            self._remapped.copy(),
+            self.head.eye_position_signal().astype(np.float32),
+            coeffs,
+        )
 
     def _decode(self, action) -> tuple[float, float, float]:
         """Action -> (horizontal, vertical) Fick increments (rad) and a fixation-distance factor."""
-        hv, factor = decode_actions(action, self.action_space.shape, cells=self._cells, max_amplitude=self.max_amplitude,
-                                    vergence=self.vergence)
+        hv, factor = decode_actions(
+            action, self.action_space.shape, cells=self._cells, max_amplitude=self.max_amplitude, vergence=self.vergence
+        )
         return float(hv[0, 0]), float(hv[0, 1]), float(factor[0])
 
     def _plan(self, h: float, v: float, factor: float):

@@ -37,7 +37,9 @@ class PotentialShaping(gym.Wrapper):
 
     def __init__(self, env: gym.Env, gamma: float = 0.9, scale_deg: float = 10.0) -> None:
         if not isinstance(env, gym.Env):
-            raise checks.InputTypeError(f"env must be a gymnasium.Env (a BinocularSaccadeEnv); got {type(env).__name__}")
+            raise checks.InputTypeError(
+                f"env must be a gymnasium.Env (a BinocularSaccadeEnv); got {type(env).__name__}"
+            )
         base = env.unwrapped
         if not (hasattr(base, "head") and hasattr(base, "task")):
             raise checks.InputTypeError(f"env must wrap a BinocularSaccadeEnv; got {type(base).__name__}")

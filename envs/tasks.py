@@ -22,7 +22,16 @@ from conformal.kernels import DISK_CACHE
 
 from . import core
 
-__all__ = ["Task", "FixateTask", "SearchTask", "FreeViewingTask", "TASKS", "gaze_errors_deg", "gaze_errors", "make_task"]
+__all__ = [
+    "Task",
+    "FixateTask",
+    "SearchTask",
+    "FreeViewingTask",
+    "TASKS",
+    "gaze_errors_deg",
+    "gaze_errors",
+    "make_task",
+]
 
 
 def _check_head(head) -> None:
@@ -47,7 +56,9 @@ def gaze_errors(positions: np.ndarray, axes: np.ndarray, points: np.ndarray) -> 
     if pts.shape[:-1] != lead:
         pts = np.broadcast_to(pts, lead + (3,))
     out = np.empty(lead + (2,))
-    _gaze_errors(pos.reshape(-1, 2, 3), np.asarray(axes, float).reshape(-1, 2, 3), pts.reshape(-1, 3), out.reshape(-1, 2))
+    _gaze_errors(
+        pos.reshape(-1, 2, 3), np.asarray(axes, float).reshape(-1, 2, 3), pts.reshape(-1, 3), out.reshape(-1, 2)
+    )
     return out
 
 
@@ -69,8 +80,12 @@ def _gaze_errors_deg(head: models.Head, point: np.ndarray) -> np.ndarray:
     if min(math.dist(p, left.camera_position), math.dist(p, right.camera_position)) < 1e-9:
         raise ValueError("point lies at an eye's nodal point, where no line of sight is defined")
     out = np.empty((1, 2))
-    _gaze_errors(np.array([[left.camera_position, right.camera_position]]),
-                 np.array([[left.eye_axes[:, 1], right.eye_axes[:, 1]]]), p.reshape(1, 3), out)
+    _gaze_errors(
+        np.array([[left.camera_position, right.camera_position]]),
+        np.array([[left.eye_axes[:, 1], right.eye_axes[:, 1]]]),
+        p.reshape(1, 3),
+        out,
+    )
     return out[0]
 
 
@@ -100,7 +115,8 @@ class Task:
     def __post_init__(self) -> None:
         if self.scene not in models.SCENES:
             raise (ValueError if isinstance(self.scene, str) else checks.InputTypeError)(
-                f"scene must be one of {', '.join(models.SCENES)}; got {self.scene!r}")
+                f"scene must be one of {', '.join(models.SCENES)}; got {self.scene!r}"
+            )
         self.max_saccades = checks.integer("max_saccades", self.max_saccades, 1, self.MAX_SACCADES)
         self.tolerance_deg = checks.real("tolerance_deg", self.tolerance_deg, 0.0, 45.0, lo_open=True)
         self.saccade_cost = checks.real("saccade_cost", self.saccade_cost, 0.0, 10.0)
@@ -109,8 +125,10 @@ class Task:
         """Raise ValueError if ``head``'s scene lacks what this task needs."""
         _check_head(head)
         if "target" not in head.scene.objects:
-            raise ValueError(f"task {self.name!r} needs a 'target' object; scene {head.scene.name!r} has none "
-                             f"(use scene 'dots' or 'search', or task 'free')")
+            raise ValueError(
+                f"task {self.name!r} needs a 'target' object; scene {head.scene.name!r} has none "
+                f"(use scene 'dots' or 'search', or task 'free')"
+            )
 
     def initialize_episode(self, head: models.Head, rng: np.random.Generator) -> None:
         """Place the task's objects (the head has just been reset; ``rng`` a ``numpy.random.Generator``):
@@ -172,8 +190,9 @@ class FixateTask(Task):
         super().__post_init__()
         # the dots screen (1 m ahead) spans about +-33 deg vertically
         self.min_ecc_deg = checks.real("min_ecc_deg", self.min_ecc_deg, 0.0, 30.0)
-        self.max_ecc_deg = checks.real("max_ecc_deg", self.max_ecc_deg, self.min_ecc_deg, 30.0,
-                                       hint="and >= min_ecc_deg")
+        self.max_ecc_deg = checks.real(
+            "max_ecc_deg", self.max_ecc_deg, self.min_ecc_deg, 30.0, hint="and >= min_ecc_deg"
+        )
 
     def check_scene(self, head) -> None:
         super().check_scene(head)
@@ -189,8 +208,10 @@ class FixateTask(Task):
 
     def score_errors(self, err_deg):
         success = np.all(err_deg <= self.tolerance_deg, axis=1)
-        parts = {"reward_target": np.exp(-0.5 * (err_deg.mean(axis=1) / self.tolerance_deg) ** 2),
-                 "reward_saccade": np.full(len(err_deg), -self.saccade_cost)}
+        parts = {
+            "reward_target": np.exp(-0.5 * (err_deg.mean(axis=1) / self.tolerance_deg) ** 2),
+            "reward_saccade": np.full(len(err_deg), -self.saccade_cost),
+        }
         return self._total(parts), success, parts
 
 
@@ -209,7 +230,10 @@ class SearchTask(Task):
 
     def score_errors(self, err_deg):
         success = np.all(err_deg <= self.tolerance_deg, axis=1)
-        parts = {"reward_target": np.where(success, 1.0, 0.0), "reward_saccade": np.full(len(err_deg), -self.saccade_cost)}
+        parts = {
+            "reward_target": np.where(success, 1.0, 0.0),
+            "reward_saccade": np.full(len(err_deg), -self.saccade_cost),
+        }
         return self._total(parts), success, parts
 
 
@@ -243,14 +267,19 @@ def make_task(task: str | Task, **kwargs) -> Task:
     ``Task`` instance (then no keyword arguments)."""
     if isinstance(task, Task):
         if kwargs:
-            raise ValueError(f"keyword arguments ({', '.join(kwargs)}) configure a task given by name; "
-                             f"{type(task).__name__} is already built: set them on it instead")
+            raise ValueError(
+                f"keyword arguments ({', '.join(kwargs)}) configure a task given by name; "
+                f"{type(task).__name__} is already built: set them on it instead"
+            )
         return task
     if task not in TASKS:
         raise (ValueError if isinstance(task, str) else checks.InputTypeError)(
-            f"unknown task {task!r}; choose one of {', '.join(TASKS)} or pass a Task")
+            f"unknown task {task!r}; choose one of {', '.join(TASKS)} or pass a Task"
+        )
     fields = set(TASKS[task].__dataclass_fields__)
     unknown = sorted(set(kwargs) - fields)
     if unknown:
-        raise ValueError(f"task {task!r} has no argument {', '.join(unknown)}; its arguments: {', '.join(sorted(fields))}")
+        raise ValueError(
+            f"task {task!r} has no argument {', '.join(unknown)}; its arguments: {', '.join(sorted(fields))}"
+        )
     return TASKS[task](**kwargs)

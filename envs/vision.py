@@ -73,8 +73,10 @@ def normalized_error(pred: C.RetinaSamples, actual: EyeView) -> float:
     if not isinstance(actual, EyeView):
         raise checks.InputTypeError(f"actual must be an EyeView; got {type(actual).__name__}")
     if np.shape(pred.periphery) != actual.periphery.shape or np.shape(pred.fovea) != actual.fovea.shape:
-        raise ValueError(f"pred and actual must be samples of one retina: periphery {np.shape(pred.periphery)} vs "
-                         f"{actual.periphery.shape}, fovea {np.shape(pred.fovea)} vs {actual.fovea.shape}")
+        raise ValueError(
+            f"pred and actual must be samples of one retina: periphery {np.shape(pred.periphery)} vs "
+            f"{actual.periphery.shape}, fovea {np.shape(pred.fovea)} vs {actual.fovea.shape}"
+        )
     for name, a in (("pred", pred.periphery), ("pred", pred.fovea)):
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{name} contains NaN or infinite samples")
@@ -165,9 +167,18 @@ class Vision:
     Images are (H, W, 3): uint8, or floats in [0, 1].
     """
 
-    def __init__(self, image_shape: tuple[int, int], pixels_per_unit: float, *, fovea_deg: float = 3.0,
-                 n_sectors: int | None = None, grayscale: bool = False, sampling: str = "pool",
-                 shift_rings: float = 0.0, pooled_remap: bool = POOLED_REMAP_DEFAULT) -> None:
+    def __init__(
+        self,
+        image_shape: tuple[int, int],
+        pixels_per_unit: float,
+        *,
+        fovea_deg: float = 3.0,
+        n_sectors: int | None = None,
+        grayscale: bool = False,
+        sampling: str = "pool",
+        shift_rings: float = 0.0,
+        pooled_remap: bool = POOLED_REMAP_DEFAULT,
+    ) -> None:
         if isinstance(image_shape, (str, bytes)) or not hasattr(image_shape, "__len__"):
             raise checks.InputTypeError(f"image_shape must be an (H, W) pair; got {image_shape!r}")
         if len(image_shape) != 2:
@@ -181,14 +192,21 @@ class Vision:
         r0 = math.tan(math.radians(fovea_deg))
         rb = min(h, w) / 2 / pixels_per_unit  # inscribed: every cell lies inside the picture
         if r0 >= rb:
-            raise ValueError(f"fovea_deg = {fovea_deg} covers the whole {h}x{w} picture (r0 = {r0:.3g} >= "
-                             f"r_b = {rb:.3g}); use a smaller fovea or a larger image")
+            raise ValueError(
+                f"fovea_deg = {fovea_deg} covers the whole {h}x{w} picture (r0 = {r0:.3g} >= "
+                f"r_b = {rb:.3g}); use a smaller fovea or a larger image"
+            )
         if n_sectors is None:
             n_sectors = 4 * math.ceil(round(2 * math.pi * r0 * pixels_per_unit + math.pi) / 4)
         n_sectors = checks.integer("n_sectors", n_sectors, 4, 4096, hint="or None for the paper's rule")
         self.grid = C.RetinaGrid.from_field_of_view(rb, r0, n_sectors)
-        self.shift_rings = checks.real("shift_rings", shift_rings, -self.grid.M, self.grid.M,
-                                       hint=f"a log-radius shift within this retina's {self.grid.M} rings")
+        self.shift_rings = checks.real(
+            "shift_rings",
+            shift_rings,
+            -self.grid.M,
+            self.grid.M,
+            hint=f"a log-radius shift within this retina's {self.grid.M} rings",
+        )
         self.channels = 1 if grayscale else 3
         self.grayscale = grayscale
         self.retina = C.Retina(self.grid, (h, w, 3), pixels_per_unit, mode=sampling)
@@ -220,15 +238,18 @@ class Vision:
         # scale the few samples, not the whole picture (sampling is linear)
         is_uint8 = [im.dtype == np.uint8 for im in imgs]
         if any(im.dtype.kind == "u" and im.dtype != np.uint8 for im in imgs):
-            raise checks.InputTypeError("images must be uint8 (0..255) or floats in [0, 1]; got "
-                                        f"{', '.join(str(im.dtype) for im in imgs)}")
+            raise checks.InputTypeError(
+                f"images must be uint8 (0..255) or floats in [0, 1]; got {', '.join(str(im.dtype) for im in imgs)}"
+            )
         if any(is_uint8) and not all(is_uint8):
             raise ValueError("the eyes' images must all be uint8 or all be float")
         if not is_uint8[0]:
             for im in imgs:
                 if im.size and np.isfinite(im).all() and not (im.min() >= -1e-6 and im.max() <= 1 + 1e-6):
-                    raise ValueError(f"float images must hold intensities in [0, 1]; got values in "
-                                     f"[{im.min():.4g}, {im.max():.4g}] (pass uint8 images for 0..255)")
+                    raise ValueError(
+                        f"float images must hold intensities in [0, 1]; got values in "
+                        f"[{im.min():.4g}, {im.max():.4g}] (pass uint8 images for 0..255)"
+                    )
         return imgs, (1.0 / 255.0 if is_uint8[0] else 1.0)
 
     def _see_frame(self, images) -> _Frame:
@@ -277,27 +298,31 @@ class Vision:
             C.target_shift_map(0j, self.shift_rings, self.grid.delta)
         return point_map_params(models, r, self.shift_rings, self.grid.delta)
 
-    def predict(self, view: EyeView, model: str, rotation_eye: NDArray[np.float64], *,
-                pooled: bool | None = None) -> C.RetinaSamples:
+    def predict(
+        self, view: EyeView, model: str, rotation_eye: NDArray[np.float64], *, pooled: bool | None = None
+    ) -> C.RetinaSamples:
         """Predicted post-saccadic samples from the pre-saccadic coefficients and the efference copy.
 
         ``pooled``: average each prediction over its receptive field (``conformal.RemapPlan``'s
         ``pooled``) or take the series at the field's centre; None: this Vision's ``pooled_remap``."""
         return self.predict_models(view, (model,), rotation_eye, pooled=pooled)[model]
 
-    def predict_models(self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64], *,
-                       pooled: bool | None = None) -> dict[str, C.RetinaSamples]:
+    def predict_models(
+        self, view: EyeView, models: tuple[str, ...], rotation_eye: NDArray[np.float64], *, pooled: bool | None = None
+    ) -> dict[str, C.RetinaSamples]:
         """``predict`` for several remapping models at once."""
         return self.predict_eyes((view,), models, (rotation_eye,), pooled=pooled)[0]
 
-    def predict_eyes(self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *,
-                     pooled: bool | None = None) -> list[dict[str, C.RetinaSamples]]:
+    def predict_eyes(
+        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *, pooled: bool | None = None
+    ) -> list[dict[str, C.RetinaSamples]]:
         """``predict_models`` for several eyes, each with its own efference copy: [eye]{model: samples}."""
         values, valid = self.predict_arrays(views, models, rotations_eye, pooled=pooled)
         return [dict(zip(models, per_eye)) for per_eye in self.plan.samples(values, valid)]
 
-    def predict_arrays(self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *,
-                       pooled: bool | None = None) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    def predict_arrays(
+        self, views: tuple[EyeView, ...], models: tuple[str, ...], rotations_eye, *, pooled: bool | None = None
+    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """The predictions as arrays in retina order: values (E, K, N_f + M N, C) float32 and
         valid (E, K, N_f + M N), for E eyes and the K ``models`` (``conformal.RemapPlan``).
 
@@ -310,14 +335,16 @@ class Vision:
         fovea = np.stack([v.fovea for v in views])
         return self.plan(coeffs, fovea, maps, pooled=pooled)
 
-    def _predict_frame(self, frame: _Frame, models: tuple[str, ...],
-                       rotations_eye) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    def _predict_frame(
+        self, frame: _Frame, models: tuple[str, ...], rotations_eye
+    ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
         """``predict_arrays(frame.views, models, rotations_eye)`` (``pooled`` as this Vision's
         ``pooled_remap``) for a ``_Frame`` of this Vision (``_see_frame``) and ``models`` already
         checked; the rotations are checked (one per eye)."""
         if len(rotations_eye) != len(frame.views):
-            raise ValueError(f"rotations_eye must hold one 3x3 rotation per view ({len(frame.views)}); "
-                             f"got {len(rotations_eye)}")
+            raise ValueError(
+                f"rotations_eye must hold one 3x3 rotation per view ({len(frame.views)}); got {len(rotations_eye)}"
+            )
         kinds, params = self.map_params(models, rotations_eye)
         return self.plan.evaluate_prechecked(frame.coeffs, frame.fovea, kinds, params, self.pooled_remap)
 
@@ -341,13 +368,16 @@ class Vision:
     def _check_predict_args(self, views, models, rotations_eye):
         views = self._check_views(views)
         if isinstance(models, str) or not isinstance(models, (list, tuple)) or not models:
-            raise checks.InputTypeError(f"models must be a non-empty tuple of model names from {REMAP_MODELS}; "
-                                        f"got {models!r:.60}")
+            raise checks.InputTypeError(
+                f"models must be a non-empty tuple of model names from {REMAP_MODELS}; got {models!r:.60}"
+            )
         for m in models:
             checks.choice("each model", m, REMAP_MODELS)
         r = checks.array("rotations_eye", rotations_eye, kinds="biuf")
         if r.shape != (len(views), 3, 3):
-            raise ValueError(f"rotations_eye must hold one 3x3 rotation per view: shape ({len(views)}, 3, 3); got {r.shape}")
+            raise ValueError(
+                f"rotations_eye must hold one 3x3 rotation per view: shape ({len(views)}, 3, 3); got {r.shape}"
+            )
         return views, tuple(models), r
 
     def errors(self, values: NDArray, valid: NDArray, views: tuple[EyeView, ...]) -> NDArray[np.float64]:
@@ -357,8 +387,10 @@ class Vision:
         chans = views[0].periphery.shape[2:]
         values = checks.array("values", values, kinds="f", ndim=4)
         if values.shape[0] != len(views) or values.shape[2:] != (n_points,) + chans:
-            raise ValueError(f"values must be (E, K, P, C) = ({len(views)}, K, {n_points}, {chans[0]}) (predict_arrays' "
-                             f"output); got {values.shape}")
+            raise ValueError(
+                f"values must be (E, K, P, C) = ({len(views)}, K, {n_points}, {chans[0]}) (predict_arrays' "
+                f"output); got {values.shape}"
+            )
         valid = checks.array("valid", valid, kinds="b", shape=values.shape[:3])
         actual = np.stack([v.samples for v in views])
         return _errors(values, valid, actual, views[0].valid)
@@ -367,13 +399,19 @@ class Vision:
 def model_errors(predictions: list[dict[str, C.RetinaSamples]], actual: tuple[EyeView, ...]) -> dict[str, float]:
     """{model: ``normalized_error`` of its prediction, mean over the eyes}: ``predictions`` [eye]{model:
     samples} (``Vision.predict_eyes``) and ``actual`` the views of the same eyes."""
-    if not isinstance(predictions, (list, tuple)) or not predictions or not all(
-            isinstance(p, dict) and p for p in predictions):
-        raise checks.InputTypeError("predictions must be a non-empty list (one per eye) of non-empty "
-                                    f"{{model: RetinaSamples}} dicts; got {predictions!r:.60}")
+    if (
+        not isinstance(predictions, (list, tuple))
+        or not predictions
+        or not all(isinstance(p, dict) and p for p in predictions)
+    ):
+        raise checks.InputTypeError(
+            "predictions must be a non-empty list (one per eye) of non-empty "
+            f"{{model: RetinaSamples}} dicts; got {predictions!r:.60}"
+        )
     if not isinstance(actual, (list, tuple)) or len(actual) != len(predictions):
-        raise ValueError(f"actual must hold one EyeView per eye of predictions ({len(predictions)}); got {actual!r:.60}")
+        raise ValueError(
+            f"actual must hold one EyeView per eye of predictions ({len(predictions)}); got {actual!r:.60}"
+        )
     if any(set(p) != set(predictions[0]) for p in predictions):
         raise ValueError("every eye's predictions must name the same models")
-    return {m: float(np.mean([normalized_error(p[m], a) for p, a in zip(predictions, actual)]))
-            for m in predictions[0]}
+    return {m: float(np.mean([normalized_error(p[m], a) for p, a in zip(predictions, actual)])) for m in predictions[0]}

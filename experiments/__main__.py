@@ -20,30 +20,41 @@ from .cli import HintingParser
 #: command -> (module that registers it, one-line help), in the order ``--help`` lists them. A
 #: module that registers several commands lists them here consecutively, in its own order.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "run": ("experiments.psychophysics.study.cli",
-            "perisaccadic flash-localization study (table, figures, summary, Rerun recording)"),
-    "saccades": ("experiments.oculomotor.saccades",
-                 "saccade kinematics vs the published main sequence (figure, table)"),
-    "phenomena": ("experiments.psychophysics.phenomena",
-                  "which published perisaccadic phenomena each theory predicts (table with CIs, "
-                  "calibrated/predicted, figures)"),
+    "run": (
+        "experiments.psychophysics.study.cli",
+        "perisaccadic flash-localization study (table, figures, summary, Rerun recording)",
+    ),
+    "saccades": (
+        "experiments.oculomotor.saccades",
+        "saccade kinematics vs the published main sequence (figure, table)",
+    ),
+    "phenomena": (
+        "experiments.psychophysics.phenomena",
+        "which published perisaccadic phenomena each theory predicts (table with CIs, calibrated/predicted, figures)",
+    ),
     "fit": ("experiments.modelfit.cli", "fit a perception model to localization data (maximum likelihood)"),
     "compare": ("experiments.modelfit.cli", "fit several models to the same data and rank them (AIC, BIC, LRT)"),
-    "simulate": ("experiments.modelfit.cli",
-                 "simulate a localization data set from a model (for recovery checks)"),
-    "recovery": ("experiments.modelfit.recovery",
-                 "model recovery: simulate from each theory, fit every theory, confusion matrix of delta AIC"),
-    "crossval": ("experiments.modelfit.crossval",
-                 "cross-validation: fit each theory on some conditions, predict held-out ones (dark, marker, "
-                 "the 2-D shape): which theory generalises"),
-    "visualize": ("experiments.recording",
-                  "record a run of the environment in Rerun (--out FILE.rrd, --serve or --spawn)"),
-    "view": ("experiments.recording",
-             "open .rrd recordings in Rerun's web viewer on 127.0.0.1 (no display needed)"),
+    "simulate": ("experiments.modelfit.cli", "simulate a localization data set from a model (for recovery checks)"),
+    "recovery": (
+        "experiments.modelfit.recovery",
+        "model recovery: simulate from each theory, fit every theory, confusion matrix of delta AIC",
+    ),
+    "crossval": (
+        "experiments.modelfit.crossval",
+        "cross-validation: fit each theory on some conditions, predict held-out ones (dark, marker, "
+        "the 2-D shape): which theory generalises",
+    ),
+    "visualize": (
+        "experiments.recording",
+        "record a run of the environment in Rerun (--out FILE.rrd, --serve or --spawn)",
+    ),
+    "view": ("experiments.recording", "open .rrd recordings in Rerun's web viewer on 127.0.0.1 (no display needed)"),
     "train": ("experiments.agents.cli", "train a saccade agent: CEM linear cell policy (default), PPO or SAC"),
     "evaluate": ("experiments.agents.cli", "evaluate a saved, random or heuristic policy; prints one JSON line"),
-    "baselines": ("experiments.agents.cli",
-                  "train and evaluate agents x seeds on a task: IQM table with bootstrap CIs and curves"),
+    "baselines": (
+        "experiments.agents.cli",
+        "train and evaluate agents x seeds on a task: IQM table with bootstrap CIs and curves",
+    ),
 }
 
 #: command modules, in the order shown by --help

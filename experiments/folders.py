@@ -30,8 +30,22 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Interrupted", "interruptible", "LockBusyError", "path_lock", "atomic_write_text", "atomic_write_bytes", "save_figure",
-           "write_json", "write_csv", "json_safe", "die_with_parent", "die_with", "check_path_length", "os_error_text"]
+__all__ = [
+    "Interrupted",
+    "interruptible",
+    "LockBusyError",
+    "path_lock",
+    "atomic_write_text",
+    "atomic_write_bytes",
+    "save_figure",
+    "write_json",
+    "write_csv",
+    "json_safe",
+    "die_with_parent",
+    "die_with",
+    "check_path_length",
+    "os_error_text",
+]
 
 
 class LockBusyError(RuntimeError):
@@ -57,11 +71,15 @@ def check_path_length(path: os.PathLike | str) -> None:
         name_max, path_max = 255, 4096
     for part in p.parts:
         if len(os.fsencode(part)) > name_max:
-            raise ValueError(f"the name {part[:40]!r}... is {len(os.fsencode(part))} bytes long; this file system "
-                             f"allows {name_max}: choose a shorter name")
+            raise ValueError(
+                f"the name {part[:40]!r}... is {len(os.fsencode(part))} bytes long; this file system "
+                f"allows {name_max}: choose a shorter name"
+            )
     if len(os.fsencode(str(p.absolute()))) >= path_max:
-        raise ValueError(f"the path is {len(os.fsencode(str(p.absolute())))} bytes long; this file system allows "
-                         f"{path_max - 1}: choose a shorter path")
+        raise ValueError(
+            f"the path is {len(os.fsencode(str(p.absolute())))} bytes long; this file system allows "
+            f"{path_max - 1}: choose a shorter path"
+        )
 
 
 def _unique_tmp(target: Path) -> tuple[int, str]:
@@ -180,8 +198,10 @@ def path_lock(lock_path: os.PathLike | str, what: str = "the folder") -> Iterato
             except OSError:
                 owner = ""
             os.close(fd)
-            raise LockBusyError(f"{what} is in use by another run{f' (pid {owner})' if owner.isdigit() else ''}"
-                                ": wait for it to finish, or use another --out") from None
+            raise LockBusyError(
+                f"{what} is in use by another run{f' (pid {owner})' if owner.isdigit() else ''}"
+                ": wait for it to finish, or use another --out"
+            ) from None
         try:
             same = os.fstat(fd).st_ino == os.stat(path).st_ino
         except FileNotFoundError:

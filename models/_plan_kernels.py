@@ -28,8 +28,22 @@ import numba as nb
 
 from conformal.kernels import DISK_CACHE
 
-__all__ = ["SACCADES_PER_THREAD", "kernel_threads", "limit_plan_threads", "angles", "burst_loop", "rates", "signals", "profile_marks", "profile_values", "listing_torsion", "vergence_fraction", "vergence_rate",
-           "legacy_position", "legacy_rate"]
+__all__ = [
+    "SACCADES_PER_THREAD",
+    "kernel_threads",
+    "limit_plan_threads",
+    "angles",
+    "burst_loop",
+    "rates",
+    "signals",
+    "profile_marks",
+    "profile_values",
+    "listing_torsion",
+    "vergence_fraction",
+    "vergence_rate",
+    "legacy_position",
+    "legacy_rate",
+]
 
 _inline = nb.njit(cache=DISK_CACHE, nogil=True, inline="always")
 #: Saccades per numba thread of the parallel loops: below 2 x this, one thread (measured in
@@ -70,6 +84,7 @@ def kernel_threads(n: int) -> Iterator[int]:
 
 def _par(f):
     """A parallel loop over the rows of its last argument (``out``), run under :func:`kernel_threads`."""
+
     @functools.wraps(f)
     def call(*args):
         with kernel_threads(args[-1].shape[0]):
@@ -270,13 +285,19 @@ def _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants,
     s0 = s_nom if plants[w, 0] == 0 else _position(tab, dt, prof, w, t, plants[w, 0], legacy, m0, vpk)
     s1 = s_nom if plants[w, 1] == 0 else _position(tab, dt, prof, w, t, plants[w, 1], legacy, m0, vpk)
     version = plan[w, 2]
-    return (s_nom, start[w, 0, 0] + version * s0 + plan[w, 5] * r, start[w, 0, 1] + plan[w, 3] * s_nom,
-            start[w, 1, 0] + version * s1 + plan[w, 6] * r, start[w, 1, 1] + plan[w, 4] * s_nom)
+    return (
+        s_nom,
+        start[w, 0, 0] + version * s0 + plan[w, 5] * r,
+        start[w, 0, 1] + plan[w, 3] * s_nom,
+        start[w, 1, 0] + version * s1 + plan[w, 6] * r,
+        start[w, 1, 1] + plan[w, 4] * s_nom,
+    )
 
 
 @_par
-def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end,
-           t_rel, out):  # pragma: no cover - compiled
+def angles(
+    tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, t_rel, out
+):  # pragma: no cover - compiled
     """Fick angles (h, v, Listing torsion) of both eyes, out (n, T, 2, 3), of n saccades at ``t_rel``
     (n, T) ms after their onsets. Arguments: see :func:`_hv` (``end``: executed or intended endpoint)."""
     n, T = t_rel.shape
@@ -287,23 +308,26 @@ def angles(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plan
                     for c in range(3):
                         out[w, k, e, c] = out[w, k - 1, e, c]
                 continue
-            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start,
-                                    end, w, t_rel[w, k])
+            _, h0, v0, h1, v1 = _hv(
+                tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, w, t_rel[w, k]
+            )
             out[w, k, 0, 0], out[w, k, 0, 1], out[w, k, 0, 2] = h0, v0, _listing(h0, v0)
             out[w, k, 1, 0], out[w, k, 1, 1], out[w, k, 1, 2] = h1, v1, _listing(h1, v1)
 
 
 @_par
-def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end,
-          t_rel, out):  # pragma: no cover - compiled
+def rates(
+    tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, t_rel, out
+):  # pragma: no cover - compiled
     """Rates (rad/ms) of the Fick angles of both eyes, out (n, T, 2, 3), at ``t_rel`` (n, T); torsion's
     by the chain rule of Listing's ``tan(t/2) = tan(h/2) tan(v/2)``."""
     n, T = t_rel.shape
     for w in nb.prange(n):
         for k in range(T):
             t = t_rel[w, k]
-            _, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start,
-                                    end, w, t)
+            _, h0, v0, h1, v1 = _hv(
+                tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, w, t
+            )
             if t >= plan[w, 0]:
                 for e in range(2):
                     for c in range(3):
@@ -318,7 +342,7 @@ def rates(tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency,
                 h, v = (h0, v0) if e == 0 else (h1, v1)
                 th, tv = math.tan(h / 2), math.tan(v / 2)
                 out[w, k, e, 0], out[w, k, e, 1] = dh, dv
-                out[w, k, e, 2] = (1.0 / (1.0 + (th * tv) ** 2)) * ((1 + th ** 2) * tv * dh + th * (1 + tv ** 2) * dv)
+                out[w, k, e, 2] = (1.0 / (1.0 + (th * tv) ** 2)) * ((1 + th**2) * tv * dh + th * (1 + tv**2) * dv)
 
 
 @_inline
@@ -328,8 +352,9 @@ def _norm(x, s, e, s_nom):  # pragma: no cover - compiled
 
 
 @_par
-def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, knot, count,
-            t_rel, sigma, out):  # pragma: no cover - compiled
+def signals(
+    tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, knot, count, t_rel, sigma, out
+):  # pragma: no cover - compiled
     """The eye-position signal's normalised time course (``models.EyePositionSignal``), out (n, m, 4)
     [(h, v) of the left eye, then the right], at ``t_rel`` (n, m) (already less the delay): the intended
     profile normalised per component at count[w] knots every ``knot`` ms, its increments spread by the
@@ -342,8 +367,9 @@ def signals(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, pla
                 out[w, j, c] = 0.0
         p0 = p1 = p2 = p3 = 0.0
         for k in range(count[w]):
-            s_nom, h0, v0, h1, v1 = _hv(tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants,
-                                        start, end, w, k * knot)
+            s_nom, h0, v0, h1, v1 = _hv(
+                tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, w, k * knot
+            )
             c0 = _norm(h0, start[w, 0, 0], end[w, 0, 0], s_nom)
             c1 = _norm(v0, start[w, 0, 1], end[w, 0, 1], s_nom)
             c2 = _norm(h1, start[w, 1, 0], end[w, 1, 0], s_nom)

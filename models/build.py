@@ -9,8 +9,17 @@ from conformal import checks
 from ._gl import mujoco
 from .scenes import SCENES, SceneInfo, add_scene
 
-__all__ = ["HEAD_XML", "QUALITIES", "DEFAULT_FOVY_DEG", "DEFAULT_IPD", "ModelFileError",
-           "build_spec", "build_model", "export_xml", "load_model"]
+__all__ = [
+    "HEAD_XML",
+    "QUALITIES",
+    "DEFAULT_FOVY_DEG",
+    "DEFAULT_IPD",
+    "ModelFileError",
+    "build_spec",
+    "build_model",
+    "export_xml",
+    "load_model",
+]
 
 HEAD_XML = Path(__file__).with_name("head.xml")
 #: Rendering quality presets: "fast" (no shadow map, no multisampling; the default, ~0.5 ms per
@@ -49,9 +58,15 @@ def _offscreen_size(size) -> tuple[int, int]:
     return tuple(checks.integer(f"offscreen_size[{i}]", v, 1, MAX_OFFSCREEN_SIDE) for i, v in enumerate(size))
 
 
-def build_spec(scene: str | None = "dots", *, ipd: float = DEFAULT_IPD, fovy_deg: float = DEFAULT_FOVY_DEG,
-               quality: str = "fast", offscreen_size: tuple[int, int] = (640, 480),
-               head_xml: str | Path | None = None) -> tuple[mujoco.MjSpec, SceneInfo | None]:
+def build_spec(
+    scene: str | None = "dots",
+    *,
+    ipd: float = DEFAULT_IPD,
+    fovy_deg: float = DEFAULT_FOVY_DEG,
+    quality: str = "fast",
+    offscreen_size: tuple[int, int] = (640, 480),
+    head_xml: str | Path | None = None,
+) -> tuple[mujoco.MjSpec, SceneInfo | None]:
     """Head + scene as an editable ``MjSpec`` and the scene's :class:`SceneInfo`.
 
     ``scene=None`` gives the head alone. ``ipd`` (m) sets the eye separation, ``fovy_deg`` both
@@ -60,10 +75,12 @@ def build_spec(scene: str | None = "dots", *, ipd: float = DEFAULT_IPD, fovy_deg
     """
     if scene is not None and scene not in SCENES:
         raise (ValueError if isinstance(scene, str) else checks.InputTypeError)(
-            f"unknown scene {scene!r}; choose one of {', '.join(SCENES)}")
+            f"unknown scene {scene!r}; choose one of {', '.join(SCENES)}"
+        )
     if quality not in QUALITIES:
         raise (ValueError if isinstance(quality, str) else checks.InputTypeError)(
-            f"unknown quality {quality!r}; choose one of {', '.join(QUALITIES)}")
+            f"unknown quality {quality!r}; choose one of {', '.join(QUALITIES)}"
+        )
     ipd = checks.real("ipd (metres)", ipd, 0.01, 0.15)
     fovy_deg = checks.real("fovy_deg", fovy_deg, 5.0, 170.0)
     width, height = _offscreen_size(offscreen_size)
@@ -118,7 +135,9 @@ def _write_spec(spec: mujoco.MjSpec, path: Path) -> None:
             (path.parent / name).write_bytes(data)
         path.write_text(spec.to_xml())
     except OSError as exc:
-        raise ModelFileError(f"cannot write the model to {path}: {exc.strerror or exc}; choose a writable path") from exc
+        raise ModelFileError(
+            f"cannot write the model to {path}: {exc.strerror or exc}; choose a writable path"
+        ) from exc
 
 
 def load_model(path: str | Path) -> mujoco.MjModel:

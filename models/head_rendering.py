@@ -45,8 +45,11 @@ class HeadRendering:
             if samples is not None:
                 raise ValueError("samples applies to an exposure; give exposure_ms > 0")
             return self.renderer.render(self.data, depth=depth, time_ms=self.time_ms)
-        n = (max(2, int(np.ceil(exposure_ms))) if samples is None
-             else checks.integer("samples", samples, 1, 1000, hint="renders averaged over the exposure"))
+        n = (
+            max(2, int(np.ceil(exposure_ms)))
+            if samples is None
+            else checks.integer("samples", samples, 1, 1000, hint="renders averaged over the exposure")
+        )
         if depth:
             raise ValueError("depth is not defined for an exposure; render depth with exposure_ms=0")
         m, d = self.model, self.data
@@ -70,8 +73,10 @@ class HeadRendering:
             d.qpos[:], d.qvel[:], d.act[:] = qpos, qvel, act
             mujoco.mj_forward(m, d)
         img = np.rint(acc / n).astype(np.uint8)
-        eyes = [dataclasses.replace(e, image=img[i], camera_position=poses[i][0], camera_xmat=poses[i][1])
-                for i, e in enumerate((frame.left, frame.right))]
+        eyes = [
+            dataclasses.replace(e, image=img[i], camera_position=poses[i][0], camera_xmat=poses[i][1])
+            for i, e in enumerate((frame.left, frame.right))
+        ]
         return StereoFrame(eyes[0], eyes[1], self.time_ms)
 
     def export_xml(self, path) -> None:

@@ -28,6 +28,7 @@ __all__ = ["SACCADE_MODELS", "SaccadePlan"]
 #: the earlier analytic main-sequence planner.
 SACCADE_MODELS = ("burst", "legacy")
 
+
 def _one(name: str, cast, doc: str) -> property:
     """A read-only property: ``cast`` of the first (the only) plan's ``name`` in the plan's batch."""
     return property(lambda self: cast(getattr(self._batch, name)[0]), doc=doc)
@@ -89,23 +90,31 @@ class SaccadePlan:
         if self.signal_start_angles is None:
             self.signal_start_angles = self.start_angles.copy()
         self.amplitude = checks.real("amplitude", self.amplitude, 0.0, np.pi, hint="radians")
-        self.intended_amplitude = (self.amplitude if self.intended_amplitude is None else
-                                   checks.real("intended_amplitude", self.intended_amplitude, 0.0, np.pi, hint="radians"))
+        self.intended_amplitude = (
+            self.amplitude
+            if self.intended_amplitude is None
+            else checks.real("intended_amplitude", self.intended_amplitude, 0.0, np.pi, hint="radians")
+        )
         if self.generator is None:
             self.generator = BurstGenerator()
         if not isinstance(self.generator, (BurstGenerator, MainSequence)):
-            raise checks.InputTypeError(f"generator must be a models.BurstGenerator or a models.MainSequence; "
-                                        f"got {type(self.generator).__name__}")
+            raise checks.InputTypeError(
+                f"generator must be a models.BurstGenerator or a models.MainSequence; "
+                f"got {type(self.generator).__name__}"
+            )
         self.legacy = isinstance(self.generator, MainSequence)
         if self.vergence is None and not self.legacy:
             self.vergence = VergenceDynamics()
         if self.vergence is not None and not isinstance(self.vergence, VergenceDynamics):
-            raise checks.InputTypeError(f"vergence must be a models.VergenceDynamics or None; got {type(self.vergence).__name__}")
+            raise checks.InputTypeError(
+                f"vergence must be a models.VergenceDynamics or None; got {type(self.vergence).__name__}"
+            )
         if self.eye_position is None:
             self.eye_position = EyePositionSignal()
         if not isinstance(self.eye_position, EyePositionSignal):
-            raise checks.InputTypeError(f"eye_position must be a models.EyePositionSignal or None; "
-                                        f"got {type(self.eye_position).__name__}")
+            raise checks.InputTypeError(
+                f"eye_position must be a models.EyePositionSignal or None; got {type(self.eye_position).__name__}"
+            )
         for name in ("target", "intended_target"):
             if getattr(self, name) is not None:
                 setattr(self, name, check_point(getattr(self, name), name))
@@ -113,10 +122,19 @@ class SaccadePlan:
         self._int_deg = float(np.rad2deg(self.intended_amplitude))
         nan3 = np.full(3, np.nan)
         self._batch = b = SaccadePlans(
-            self.onset_ms, self.start_angles, self.end_angles, self.intended_end_angles, self.amplitude,
-            self.intended_amplitude, self.signal_start_angles, nan3 if self.target is None else self.target,
-            nan3 if self.intended_target is None else self.intended_target, generator=self.generator,
-            vergence=self.vergence, eye_position=self.eye_position)
+            self.onset_ms,
+            self.start_angles,
+            self.end_angles,
+            self.intended_end_angles,
+            self.amplitude,
+            self.intended_amplitude,
+            self.signal_start_angles,
+            nan3 if self.target is None else self.target,
+            nan3 if self.intended_target is None else self.intended_target,
+            generator=self.generator,
+            vergence=self.vergence,
+            eye_position=self.eye_position,
+        )
         self.executed_rotation = b.executed_rotation[0]
         self.efference_copy = b.efference_copy[0]
         self.efference_copy_eye = b.efference_copy_eye[0]
@@ -124,11 +142,20 @@ class SaccadePlan:
     @classmethod
     def from_batch(cls, plans, k: int) -> SaccadePlan:
         """Plan ``k`` of a ``models.SaccadePlans`` batch as a single plan."""
-        return cls(onset_ms=int(plans.onset_ms[k]), start_angles=plans.start[k], end_angles=plans.end[k],
-                   amplitude=float(plans.amplitude[k]), generator=plans.generator, target=plans.target[k],
-                   intended_target=plans.intended_target[k], intended_end_angles=plans.intended_end[k],
-                   intended_amplitude=float(plans.intended_amplitude[k]), vergence=plans.vergence,
-                   eye_position=plans.eye_position, signal_start_angles=plans.signal_start[k])
+        return cls(
+            onset_ms=int(plans.onset_ms[k]),
+            start_angles=plans.start[k],
+            end_angles=plans.end[k],
+            amplitude=float(plans.amplitude[k]),
+            generator=plans.generator,
+            target=plans.target[k],
+            intended_target=plans.intended_target[k],
+            intended_end_angles=plans.intended_end[k],
+            intended_amplitude=float(plans.intended_amplitude[k]),
+            vergence=plans.vergence,
+            eye_position=plans.eye_position,
+            signal_start_angles=plans.signal_start[k],
+        )
 
     # -- summary numbers -------------------------------------------------------------------
     @property
@@ -140,12 +167,24 @@ class SaccadePlan:
         """The legacy kinematics, when this plan uses them (else None)."""
         return self.generator if self.legacy else None
 
-    duration_ms = _one('duration_ms', float, """Saccade duration: between the 30 deg/s crossings of the eye speed (burst generator), or onset until the speed falls below 20 deg/s (legacy main sequence).""")
-    settle_ms = _one('settle_ms', float, """Time after onset at which the trajectory (vergence included) has reached its endpoint.""")
-    offset_ms = _one('offset_ms', float, """Absolute time of saccade offset (the last 30 deg/s crossing; legacy: onset + duration).""")
-    movement_onset_ms = _one('movement_onset_ms', float, """Absolute time the eye speed first exceeds 30 deg/s (legacy: ``onset_ms``).""")
-    end_ms = _one('end_ms', int, """Absolute whole millisecond from which the eyes hold the endpoint.""")
-    peak_velocity = _one('peak_velocity', float, """Cyclopean peak speed, rad/s (of the executed displacement).""")
+    duration_ms = _one(
+        "duration_ms",
+        float,
+        """Saccade duration: between the 30 deg/s crossings of the eye speed (burst generator), or onset until the speed falls below 20 deg/s (legacy main sequence).""",
+    )
+    settle_ms = _one(
+        "settle_ms", float, """Time after onset at which the trajectory (vergence included) has reached its endpoint."""
+    )
+    offset_ms = _one(
+        "offset_ms",
+        float,
+        """Absolute time of saccade offset (the last 30 deg/s crossing; legacy: onset + duration).""",
+    )
+    movement_onset_ms = _one(
+        "movement_onset_ms", float, """Absolute time the eye speed first exceeds 30 deg/s (legacy: ``onset_ms``)."""
+    )
+    end_ms = _one("end_ms", int, """Absolute whole millisecond from which the eyes hold the endpoint.""")
+    peak_velocity = _one("peak_velocity", float, """Cyclopean peak speed, rad/s (of the executed displacement).""")
 
     @property
     def burst(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -197,7 +236,9 @@ class SaccadePlan:
         """This plan read through another eye-position signal timing (an ``EyePositionSignal``): a copy
         that shares the validated trajectory (no re-validation, unlike ``dataclasses.replace``)."""
         if not isinstance(eye_position, EyePositionSignal):
-            raise checks.InputTypeError(f"eye_position must be a models.EyePositionSignal; got {type(eye_position).__name__}")
+            raise checks.InputTypeError(
+                f"eye_position must be a models.EyePositionSignal; got {type(eye_position).__name__}"
+            )
         plan = copy.copy(self)
         plan.eye_position = eye_position
         return plan

@@ -53,6 +53,16 @@ class OculomotorState:
 
     def copy(self) -> OculomotorState:
         """A copy whose arrays and dicts are new (the generator and the plans are shared)."""
-        return OculomotorState(int(self.time_ms), self.hold.copy(), self.signal_hold.copy(),
-                               self.fixation_head.copy(), self.rng, self.seed, self.plan, self.signal_plan,
-                               self.last_plan, dict(self.flashes), dict(self.opacity))
+        return OculomotorState(
+            int(self.time_ms),
+            self.hold.copy(),
+            self.signal_hold.copy(),
+            self.fixation_head.copy(),
+            self.rng,
+            self.seed,
+            self.plan,
+            self.signal_plan,
+            self.last_plan,
+            dict(self.flashes),
+            dict(self.opacity),
+        )

@@ -132,8 +132,10 @@ class BatchedPlanner:
         generator, ``numpy.random.default_rng(seed)``, which then serves its endpoint noise. Needs
         ``settled.usable`` (else reset the worlds one by one through the head)."""
         if not settled.usable:
-            raise ValueError("this scene's layout moves the fixation point: reset its worlds through the head "
-                             "(SettledReset.apply, then take_reset)")
+            raise ValueError(
+                "this scene's layout moves the fixation point: reset its worlds through the head "
+                "(SettledReset.apply, then take_reset)"
+            )
         w = np.asarray(worlds, np.intp)
         if len(seeds) != len(w) or (placements is not None and len(placements) != len(w)):
             raise ValueError(f"one seed (and placement) per world: {len(w)} worlds, {len(seeds)} seeds")
@@ -170,11 +172,19 @@ class BatchedPlanner:
         head = self.head
         last = self._last[i]
         st = head.get_state()
-        head.set_state(OculomotorState(
-            time_ms=int(self.time_ms[i]), hold=self.hold[i].copy(), signal_hold=self.signal_hold[i].copy(),
-            fixation_head=self.fix_head[i].copy(), rng=self.rngs[i], seed=st.seed,
-            signal_plan=None if last is None else SaccadePlan.from_batch(*last), flashes=st.flashes,
-            opacity=st.opacity))
+        head.set_state(
+            OculomotorState(
+                time_ms=int(self.time_ms[i]),
+                hold=self.hold[i].copy(),
+                signal_hold=self.signal_hold[i].copy(),
+                fixation_head=self.fix_head[i].copy(),
+                rng=self.rngs[i],
+                seed=st.seed,
+                signal_plan=None if last is None else SaccadePlan.from_batch(*last),
+                flashes=st.flashes,
+                opacity=st.opacity,
+            )
+        )
         return head
 
     # ------------------------------------------------------------------ planning
@@ -233,8 +243,11 @@ class BatchedPlanner:
         order = np.concatenate(order)
         inverse = np.empty(m, np.intp)
         inverse[order] = np.arange(m)
-        plans = (batches[0] if len(batches) == 1 and np.array_equal(order, np.arange(m))
-                 else SaccadePlans.concatenate(batches, inverse))
+        plans = (
+            batches[0]
+            if len(batches) == 1 and np.array_equal(order, np.arange(m))
+            else SaccadePlans.concatenate(batches, inverse)
+        )
         return plans, clipped
 
     def _world(self, p_head: np.ndarray) -> np.ndarray:
@@ -288,11 +301,11 @@ class BatchedPlanner:
             last_drew = np.where(ok, drew, last_drew)
             best, lo, hi = np.where(ok, mid, best), np.where(ok, mid, lo), np.where(ok, hi, mid)
         none = best < 0
-        return (np.where(none[:, None], 0.0, hv * best[:, None]), np.where(none, 1.0, factor),
-                wins - last_drew, odd)
+        return (np.where(none[:, None], 0.0, hv * best[:, None]), np.where(none, 1.0, factor), wins - last_drew, odd)
 
-    def _plan_fast(self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray,
-                   targets: tuple | None = None) -> tuple[SaccadePlans, np.ndarray]:
+    def _plan_fast(
+        self, worlds: np.ndarray, hv: np.ndarray, factor: np.ndarray, targets: tuple | None = None
+    ) -> tuple[SaccadePlans, np.ndarray]:
         """``Head.plan_saccade`` (then ``plan_saccade_to`` where factor != 1) for worlds whose saccade stays
         in range; returns the plans of those worlds and the mask of them. ``targets``: ``_targets`` of
         these arguments when already computed."""
@@ -301,13 +314,24 @@ class BatchedPlanner:
         idx = np.flatnonzero(ok)
         w = worlds[idx]
         p_head, intended_world, end, amp = p_head[idx], intended_world[idx], end[idx], amp[idx]
-        end_point, noisy_end, noisy_amp = noisy_endpoints(c, self._centres, fix[idx], p_head, end, amp,
-                                                           self.head.motor_noise, [self.rngs[k] for k in w])
+        end_point, noisy_end, noisy_amp = noisy_endpoints(
+            c, self._centres, fix[idx], p_head, end, amp, self.head.motor_noise, [self.rngs[k] for k in w]
+        )
         head = self.head
-        plans = SaccadePlans(self.time_ms[w], self.hold[w], noisy_end, end, noisy_amp, amp, self.signal_now[w],
-                             self._world(end_point), intended_world,
-                             generator=head.main_sequence if head.saccade_model == "legacy" else head.generator,
-                             vergence=head.vergence, eye_position=head.eye_position)
+        plans = SaccadePlans(
+            self.time_ms[w],
+            self.hold[w],
+            noisy_end,
+            end,
+            noisy_amp,
+            amp,
+            self.signal_now[w],
+            self._world(end_point),
+            intended_world,
+            generator=head.main_sequence if head.saccade_model == "legacy" else head.generator,
+            vergence=head.vergence,
+            eye_position=head.eye_position,
+        )
         return plans, ok
 
     # ------------------------------------------------------------------ execution
@@ -383,7 +407,9 @@ class SettledReset:
             head.reset(seed=seed)
             return
         st = self._state  # (a freshly reset head's: no plans, flashes or opacity changes; set_state copies arrays)
-        state = OculomotorState(st.time_ms, st.hold, st.signal_hold, st.fixation_head, np.random.default_rng(seed), seed)
+        state = OculomotorState(
+            st.time_ms, st.hold, st.signal_hold, st.fixation_head, np.random.default_rng(seed), seed
+        )
         d = head.data
         for k, v in self._data.items():
             getattr(d, k)[:] = v

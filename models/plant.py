@@ -68,8 +68,9 @@ class OrbitalPlant:
             object.__setattr__(self, "t2_ms", checks.real("t2_ms", self.t2_ms, 0.5, 50.0))
         object.__setattr__(self, "pulse_gain", checks.real("pulse_gain", self.pulse_gain, 0.2, 5.0))
 
-    def install(self, model, dof_adr: np.ndarray, joint_ids: np.ndarray, servo_actuators: np.ndarray,
-                t2_ms: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def install(
+        self, model, dof_adr: np.ndarray, joint_ids: np.ndarray, servo_actuators: np.ndarray, t2_ms: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Give ``model``'s eye joints this plant and switch their servos off (in place).
 
         ``dof_adr`` / ``joint_ids``: the eye joints' dofs and ids; ``servo_actuators``: the position and

@@ -130,10 +130,12 @@ def _sample_textures_bilinear(renderer: mujoco.Renderer) -> None:
 
     ctx, gl = getattr(renderer, "_mjr_context", None), getattr(renderer, "_gl_context", None)
     if ctx is None or gl is None:
-        raise RuntimeError("this MuJoCo's Renderer keeps no _mjr_context/_gl_context: the texture filter cannot "
-                           "be set (models.render was written for MuJoCo 4.0)")
+        raise RuntimeError(
+            "this MuJoCo's Renderer keeps no _mjr_context/_gl_context: the texture filter cannot "
+            "be set (models.render was written for MuJoCo 4.0)"
+        )
     gl.make_current()
-    for tid, kind in zip(np.asarray(ctx.texture)[:ctx.ntexture], np.asarray(ctx.textureType)[:ctx.ntexture]):
+    for tid, kind in zip(np.asarray(ctx.texture)[: ctx.ntexture], np.asarray(ctx.textureType)[: ctx.ntexture]):
         target = GL.GL_TEXTURE_2D if kind == mujoco.mjtTexture.mjTEXTURE_2D else GL.GL_TEXTURE_CUBE_MAP
         GL.glBindTexture(target, int(tid))
         GL.glTexParameteri(target, GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR)
@@ -193,7 +195,9 @@ class EyeRenderer:
         if self._pid != os.getpid():  # a renderer inherited through fork: its context is not usable here
             _check_not_forked_after_gl()
         if not isinstance(data, mujoco.MjData) or data.qpos.shape != (self.model.nq,):
-            raise checks.InputTypeError(f"data must be the mujoco.MjData of this renderer's model; got {type(data).__name__}")
+            raise checks.InputTypeError(
+                f"data must be the mujoco.MjData of this renderer's model; got {type(data).__name__}"
+            )
         depth = checks.flag("depth", depth)
         time_ms = checks.integer("time_ms", time_ms)
         out = []
@@ -206,8 +210,17 @@ class EyeRenderer:
                 dep = self._renderer.render().copy()
                 self._renderer.disable_depth_rendering()
             fovy = np.deg2rad(self.model.cam_fovy[cid])
-            out.append(EyeImage(eye, img, focal_pixels(self.height, fovy), float(fovy),
-                                data.cam_xpos[cid].copy(), data.cam_xmat[cid].reshape(3, 3).copy(), dep))
+            out.append(
+                EyeImage(
+                    eye,
+                    img,
+                    focal_pixels(self.height, fovy),
+                    float(fovy),
+                    data.cam_xpos[cid].copy(),
+                    data.cam_xmat[cid].reshape(3, 3).copy(),
+                    dep,
+                )
+            )
         return StereoFrame(out[0], out[1], int(time_ms))
 
     def close(self) -> None:

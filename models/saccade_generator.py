@@ -77,9 +77,17 @@ DETECTION_THRESHOLD_DEG_S = 30.0
 #: The accepted range (inclusive) of every parameter: what ``BurstGenerator`` accepts is what a fit
 #: (``experiments.oculomotor.generator_fit``) may return, so every fitted file loads. The table's peak-velocity
 #: ceiling (``MAX_PEAK_VELOCITY_DEG_S``) is a further joint bound the fit also respects.
-PARAMETER_BOUNDS = {"burst_max_deg_s": (1.0, 2000.0), "burst_scale_deg": (0.01, 50.0), "burst_lag_ms": (0.1, 50.0),
-                    "adaptation_gain": (0.0, 5.0), "adaptation_ms": (0.1, 500.0), "plant_t2_ms": (0.5, 50.0),
-                    "abducting_t2_ms": (0.5, 50.0), "adducting_t2_ms": (0.5, 50.0), "settle_deg": (1e-4, 1.0)}
+PARAMETER_BOUNDS = {
+    "burst_max_deg_s": (1.0, 2000.0),
+    "burst_scale_deg": (0.01, 50.0),
+    "burst_lag_ms": (0.1, 50.0),
+    "adaptation_gain": (0.0, 5.0),
+    "adaptation_ms": (0.1, 500.0),
+    "plant_t2_ms": (0.5, 50.0),
+    "abducting_t2_ms": (0.5, 50.0),
+    "adducting_t2_ms": (0.5, 50.0),
+    "settle_deg": (1e-4, 1.0),
+}
 #: Amplitudes of the tabulated profiles (deg).
 _AMP_STEP_DEG, _AMP_MAX_DEG = 0.25, 90.0
 #: Simulation step and table step (ms).
@@ -109,15 +117,36 @@ class SaccadeProfile:
         rates = np.ascontiguousarray(np.gradient(tab, self.dt_ms, axis=2))
         zero = np.zeros(1, np.intp)
         marks = np.empty((1, 4))
-        K.profile_marks(tab, self.dt_ms, zero, zero, np.zeros(1), np.array([float(self.amplitude_deg)]),
-                        np.array([tab.shape[2]], np.intp), DETECTION_THRESHOLD_DEG_S, self.settle_deg, marks)
+        K.profile_marks(
+            tab,
+            self.dt_ms,
+            zero,
+            zero,
+            np.zeros(1),
+            np.array([float(self.amplitude_deg)]),
+            np.array([tab.shape[2]], np.intp),
+            DETECTION_THRESHOLD_DEG_S,
+            self.settle_deg,
+            marks,
+        )
         object.__setattr__(self, "_marks", tuple(float(x) for x in marks[0]))
         object.__setattr__(self, "_tables", (tab, rates, np.array([[0.0, 0.0, 0.0, self.amplitude_deg, marks[0, 2]]])))
 
-    onset_ms = property(lambda self: self._marks[0], doc="""Movement onset after the burst onset: first 30 deg/s crossing (nominal plant), ms.""")
-    offset_ms = property(lambda self: self._marks[1], doc="""Movement offset after the burst onset: last 30 deg/s crossing, ms.""")
-    duration_ms = property(lambda self: self._marks[1] - self._marks[0], doc="""Detected duration: between the 30 deg/s crossings of the nominal plant's speed.""")
-    settle_ms = property(lambda self: self._marks[2], doc="""Time after burst onset from which all plants are within ``settle_deg`` of the endpoint.""")
+    onset_ms = property(
+        lambda self: self._marks[0],
+        doc="""Movement onset after the burst onset: first 30 deg/s crossing (nominal plant), ms.""",
+    )
+    offset_ms = property(
+        lambda self: self._marks[1], doc="""Movement offset after the burst onset: last 30 deg/s crossing, ms."""
+    )
+    duration_ms = property(
+        lambda self: self._marks[1] - self._marks[0],
+        doc="""Detected duration: between the 30 deg/s crossings of the nominal plant's speed.""",
+    )
+    settle_ms = property(
+        lambda self: self._marks[2],
+        doc="""Time after burst onset from which all plants are within ``settle_deg`` of the endpoint.""",
+    )
     peak_velocity_deg_s = property(lambda self: self._marks[3], doc="""Peak speed of the nominal plant (deg/s).""")
 
     def _values(self, t_rel, plant: int, rate: bool) -> np.ndarray:
@@ -127,8 +156,9 @@ class SaccadeProfile:
         plant = checks.integer("plant", plant, 0, len(PLANTS) - 1, hint="0 nominal, 1 abducting, 2 adducting")
         tab, rates, prof = self._tables
         out = np.empty((1, t.size))
-        K.profile_values(tab, rates, self.dt_ms, prof, False, 0.0, 0.0, int(plant),
-                         np.ascontiguousarray(t.reshape(1, -1)), rate, out)
+        K.profile_values(
+            tab, rates, self.dt_ms, prof, False, 0.0, 0.0, int(plant), np.ascontiguousarray(t.reshape(1, -1)), rate, out
+        )
         return out.reshape(t.shape)
 
     def position(self, t_rel: np.ndarray, plant: int = 0) -> np.ndarray:
@@ -140,8 +170,13 @@ class SaccadeProfile:
         return self._values(t_rel, plant, True)
 
 
-def simulate(generator: BurstGenerator, amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS,
-             dt_ms: float = _SIM_DT_MS, every: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def simulate(
+    generator: BurstGenerator,
+    amplitudes_deg: np.ndarray,
+    span_ms: float = _TABLE_SPAN_MS,
+    dt_ms: float = _SIM_DT_MS,
+    every: int = 1,
+) -> tuple[np.ndarray, np.ndarray]:
     """Simulate the burst-generator loop (module docstring) directly for each amplitude.
 
     ``generator``: the parameters; ``amplitudes_deg``: desired displacements (any shape, 0-180 deg);
@@ -157,15 +192,19 @@ def simulate(generator: BurstGenerator, amplitudes_deg: np.ndarray, span_ms: flo
         raise checks.InputTypeError(f"generator must be a models.BurstGenerator; got {type(generator).__name__}")
     amps = checks.array("amplitudes_deg", amplitudes_deg, kinds="iuf")
     if amps.size and (amps.min() < 0.0 or amps.max() > _SIM_AMP_MAX_DEG):
-        raise ValueError(f"amplitudes_deg must lie in [0, {_SIM_AMP_MAX_DEG:g}] deg; got {amps.min():g} to {amps.max():g}")
+        raise ValueError(
+            f"amplitudes_deg must lie in [0, {_SIM_AMP_MAX_DEG:g}] deg; got {amps.min():g} to {amps.max():g}"
+        )
     span_ms = checks.real("span_ms", span_ms, 0.0, _SIM_SPAN_MAX_MS, lo_open=True, hint="simulated time in ms")
     dt_ms = checks.real("dt_ms", dt_ms, 0.0, span_ms, lo_open=True, hint="integration step in ms, at most span_ms")
     steps = int(round(span_ms / dt_ms))
     every = checks.integer("every", every, 1, max(1, steps), hint="steps per kept sample")
     if 3 * (steps // every + 1) * max(1, amps.size) > _SIM_MAX_VALUES:
-        raise ValueError(f"amplitudes_deg ({amps.size}) times span_ms / dt_ms / every ({steps // every + 1} samples) "
-                         f"exceeds {_SIM_MAX_VALUES:.0e} stored values: simulate fewer amplitudes, a shorter span or a "
-                         f"coarser grid")
+        raise ValueError(
+            f"amplitudes_deg ({amps.size}) times span_ms / dt_ms / every ({steps // every + 1} samples) "
+            f"exceeds {_SIM_MAX_VALUES:.0e} stored values: simulate fewer amplitudes, a shorter span or a "
+            f"coarser grid"
+        )
     g = generator
     A = np.ascontiguousarray(np.asarray(amplitudes_deg, float).ravel())
     n = int(round(span_ms / dt_ms))
@@ -174,9 +213,21 @@ def simulate(generator: BurstGenerator, amplitudes_deg: np.ndarray, span_ms: flo
     burst = np.empty((n // every + 1, len(A)))
     from ._plan_kernels import burst_loop
 
-    burst_loop(A, n, float(dt_ms), int(every), float(np.exp(-dt_ms / g.burst_lag_ms)),
-               float(np.exp(-dt_ms / g.adaptation_ms)), t2, np.exp(-dt_ms / t2), g.burst_max_deg_s / 1000.0,
-               float(g.burst_scale_deg), float(g.adaptation_gain), pos, burst)
+    burst_loop(
+        A,
+        n,
+        float(dt_ms),
+        int(every),
+        float(np.exp(-dt_ms / g.burst_lag_ms)),
+        float(np.exp(-dt_ms / g.adaptation_ms)),
+        t2,
+        np.exp(-dt_ms / t2),
+        g.burst_max_deg_s / 1000.0,
+        float(g.burst_scale_deg),
+        float(g.adaptation_gain),
+        pos,
+        burst,
+    )
     shape = np.shape(amplitudes_deg)
     return pos.reshape((3, pos.shape[1]) + shape), burst.reshape((burst.shape[0],) + shape)
 
@@ -219,9 +270,11 @@ class BurstGenerator:
         pos, burst = simulate(self, amps, every=int(round(_TABLE_DT_MS / _SIM_DT_MS)))
         peak = float((np.diff(pos, axis=1) / _TABLE_DT_MS).max()) * 1000.0
         if peak > MAX_PEAK_VELOCITY_DEG_S:
-            raise ValueError(f"these burst-generator parameters drive the eye at {peak:.0f} deg/s, above the "
-                             f"model family's ceiling of {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s (no human saccade is faster); lower "
-                             "burst_max_deg_s or raise adaptation_gain")
+            raise ValueError(
+                f"these burst-generator parameters drive the eye at {peak:.0f} deg/s, above the "
+                f"model family's ceiling of {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s (no human saccade is faster); lower "
+                "burst_max_deg_s or raise adaptation_gain"
+            )
         with np.errstate(invalid="ignore", divide="ignore"):
             norm = np.where(amps > 0, pos / amps, 0.0)
         return amps, norm.astype(np.float64), burst
@@ -264,21 +317,32 @@ class BurstGenerator:
         try:
             doc = json.loads(path.read_text())
         except RecursionError:
-            raise ValueError(f"path {path}: cannot read a burst generator from it (its JSON is nested too deeply); "
-                             "pass the generator.json written by `python -m experiments saccades --recording FILE "
-                             "--out DIR`") from None
+            raise ValueError(
+                f"path {path}: cannot read a burst generator from it (its JSON is nested too deeply); "
+                "pass the generator.json written by `python -m experiments saccades --recording FILE "
+                "--out DIR`"
+            ) from None
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ValueError(f"path {path}: cannot read a burst generator from it ({exc}); pass the generator.json "
-                             "written by `python -m experiments saccades --recording FILE --out DIR`") from None
-        if not isinstance(doc, dict) or doc.get("model") != "BurstGenerator" or not isinstance(doc.get("parameters"), dict):
-            raise ValueError(f"{path} is not a burst-generator file: it needs \"model\": \"BurstGenerator\" and a "
-                             "\"parameters\" object (as written by BurstGenerator.to_file)")
+            raise ValueError(
+                f"path {path}: cannot read a burst generator from it ({exc}); pass the generator.json "
+                "written by `python -m experiments saccades --recording FILE --out DIR`"
+            ) from None
+        if (
+            not isinstance(doc, dict)
+            or doc.get("model") != "BurstGenerator"
+            or not isinstance(doc.get("parameters"), dict)
+        ):
+            raise ValueError(
+                f'{path} is not a burst-generator file: it needs "model": "BurstGenerator" and a '
+                '"parameters" object (as written by BurstGenerator.to_file)'
+            )
         params = doc["parameters"]
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(params) - known)
         if unknown:
-            raise ValueError(f"{path}: unknown burst-generator parameter(s) {', '.join(unknown)}; "
-                             f"known: {', '.join(sorted(known))}")
+            raise ValueError(
+                f"{path}: unknown burst-generator parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}"
+            )
         try:
             gen = cls(**params)
             gen._table()  # the joint bound (the peak-velocity ceiling): refused here, not after a run has started
@@ -299,8 +363,9 @@ class BurstGenerator:
             b = (1 - w) * burst[:, j] + w * burst[:, j + 1]
         return SaccadeProfile(amp, _TABLE_DT_MS, pos, b, self.settle_deg)
 
-    def simulate(self, amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS, dt_ms: float = _SIM_DT_MS,
-                 every: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    def simulate(
+        self, amplitudes_deg: np.ndarray, span_ms: float = _TABLE_SPAN_MS, dt_ms: float = _SIM_DT_MS, every: int = 1
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Direct simulation of the loop for each of ``amplitudes_deg`` (any shape, 0-180 deg), no
         table: eye positions ``(3, K) + shape`` (deg, plants in ``PLANTS`` order) and burst rates
         ``(K,) + shape`` (deg/ms), every ``every``-th step of ``dt_ms`` over ``span_ms`` from the
@@ -312,4 +377,3 @@ class BurstGenerator:
 
     def duration_ms(self, amp_deg: float) -> float:
         return self.profile(amp_deg).duration_ms
-

@@ -114,8 +114,18 @@ class Profiles:
             lo, hi = np.where(first, 1, j), np.where(first, 1, j + 1)
             weff = np.where(first, 0.0, w)
             marks = np.empty((n, 4))
-            K.profile_marks(tab.norm, _TABLE_DT_MS, lo, hi, weff, amp, tab.bound[j], DETECTION_THRESHOLD_DEG_S,
-                            generator.settle_deg, marks)
+            K.profile_marks(
+                tab.norm,
+                _TABLE_DT_MS,
+                lo,
+                hi,
+                weff,
+                amp,
+                tab.bound[j],
+                DETECTION_THRESHOLD_DEG_S,
+                generator.settle_deg,
+                marks,
+            )
             self.onset_ms, self.offset_ms, self.settle_ms, self.peak_velocity_deg_s = marks.T.copy()
             self.duration_ms = self.offset_ms - self.onset_ms
             self.prof[:, 0], self.prof[:, 1], self.prof[:, 2] = lo, hi, weff
@@ -137,8 +147,9 @@ class Profiles:
     def _values(self, t_rel, plant: int, rate: bool) -> np.ndarray:
         t = np.ascontiguousarray(np.asarray(t_rel, float).reshape(len(self.prof), -1))
         out = np.empty(t.shape)
-        K.profile_values(self.tab, self.rtab, _TABLE_DT_MS, self.prof, self.legacy, self.m0, self.vpk, int(plant),
-                         t, rate, out)
+        K.profile_values(
+            self.tab, self.rtab, _TABLE_DT_MS, self.prof, self.legacy, self.m0, self.vpk, int(plant), t, rate, out
+        )
         return out.reshape(np.shape(t_rel))
 
 
@@ -170,13 +181,27 @@ class SaccadePlans:
     has those of the intended amplitude.
     """
 
-    def __init__(self, onset_ms, start, end, intended_end, amplitude, intended_amplitude, signal_start, target,
-                 intended_target, *, generator: BurstGenerator | MainSequence,
-                 vergence: VergenceDynamics | None, eye_position: EyePositionSignal) -> None:
+    def __init__(
+        self,
+        onset_ms,
+        start,
+        end,
+        intended_end,
+        amplitude,
+        intended_amplitude,
+        signal_start,
+        target,
+        intended_target,
+        *,
+        generator: BurstGenerator | MainSequence,
+        vergence: VergenceDynamics | None,
+        eye_position: EyePositionSignal,
+    ) -> None:
         self.onset_ms = np.atleast_1d(np.asarray(onset_ms, np.int64))
         self.n = n = len(self.onset_ms)
         self.start, self.end, self.intended_end, self.signal_start = (
-            np.asarray(a, float).reshape(n, 2, 3) for a in (start, end, intended_end, signal_start))
+            np.asarray(a, float).reshape(n, 2, 3) for a in (start, end, intended_end, signal_start)
+        )
         self.amplitude = np.asarray(amplitude, float).reshape(n)
         self.intended_amplitude = np.asarray(intended_amplitude, float).reshape(n)
         self.target, self.intended_target = (np.asarray(a, float).reshape(n, 3) for a in (target, intended_target))
@@ -186,10 +211,14 @@ class SaccadePlans:
         self._amp_deg = np.rad2deg(self.amplitude)
         self._int_deg = np.rad2deg(self.intended_amplitude)
         if not self.legacy and n and self._int_deg.max() > 90.0:
-            raise OculomotorRangeError(f"saccade amplitude {self._int_deg.max():.1f} deg exceeds the generator's 90 deg")
+            raise OculomotorRangeError(
+                f"saccade amplitude {self._int_deg.max():.1f} deg exceeds the generator's 90 deg"
+            )
         self.profiles = Profiles(generator, self._int_deg)  # the command's (intended) kinematics
         if not self.legacy and n and self._amp_deg.max() > 90.0:
-            raise OculomotorRangeError(f"executed saccade amplitude {self._amp_deg.max():.1f} deg exceeds the generator's 90 deg")
+            raise OculomotorRangeError(
+                f"executed saccade amplitude {self._amp_deg.max():.1f} deg exceeds the generator's 90 deg"
+            )
         # the executed saccade is the generator's for its own (noisy) amplitude: it keeps the main sequence
         same = np.array_equal(self._amp_deg, self._int_deg)
         self.executed_profiles = prof = self.profiles if same else Profiles(generator, self._amp_deg)
@@ -200,14 +229,18 @@ class SaccadePlans:
         self.efference_copy = Ri @ R0T
         B = PRIMARY_EYE_BASIS
         self.efference_copy_eye = B.T @ R0T @ Ri @ B
-        self._parts = {"executed": self._decompose(self.end, prof), "intended": self._decompose(self.intended_end, self.profiles)}
+        self._parts = {
+            "executed": self._decompose(self.end, prof),
+            "intended": self._decompose(self.intended_end, self.profiles),
+        }
         settle = np.maximum(prof.settle_ms, self.profiles.settle_ms)
         if self.vergence is not None:
             for which in ("executed", "intended"):  # each eye's share of the signed convergence
                 row = self._parts[which][1]
                 share = np.where(row[:, 5] - row[:, 6] >= 0, 1.0, -1.0) * np.abs(row[:, 5:7]).max(axis=1)
-                settle = np.maximum(settle, self.vergence.settle_ms(np.rad2deg(share), prof.offset_ms,
-                                                                    generator.settle_deg))
+                settle = np.maximum(
+                    settle, self.vergence.settle_ms(np.rad2deg(share), prof.offset_ms, generator.settle_deg)
+                )
         self.settle_ms = np.asarray(settle, float)
         for which in ("executed", "intended"):
             self._parts[which][1][:, 0] = self.settle_ms
@@ -231,19 +264,29 @@ class SaccadePlans:
         # plant rows: 0 nominal, 1 abducting, 2 adducting; the right eye abducts moving right (h > 0)
         plants = np.where((version > 0)[:, None], [2, 1], [1, 2])
         plants = np.where(((version == 0) | self.legacy)[:, None], 0, plants).astype(np.intp)
-        tau = (np.ones(self.n) if self.vergence is None
-               else self.vergence._tau_for(vergence[:, 0] - vergence[:, 1]) * np.ones(self.n))
-        row = np.column_stack([np.zeros(self.n), prof.offset_ms if self.n else np.zeros(0), version,
-                               d[:, :, 1], vergence, tau])
+        tau = (
+            np.ones(self.n)
+            if self.vergence is None
+            else self.vergence._tau_for(vergence[:, 0] - vergence[:, 1]) * np.ones(self.n)
+        )
+        row = np.column_stack(
+            [np.zeros(self.n), prof.offset_ms if self.n else np.zeros(0), version, d[:, :, 1], vergence, tau]
+        )
         return plants, row
 
     def _args(self, which: str) -> tuple:
         plants, row = self._parts[which]
         vd = self.vergence
         verg_on = vd is not None
-        return (row, verg_on, vd.saccade_speedup if verg_on else 1.0,
-                vd.latency_ms if verg_on else 0.0, plants,
-                self.start, self.end if which == "executed" else self.intended_end)
+        return (
+            row,
+            verg_on,
+            vd.saccade_speedup if verg_on else 1.0,
+            vd.latency_ms if verg_on else 0.0,
+            plants,
+            self.start,
+            self.end if which == "executed" else self.intended_end,
+        )
 
     def _rel(self, t_ms) -> np.ndarray:
         t = np.asarray(t_ms, float)
@@ -279,8 +322,10 @@ class SaccadePlans:
         if buffer is None:
             out = np.empty((self.n, T, 2, 3))
         elif buffer.dtype != np.float64 or buffer.ndim != 1 or not buffer.flags.c_contiguous or buffer.size < size:
-            raise ValueError(f"buffer must be a contiguous flat float64 array of at least {size} numbers; got "
-                             f"{buffer.dtype} {buffer.shape}")
+            raise ValueError(
+                f"buffer must be a contiguous flat float64 array of at least {size} numbers; got "
+                f"{buffer.dtype} {buffer.shape}"
+            )
         else:
             out = buffer[:size].reshape(self.n, T, 2, 3)
         K.angles(*self.executed_profiles.args(), *self._args("executed"), t_rel, out)
@@ -303,8 +348,12 @@ class SaccadePlans:
     def take(self, rows) -> SaccadePlans:
         """The plans of ``rows`` (indices) as a new batch."""
         rows = np.asarray(rows, np.intp)
-        return SaccadePlans(*(getattr(self, k)[rows] for k in _FIELDS), generator=self.generator,
-                            vergence=self.vergence, eye_position=self.eye_position)
+        return SaccadePlans(
+            *(getattr(self, k)[rows] for k in _FIELDS),
+            generator=self.generator,
+            vergence=self.vergence,
+            eye_position=self.eye_position,
+        )
 
     @staticmethod
     def concatenate(batches: list[SaccadePlans], order: np.ndarray | None = None) -> SaccadePlans:
@@ -316,5 +365,14 @@ class SaccadePlans:
         return SaccadePlans(*cols, generator=b0.generator, vergence=b0.vergence, eye_position=b0.eye_position)
 
 
-_FIELDS = ("onset_ms", "start", "end", "intended_end", "amplitude", "intended_amplitude", "signal_start",
-           "target", "intended_target")
+_FIELDS = (
+    "onset_ms",
+    "start",
+    "end",
+    "intended_end",
+    "amplitude",
+    "intended_amplitude",
+    "signal_start",
+    "target",
+    "intended_target",
+)

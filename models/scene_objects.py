@@ -31,8 +31,9 @@ class SceneObjects:
 
     def _name(self, what: str, name, kind: str = "an object") -> str:
         if not isinstance(name, str):
-            raise checks.InputTypeError(f"{what} must be the name (str) of {kind} of scene {self.scene.name!r}; "
-                                        f"got {name!r:.60}")
+            raise checks.InputTypeError(
+                f"{what} must be the name (str) of {kind} of scene {self.scene.name!r}; got {name!r:.60}"
+            )
         return name
 
     def _geom_id(self, name) -> int:
@@ -40,7 +41,9 @@ class SceneObjects:
         name = self._name("name", name)
         gid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
         if gid < 0:
-            raise KeyError(f"scene {self.scene.name!r} has no object {name!r}; objects: {', '.join(self.scene.objects)}")
+            raise KeyError(
+                f"scene {self.scene.name!r} has no object {name!r}; objects: {', '.join(self.scene.objects)}"
+            )
         return gid
 
     def object_position(self, name: str) -> np.ndarray:
@@ -58,7 +61,9 @@ class SceneObjects:
         name = self._name("name", name)
         bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, name)
         if bid < 0 or self.model.body_mocapid[bid] < 0:
-            raise KeyError(f"{name!r} is not a movable object of scene {self.scene.name!r}; movable: {', '.join(self.scene.movable)}")
+            raise KeyError(
+                f"{name!r} is not a movable object of scene {self.scene.name!r}; movable: {', '.join(self.scene.movable)}"
+            )
         self.data.mocap_pos[self.model.body_mocapid[bid]] = check_point(pos, name)
 
     def set_object_position(self, name: str, pos) -> None:
@@ -106,8 +111,10 @@ class SceneObjects:
         gid = self._geom_id(name)
         radius = checks.real("radius", radius, 0.0, _MAX_RADIUS, lo_open=True, hint="a sphere radius in metres")
         if self.model.geom_type[gid] != mujoco.mjtGeom.mjGEOM_SPHERE:
-            raise ValueError(f"name {name!r} is not a sphere of scene {self.scene.name!r} "
-                             f"(type {mujoco.mjtGeom(self.model.geom_type[gid]).name}): only a sphere has one radius")
+            raise ValueError(
+                f"name {name!r} is not a sphere of scene {self.scene.name!r} "
+                f"(type {mujoco.mjtGeom(self.model.geom_type[gid]).name}): only a sphere has one radius"
+            )
         self.model.geom_size[gid, 0] = radius
 
     def hide_flashes(self) -> None:

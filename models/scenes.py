@@ -86,8 +86,11 @@ class SceneInfo:
                 raise checks.InputTypeError(f"{name} must be a str; got {getattr(self, name)!r:.60}")
 
         def names(what, value) -> tuple[str, ...]:
-            if isinstance(value, str) or not isinstance(value, (tuple, list)) or not all(
-                    isinstance(n, str) for n in value):
+            if (
+                isinstance(value, str)
+                or not isinstance(value, (tuple, list))
+                or not all(isinstance(n, str) for n in value)
+            ):
                 raise checks.InputTypeError(f"{what} must be a tuple of object names (str); got {value!r:.60}")
             return tuple(value)
 
@@ -126,44 +129,73 @@ def _screen(spec, distance, rgba, half=(0.9, 0.65)) -> None:
 
 
 def _bar(spec) -> SceneInfo:
-    _static(spec, "square", CYCLOPEAN_EYE + [1.3, 0, 0], type=_G.mjGEOM_BOX, size=[0.005, 0.2, 0.2],
-            rgba=[0.5, 0.5, 0.5, 1])
-    _static(spec, "bar", CYCLOPEAN_EYE + [1.0, 0, 0], type=_G.mjGEOM_BOX, size=[0.01, 0.02, 0.15],
-            rgba=[0.85, 0.05, 0.05, 1])
-    return SceneInfo("bar", "Fig. 7: grey square with a red bar in front of it",
-                     groups={"square": ("square",), "bar": ("bar",)},
-                     default_fixation=CYCLOPEAN_EYE + np.array([1.0, 0.0, 0.0]))
+    _static(
+        spec, "square", CYCLOPEAN_EYE + [1.3, 0, 0], type=_G.mjGEOM_BOX, size=[0.005, 0.2, 0.2], rgba=[0.5, 0.5, 0.5, 1]
+    )
+    _static(
+        spec,
+        "bar",
+        CYCLOPEAN_EYE + [1.0, 0, 0],
+        type=_G.mjGEOM_BOX,
+        size=[0.01, 0.02, 0.15],
+        rgba=[0.85, 0.05, 0.05, 1],
+    )
+    return SceneInfo(
+        "bar",
+        "Fig. 7: grey square with a red bar in front of it",
+        groups={"square": ("square",), "bar": ("bar",)},
+        default_fixation=CYCLOPEAN_EYE + np.array([1.0, 0.0, 0.0]),
+    )
 
 
 def _dots(spec) -> SceneInfo:
     _screen(spec, DOTS_DISTANCE, [0.12, 0.12, 0.12, 1])
     dot = dict(type=_G.mjGEOM_SPHERE, size=[DOT_RADIUS, 0, 0])
     _mocap(spec, "fixation", screen_point(0, 0, DOTS_DISTANCE), rgba=[1, 0.1, 0.1, 1], **dot)
-    _mocap(spec, "target", screen_point(np.deg2rad(DOTS_TARGET_DEG), 0, DOTS_DISTANCE),
-           rgba=[1, 0.9, 0.1, 1], **dot)
+    _mocap(spec, "target", screen_point(np.deg2rad(DOTS_TARGET_DEG), 0, DOTS_DISTANCE), rgba=[1, 0.9, 0.1, 1], **dot)
     flashes = []
     for _r, el in enumerate(FLASH_ELEVATIONS_DEG):
         for _c, az in enumerate(FLASH_AZIMUTHS_DEG):
             name = f"flash_{len(flashes):02d}"
-            _mocap(spec, name, screen_point(np.deg2rad(az), np.deg2rad(el), DOTS_DISTANCE),
-                   rgba=[0.3, 1, 0.3, 0], **dot)
+            _mocap(
+                spec, name, screen_point(np.deg2rad(az), np.deg2rad(el), DOTS_DISTANCE), rgba=[0.3, 1, 0.3, 0], **dot
+            )
             flashes.append(name)
     flashes = tuple(flashes)
     # a visual reference (Lappe, Awater & Krekelberg 2000): a horizontal ruler 10 deg below the
     # target, hidden until shown (``Head.set_visible("ruler", True)``); movable like the target
     el = np.deg2rad(RULER_ELEVATION_DEG)
-    _mocap(spec, "ruler", screen_point(np.deg2rad(DOTS_TARGET_DEG), el, DOTS_DISTANCE), type=_G.mjGEOM_BOX,
-           size=[0.002, DOTS_DISTANCE * np.tan(np.deg2rad(RULER_HALF_WIDTH_DEG)), 0.008], rgba=[0.9, 0.9, 0.9, 0])
+    _mocap(
+        spec,
+        "ruler",
+        screen_point(np.deg2rad(DOTS_TARGET_DEG), el, DOTS_DISTANCE),
+        type=_G.mjGEOM_BOX,
+        size=[0.002, DOTS_DISTANCE * np.tan(np.deg2rad(RULER_HALF_WIDTH_DEG)), 0.008],
+        rgba=[0.9, 0.9, 0.9, 0],
+    )
     # extra post-saccadic markers (hidden until shown): visual references away from the target
     markers = tuple(f"marker_{i:02d}" for i in range(N_MARKERS))
     for i, name in enumerate(markers):
-        _mocap(spec, name, screen_point(np.deg2rad(DOTS_TARGET_DEG), np.deg2rad(-4.0 * (i + 1)), DOTS_DISTANCE),
-               rgba=[0.2, 0.6, 1.0, 0], **dot)
-    return SceneInfo("dots", "Fig. 11 flash paradigm: fixation, saccade target, 24 flash dots, a ruler and "
-                     f"{N_MARKERS} markers (hidden)",
-                     groups={"fixation": ("fixation",), "target": ("target",), "flashes": flashes,
-                             "references": ("ruler",), "markers": markers},
-                     movable=("fixation", "target", "ruler") + markers + flashes, flashes=flashes)
+        _mocap(
+            spec,
+            name,
+            screen_point(np.deg2rad(DOTS_TARGET_DEG), np.deg2rad(-4.0 * (i + 1)), DOTS_DISTANCE),
+            rgba=[0.2, 0.6, 1.0, 0],
+            **dot,
+        )
+    return SceneInfo(
+        "dots",
+        f"Fig. 11 flash paradigm: fixation, saccade target, 24 flash dots, a ruler and {N_MARKERS} markers (hidden)",
+        groups={
+            "fixation": ("fixation",),
+            "target": ("target",),
+            "flashes": flashes,
+            "references": ("ruler",),
+            "markers": markers,
+        },
+        movable=("fixation", "target", "ruler") + markers + flashes,
+        flashes=flashes,
+    )
 
 
 def pink_noise(shape: tuple[int, int], rng: np.random.Generator, exponent: float = 1.0) -> np.ndarray:
@@ -187,7 +219,9 @@ def _texture(spec, name, rng, c0, c1, size=256) -> str:
     spec.assets[fname] = encode_png(rgb)
     ttype = mujoco.mjtTexture.mjTEXTURE_2D if name.endswith("2d") else mujoco.mjtTexture.mjTEXTURE_CUBE
     spec.add_texture(name=name, type=ttype, file=fname)
-    spec.add_material(name=name, textures=["", name], texrepeat=[1, 1], texuniform=not name.startswith(("backdrop", "floor")))
+    spec.add_material(
+        name=name, textures=["", name], texrepeat=[1, 1], texuniform=not name.startswith(("backdrop", "floor"))
+    )
     return name
 
 
@@ -201,18 +235,30 @@ def _natural(spec, seed: int = 0) -> SceneInfo:
         "cylinder_far": (2.6, 0.6, -0.2, _G.mjGEOM_CYLINDER, [0.12, 0.35, 0], ((0.4, 0.4, 0.1), (1, 1, 0.6))),
         "box_far": (3.2, -0.9, 0.2, _G.mjGEOM_BOX, [0.25, 0.25, 0.25], ((0.3, 0.1, 0.4), (0.9, 0.7, 1))),
     }
-    _static(spec, "backdrop", CYCLOPEAN_EYE + [4.0, 0, 0.3], type=_G.mjGEOM_PLANE, size=[6.0, 3.0, 0.1],
-            zaxis=[-1, 0, 0], material=back)
+    _static(
+        spec,
+        "backdrop",
+        CYCLOPEAN_EYE + [4.0, 0, 0.3],
+        type=_G.mjGEOM_PLANE,
+        size=[6.0, 3.0, 0.1],
+        zaxis=[-1, 0, 0],
+        material=back,
+    )
     _static(spec, "floor", [2.1, 0, 0], type=_G.mjGEOM_PLANE, size=[2.0, 6.0, 0.1], material=floor)
     for name, (dx, dy, dz, gtype, size, cols) in objs.items():
         mat = _texture(spec, f"{name}_2d", rng, *cols, size=128)
         _static(spec, name, CYCLOPEAN_EYE + [dx, dy, dz], type=gtype, size=size, material=mat)
-    return SceneInfo("natural", "1/f-textured backdrop (4 m) and floor with objects at 1.2-3.2 m",
-                     groups={"backdrop": ("backdrop", "floor"), "objects": tuple(objs)},
-                     default_fixation=CYCLOPEAN_EYE + np.array([1.8, -0.35, 0.05]))
+    return SceneInfo(
+        "natural",
+        "1/f-textured backdrop (4 m) and floor with objects at 1.2-3.2 m",
+        groups={"backdrop": ("backdrop", "floor"), "objects": tuple(objs)},
+        default_fixation=CYCLOPEAN_EYE + np.array([1.8, -0.35, 0.05]),
+    )
 
 
-_SEARCH_CELLS = np.array([(a, e) for a in np.arange(-20, 21, 5.0) for e in np.arange(-15, 16, 5.0) if (a, e) != (0.0, 0.0)])
+_SEARCH_CELLS = np.array(
+    [(a, e) for a in np.arange(-20, 21, 5.0) for e in np.arange(-15, 16, 5.0) if (a, e) != (0.0, 0.0)]
+)
 _SEARCH_NAMES = ["target"] + [f"distractor_{i:02d}" for i in range(SEARCH_N_GREEN_SPHERES + SEARCH_N_RED_CUBES)]
 
 
@@ -228,8 +274,14 @@ def _search_layout(rng: np.random.Generator) -> dict[str, np.ndarray]:
 
 def _search(spec) -> SceneInfo:
     _screen(spec, SEARCH_DISTANCE, [0.45, 0.45, 0.45, 1])
-    _mocap(spec, "fixation", screen_point(0, 0, SEARCH_DISTANCE), type=_G.mjGEOM_SPHERE,
-           size=[0.004, 0, 0], rgba=[1, 1, 1, 1])
+    _mocap(
+        spec,
+        "fixation",
+        screen_point(0, 0, SEARCH_DISTANCE),
+        type=_G.mjGEOM_SPHERE,
+        size=[0.004, 0, 0],
+        rgba=[1, 1, 1, 1],
+    )
     layout = _search_layout(np.random.default_rng(0))
     names = list(layout)
     _mocap(spec, "target", layout["target"], type=_G.mjGEOM_SPHERE, size=[0.012, 0, 0], rgba=[0.9, 0.1, 0.1, 1])
@@ -239,9 +291,13 @@ def _search(spec) -> SceneInfo:
             _mocap(spec, nm, layout[nm], type=_G.mjGEOM_SPHERE, size=[0.012, 0, 0], rgba=[0.1, 0.75, 0.1, 1])
         else:
             _mocap(spec, nm, layout[nm], type=_G.mjGEOM_BOX, size=[0.004, 0.011, 0.011], rgba=[0.9, 0.1, 0.1, 1])
-    return SceneInfo("search", "Conjunction search: red sphere among green spheres and red cubes",
-                     groups={"fixation": ("fixation",), "target": ("target",), "distractors": tuple(distractors)},
-                     movable=("fixation", "target") + tuple(distractors), layout=_search_layout)
+    return SceneInfo(
+        "search",
+        "Conjunction search: red sphere among green spheres and red cubes",
+        groups={"fixation": ("fixation",), "target": ("target",), "distractors": tuple(distractors)},
+        movable=("fixation", "target") + tuple(distractors),
+        layout=_search_layout,
+    )
 
 
 _BUILDERS: dict[str, Callable] = {"bar": _bar, "dots": _dots, "natural": _natural, "search": _search}

@@ -93,10 +93,10 @@ def servo_setpoints(q, dt_s, inertia, out=None, stiffness=None, damping=None, en
     if out is None:
         out = np.empty((n, T, 3 * k))
     out[:, :, :k] = q[:, 1:-1]
-    out[:, :, k:2 * k] = v[:, 1:]
-    out[:, :, 2 * k:] = a @ inertia.T
+    out[:, :, k : 2 * k] = v[:, 1:]
+    out[:, :, 2 * k :] = a @ inertia.T
     if stiffness is not None:
-        out[:, :, 2 * k:] += q[:, 1:-1] @ stiffness.T + v[:, 1:] @ damping.T
+        out[:, :, 2 * k :] += q[:, 1:-1] @ stiffness.T + v[:, 1:] @ damping.T
     if end is None:
         if stiffness is None:
             return out
@@ -111,7 +111,7 @@ def servo_setpoints(q, dt_s, inertia, out=None, stiffness=None, damping=None, en
     q_end = q[rows, end][:, None, :]  # (n, 1, k)
     out[:, :, :k] = out[:, :, :k] * ~held[:, :, None] + held[:, :, None] * q_end
     if stiffness is not None:
-        out[:, :, 2 * k:] += held[:, :, None] * (q_end @ stiffness.T)  # the step that holds the endpoint
+        out[:, :, 2 * k :] += held[:, :, None] * (q_end @ stiffness.T)  # the step that holds the endpoint
     return out
 
 
@@ -128,8 +128,17 @@ class EyeServo:
     eye joints' addresses in ``qpos`` / ``qvel``; ``ctrl``: the 18 eye set-points' slice (or indices)
     of ``data.ctrl`` (position, velocity, feed-forward of the six joints)."""
 
-    def __init__(self, model, data, k_fix: int, k_sac: int, qadr: np.ndarray, vadr: np.ndarray, ctrl,
-                 plant: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+    def __init__(
+        self,
+        model,
+        data,
+        k_fix: int,
+        k_sac: int,
+        qadr: np.ndarray,
+        vadr: np.ndarray,
+        ctrl,
+        plant: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    ) -> None:
         self.model, self.data = model, data
         self.k_fix, self.k_sac = k_fix, k_sac
         self.dt_fix, self.dt_sac = 1e-3 / k_fix, 1e-3 / k_sac
@@ -183,8 +192,9 @@ class EyeServo:
         k_sac, k_fix = self.k_sac, self.k_fix
         span = plan.end_ms - plan.onset_ms
         fine_ms = min(span, int(np.ceil(plan.duration_ms)) + 1)
-        t = np.concatenate([np.arange(-1, fine_ms * k_sac + 1) / k_sac,
-                            fine_ms + np.arange(1, (span - fine_ms) * k_fix + 1) / k_fix])
+        t = np.concatenate(
+            [np.arange(-1, fine_ms * k_sac + 1) / k_sac, fine_ms + np.arange(1, (span - fine_ms) * k_fix + 1) / k_fix]
+        )
         q = plan.angles(plan.onset_ms + t).reshape(-1, 6)
         if self.plant is None:
             mujoco.mj_fullM(self.model, self.data, self._M)
@@ -193,8 +203,14 @@ class EyeServo:
             I, K, B = self.plant
             # the last step is the plan's snap onto its endpoint (the last settle_deg): held (servo_setpoints)
             u = servo_setpoints(q[None], np.diff(t) * 1e-3, I, stiffness=K, damping=B)[0]
-        return {"plan": plan, "u": u, "t": plan.onset_ms + t[2:], "q": q[2:], "fine_steps": fine_ms * k_sac,
-                "fine_ms": fine_ms}
+        return {
+            "plan": plan,
+            "u": u,
+            "t": plan.onset_ms + t[2:],
+            "q": q[2:],
+            "fine_steps": fine_ms * k_sac,
+            "fine_ms": fine_ms,
+        }
 
     def saccade(self, plan, t0_ms: int, until_ms: int, rec: list | None) -> None:
         """Step the saccade in flight from ``t0_ms`` to ``until_ms`` (<= ``plan.end_ms``)."""

@@ -95,8 +95,10 @@ class EyeTrace:
         have = {n: [getattr(t, n) is not None for t in traces] for n in names}
         mixed = [n for n in names if any(have[n]) and not all(have[n])]
         if mixed:
-            raise ValueError(f"the pieces disagree on which fields they hold ({', '.join(mixed)}): "
-                             "concatenate traces of one simulation")
+            raise ValueError(
+                f"the pieces disagree on which fields they hold ({', '.join(mixed)}): "
+                "concatenate traces of one simulation"
+            )
         return cls(**{n: np.concatenate([getattr(t, n) for t in traces]) if have[n][0] else None for n in names})
 
 
@@ -171,14 +173,27 @@ class Head(SceneObjects, HeadRendering):
                 frame = head.render()                     # StereoFrame at t ms re onset
     """
 
-    def __init__(self, scene: str = "dots", image_size: int | tuple[int, int] = 128, *,
-                 fovy_deg: float = DEFAULT_FOVY_DEG, ipd: float = DEFAULT_IPD, quality: str = "fast",
-                 seed: int | None = None, endpoint_noise: float = 0.0, saccade_model: str = "burst",
-                 main_sequence: MainSequence | None = None, generator: BurstGenerator | None = None,
-                 vergence: VergenceDynamics | None = None, eye_position: EyePositionSignal | None = None,
-                 timestep_ms: float = DEFAULT_TIMESTEP_MS,
-                 saccade_timestep_ms: float = DEFAULT_SACCADE_TIMESTEP_MS, eye_drive: str = "plant",
-                 plant: OrbitalPlant | None = None, motor_noise: MotorNoise | None = None):
+    def __init__(
+        self,
+        scene: str = "dots",
+        image_size: int | tuple[int, int] = 128,
+        *,
+        fovy_deg: float = DEFAULT_FOVY_DEG,
+        ipd: float = DEFAULT_IPD,
+        quality: str = "fast",
+        seed: int | None = None,
+        endpoint_noise: float = 0.0,
+        saccade_model: str = "burst",
+        main_sequence: MainSequence | None = None,
+        generator: BurstGenerator | None = None,
+        vergence: VergenceDynamics | None = None,
+        eye_position: EyePositionSignal | None = None,
+        timestep_ms: float = DEFAULT_TIMESTEP_MS,
+        saccade_timestep_ms: float = DEFAULT_SACCADE_TIMESTEP_MS,
+        eye_drive: str = "plant",
+        plant: OrbitalPlant | None = None,
+        motor_noise: MotorNoise | None = None,
+    ):
         if not isinstance(scene, str):
             raise checks.InputTypeError(f"scene must be one of {', '.join(SCENES)}; got {scene!r}")
         self._k_fix = _substeps(timestep_ms, "timestep_ms")
@@ -191,10 +206,17 @@ class Head(SceneObjects, HeadRendering):
         else:
             h = w = checks.integer("image_size", image_size, 1, MAX_IMAGE_SIDE, hint="or a (height, width) pair")
         self.image_shape = (h, w)
-        self.endpoint_noise = checks.real("endpoint_noise", endpoint_noise, 0.0, 1.0,
-                                          hint="the s.d. of the endpoint error as a fraction of the amplitude")
+        self.endpoint_noise = checks.real(
+            "endpoint_noise",
+            endpoint_noise,
+            0.0,
+            1.0,
+            hint="the s.d. of the endpoint error as a fraction of the amplitude",
+        )
         if motor_noise is not None and not isinstance(motor_noise, MotorNoise):
-            raise checks.InputTypeError(f"motor_noise must be a models.MotorNoise or None; got {type(motor_noise).__name__}")
+            raise checks.InputTypeError(
+                f"motor_noise must be a models.MotorNoise or None; got {type(motor_noise).__name__}"
+            )
         if motor_noise is not None and self.endpoint_noise > 0:
             raise ValueError("give endpoint_noise (isotropic) or motor_noise, not both")
         #: the saccadic motor error both engines draw (``models.MotorNoise``)
@@ -203,23 +225,37 @@ class Head(SceneObjects, HeadRendering):
         self.eye_drive = checks.choice("eye_drive", eye_drive, EYE_DRIVES)
         if plant is not None and self.eye_drive != "plant":
             raise ValueError("plant configures eye_drive='plant'; the servo has no plant parameters")
-        for name, value, kind in (("main_sequence", main_sequence, MainSequence), ("generator", generator, BurstGenerator),
-                                  ("plant", plant, OrbitalPlant),
-                                  ("vergence", vergence, VergenceDynamics),
-                                  ("eye_position", eye_position, EyePositionSignal)):
+        for name, value, kind in (
+            ("main_sequence", main_sequence, MainSequence),
+            ("generator", generator, BurstGenerator),
+            ("plant", plant, OrbitalPlant),
+            ("vergence", vergence, VergenceDynamics),
+            ("eye_position", eye_position, EyePositionSignal),
+        ):
             if value is not None and not isinstance(value, kind):
-                raise checks.InputTypeError(f"{name} must be a models.{kind.__name__} or None; got {type(value).__name__}")
+                raise checks.InputTypeError(
+                    f"{name} must be a models.{kind.__name__} or None; got {type(value).__name__}"
+                )
         if self.saccade_model == "legacy" and (generator is not None or vergence is not None):
-            raise ValueError("generator and vergence configure saccade_model='burst'; the legacy model takes main_sequence")
+            raise ValueError(
+                "generator and vergence configure saccade_model='burst'; the legacy model takes main_sequence"
+            )
         if self.saccade_model == "burst" and main_sequence is not None:
-            raise ValueError("main_sequence configures saccade_model='legacy'; the burst model takes generator=BurstGenerator(...)")
+            raise ValueError(
+                "main_sequence configures saccade_model='legacy'; the burst model takes generator=BurstGenerator(...)"
+            )
         seed = _seed(seed)
         self.main_sequence = main_sequence or MainSequence()
         self.generator = generator or BurstGenerator()
         self.vergence = None if self.saccade_model == "legacy" else (vergence or VergenceDynamics())
         self.eye_position = eye_position or EyePositionSignal()
-        self.spec, info = build_spec(scene, ipd=ipd, fovy_deg=fovy_deg, quality=quality,
-                                     offscreen_size=(self.image_shape[1], self.image_shape[0]))
+        self.spec, info = build_spec(
+            scene,
+            ipd=ipd,
+            fovy_deg=fovy_deg,
+            quality=quality,
+            offscreen_size=(self.image_shape[1], self.image_shape[0]),
+        )
         self.scene: SceneInfo = info
         self.spec.option.timestep = 1e-3 / self._k_fix
         self.model: mujoco.MjModel = self.spec.compile()
@@ -238,8 +274,9 @@ class Head(SceneObjects, HeadRendering):
         command = None
         if self.eye_drive == "plant":
             self.plant = plant or OrbitalPlant()
-            command = self.plant.install(m, self._vadr, np.array(jid), np.concatenate([self._pos_act, self._vel_act]),
-                                         self.generator.plant_t2_ms)
+            command = self.plant.install(
+                m, self._vadr, np.array(jid), np.concatenate([self._pos_act, self._vel_act]), self.generator.plant_t2_ms
+            )
         #: the command's model of the plant: (inertia, stiffness, damping), each (6, 6); None for the servo
         self.plant_command = command
         self._servo = EyeServo(m, self.data, self._k_fix, self._k_sac, self._qadr, self._vadr, self._eye_ctrl, command)
@@ -252,8 +289,7 @@ class Head(SceneObjects, HeadRendering):
         self.reset(seed=seed)
 
     # ------------------------------------------------------------------ lifecycle
-    def reset(self, seed: int | None = None, fixate: str | Sequence[float] | None = None,
-              settle_ms: int = 10) -> None:
+    def reset(self, seed: int | None = None, fixate: str | Sequence[float] | None = None, settle_ms: int = 10) -> None:
         """Reset physics and time to 0, hide flashes, re-draw the scene layout and fixate ``fixate`` (an
         object name or world point; default: the scene's fixation).
 
@@ -300,9 +336,11 @@ class Head(SceneObjects, HeadRendering):
     def __reduce_ex__(self, protocol):
         # pickle and copy (deep or shallow) come here first: refuse before a half-built copy of the GL
         # renderer (whose __del__ would print a traceback) or a second head sharing this MjData is made
-        raise TypeError("a models.Head cannot be pickled or copied (pickle, copy.deepcopy, copy.copy): it holds a "
-                        "compiled MuJoCo model (its MjSpec) and an OpenGL context. Make a new Head with the same "
-                        "arguments instead; for the same state, reset it with the same seed and repeat the calls")
+        raise TypeError(
+            "a models.Head cannot be pickled or copied (pickle, copy.deepcopy, copy.copy): it holds a "
+            "compiled MuJoCo model (its MjSpec) and an OpenGL context. Make a new Head with the same "
+            "arguments instead; for the same state, reset it with the same seed and repeat the calls"
+        )
 
     # ------------------------------------------------------------------ state
     def get_state(self) -> OculomotorState:
@@ -311,19 +349,27 @@ class Head(SceneObjects, HeadRendering):
         :meth:`set_state` needs to continue from here."""
         m = self.model
         return OculomotorState(
-            time_ms=self.time_ms, hold=self._hold.copy(), signal_hold=self._signal_hold.copy(),
-            fixation_head=self._fix_head.copy(), rng=self._rng, seed=self._seed, plan=self._plan,
-            signal_plan=self._signal_plan, last_plan=self.last_plan,
+            time_ms=self.time_ms,
+            hold=self._hold.copy(),
+            signal_hold=self._signal_hold.copy(),
+            fixation_head=self._fix_head.copy(),
+            rng=self._rng,
+            seed=self._seed,
+            plan=self._plan,
+            signal_plan=self._signal_plan,
+            last_plan=self.last_plan,
             flashes={m.geom(g).name: off for g, off in self._flash_off.items()},
-            opacity={m.geom(g).name: float(m.geom_rgba[g, 3]) for g in self._alpha0})
+            opacity={m.geom(g).name: float(m.geom_rgba[g, 3]) for g in self._alpha0},
+        )
 
     def set_state(self, state: OculomotorState) -> None:
         """Make ``state`` this head's oculomotor state (the physics in ``data`` is left as it is; call
         ``mujoco.mj_forward`` after changing it). Objects not in ``state.opacity`` get the scene's own
         visibility back, flashes not in ``state.flashes`` are hidden."""
         if not isinstance(state, OculomotorState):
-            raise checks.InputTypeError(f"state must be a models.OculomotorState (from Head.get_state); "
-                                        f"got {type(state).__name__}")
+            raise checks.InputTypeError(
+                f"state must be a models.OculomotorState (from Head.get_state); got {type(state).__name__}"
+            )
         m = self.model
         for gid, alpha in self._alpha0.items():  # the scene's own visibility, then the state's
             m.geom_rgba[gid, 3] = alpha
@@ -511,21 +557,31 @@ class Head(SceneObjects, HeadRendering):
         c, p = self._eye_centres_head.mean(axis=0), np.asarray(p_head, float)[None]
         end = fixation_angles(p[0], self._eye_centres_head)[None]  # validates the intended target
         amp = cyclopean_amplitude(c, self._fix_head[None], p)
-        end_point, noisy_end, noisy_amp = noisy_endpoints(c, self._eye_centres_head, self._fix_head[None], p, end, amp,
-                                                          self.motor_noise, [self._rng])
+        end_point, noisy_end, noisy_amp = noisy_endpoints(
+            c, self._eye_centres_head, self._fix_head[None], p, end, amp, self.motor_noise, [self._rng]
+        )
         legacy = self.saccade_model == "legacy"
-        return SaccadePlan(onset_ms=self.time_ms + latency_ms, start_angles=self._hold.copy(), end_angles=noisy_end[0],
-                           amplitude=float(noisy_amp[0]), generator=self.main_sequence if legacy else self.generator,
-                           target=self.to_world(end_point[0]), intended_target=np.asarray(intended_world, float),
-                           intended_end_angles=end[0], intended_amplitude=float(amp[0]),
-                           vergence=self.vergence, eye_position=self.eye_position,
-                           signal_start_angles=self._signal_hold_at(self.time_ms + latency_ms))
+        return SaccadePlan(
+            onset_ms=self.time_ms + latency_ms,
+            start_angles=self._hold.copy(),
+            end_angles=noisy_end[0],
+            amplitude=float(noisy_amp[0]),
+            generator=self.main_sequence if legacy else self.generator,
+            target=self.to_world(end_point[0]),
+            intended_target=np.asarray(intended_world, float),
+            intended_end_angles=end[0],
+            intended_amplitude=float(amp[0]),
+            vergence=self.vergence,
+            eye_position=self.eye_position,
+            signal_start_angles=self._signal_hold_at(self.time_ms + latency_ms),
+        )
 
     def start_saccade(self, plan: SaccadePlan) -> None:
         """Make ``plan`` the active eye command; the eyes move from ``plan.onset_ms`` on."""
         if not isinstance(plan, SaccadePlan):
-            raise checks.InputTypeError(f"plan must be a SaccadePlan (from plan_saccade or plan_saccade_to); "
-                                        f"got {type(plan).__name__}")
+            raise checks.InputTypeError(
+                f"plan must be a SaccadePlan (from plan_saccade or plan_saccade_to); got {type(plan).__name__}"
+            )
         if self._plan is not None:
             raise RuntimeError("a saccade is already in flight")
         if plan.onset_ms < self.time_ms:
@@ -628,8 +684,14 @@ class Head(SceneObjects, HeadRendering):
             eps = np.broadcast_to(self._signal_hold, ts.shape + (2, 3)).copy()
         else:
             intended, eps = sp.intended_angles(ts), sp.eye_position_signal(ts)
-        return EyeTrace(ts, np.array(qs).reshape(-1, 2, 3), np.array(vs).reshape(-1, 2, 3),
-                        np.array(ps).reshape(-1, 2, 3), intended, eps)
+        return EyeTrace(
+            ts,
+            np.array(qs).reshape(-1, 2, 3),
+            np.array(vs).reshape(-1, 2, 3),
+            np.array(ps).reshape(-1, 2, 3),
+            intended,
+            eps,
+        )
 
     def _finish_saccade(self) -> None:
         self._hold = self._plan.end_angles.copy()

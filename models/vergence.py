@@ -82,11 +82,14 @@ class VergenceDynamics:
         object.__setattr__(self, "tau_ms", checks.real("tau_ms", self.tau_ms, 10.0, 2000.0))
         object.__setattr__(self, "saccade_speedup", checks.real("saccade_speedup", self.saccade_speedup, 1.0, 20.0))
         object.__setattr__(self, "latency_ms", checks.real("latency_ms", self.latency_ms, 0.0, 1000.0))
-        object.__setattr__(self, "divergence_tau_ms",
-                           checks.real("divergence_tau_ms", self.divergence_tau_ms, 10.0, 2000.0))
+        object.__setattr__(
+            self, "divergence_tau_ms", checks.real("divergence_tau_ms", self.divergence_tau_ms, 10.0, 2000.0)
+        )
         if self.divergence_tau_ms < self.tau_ms:
-            raise ValueError(f"divergence_tau_ms ({self.divergence_tau_ms:g}) must be at least tau_ms "
-                             f"({self.tau_ms:g}): convergence is faster than divergence (Hung, Zhu & Ciuffreda 1997)")
+            raise ValueError(
+                f"divergence_tau_ms ({self.divergence_tau_ms:g}) must be at least tau_ms "
+                f"({self.tau_ms:g}): convergence is faster than divergence (Hung, Zhu & Ciuffreda 1997)"
+            )
 
     def _tau_for(self, convergence) -> np.ndarray:
         """The time scale (ms) of a vergence change ``convergence`` (> 0 converging, < 0 diverging)."""
@@ -95,13 +98,15 @@ class VergenceDynamics:
     def fraction(self, t_rel_ms, saccade_offset_ms, converging: bool = True) -> np.ndarray:
         """Fraction of the vergence change done ``t_rel_ms`` after burst onset (0 before it);
         ``saccade_offset_ms`` <= 0: no saccade."""
-        return vergence_fraction(np.asarray(t_rel_ms, float), saccade_offset_ms, self.saccade_speedup,
-                                 self._tau(converging), self.latency_ms)
+        return vergence_fraction(
+            np.asarray(t_rel_ms, float), saccade_offset_ms, self.saccade_speedup, self._tau(converging), self.latency_ms
+        )
 
     def rate(self, t_rel_ms, saccade_offset_ms, converging: bool = True) -> np.ndarray:
         """d fraction / dt (1/ms)."""
-        return vergence_rate(np.asarray(t_rel_ms, float), saccade_offset_ms, self.saccade_speedup,
-                             self._tau(converging), self.latency_ms)
+        return vergence_rate(
+            np.asarray(t_rel_ms, float), saccade_offset_ms, self.saccade_speedup, self._tau(converging), self.latency_ms
+        )
 
     def peak_velocity_deg_s(self, change_deg) -> np.ndarray:
         """Peak velocity (deg/s) of a vergence change of ``change_deg`` (> 0 converging) without a

@@ -31,7 +31,28 @@ from .runfolder import check_settings
 from .saved import read_unit, write_unit
 from .stats import bootstrap_ci, iqm, summarize_runs
 
-__all__ = ["BrightestCellPolicy", "CEMConfig", "DEFAULT_ENV_KWARGS", "Evaluation", "LinearCellPolicy",
-           "RandomPolicy", "bootstrap_ci", "cell_features", "check_settings", "episode_seeds", "evaluate", "feature_names", "iqm",
-           "load_policy", "make_env", "plot_learning_curve", "plot_runs", "plot_training_log", "read_training_log",
-           "read_unit", "summarize_runs", "train_cem", "write_unit"]
+__all__ = [
+    "BrightestCellPolicy",
+    "CEMConfig",
+    "DEFAULT_ENV_KWARGS",
+    "Evaluation",
+    "LinearCellPolicy",
+    "RandomPolicy",
+    "bootstrap_ci",
+    "cell_features",
+    "check_settings",
+    "episode_seeds",
+    "evaluate",
+    "feature_names",
+    "iqm",
+    "load_policy",
+    "make_env",
+    "plot_learning_curve",
+    "plot_runs",
+    "plot_training_log",
+    "read_training_log",
+    "read_unit",
+    "summarize_runs",
+    "train_cem",
+    "write_unit",
+]

@@ -27,7 +27,9 @@ def shift_cortical(cortical: torch.Tensor, rings: torch.Tensor, sectors: torch.T
     B, _, M, N, _ = cortical.shape
     rings, sectors = torch.as_tensor(rings).long().reshape(-1), torch.as_tensor(sectors).long().reshape(-1)
     if rings.shape[0] != B or sectors.shape[0] != B:
-        raise ValueError(f"rings and sectors need one shift per sample ({B}); got {rings.shape[0]} and {sectors.shape[0]}")
+        raise ValueError(
+            f"rings and sectors need one shift per sample ({B}); got {rings.shape[0]} and {sectors.shape[0]}"
+        )
     ri = (torch.arange(M)[None, :] - rings[:, None]).clamp(0, M - 1)  # (B, M)
     si = torch.remainder(torch.arange(N)[None, :] - sectors[:, None], N)  # (B, N)
     b = torch.arange(B)[:, None, None]

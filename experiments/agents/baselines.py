@@ -57,8 +57,11 @@ def _read_heldout(path: Path) -> dict | None:
     """A finished run's held-out results, or None when the file is missing or not a complete result."""
     try:
         d = json.loads(path.read_text())
-        ok = isinstance(d, dict) and isinstance(d.get("deterministic"), dict) and \
-            all(isinstance(d["deterministic"].get(k), (int, float)) for k in ("success_rate", "mean_reward"))
+        ok = (
+            isinstance(d, dict)
+            and isinstance(d.get("deterministic"), dict)
+            and all(isinstance(d["deterministic"].get(k), (int, float)) for k in ("success_rate", "mean_reward"))
+        )
         return d if ok else None
     except (OSError, ValueError, UnicodeDecodeError):
         return None
@@ -68,19 +71,37 @@ def _held_out(env, policy, seeds: np.ndarray, eval_seed: int) -> dict[str, float
     return evaluate(env, policy, seeds, rng_seed=eval_seed).as_dict()
 
 
-def _train_one(run: Path, agent: str, task: str, seed: int, hp: dict | None, timesteps: int | None,
-               quick: bool, image_size: int, log) -> dict[str, Any]:
+def _train_one(
+    run: Path,
+    agent: str,
+    task: str,
+    seed: int,
+    hp: dict | None,
+    timesteps: int | None,
+    quick: bool,
+    image_size: int,
+    log,
+) -> dict[str, Any]:
     """Train one run into ``run``, resuming an unfinished one; returns the training metadata (wall
     time, env steps)."""
     if agent == "cem":
         from .cem import CEMConfig, train_cem
 
         t0 = time.perf_counter()
-        _, meta = train_cem(run, task=task, config=CEMConfig.quick() if quick else CEMConfig(), seed=seed,
-                            env_kwargs={"image_size": image_size}, progress=False)
+        _, meta = train_cem(
+            run,
+            task=task,
+            config=CEMConfig.quick() if quick else CEMConfig(),
+            seed=seed,
+            env_kwargs={"image_size": image_size},
+            progress=False,
+        )
         last = meta["curve"][-1]
-        return {"wall_s": round(time.perf_counter() - t0, 1), "env_steps": int(last["env_steps"]),
-                "iterations": int(last["iteration"])}
+        return {
+            "wall_s": round(time.perf_counter() - t0, 1),
+            "env_steps": int(last["env_steps"]),
+            "iterations": int(last["iteration"]),
+        }
     from .sb3 import train_sb3
 
     meta = train_sb3(run, agent, task, hp, seed=seed, timesteps=timesteps, log=log)
@@ -97,11 +118,22 @@ def _load(run: Path, agent: str, deterministic: bool):
     return load_agent(run, deterministic=deterministic)
 
 
-def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, seeds: tuple[int, ...] = (0, 1, 2),
-                  episodes: int = 100, eval_seed: int = 1, timesteps: int | None = None, quick: bool = False,
-                  image_size: int | None = None, hyperparams: dict[str, str | Path] | None = None,
-                  log: Callable[[str], None] = print, workers: int = 1, backend: str = "local",
-                  ray_address: str | None = None) -> list[dict[str, Any]]:
+def run_baselines(
+    out: str | Path,
+    task: str,
+    agents: tuple[str, ...] = AGENTS,
+    seeds: tuple[int, ...] = (0, 1, 2),
+    episodes: int = 100,
+    eval_seed: int = 1,
+    timesteps: int | None = None,
+    quick: bool = False,
+    image_size: int | None = None,
+    hyperparams: dict[str, str | Path] | None = None,
+    log: Callable[[str], None] = print,
+    workers: int = 1,
+    backend: str = "local",
+    ray_address: str | None = None,
+) -> list[dict[str, Any]]:
     """Train and evaluate ``agents`` x ``seeds`` on ``task`` into ``out`` (see the module docstring),
     resuming a folder of the same study; returns the table's rows. ``timesteps`` overrides the PPO/SAC
     budget, ``quick`` shrinks every run (tests), ``image_size`` overrides the env's (96 by default),
@@ -135,8 +167,15 @@ def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, 
             import stable_baselines3  # noqa: F401  (imported only to check that it is installed)
         except ImportError:
             raise ValueError("agents ppo/sac need the 'rl' extra: pip install -e '.[rl]' (CPU torch first)") from None
-    study = {"version": STUDY_VERSION, "task": task, "episodes": int(episodes), "eval_seed": int(eval_seed),
-             "timesteps": timesteps, "quick": bool(quick), "image_size": image_size}
+    study = {
+        "version": STUDY_VERSION,
+        "task": task,
+        "episodes": int(episodes),
+        "eval_seed": int(eval_seed),
+        "timesteps": timesteps,
+        "quick": bool(quick),
+        "image_size": image_size,
+    }
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     with path_lock(out / ".lock", f"the baselines folder {out}"):
@@ -151,8 +190,10 @@ def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, 
                 run = _run_dir(out, a, s)
                 done = _read_heldout(run / "heldout.json")
                 if done is not None and done.get("hyperparams") != json.loads(json.dumps(hps.get(a))):
-                    raise ValueError(f"{run} was trained with other {a} hyper-parameters than the current ones; "
-                                     "use another --out, or delete that run to train it again")
+                    raise ValueError(
+                        f"{run} was trained with other {a} hyper-parameters than the current ones; "
+                        "use another --out, or delete that run to train it again"
+                    )
                 if done is None:
                     todo.append((run, a, task, s, hps.get(a), timesteps, quick, size, held_seeds, eval_seed))
                 else:
@@ -163,20 +204,33 @@ def run_baselines(out: str | Path, task: str, agents: tuple[str, ...] = AGENTS, 
         for a in agents:
             for s in seeds:
                 done = finished[a, s]
-                log(f"baselines {task}: {a} seed {s}: held-out success {done['deterministic']['success_rate']:.2f}"
-                    + (f" (sampled {done['stochastic']['success_rate']:.2f})" if "stochastic" in done else ""))
+                log(
+                    f"baselines {task}: {a} seed {s}: held-out success {done['deterministic']['success_rate']:.2f}"
+                    + (f" (sampled {done['stochastic']['success_rate']:.2f})" if "stochastic" in done else "")
+                )
                 results[a].append(done)
         rows = _table(out, task, results, reference)
     return rows
 
 
-def _train_and_evaluate(run: Path, a: str, task: str, s: int, hp: dict | None, timesteps: int | None, quick: bool,
-                        size: int, held_seeds: np.ndarray, eval_seed: int, log: Callable[[str], None] = print) -> dict:
+def _train_and_evaluate(
+    run: Path,
+    a: str,
+    task: str,
+    s: int,
+    hp: dict | None,
+    timesteps: int | None,
+    quick: bool,
+    size: int,
+    held_seeds: np.ndarray,
+    eval_seed: int,
+    log: Callable[[str], None] = print,
+) -> dict:
     """One run: train (or resume) it, evaluate it on the held-out episodes, write ``heldout.json``."""
     log(f"baselines {task}: training {a} seed {s} ...")
     trained = _train_one(run, a, task, s, hp, timesteps, quick, size, log)
     done = {"agent": a, "seed": s, **trained, "hyperparams": hp}
-    for mode in ((True, False) if a != "cem" else (True,)):
+    for mode in (True, False) if a != "cem" else (True,):
         pol = _load(run, a, deterministic=mode)
         if a != "cem":
             pol.seed(eval_seed)
@@ -234,13 +288,16 @@ def _check_study(path: Path, study: dict) -> None:
         try:
             old = json.loads(path.read_text())
         except (ValueError, UnicodeDecodeError) as err:
-            raise ValueError(f"{path} is not valid JSON ({err}): this folder's study cannot be read; "
-                             "use another --out") from None
+            raise ValueError(
+                f"{path} is not valid JSON ({err}): this folder's study cannot be read; use another --out"
+            ) from None
         new = json.loads(json.dumps(study))  # as it reads back (tuples as lists)
         if old != new:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
-            raise ValueError(f"{path.parent} holds another baselines study (differs in: {', '.join(diff)}); "
-                             "use another --out, or the same options to resume it")
+            raise ValueError(
+                f"{path.parent} holds another baselines study (differs in: {', '.join(diff)}); "
+                "use another --out, or the same options to resume it"
+            )
     else:
         write_json(path, study)
 
@@ -259,16 +316,23 @@ def _reference(path: Path, task: str, image_size: int, seeds: np.ndarray, eval_s
     env = make_env(task, image_size=image_size)
     try:
         g = env.vision.grid
-        ref = {"heuristic": _held_out(env, BrightestCellPolicy(), seeds, eval_seed),
-               "random": _held_out(env, RandomPolicy(g.M * g.N), seeds, eval_seed)}
+        ref = {
+            "heuristic": _held_out(env, BrightestCellPolicy(), seeds, eval_seed),
+            "random": _held_out(env, RandomPolicy(g.M * g.N), seeds, eval_seed),
+        }
     finally:
         env.close()
     write_json(path, ref)
     return ref
 
 
-NAMES = {"ppo": "PPO", "sac": "SAC", "cem": "CEM linear cell policy", "heuristic": "heuristic (brightest cell)",
-         "random": "random (uniform cell)"}
+NAMES = {
+    "ppo": "PPO",
+    "sac": "SAC",
+    "cem": "CEM linear cell policy",
+    "heuristic": "heuristic (brightest cell)",
+    "random": "random (uniform cell)",
+}
 
 
 def _name(agent: str, runs: list[dict]) -> str:
@@ -288,37 +352,65 @@ def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict
     def row(name: str, runs: list[dict], mode: str) -> dict:
         sr = [r[mode]["success_rate"] for r in runs]
         s = summarize_runs(sr)
-        return {"agent": name, "actions": mode, "seeds": " ".join(str(r["seed"]) for r in runs),
-                "iqm": round(s["iqm"], 4), "ci_low": round(s["ci_low"], 4), "ci_high": round(s["ci_high"], 4),
-                "mean": round(s["mean"], 4), "per_seed": " ".join(f"{v:.2f}" for v in sr),
-                "mean_return": round(float(np.mean([r[mode]["mean_reward"] for r in runs])), 4),
-                "env_steps": " ".join(str(r["env_steps"]) for r in runs),
-                "wall_s": " ".join(f"{r['wall_s']:.0f}" for r in runs)}
+        return {
+            "agent": name,
+            "actions": mode,
+            "seeds": " ".join(str(r["seed"]) for r in runs),
+            "iqm": round(s["iqm"], 4),
+            "ci_low": round(s["ci_low"], 4),
+            "ci_high": round(s["ci_high"], 4),
+            "mean": round(s["mean"], 4),
+            "per_seed": " ".join(f"{v:.2f}" for v in sr),
+            "mean_return": round(float(np.mean([r[mode]["mean_reward"] for r in runs])), 4),
+            "env_steps": " ".join(str(r["env_steps"]) for r in runs),
+            "wall_s": " ".join(f"{r['wall_s']:.0f}" for r in runs),
+        }
 
     for a, runs in results.items():
         rows.append(row(_name(a, runs), runs, "deterministic"))
         if all("stochastic" in r for r in runs):
             rows.append(row(_name(a, runs), runs, "stochastic"))
     for k, v in reference.items():
-        rows.append({"agent": NAMES[k], "actions": "-", "seeds": "-", "iqm": v["success_rate"], "ci_low": "",
-                     "ci_high": "", "mean": v["success_rate"], "per_seed": "", "mean_return": round(v["mean_reward"], 4),
-                     "env_steps": "", "wall_s": ""})
+        rows.append(
+            {
+                "agent": NAMES[k],
+                "actions": "-",
+                "seeds": "-",
+                "iqm": v["success_rate"],
+                "ci_low": "",
+                "ci_high": "",
+                "mean": v["success_rate"],
+                "per_seed": "",
+                "mean_return": round(v["mean_reward"], 4),
+                "env_steps": "",
+                "wall_s": "",
+            }
+        )
     write_csv(out / "table.csv", list(rows[0]), rows)
-    md = ["| agent | actions | seeds | held-out success IQM [95 % CI] | per seed | mean return | env steps | wall s |",
-          "|---|---|---|---|---|---|---|---|"]
+    md = [
+        "| agent | actions | seeds | held-out success IQM [95 % CI] | per seed | mean return | env steps | wall s |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         ci = f" [{r['ci_low']:.2f}, {r['ci_high']:.2f}]" if r["ci_low"] != "" else ""
-        md.append(f"| {r['agent']} | {r['actions']} | {r['seeds']} | {r['iqm']:.2f}{ci} | {r['per_seed']} | "
-                  f"{r['mean_return']:+.3f} | {r['env_steps']} | {r['wall_s']} |")
+        md.append(
+            f"| {r['agent']} | {r['actions']} | {r['seeds']} | {r['iqm']:.2f}{ci} | {r['per_seed']} | "
+            f"{r['mean_return']:+.3f} | {r['env_steps']} | {r['wall_s']} |"
+        )
     atomic_write_text(out / "table.md", "\n".join(md) + "\n")
-    curves = {_name(a, runs): [read_training_log(_run_dir(out, a, r["seed"]) / "training_log.csv") for r in runs]
-              for a, runs in results.items() if a != "cem"}
+    curves = {
+        _name(a, runs): [read_training_log(_run_dir(out, a, r["seed"]) / "training_log.csv") for r in runs]
+        for a, runs in results.items()
+        if a != "cem"
+    }
     lines = {}
     if "cem" in results:
         sr = [r["deterministic"]["success_rate"] for r in results["cem"]]
         ret = [r["deterministic"]["mean_reward"] for r in results["cem"]]
-        lines[f"{NAMES['cem']}, held-out IQM"] = {"success_rate": summarize_runs(sr)["iqm"],
-                                                  "mean_return": summarize_runs(ret)["iqm"]}
+        lines[f"{NAMES['cem']}, held-out IQM"] = {
+            "success_rate": summarize_runs(sr)["iqm"],
+            "mean_return": summarize_runs(ret)["iqm"],
+        }
     for k, v in reference.items():
         lines[f"{NAMES[k]}, held-out"] = {"success_rate": v["success_rate"], "mean_return": v["mean_reward"]}
     keys = ("success_rate", "mean_return", "train_success_rate")
@@ -327,6 +419,11 @@ def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict
         curves = {_name("cem", results["cem"]): [{**log, "mean_return": log["mean_reward"]} for log in logs]}
         keys = ("success_rate", "mean_return")
     if curves:
-        plot_runs(curves, lines, out / "curves.png", keys=keys,
-                  title=f"{task}: IQM over seeds with a bootstrap 95 % band; lines: held-out")
+        plot_runs(
+            curves,
+            lines,
+            out / "curves.png",
+            keys=keys,
+            title=f"{task}: IQM over seeds with a bootstrap 95 % band; lines: held-out",
+        )
     return rows

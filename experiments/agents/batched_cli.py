@@ -13,8 +13,15 @@ __all__ = ["QUICK", "batched_train_command"]
 
 #: ``--quick``: two PPO updates of 2 steps per world, a validation row after each on 4 episodes, 8 held-out
 #: episodes, 32 px eyes (a smoke test of the whole path; minutes on Warp's CPU backend, mostly compilation).
-QUICK: dict[str, Any] = {"n_steps": 2, "n_minibatches": 2, "n_epochs": 2, "eval_every": 1, "eval_episodes": 4,
-         "heldout_episodes": 8, "env_kwargs": {"image_size": 32}}
+QUICK: dict[str, Any] = {
+    "n_steps": 2,
+    "n_minibatches": 2,
+    "n_epochs": 2,
+    "eval_every": 1,
+    "eval_episodes": 4,
+    "heldout_episodes": 8,
+    "env_kwargs": {"image_size": 32},
+}
 
 
 def _usage(msg: str) -> int:
@@ -30,8 +37,11 @@ def batched_train_command(args: argparse.Namespace) -> int:
 
     if args.algo != "ppo":
         return _usage(f"--engine batched trains PPO only (--algo ppo); --algo {args.algo} runs on --engine single")
-    cem_only = [o for o, a in (("--iterations", "iterations"), ("--population", "population"),
-                               ("--episodes", "episodes")) if getattr(args, a, None) is not None]
+    cem_only = [
+        o
+        for o, a in (("--iterations", "iterations"), ("--population", "population"), ("--episodes", "episodes"))
+        if getattr(args, a, None) is not None
+    ]
     if cem_only:
         return _usage(f"{', '.join(cem_only)} apply to --algo cem only")
     try:
@@ -52,8 +62,11 @@ def batched_train_command(args: argparse.Namespace) -> int:
             hp["env_kwargs"] = {**dict(hp.get("env_kwargs") or {}), "image_size": args.image_size}
         steps = args.timesteps
         if args.quick:
-            hp = {**hp, **QUICK, "env_kwargs": {**QUICK["env_kwargs"], **({"image_size": args.image_size}
-                                                                        if args.image_size else {})}}
+            hp = {
+                **hp,
+                **QUICK,
+                "env_kwargs": {**QUICK["env_kwargs"], **({"image_size": args.image_size} if args.image_size else {})},
+            }
             n = args.num_envs or 4
             steps = steps or 2 * n * QUICK["n_steps"]
             hp["num_envs"] = n
@@ -62,16 +75,40 @@ def batched_train_command(args: argparse.Namespace) -> int:
         log = (lambda msg: None) if args.no_progress else (lambda msg: print(msg, file=sys.stderr, flush=True))
         Path(args.out).mkdir(parents=True, exist_ok=True)
         with path_lock(Path(args.out) / ".lock", f"the training folder {args.out}"):
-            meta = train_batched(args.out, args.task, hp, seed=args.seed, num_envs=args.num_envs, device=args.device,
-                                 timesteps=steps, log=log)
+            meta = train_batched(
+                args.out,
+                args.task,
+                hp,
+                seed=args.seed,
+                num_envs=args.num_envs,
+                device=args.device,
+                timesteps=steps,
+                log=log,
+            )
         last, held = meta["final"], meta["heldout_batched"]
-        print(json.dumps({"out": str(args.out), "algo": "ppo", "engine": "batched", "device": meta["device"],
-                          "num_envs": meta["num_envs"], "env_steps": int(meta["env_steps"]),
-                          "success_rate": float(last["success_rate"]), "heldout_success_rate": held["success_rate"],
-                          "heldout_episodes": held["episodes"], "wall_s": meta["wall_s"],
-                          "train_steps_per_s": meta["train_steps_per_s"],
-                          "figure": str(Path(args.out) / "learning_curve.png")}))
+        print(
+            json.dumps(
+                {
+                    "out": str(args.out),
+                    "algo": "ppo",
+                    "engine": "batched",
+                    "device": meta["device"],
+                    "num_envs": meta["num_envs"],
+                    "env_steps": int(meta["env_steps"]),
+                    "success_rate": float(last["success_rate"]),
+                    "heldout_success_rate": held["success_rate"],
+                    "heldout_episodes": held["episodes"],
+                    "wall_s": meta["wall_s"],
+                    "train_steps_per_s": meta["train_steps_per_s"],
+                    "figure": str(Path(args.out) / "learning_curve.png"),
+                }
+            )
+        )
         return 0
 
-    return guarded("train", work, resume_hint="what finished is kept in --out: run the same command again to resume",
-                   errors={ValueError: 2, FileNotFoundError: 2, LockBusyError: 2})
+    return guarded(
+        "train",
+        work,
+        resume_hint="what finished is kept in --out: run the same command again to resume",
+        errors={ValueError: 2, FileNotFoundError: 2, LockBusyError: 2},
+    )

@@ -49,17 +49,48 @@ from .rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, Evaluation, episode_seeds
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
 from .saved import file_sha256, pack, read_unit, unpack, write_unit
 
-__all__ = ["CURVE_COLUMNS", "BatchedPPOAgent", "CellActorCritic", "PPOTrainer", "check_device", "deterministic_torch",
-           "load_batched_agent", "make_batched_env", "plan_batched", "run_batched_episodes", "train_batched"]
+__all__ = [
+    "CURVE_COLUMNS",
+    "BatchedPPOAgent",
+    "CellActorCritic",
+    "PPOTrainer",
+    "check_device",
+    "deterministic_torch",
+    "load_batched_agent",
+    "make_batched_env",
+    "plan_batched",
+    "run_batched_episodes",
+    "train_batched",
+]
 
 OBS_KEYS = ("cortical", "fovea", "eyes")
 VALIDATION_STREAM = 2  # as the SB3 trainer's validation episodes: neither the training nor the held-out ones
 CHUNK_STREAM = 3  # the world seeds of each training chunk's env reset
 HELDOUT_SEED, HELDOUT_EPISODES = 0, 100  # evaluate's defaults (--seed 0 --episodes 100); fewer only in tests
-CURVE_COLUMNS = ("env_steps", "updates", "elapsed_s", "success_rate", "mean_return", "mean_saccades",
-                 "train_episodes", "train_success_rate", "train_return", "env_steps_per_s")
-_ALGO_KEYS = ("n_steps", "n_epochs", "n_minibatches", "learning_rate", "gamma", "gae_lambda", "clip_range",
-              "ent_coef", "vf_coef", "max_grad_norm")
+CURVE_COLUMNS = (
+    "env_steps",
+    "updates",
+    "elapsed_s",
+    "success_rate",
+    "mean_return",
+    "mean_saccades",
+    "train_episodes",
+    "train_success_rate",
+    "train_return",
+    "env_steps_per_s",
+)
+_ALGO_KEYS = (
+    "n_steps",
+    "n_epochs",
+    "n_minibatches",
+    "learning_rate",
+    "gamma",
+    "gae_lambda",
+    "clip_range",
+    "ent_coef",
+    "vf_coef",
+    "max_grad_norm",
+)
 
 
 # --------------------------------------------------------------------------------------------- network
@@ -69,21 +100,42 @@ class CellActorCritic(nn.Module):
     policy). Critic: a second encoder's global features (pooled map, fovea, eye-position signal) through
     a ``vf_hidden``-wide tanh MLP. ``forward(obs)`` -> (logits (B, M*N), value (B,))."""
 
-    def __init__(self, cortical_shape: tuple[int, ...], fovea_shape: tuple[int, ...], eyes_dim: int,
-                 channels: tuple[int, ...] = (16, 16), logit_gain: float = 1.0, vf_hidden: int = 64) -> None:
+    def __init__(
+        self,
+        cortical_shape: tuple[int, ...],
+        fovea_shape: tuple[int, ...],
+        eyes_dim: int,
+        channels: tuple[int, ...] = (16, 16),
+        logit_gain: float = 1.0,
+        vf_hidden: int = 64,
+    ) -> None:
         super().__init__()
         if int(vf_hidden) < 1:
             raise ValueError(f"vf_hidden must be >= 1; got {vf_hidden!r}")
-        self.config = {"class": "CellActorCritic", "cortical_shape": [int(s) for s in cortical_shape],
-                       "fovea_shape": [int(s) for s in fovea_shape], "eyes_dim": int(eyes_dim),
-                       "channels": [int(c) for c in channels], "logit_gain": float(logit_gain),
-                       "vf_hidden": int(vf_hidden)}
-        enc: dict[str, Any] = dict(fovea_shape=tuple(fovea_shape), eyes_dim=int(eyes_dim), channels=tuple(channels),
-                                   logit_gain=float(logit_gain))
+        self.config = {
+            "class": "CellActorCritic",
+            "cortical_shape": [int(s) for s in cortical_shape],
+            "fovea_shape": [int(s) for s in fovea_shape],
+            "eyes_dim": int(eyes_dim),
+            "channels": [int(c) for c in channels],
+            "logit_gain": float(logit_gain),
+            "vf_hidden": int(vf_hidden),
+        }
+        enc: dict[str, Any] = dict(
+            fovea_shape=tuple(fovea_shape),
+            eyes_dim=int(eyes_dim),
+            channels=tuple(channels),
+            logit_gain=float(logit_gain),
+        )
         self.actor = CorticalEncoder(tuple(cortical_shape), **enc)
         self.critic = CorticalEncoder(tuple(cortical_shape), **enc)
-        self.value = nn.Sequential(nn.Linear(self.critic.global_dim, vf_hidden), nn.Tanh(),
-                                   nn.Linear(vf_hidden, vf_hidden), nn.Tanh(), nn.Linear(vf_hidden, 1))
+        self.value = nn.Sequential(
+            nn.Linear(self.critic.global_dim, vf_hidden),
+            nn.Tanh(),
+            nn.Linear(vf_hidden, vf_hidden),
+            nn.Tanh(),
+            nn.Linear(vf_hidden, 1),
+        )
         with torch.no_grad():
             self.actor.logit.weight.mul_(0.01)
             self.actor.logit.bias.zero_()  # type: ignore[union-attr]  # the logit layer has a bias
@@ -116,26 +168,56 @@ def check_device(device: str | None) -> str | None:
     if not re.fullmatch(r"cuda(:\d+)?", device):
         raise ValueError(f"--device must be cpu, cuda or cuda:<index>; got {device!r}")
     if not torch.cuda.is_available():
-        raise ValueError(f"--device {device}: torch {torch.__version__} finds no CUDA device here; use --device cpu "
-                         "(Warp's CPU backend: slow, for small runs) or run on a machine with an NVIDIA GPU")
+        raise ValueError(
+            f"--device {device}: torch {torch.__version__} finds no CUDA device here; use --device cpu "
+            "(Warp's CPU backend: slow, for small runs) or run on a machine with an NVIDIA GPU"
+        )
     return device
 
 
-def plan_batched(task: str, hyperparams: dict[str, Any], *, seed: int = 0, num_envs: int | None = None,
-                 device: str = "cpu", timesteps: int | None = None) -> dict[str, Any]:
+def plan_batched(
+    task: str,
+    hyperparams: dict[str, Any],
+    *,
+    seed: int = 0,
+    num_envs: int | None = None,
+    device: str = "cpu",
+    timesteps: int | None = None,
+) -> dict[str, Any]:
     """The settings of one run (``train.json``) from one entry of ``ppo_batched.yml``; ``ValueError``
     for a bad or unknown key."""
     hp = json.loads(json.dumps(hyperparams))
-    known = {"n_timesteps", "num_envs", "policy_kwargs", "env_kwargs", "shaping", "eval_every", "eval_episodes",
-             "heldout_episodes", *_ALGO_KEYS}
+    known = {
+        "n_timesteps",
+        "num_envs",
+        "policy_kwargs",
+        "env_kwargs",
+        "shaping",
+        "eval_every",
+        "eval_episodes",
+        "heldout_episodes",
+        *_ALGO_KEYS,
+    }
     unknown = sorted(set(hp) - known)
     if unknown:
-        raise ValueError(f"unknown batched-PPO hyper-parameters: {', '.join(unknown)} (known: {', '.join(sorted(known))})")
+        raise ValueError(
+            f"unknown batched-PPO hyper-parameters: {', '.join(unknown)} (known: {', '.join(sorted(known))})"
+        )
     n = int(num_envs if num_envs is not None else hp.get("num_envs", 64))
     if not 1 <= n <= 65536:
         raise ValueError(f"num_envs must be in [1, 65536]; got {n}")
-    algo = {"n_steps": 16, "n_epochs": 4, "n_minibatches": 4, "learning_rate": 1e-3, "gamma": 0.9, "gae_lambda": 0.95,
-            "clip_range": 0.2, "ent_coef": 0.01, "vf_coef": 0.5, "max_grad_norm": 0.5}
+    algo = {
+        "n_steps": 16,
+        "n_epochs": 4,
+        "n_minibatches": 4,
+        "learning_rate": 1e-3,
+        "gamma": 0.9,
+        "gae_lambda": 0.95,
+        "clip_range": 0.2,
+        "ent_coef": 0.01,
+        "vf_coef": 0.5,
+        "max_grad_norm": 0.5,
+    }
     algo.update({k: hp[k] for k in _ALGO_KEYS if k in hp})
     for k in ("n_steps", "n_epochs", "n_minibatches"):
         if not (isinstance(algo[k], int) and algo[k] >= 1):
@@ -155,18 +237,33 @@ def plan_batched(task: str, hyperparams: dict[str, Any], *, seed: int = 0, num_e
     env_kwargs = {"image_size": int(dict(hp.get("env_kwargs") or {}).get("image_size", 96))}
     extra = sorted(set(dict(hp.get("env_kwargs") or {})) - {"image_size"})
     if extra:
-        raise ValueError(f"batched-PPO env_kwargs take image_size only (the action is the cell); got {', '.join(extra)}")
+        raise ValueError(
+            f"batched-PPO env_kwargs take image_size only (the action is the cell); got {', '.join(extra)}"
+        )
     shaping = {"enabled": False, "scale_deg": 10.0, **dict(hp.get("shaping") or {})}
     pk = {"channels": [16, 16], "logit_gain": 1.0, "vf_hidden": 64, **dict(hp.get("policy_kwargs") or {})}
     eval_every, eval_episodes = int(hp.get("eval_every", 8)), int(hp.get("eval_episodes", 100))
     heldout = int(hp.get("heldout_episodes", HELDOUT_EPISODES))
     if eval_every < 1 or eval_episodes < 1 or heldout < 1:
         raise ValueError("eval_every, eval_episodes and heldout_episodes must be >= 1")
-    return {"format": FORMAT, "algo": "ppo", "engine": "batched", "task": task, "seed": int(seed), "device": device,
-            "num_envs": n, "updates": -(-total // per_update), "env_steps": -(-total // per_update) * per_update,
-            "algo_kwargs": algo, "policy_kwargs": pk, "env_kwargs": env_kwargs, "shaping": shaping,
-            "eval_every": eval_every, "eval_episodes": eval_episodes,
-            "heldout": {"seed": HELDOUT_SEED, "episodes": heldout, "stream": EVAL_STREAM}}
+    return {
+        "format": FORMAT,
+        "algo": "ppo",
+        "engine": "batched",
+        "task": task,
+        "seed": int(seed),
+        "device": device,
+        "num_envs": n,
+        "updates": -(-total // per_update),
+        "env_steps": -(-total // per_update) * per_update,
+        "algo_kwargs": algo,
+        "policy_kwargs": pk,
+        "env_kwargs": env_kwargs,
+        "shaping": shaping,
+        "eval_every": eval_every,
+        "eval_episodes": eval_episodes,
+        "heldout": {"seed": HELDOUT_SEED, "episodes": heldout, "stream": EVAL_STREAM},
+    }
 
 
 def make_batched_env(task: str, num_envs: int, device: str | None, image_size: int):
@@ -177,8 +274,9 @@ def make_batched_env(task: str, num_envs: int, device: str | None, image_size: i
     kwargs = {**DEFAULT_ENV_KWARGS, "image_size": int(image_size), "action_mode": "cell"}
     kwargs["remap_models"] = tuple(kwargs["remap_models"])
     try:
-        return envs.BatchedBinocularSaccade(num_envs, device=device, task=task, autoreset_mode="same_step",
-                                            output="torch", **kwargs)
+        return envs.BatchedBinocularSaccade(
+            num_envs, device=device, task=task, autoreset_mode="same_step", output="torch", **kwargs
+        )
     except RuntimeError as err:  # the env's device check (Warp's CUDA, a CPU-only torch): one line
         raise ValueError(str(err).splitlines()[0]) from None
 
@@ -188,8 +286,14 @@ def _world_seeds(seed: int, stream: int, index: int, n: int) -> list[int]:
 
 
 # --------------------------------------------------------------------------------------------- episodes
-def run_batched_episodes(env, model: CellActorCritic, seeds: np.ndarray, *, deterministic: bool = True,
-                         generator: torch.Generator | None = None) -> Evaluation:
+def run_batched_episodes(
+    env,
+    model: CellActorCritic,
+    seeds: np.ndarray,
+    *,
+    deterministic: bool = True,
+    generator: torch.Generator | None = None,
+) -> Evaluation:
     """One episode per reset seed on the batched env (``num_envs`` at a time; world i of a round starts
     from ``seeds[i]`` as ``BinocularSaccadeEnv.reset(seed=seeds[i])`` does): the task's return (no
     shaping), saccades and success, as :func:`~experiments.agents.rollout.evaluate` reports them."""
@@ -199,7 +303,7 @@ def run_batched_episodes(env, model: CellActorCritic, seeds: np.ndarray, *, dete
     n = env.num_envs
     rows: list[tuple[float, int, bool]] = []
     for start in range(0, len(seed_list), n):
-        batch = seed_list[start:start + n]
+        batch = seed_list[start : start + n]
         k = len(batch)
         obs, _ = env.reset(seed=[batch[i % k] for i in range(n)])  # the spare worlds repeat seeds; not counted
         ret, sacc, success = np.zeros(n), np.zeros(n, np.int64), np.zeros(n, bool)
@@ -217,8 +321,12 @@ def run_batched_episodes(env, model: CellActorCritic, seeds: np.ndarray, *, dete
             running &= ~done
         rows += [(float(ret[i]), int(sacc[i]), bool(success[i])) for i in range(k)]
     res = np.array(rows, np.float64)
-    return Evaluation(success_rate=float(res[:, 2].mean()), mean_reward=float(res[:, 0].mean()),
-                      mean_saccades=float(res[:, 1].mean()), episodes=len(rows))
+    return Evaluation(
+        success_rate=float(res[:, 2].mean()),
+        mean_reward=float(res[:, 0].mean()),
+        mean_saccades=float(res[:, 1].mean()),
+        episodes=len(rows),
+    )
 
 
 def _act(logits: torch.Tensor, deterministic: bool, generator: torch.Generator | None) -> torch.Tensor:
@@ -263,9 +371,13 @@ class PPOTrainer:
     # -- state
     def capture(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         arrays: dict[str, np.ndarray] = {}
-        state = {"model": pack(self.model.state_dict(), "model", arrays),
-                 "optimizer": pack(self.opt.state_dict(), "optimizer", arrays),
-                 "updates": self.updates, "env_steps": self.env_steps, "chunk": self.chunk}
+        state = {
+            "model": pack(self.model.state_dict(), "model", arrays),
+            "optimizer": pack(self.opt.state_dict(), "optimizer", arrays),
+            "updates": self.updates,
+            "env_steps": self.env_steps,
+            "chunk": self.chunk,
+        }
         arrays["generator"] = self.gen.get_state().numpy().copy()
         return arrays, state
 
@@ -274,10 +386,16 @@ class PPOTrainer:
             self.model.load_state_dict(unpack(state["model"], arrays, tensors=True), strict=True)
             self.opt.load_state_dict(unpack(state["optimizer"], arrays, tensors=True))
             self.gen.set_state(torch.from_numpy(arrays["generator"].astype(np.uint8)))
-            self.updates, self.env_steps, self.chunk = int(state["updates"]), int(state["env_steps"]), int(state["chunk"])
+            self.updates, self.env_steps, self.chunk = (
+                int(state["updates"]),
+                int(state["env_steps"]),
+                int(state["chunk"]),
+            )
         except (KeyError, TypeError, ValueError, RuntimeError) as err:
-            raise ValueError(f"the checkpoint does not fit this run ({type(err).__name__}: "
-                             f"{str(err).splitlines()[0][:160]}); delete checkpoint.npz to train this run again") from None
+            raise ValueError(
+                f"the checkpoint does not fit this run ({type(err).__name__}: "
+                f"{str(err).splitlines()[0][:160]}); delete checkpoint.npz to train this run again"
+            ) from None
 
     # -- one chunk: reset, rollouts and updates
     def chunk_of(self, n_updates: int) -> None:
@@ -343,7 +461,7 @@ class PPOTrainer:
         for _ in range(a["n_epochs"]):
             perm = torch.randperm(size, generator=self.gen, device=self.dev)
             for s in range(0, size, mb):
-                i = perm[s:s + mb]
+                i = perm[s : s + mb]
                 logits, v = self.model({k: x[i] for k, x in flat.items()})
                 logp_all = torch.log_softmax(logits, dim=-1)
                 logp = logp_all.gather(1, act[i][:, None]).squeeze(1)
@@ -381,8 +499,13 @@ def _save(out: Path, model: CellActorCritic, meta: dict[str, Any]) -> dict[str, 
     the weights' SHA-256), each atomically."""
     arrays: dict[str, np.ndarray] = {}
     skeleton = pack({k: v.cpu() for k, v in model.state_dict().items()}, "policy", arrays)
-    meta = {**meta, "format": FORMAT, "algo": "ppo", "architecture": model.config,
-            "versions": {"torch": torch.__version__, "numpy": np.__version__}}
+    meta = {
+        **meta,
+        "format": FORMAT,
+        "algo": "ppo",
+        "architecture": model.config,
+        "versions": {"torch": torch.__version__, "numpy": np.__version__},
+    }
     write_unit(out / "ppo.npz", arrays, {**meta, "state_dict": skeleton})
     meta["weights_sha256"] = file_sha256(out / "ppo.npz")
     write_json(out / "ppo.json", meta)
@@ -394,7 +517,9 @@ class BatchedPPOAgent:
     (:func:`~experiments.agents.rollout.evaluate`): the most likely cell (``deterministic``) or a
     sample (seeded through :meth:`seed`)."""
 
-    def __init__(self, model: CellActorCritic, metadata: dict[str, Any], path: Path, deterministic: bool = True) -> None:
+    def __init__(
+        self, model: CellActorCritic, metadata: dict[str, Any], path: Path, deterministic: bool = True
+    ) -> None:
         self.model, self.metadata, self.path = model.eval(), metadata, Path(path)
         self.deterministic = bool(deterministic)
         self.name = f"ppo-batched:{path}"
@@ -420,27 +545,40 @@ def load_batched_agent(directory: str | Path, deterministic: bool = True) -> Bat
             raise ValueError(f"format {meta.get('format') if isinstance(meta, dict) else None!r}")
         meta["task"], meta["env_kwargs"] = str(meta["task"]), dict(meta["env_kwargs"])
     except (OSError, UnicodeDecodeError, KeyError, TypeError, ValueError) as err:
-        raise ValueError(f"{jpath} is not a batched-PPO metadata file ({type(err).__name__}: {str(err)[:80]}); "
-                         "retrain") from None
+        raise ValueError(
+            f"{jpath} is not a batched-PPO metadata file ({type(err).__name__}: {str(err)[:80]}); retrain"
+        ) from None
     if not wpath.is_file():
         raise FileNotFoundError(f"{d} is not a saved batched-PPO agent: missing ppo.npz")
     if meta.get("weights_sha256") != file_sha256(wpath):
-        raise ValueError(f"{wpath} is not the file ppo.json describes (its SHA-256 differs): the folder mixes two "
-                         "runs or was altered; retrain")
+        raise ValueError(
+            f"{wpath} is not the file ppo.json describes (its SHA-256 differs): the folder mixes two "
+            "runs or was altered; retrain"
+        )
     arrays, inner = read_unit(wpath)
     try:
         model = CellActorCritic.from_config(meta["architecture"])
         model.load_state_dict(unpack(inner["state_dict"], arrays, tensors=True), strict=True)
     except (KeyError, TypeError, ValueError, RuntimeError) as err:
-        raise ValueError(f"{wpath}: the saved network cannot be rebuilt ({type(err).__name__}: "
-                         f"{str(err).splitlines()[0][:160]}); retrain") from None
+        raise ValueError(
+            f"{wpath}: the saved network cannot be rebuilt ({type(err).__name__}: "
+            f"{str(err).splitlines()[0][:160]}); retrain"
+        ) from None
     return BatchedPPOAgent(model, meta, d, deterministic)
 
 
 # --------------------------------------------------------------------------------------------- training
-def train_batched(out: str | Path, task: str, hyperparams: dict[str, Any], *, seed: int = 0,
-                  num_envs: int | None = None, device: str | None = None, timesteps: int | None = None,
-                  log=print) -> dict[str, Any]:
+def train_batched(
+    out: str | Path,
+    task: str,
+    hyperparams: dict[str, Any],
+    *,
+    seed: int = 0,
+    num_envs: int | None = None,
+    device: str | None = None,
+    timesteps: int | None = None,
+    log=print,
+) -> dict[str, Any]:
     """Train (or resume, or report the finished run in) ``out``: see the module docstring. Writes
     ``train.json`` first, ``training_log.csv`` (a row per validation), ``checkpoint.npz`` after each,
     ``learning_curve.png``, and last ``ppo.npz`` + ``ppo.json``. Returns the metadata."""
@@ -458,8 +596,9 @@ def train_batched(out: str | Path, task: str, hyperparams: dict[str, Any], *, se
             raise ValueError(f"{out / 'ppo.json'} is not a batched-PPO run's; use another --out")
         meta = json.loads((out / "ppo.json").read_text(encoding="utf-8"))
         if meta.get("settings") != plan or meta.get("weights_sha256") != file_sha256(out / "ppo.npz"):
-            raise ValueError(f"{out / 'ppo.json'} describes another run than {SETTINGS}, or ppo.npz was altered; "
-                             "use another --out")
+            raise ValueError(
+                f"{out / 'ppo.json'} describes another run than {SETTINGS}, or ppo.npz was altered; use another --out"
+            )
         log(f"ppo {task}: {out} holds this run, finished; nothing to train")
         return meta
     deterministic_torch(device)
@@ -467,10 +606,12 @@ def train_batched(out: str | Path, task: str, hyperparams: dict[str, Any], *, se
     try:
         sp = env.single_observation_space
         torch.manual_seed(seed)
-        policy_kwargs: dict[str, Any] = {k: (tuple(v) if k == "channels" else v)
-                                         for k, v in plan["policy_kwargs"].items()}
-        model = CellActorCritic(sp["cortical"].shape, sp["fovea"].shape, int(np.prod(sp["eyes"].shape)),
-                                **policy_kwargs)
+        policy_kwargs: dict[str, Any] = {
+            k: (tuple(v) if k == "channels" else v) for k, v in plan["policy_kwargs"].items()
+        }
+        model = CellActorCritic(
+            sp["cortical"].shape, sp["fovea"].shape, int(np.prod(sp["eyes"].shape)), **policy_kwargs
+        )
         model = model.to(env.device)
         trainer = PPOTrainer(plan, env, model, log)
         val_seeds = episode_seeds(seed, plan["eval_episodes"], VALIDATION_STREAM)
@@ -486,18 +627,26 @@ def train_batched(out: str | Path, task: str, hyperparams: dict[str, Any], *, se
             eval_s += time.perf_counter() - t
             tr, k = trainer.train_eps, len(trainer.train_eps)
             wall = before_s + time.perf_counter() - t0
-            row = {"env_steps": trainer.env_steps, "updates": trainer.updates, "elapsed_s": round(wall, 2),
-                   "success_rate": ev.success_rate, "mean_return": round(ev.mean_reward, 5),
-                   "mean_saccades": ev.mean_saccades, "train_episodes": k,
-                   "train_success_rate": round(sum(s for _, s in tr) / k, 4) if k else "",
-                   "train_return": round(sum(r for r, _ in tr) / k, 5) if k else "",
-                   "env_steps_per_s": round(trainer.env_steps / max(1e-9, wall - eval_s), 1)}
+            row = {
+                "env_steps": trainer.env_steps,
+                "updates": trainer.updates,
+                "elapsed_s": round(wall, 2),
+                "success_rate": ev.success_rate,
+                "mean_return": round(ev.mean_reward, 5),
+                "mean_saccades": ev.mean_saccades,
+                "train_episodes": k,
+                "train_success_rate": round(sum(s for _, s in tr) / k, 4) if k else "",
+                "train_return": round(sum(r for r, _ in tr) / k, 5) if k else "",
+                "env_steps_per_s": round(trainer.env_steps / max(1e-9, wall - eval_s), 1),
+            }
             trainer.train_eps = []
             rows.append(row)
             append_csv_row(log_path, CURVE_COLUMNS, row)
-            log(f"ppo {task} (batched, {plan['num_envs']} worlds, {device}): {row['env_steps']}/{plan['env_steps']} "
+            log(
+                f"ppo {task} (batched, {plan['num_envs']} worlds, {device}): {row['env_steps']}/{plan['env_steps']} "
                 f"steps, {wall:.0f} s: validation success {ev.success_rate:.2f}, return {ev.mean_reward:+.3f}; "
-                f"training episodes {k}, success {row['train_success_rate']}")
+                f"training episodes {k}, success {row['train_success_rate']}"
+            )
 
         if ck.exists():
             arrays, state = read_unit(ck, hint=f"delete {ck.name} to train this run again")
@@ -515,22 +664,45 @@ def train_batched(out: str | Path, task: str, hyperparams: dict[str, Any], *, se
             trainer.chunk_of(min(plan["eval_every"], plan["updates"] - trainer.updates))
             validation()
             arrays, state = trainer.capture()
-            write_unit(ck, arrays, {**state, "settings": plan, "log": rows,
-                                    "elapsed_s": before_s + time.perf_counter() - t0, "eval_s": eval_s})
+            write_unit(
+                ck,
+                arrays,
+                {
+                    **state,
+                    "settings": plan,
+                    "log": rows,
+                    "elapsed_s": before_s + time.perf_counter() - t0,
+                    "eval_s": eval_s,
+                },
+            )
         h = plan["heldout"]
         t = time.perf_counter()
         held = run_batched_episodes(env, model, episode_seeds(h["seed"], h["episodes"], h["stream"]))
         eval_s += time.perf_counter() - t
         wall = before_s + time.perf_counter() - t0
-        meta = {"algo": "ppo", "engine": "batched", "task": task, "seed": seed, "device": device,
-                "device_name": torch.cuda.get_device_name(env.device) if env.device.type == "cuda" else "cpu",
-                "num_envs": plan["num_envs"], "env_kwargs": {**plan["env_kwargs"], "action_mode": "cell"},
-                "shaping": plan["shaping"], "settings": plan, "env_steps": trainer.env_steps,
-                "wall_s": round(wall, 1), "eval_s": round(eval_s, 1),
-                "train_steps_per_s": round(trainer.env_steps / max(1e-9, wall - eval_s), 1), "final": rows[-1],
-                "heldout_batched": {**held.as_dict(), "seed": h["seed"], "deterministic": True}}
-        plot_training_log(log_path, out / "learning_curve.png",
-                          title=f"{task}: PPO (batched, {plan['num_envs']} worlds, {device}), seed {seed}")
+        meta = {
+            "algo": "ppo",
+            "engine": "batched",
+            "task": task,
+            "seed": seed,
+            "device": device,
+            "device_name": torch.cuda.get_device_name(env.device) if env.device.type == "cuda" else "cpu",
+            "num_envs": plan["num_envs"],
+            "env_kwargs": {**plan["env_kwargs"], "action_mode": "cell"},
+            "shaping": plan["shaping"],
+            "settings": plan,
+            "env_steps": trainer.env_steps,
+            "wall_s": round(wall, 1),
+            "eval_s": round(eval_s, 1),
+            "train_steps_per_s": round(trainer.env_steps / max(1e-9, wall - eval_s), 1),
+            "final": rows[-1],
+            "heldout_batched": {**held.as_dict(), "seed": h["seed"], "deterministic": True},
+        }
+        plot_training_log(
+            log_path,
+            out / "learning_curve.png",
+            title=f"{task}: PPO (batched, {plan['num_envs']} worlds, {device}), seed {seed}",
+        )
         meta = _save(out, model.cpu(), meta)
         ck.unlink(missing_ok=True)
         return meta

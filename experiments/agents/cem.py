@@ -27,8 +27,17 @@ from .saved import read_unit, write_unit
 __all__ = ["CEMConfig", "LOG_COLUMNS", "VALIDATION_STREAM", "train_cem"]
 
 VALIDATION_STREAM = 2
-LOG_COLUMNS = ("iteration", "elite_return", "population_return", "success_rate", "mean_reward",
-               "mean_saccades", "sigma", "elapsed_s", "env_steps")
+LOG_COLUMNS = (
+    "iteration",
+    "elite_return",
+    "population_return",
+    "success_rate",
+    "mean_reward",
+    "mean_saccades",
+    "sigma",
+    "elapsed_s",
+    "env_steps",
+)
 
 
 @dataclass
@@ -68,8 +77,14 @@ def _finished(out: Path, settings: dict) -> tuple[LinearCellPolicy, dict] | None
     return policy, policy.metadata
 
 
-def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = None, seed: int = 0,
-              env_kwargs: dict | None = None, progress: bool = True) -> tuple[LinearCellPolicy, dict]:
+def train_cem(
+    out: str | Path,
+    task: str = "fixate",
+    config: CEMConfig | None = None,
+    seed: int = 0,
+    env_kwargs: dict | None = None,
+    progress: bool = True,
+) -> tuple[LinearCellPolicy, dict]:
     """Train a linear cell policy on ``task``, or resume the run in ``out``; writes ``train.json``
     (the settings), ``baselines.json``, ``training_log.csv`` (a row per iteration), ``checkpoint.npz``
     after every iteration (the Gaussian, the generator's state and the curve: one file, replaced
@@ -82,8 +97,18 @@ def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     env_kwargs = {**DEFAULT_ENV_KWARGS, **(env_kwargs or {})}
-    settings = json.loads(json.dumps({"format": "cem-npz-1", "trainer": "cem", "task": task, "seed": int(seed),
-                                      "config": asdict(cfg), "env_kwargs": env_kwargs}))
+    settings = json.loads(
+        json.dumps(
+            {
+                "format": "cem-npz-1",
+                "trainer": "cem",
+                "task": task,
+                "seed": int(seed),
+                "config": asdict(cfg),
+                "env_kwargs": env_kwargs,
+            }
+        )
+    )
     check_settings(out, settings)
     done = _finished(out, settings)
     if done is not None:
@@ -114,17 +139,33 @@ def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = 
             write_csv(log_path, list(LOG_COLUMNS), curve)
         else:
             log_path.unlink(missing_ok=True)
-            baselines = {p.name: evaluate(env, p, val_seeds, rng_seed=seed).as_dict()
-                         for p in (RandomPolicy(M * N), BrightestCellPolicy())}
+            baselines = {
+                p.name: evaluate(env, p, val_seeds, rng_seed=seed).as_dict()
+                for p in (RandomPolicy(M * N), BrightestCellPolicy())
+            }
             mu, sigma, curve = np.zeros(dim), sigma0.copy(), []
         write_json(out / "baselines.json", baselines)
-        meta = {"task": task, "env_kwargs": env_kwargs, "seed": int(seed), "trainer": "cem",
-                "config": asdict(cfg), "grid": {"M": M, "N": N}, "baselines": baselines, "curve": curve,
-                "settings": settings}
+        meta = {
+            "task": task,
+            "env_kwargs": env_kwargs,
+            "seed": int(seed),
+            "trainer": "cem",
+            "config": asdict(cfg),
+            "grid": {"M": M, "N": N},
+            "baselines": baselines,
+            "curve": curve,
+            "settings": settings,
+        }
         t0 = time.perf_counter()
         policy = LinearCellPolicy(mu.copy(), metadata=meta)
-        bar = tqdm(range(start, cfg.iterations), desc=f"CEM {task}", unit="it", disable=not progress,
-                   initial=start, total=cfg.iterations)
+        bar = tqdm(
+            range(start, cfg.iterations),
+            desc=f"CEM {task}",
+            unit="it",
+            disable=not progress,
+            initial=start,
+            total=cfg.iterations,
+        )
         for it in bar:
             seeds = episode_seeds(seed, cfg.episodes, TRAIN_STREAM, start=it * cfg.episodes)
             cands = mu + sigma * rng.standard_normal((cfg.population, dim))
@@ -137,17 +178,31 @@ def train_cem(out: str | Path, task: str = "fixate", config: CEMConfig | None = 
             mu, sigma = elite.mean(axis=0), elite.std(axis=0) + extra
             policy = LinearCellPolicy(mu.copy(), metadata=meta)
             ev = evaluate(env, policy, val_seeds, rng_seed=seed)
-            row = {"iteration": it + 1, "elite_return": float(np.sort(scores)[-n_elite:].mean()),
-                   "population_return": float(scores.mean()), **ev.as_dict(),
-                   "sigma": float(sigma.mean()), "elapsed_s": round(before_s + time.perf_counter() - t0, 2),
-                   "env_steps": steps}
+            row = {
+                "iteration": it + 1,
+                "elite_return": float(np.sort(scores)[-n_elite:].mean()),
+                "population_return": float(scores.mean()),
+                **ev.as_dict(),
+                "sigma": float(sigma.mean()),
+                "elapsed_s": round(before_s + time.perf_counter() - t0, 2),
+                "env_steps": steps,
+            }
             row.pop("episodes")
             append_csv_row(log_path, LOG_COLUMNS, row)
             curve.append(row)
-            write_unit(ck, {"mu": mu, "sigma": sigma},
-                       {"settings": settings, "rng": rng.bit_generator.state, "iteration": it + 1,
-                        "elapsed_s": before_s + time.perf_counter() - t0, "env_steps": steps,
-                        "baselines": baselines, "curve": curve})
+            write_unit(
+                ck,
+                {"mu": mu, "sigma": sigma},
+                {
+                    "settings": settings,
+                    "rng": rng.bit_generator.state,
+                    "iteration": it + 1,
+                    "elapsed_s": before_s + time.perf_counter() - t0,
+                    "env_steps": steps,
+                    "baselines": baselines,
+                    "curve": curve,
+                },
+            )
             bar.set_postfix(success=f"{ev.success_rate:.2f}", reward=f"{ev.mean_reward:.3f}")
         policy.save(out)
         ck.unlink(missing_ok=True)

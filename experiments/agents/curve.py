@@ -53,8 +53,9 @@ def read_training_log(path: str | Path) -> dict[str, list[float]]:
             raise ValueError("no rows")
         return {k: [float(r[k]) if r[k] not in ("", None) else float("nan") for r in rows] for k in rows[0]}
     except (UnicodeDecodeError, csv.Error, ValueError, TypeError) as err:
-        raise ValueError(f"{path} is not a training log ({type(err).__name__}: {str(err)[:120]}); "
-                         "train that run again") from None
+        raise ValueError(
+            f"{path} is not a training log ({type(err).__name__}: {str(err)[:120]}); train that run again"
+        ) from None
 
 
 def plot_training_log(csv_path: str | Path, path: str | Path, title: str = "") -> Path:
@@ -75,8 +76,14 @@ def plot_training_log(csv_path: str | Path, path: str | Path, title: str = "") -
     return _save(fig, path, title)
 
 
-def plot_runs(curves: dict[str, list[dict[str, list[float]]]], baselines: dict[str, dict[str, float]], path: str | Path,
-              keys: tuple[str, ...] = ("success_rate", "mean_return"), title: str = "", seed: int = 0) -> Path:
+def plot_runs(
+    curves: dict[str, list[dict[str, list[float]]]],
+    baselines: dict[str, dict[str, float]],
+    path: str | Path,
+    keys: tuple[str, ...] = ("success_rate", "mean_return"),
+    title: str = "",
+    seed: int = 0,
+) -> Path:
     """One panel per ``keys`` entry: the IQM over runs (seeds) vs env steps with a percentile-bootstrap
     95 % band, per agent (``curves``: agent -> one :func:`read_training_log` dict per run, evaluated at the
     same steps), and ``baselines`` (name -> {key: value}) as horizontal lines (Agarwal et al. 2021)."""
@@ -98,17 +105,21 @@ def plot_runs(curves: dict[str, list[dict[str, list[float]]]], baselines: dict[s
             steps, vals = steps[ok], vals[:, ok]
             mid = [iqm(vals[:, j]) for j in range(vals.shape[1])]
             band = np.array([bootstrap_ci(vals[:, j], iqm, reps=1000, seed=seed) for j in range(vals.shape[1])])
-            line, = ax.plot(steps, mid, "o-", label=f"{name} (IQM, {len(runs)} seed{'s' * (len(runs) > 1)})")
+            (line,) = ax.plot(steps, mid, "o-", label=f"{name} (IQM, {len(runs)} seed{'s' * (len(runs) > 1)})")
             ax.fill_between(steps, band[:, 0], band[:, 1], color=line.get_color(), alpha=0.2)
         styles = ["--", ":", "-."]
         for i, (name, v) in enumerate(baselines.items()):
             if key in v and np.isfinite(v[key]):
                 ax.axhline(v[key], color=f"C{i + 5}", ls=styles[i % 3], lw=1.2, label=f"{name} ({v[key]:.2f})")
         ax.set_xlabel("env steps (saccades)")
-        ax.set_ylabel({"success_rate": "validation success rate (deterministic)",
-                       "mean_return": "validation mean episode return",
-                       "train_success_rate": "training-episode success rate (sampled actions)",
-                       "train_return": "training-episode return (task reward)"}.get(key, key.replace("_", " ")))
+        ax.set_ylabel(
+            {
+                "success_rate": "validation success rate (deterministic)",
+                "mean_return": "validation mean episode return",
+                "train_success_rate": "training-episode success rate (sampled actions)",
+                "train_return": "training-episode return (task reward)",
+            }.get(key, key.replace("_", " "))
+        )
         if "success" in key:
             ax.set_ylim(-0.03, 1.03)
         ax.grid(alpha=0.3)

@@ -85,9 +85,15 @@ class CorticalEncoder(nn.Module):
     dict of tensors with a batch axis and returns ``(logits (B, M*N), global (B, global_dim))``.
     """
 
-    def __init__(self, cortical_shape: tuple[int, ...], fovea_shape: tuple[int, ...] | None = None,
-                 eyes_dim: int = 0, channels: tuple[int, ...] = (32, 32), fovea_dim: int = 32,
-                 logit_gain: float = 1.0) -> None:
+    def __init__(
+        self,
+        cortical_shape: tuple[int, ...],
+        fovea_shape: tuple[int, ...] | None = None,
+        eyes_dim: int = 0,
+        channels: tuple[int, ...] = (32, 32),
+        fovea_dim: int = 32,
+        logit_gain: float = 1.0,
+    ) -> None:
         super().__init__()
         if not (np.isfinite(logit_gain) and logit_gain > 0):
             raise ValueError(f"logit_gain must be a positive number; got {logit_gain!r}")

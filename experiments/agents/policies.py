@@ -132,8 +132,10 @@ class LinearCellPolicy:
     def logits(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         phi = cell_features(obs)
         if phi.shape[1] != self.weights.size:
-            raise ValueError(f"policy has {self.weights.size} weights but the observation gives "
-                             f"{phi.shape[1]} features (a grid with a different number of rings?)")
+            raise ValueError(
+                f"policy has {self.weights.size} weights but the observation gives "
+                f"{phi.shape[1]} features (a grid with a different number of rings?)"
+            )
         return phi @ self.weights
 
     def act(self, obs: dict[str, np.ndarray], rng: np.random.Generator) -> int:
@@ -156,9 +158,14 @@ class LinearCellPolicy:
         buf = io.BytesIO()
         np.savez(buf, weights=self.weights)
         atomic_write_bytes(d / "policy.npz", buf.getvalue())
-        meta = {"kind": "linear-cell", "feature_set": FEATURE_SET, "temperature": self.temperature,
-                "features": feature_names(self.weights.size - 4), **self.metadata,
-                "weights_sha256": file_sha256(d / "policy.npz")}
+        meta = {
+            "kind": "linear-cell",
+            "feature_set": FEATURE_SET,
+            "temperature": self.temperature,
+            "features": feature_names(self.weights.size - 4),
+            **self.metadata,
+            "weights_sha256": file_sha256(d / "policy.npz"),
+        }
         write_json(d / "policy.json", meta)  # last: its SHA-256 names the weights it describes
         return d
 
@@ -172,25 +179,32 @@ def load_policy(directory: str | Path) -> LinearCellPolicy:
     try:
         meta = json.loads((d / "policy.json").read_text())
     except (OSError, json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ValueError(f"{d / 'policy.json'} is not valid JSON ({err}); the policy folder is corrupt: retrain") from None
+        raise ValueError(
+            f"{d / 'policy.json'} is not valid JSON ({err}); the policy folder is corrupt: retrain"
+        ) from None
     if not isinstance(meta, dict):
         raise ValueError(f"{d / 'policy.json'} does not hold a JSON object; the policy folder is corrupt: retrain")
     if meta.get("kind") != "linear-cell" or meta.get("feature_set") != FEATURE_SET:
-        raise ValueError(f"{d}: unsupported policy kind/feature set "
-                         f"{meta.get('kind')!r}/{meta.get('feature_set')!r}; expected 'linear-cell'/{FEATURE_SET!r}")
+        raise ValueError(
+            f"{d}: unsupported policy kind/feature set "
+            f"{meta.get('kind')!r}/{meta.get('feature_set')!r}; expected 'linear-cell'/{FEATURE_SET!r}"
+        )
     sha = meta.pop("weights_sha256", None)
     if sha is not None:
         from .saved import file_sha256
 
         if sha != file_sha256(d / "policy.npz"):
-            raise ValueError(f"{d / 'policy.npz'} is not the file policy.json describes (its SHA-256 differs): "
-                             "the folder mixes two runs or was altered; retrain")
+            raise ValueError(
+                f"{d / 'policy.npz'} is not the file policy.json describes (its SHA-256 differs): "
+                "the folder mixes two runs or was altered; retrain"
+            )
     try:
         with np.load(d / "policy.npz", allow_pickle=False) as z:
             weights = np.array(z["weights"])
     except (OSError, ValueError, KeyError, TypeError, IndexError, EOFError, zipfile.BadZipFile) as err:
-        raise ValueError(f"{d / 'policy.npz'} could not be read ({type(err).__name__}: {err}); "
-                         "the policy folder is corrupt: retrain") from None
+        raise ValueError(
+            f"{d / 'policy.npz'} could not be read ({type(err).__name__}: {err}); the policy folder is corrupt: retrain"
+        ) from None
     temperature = float(meta.pop("temperature", 0.0))
     for key in ("kind", "feature_set", "features"):
         meta.pop(key, None)

@@ -9,8 +9,16 @@ import numpy as np
 
 from .policies import Policy
 
-__all__ = ["DEFAULT_ENV_KWARGS", "EVAL_STREAM", "TRAIN_STREAM", "Evaluation", "episode_seeds",
-           "evaluate", "make_env", "run_episode"]
+__all__ = [
+    "DEFAULT_ENV_KWARGS",
+    "EVAL_STREAM",
+    "TRAIN_STREAM",
+    "Evaluation",
+    "episode_seeds",
+    "evaluate",
+    "make_env",
+    "run_episode",
+]
 
 # image_size=96: at 64 px the ~1 deg target dot often vanishes from the pooled retina samples
 # (the brightest-cell heuristic reaches the target in one saccade 30% of the time vs 90% at 96 px).
@@ -31,8 +39,9 @@ def make_env(task: str = "fixate", **overrides: Any):
 
     kwargs = {**DEFAULT_ENV_KWARGS, **overrides}
     if kwargs["action_mode"] not in ("cell", "vector") or kwargs["cortex"] != "eyes" or kwargs["grayscale"]:
-        raise ValueError("the agents need action_mode 'cell' (or 'vector' for the SB3 agents), cortex='eyes', "
-                         "grayscale=False")
+        raise ValueError(
+            "the agents need action_mode 'cell' (or 'vector' for the SB3 agents), cortex='eyes', grayscale=False"
+        )
     kwargs["remap_models"] = tuple(kwargs["remap_models"])
     return envs.BinocularSaccadeEnv(task=task, **kwargs)
 
@@ -42,8 +51,13 @@ def episode_seeds(seed: int, n: int, stream: int = EVAL_STREAM, start: int = 0) 
     (streams keep training and evaluation episodes apart)."""
     if n < 0 or start < 0:
         raise ValueError(f"need n >= 0 and start >= 0; got n={n}, start={start}")
-    return np.array([np.random.SeedSequence([int(seed), stream, i]).generate_state(1)[0] & 0x7FFFFFFF
-                     for i in range(start, start + n)], dtype=np.int64)
+    return np.array(
+        [
+            np.random.SeedSequence([int(seed), stream, i]).generate_state(1)[0] & 0x7FFFFFFF
+            for i in range(start, start + n)
+        ],
+        dtype=np.int64,
+    )
 
 
 def run_episode(env, policy: Policy, seed: int, rng: np.random.Generator) -> tuple[float, int, bool]:
@@ -69,8 +83,12 @@ class Evaluation:
     episodes: int
 
     def as_dict(self) -> dict[str, float | int]:
-        return {"success_rate": self.success_rate, "mean_reward": self.mean_reward,
-                "mean_saccades": self.mean_saccades, "episodes": self.episodes}
+        return {
+            "success_rate": self.success_rate,
+            "mean_reward": self.mean_reward,
+            "mean_saccades": self.mean_saccades,
+            "episodes": self.episodes,
+        }
 
 
 def evaluate(env, policy: Policy, seeds: np.ndarray, rng_seed: int = 0, progress: bool = False) -> Evaluation:
@@ -85,5 +103,9 @@ def evaluate(env, policy: Policy, seeds: np.ndarray, rng_seed: int = 0, progress
 
         it = tqdm(seeds, unit="episode", desc="evaluating")
     res = np.array([run_episode(env, policy, s, rng) for s in it], dtype=np.float64)
-    return Evaluation(success_rate=float(res[:, 2].mean()), mean_reward=float(res[:, 0].mean()),
-                      mean_saccades=float(res[:, 1].mean()), episodes=len(seeds))
+    return Evaluation(
+        success_rate=float(res[:, 2].mean()),
+        mean_reward=float(res[:, 0].mean()),
+        mean_saccades=float(res[:, 1].mean()),
+        episodes=len(seeds),
+    )

@@ -33,18 +33,23 @@ def check_settings(out: Path, settings: dict[str, Any]) -> None:
         try:
             old = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, ValueError) as err:
-            raise ValueError(f"{path} cannot be read ({type(err).__name__}); this folder's run is unknown: "
-                             "use another --out") from None
+            raise ValueError(
+                f"{path} cannot be read ({type(err).__name__}); this folder's run is unknown: use another --out"
+            ) from None
         if not isinstance(old, dict):
             raise ValueError(f"{path} does not hold a JSON object; use another --out")
         if old != new:
             diff = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
-            raise ValueError(f"{out} holds another training run (differs in: {', '.join(diff)}); use another --out, "
-                             "or the same options to resume or report it")
+            raise ValueError(
+                f"{out} holds another training run (differs in: {', '.join(diff)}); use another --out, "
+                "or the same options to resume or report it"
+            )
         return
     other = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
     if other:
-        raise ValueError(f"{out} holds files but no {SETTINGS} ({', '.join(other[:4])}"
-                         f"{', ...' if len(other) > 4 else ''}): not a run of this version of train; "
-                         "use another (empty) --out")
+        raise ValueError(
+            f"{out} holds files but no {SETTINGS} ({', '.join(other[:4])}"
+            f"{', ...' if len(other) > 4 else ''}): not a run of this version of train; "
+            "use another (empty) --out"
+        )
     write_json(path, new)

@@ -29,8 +29,18 @@ import numpy as np
 
 from ..folders import atomic_write_bytes
 
-__all__ = ["META_KEY", "file_sha256", "pack", "read_unit", "rng_state", "set_rng_state", "space_from_json",
-           "space_to_json", "unpack", "write_unit"]
+__all__ = [
+    "META_KEY",
+    "file_sha256",
+    "pack",
+    "read_unit",
+    "rng_state",
+    "set_rng_state",
+    "space_from_json",
+    "space_to_json",
+    "unpack",
+    "write_unit",
+]
 
 META_KEY = "__meta__"
 
@@ -71,7 +81,9 @@ def read_unit(path: str | Path, hint: str = "retrain") -> tuple[dict[str, np.nda
                 raise ValueError("not an .npz archive")
             arrays = {k: np.array(z[k]) for k in z.files}
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, RuntimeError) as err:
-        raise ValueError(f"{p} could not be read as saved arrays ({type(err).__name__}: {_short(err)}); {hint}") from None
+        raise ValueError(
+            f"{p} could not be read as saved arrays ({type(err).__name__}: {_short(err)}); {hint}"
+        ) from None
     raw = arrays.pop(META_KEY, None)
     if raw is None or raw.dtype != np.uint8 or raw.ndim != 1:
         raise ValueError(f"{p} holds no metadata: not written by this package; {hint}")
@@ -157,8 +169,13 @@ def space_to_json(space) -> dict[str, Any]:
     if isinstance(space, spaces.Discrete):
         return {"type": "Discrete", "n": int(space.n), "start": int(space.start)}
     if isinstance(space, spaces.Box):
-        return {"type": "Box", "shape": list(space.shape), "dtype": str(space.dtype),
-                "low": _bound(space.low), "high": _bound(space.high)}
+        return {
+            "type": "Box",
+            "shape": list(space.shape),
+            "dtype": str(space.dtype),
+            "low": _bound(space.low),
+            "high": _bound(space.high),
+        }
     raise ValueError(f"cannot save a {type(space).__name__} space")
 
 

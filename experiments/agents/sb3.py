@@ -49,20 +49,51 @@ from .saved import (
     write_unit,
 )
 
-__all__ = ["CURVE_COLUMNS", "VALIDATION_STREAM", "CorticalActorCritic", "CorticalFeatures", "CorticalSAC",
-           "SB3Agent", "ShiftReplayBuffer", "architecture", "finished_meta", "load_agent", "make_rl_env", "plan_run", "read_agent_meta",
-           "saccade_vectors", "save_agent", "train_sb3"]
+__all__ = [
+    "CURVE_COLUMNS",
+    "VALIDATION_STREAM",
+    "CorticalActorCritic",
+    "CorticalFeatures",
+    "CorticalSAC",
+    "SB3Agent",
+    "ShiftReplayBuffer",
+    "architecture",
+    "finished_meta",
+    "load_agent",
+    "make_rl_env",
+    "plan_run",
+    "read_agent_meta",
+    "saccade_vectors",
+    "save_agent",
+    "train_sb3",
+]
 
 VALIDATION_STREAM = 2  # the CEM trainer's validation episodes: neither the training nor the held-out ones
-CURVE_COLUMNS = ("env_steps", "elapsed_s", "success_rate", "mean_return", "mean_saccades", "train_episodes",
-                 "train_success_rate", "train_return")
+CURVE_COLUMNS = (
+    "env_steps",
+    "elapsed_s",
+    "success_rate",
+    "mean_return",
+    "mean_saccades",
+    "train_episodes",
+    "train_success_rate",
+    "train_return",
+)
 OBS_KEYS = ("cortical", "fovea", "eyes")
 ALGOS = ("ppo", "sac")
 POLICIES = ("cortical-cell", "cortical-dense", "mlp", "cortical-sac")
 
 
-def make_rl_env(task: str = "fixate", *, action_mode: str = "cell", image_size: int = 96, shaping: bool = False,
-                gamma: float = 0.9, shaping_scale_deg: float = 10.0, **env_kwargs: Any):
+def make_rl_env(
+    task: str = "fixate",
+    *,
+    action_mode: str = "cell",
+    image_size: int = 96,
+    shaping: bool = False,
+    gamma: float = 0.9,
+    shaping_scale_deg: float = 10.0,
+    **env_kwargs: Any,
+):
     """The training env: :func:`~experiments.agents.rollout.make_env`'s env (both eyes' colour
     cortical map) with ``action_mode``, optionally :class:`envs.PotentialShaping` (``gamma``,
     ``shaping_scale_deg``), and Gymnasium's ``FilterObservation`` keeping ``cortical``, ``fovea``
@@ -97,15 +128,26 @@ class CorticalFeatures(_sb3()):
     map points (SAC's critics: Q(s, a) is then a function of a minus that saccade, which an MLP
     learns quickly, rather than of 336 logits)."""
 
-    def __init__(self, observation_space: spaces.Dict, channels: tuple[int, ...] = (32, 32),
-                 logit_gain: float = 1.0, saccade_vectors: list | None = None) -> None:
+    def __init__(
+        self,
+        observation_space: spaces.Dict,
+        channels: tuple[int, ...] = (32, 32),
+        logit_gain: float = 1.0,
+        saccade_vectors: list | None = None,
+    ) -> None:
         if not isinstance(observation_space, spaces.Dict) or "cortical" not in observation_space.spaces:
             raise ValueError("CorticalFeatures needs a Dict observation with a 'cortical' (2, M, N, C) entry")
         sp = observation_space.spaces
-        enc = CorticalEncoder(sp["cortical"].shape, sp["fovea"].shape if "fovea" in sp else None,
-                              int(np.prod(sp["eyes"].shape)) if "eyes" in sp else 0, tuple(channels),
-                              logit_gain=logit_gain)
-        super().__init__(observation_space, features_dim=enc.n_cells + enc.global_dim + (0 if saccade_vectors is None else 2))
+        enc = CorticalEncoder(
+            sp["cortical"].shape,
+            sp["fovea"].shape if "fovea" in sp else None,
+            int(np.prod(sp["eyes"].shape)) if "eyes" in sp else 0,
+            tuple(channels),
+            logit_gain=logit_gain,
+        )
+        super().__init__(
+            observation_space, features_dim=enc.n_cells + enc.global_dim + (0 if saccade_vectors is None else 2)
+        )
         self.pointer = None if saccade_vectors is None else SoftArgmaxSaccade(np.asarray(saccade_vectors, np.float32))
         self.encoder = enc
         self.n_cells = enc.n_cells
@@ -126,10 +168,10 @@ class _CellSplit(nn.Module):
         self.vf = nn.Sequential(nn.Linear(global_dim, vf_hidden), nn.Tanh(), nn.Linear(vf_hidden, vf_hidden), nn.Tanh())
 
     def forward_actor(self, features: torch.Tensor) -> torch.Tensor:
-        return features[:, :self.n_cells]
+        return features[:, : self.n_cells]
 
     def forward_critic(self, features: torch.Tensor) -> torch.Tensor:
-        return self.vf(features[:, self.n_cells:])
+        return self.vf(features[:, self.n_cells :])
 
     def forward(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.forward_actor(features), self.forward_critic(features)
@@ -141,7 +183,7 @@ class _Slice(nn.Module):
         self.start, self.stop = start, stop
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return x[:, self.start:self.stop]
+        return x[:, self.start : self.stop]
 
 
 def _actor_critic():
@@ -155,13 +197,24 @@ class CorticalActorCritic(_actor_critic()):
     map (categorical for ``Discrete`` cells; for ``Box``, a Gaussian whose mean is the soft-argmax of
     ``saccade_vectors``, required then); ``head="dense"``: SB3's MLP heads on all features."""
 
-    def __init__(self, observation_space, action_space, lr_schedule, head: str = "cell",
-                 saccade_vectors: list | None = None, vf_hidden: int = 64, channels: tuple[int, ...] = (32, 32),
-                 logit_gain: float = 1.0, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        observation_space,
+        action_space,
+        lr_schedule,
+        head: str = "cell",
+        saccade_vectors: list | None = None,
+        vf_hidden: int = 64,
+        channels: tuple[int, ...] = (32, 32),
+        logit_gain: float = 1.0,
+        **kwargs: Any,
+    ) -> None:
         if head not in ("cell", "dense"):
             raise ValueError(f"head must be 'cell' or 'dense'; got {head!r}")
         if head == "cell" and isinstance(action_space, spaces.Box) and saccade_vectors is None:
-            raise ValueError("a cell head on a Box action needs saccade_vectors (experiments.agents.sb3.saccade_vectors(env))")
+            raise ValueError(
+                "a cell head on a Box action needs saccade_vectors (experiments.agents.sb3.saccade_vectors(env))"
+            )
         self.head, self.vf_hidden = head, int(vf_hidden)
         self.saccade_vectors = saccade_vectors
         kwargs.setdefault("features_extractor_class", CorticalFeatures)
@@ -177,8 +230,11 @@ class CorticalActorCritic(_actor_critic()):
     def _build(self, lr_schedule) -> None:
         super()._build(lr_schedule)
         if self.head == "cell":
-            self.action_net = (nn.Identity() if isinstance(self.action_space, spaces.Discrete)
-                               else SoftArgmaxSaccade(np.asarray(self.saccade_vectors, np.float32)))
+            self.action_net = (
+                nn.Identity()
+                if isinstance(self.action_space, spaces.Discrete)
+                else SoftArgmaxSaccade(np.asarray(self.saccade_vectors, np.float32))
+            )
             with torch.no_grad():  # a near-uniform initial policy over cells
                 self.features_extractor.encoder.logit.weight.mul_(0.01)
                 self.features_extractor.encoder.logit.bias.zero_()
@@ -209,9 +265,19 @@ class CorticalSAC(_sac_policy()):
     saccade and log-std layer), so the actor's loss never moves the encoder. The target critic keeps
     its own Polyak-averaged copy of the encoder."""
 
-    def __init__(self, observation_space, action_space, lr_schedule, saccade_vectors: list | None = None,
-                 channels: tuple[int, ...] = (32, 32), logit_gain: float = 1.0, pointer: bool = True,
-                 log_std_init: float = -1.5, critic_encoder: bool = False, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        observation_space,
+        action_space,
+        lr_schedule,
+        saccade_vectors: list | None = None,
+        channels: tuple[int, ...] = (32, 32),
+        logit_gain: float = 1.0,
+        pointer: bool = True,
+        log_std_init: float = -1.5,
+        critic_encoder: bool = False,
+        **kwargs: Any,
+    ) -> None:
         if not isinstance(critic_encoder, bool):
             raise ValueError(f"critic_encoder must be true or false; got {critic_encoder!r}")
         self.critic_encoder = critic_encoder
@@ -221,8 +287,14 @@ class CorticalSAC(_sac_policy()):
             raise ValueError(f"log_std_init must be a finite number; got {log_std_init!r}")
         self.saccade_vectors, self.std_init = saccade_vectors, float(log_std_init)
         kwargs.setdefault("features_extractor_class", CorticalFeatures)
-        kwargs.setdefault("features_extractor_kwargs", {"channels": tuple(channels), "logit_gain": logit_gain,
-                                                        "saccade_vectors": saccade_vectors if pointer else None})
+        kwargs.setdefault(
+            "features_extractor_kwargs",
+            {
+                "channels": tuple(channels),
+                "logit_gain": logit_gain,
+                "saccade_vectors": saccade_vectors if pointer else None,
+            },
+        )
         kwargs.setdefault("net_arch", {"pi": [], "qf": [256, 256]})
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
 
@@ -233,21 +305,29 @@ class CorticalSAC(_sac_policy()):
         self.actor = self.make_actor(features_extractor=self.critic.features_extractor)
         self.actor.optimizer = self.optimizer_class(
             [p for n, p in self.actor.named_parameters() if not n.startswith("features_extractor.")],
-            lr=lr_schedule(1), **self.optimizer_kwargs)
+            lr=lr_schedule(1),
+            **self.optimizer_kwargs,
+        )
         self.critic_target = self.make_critic(features_extractor=None)
         self.critic_target.load_state_dict(self.critic.state_dict())
-        self.critic.optimizer = self.optimizer_class(self.critic.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
+        self.critic.optimizer = self.optimizer_class(
+            self.critic.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
         self.critic_target.set_training_mode(False)
 
     def make_actor(self, features_extractor=None):
         if self.critic_encoder:
             kwargs = self._update_features_extractor(self.actor_kwargs, features_extractor)
-            actor = _DetachedCellActor(**{**kwargs, "log_std_init": self.std_init}, saccade_vectors=self.saccade_vectors)
+            actor = _DetachedCellActor(
+                **{**kwargs, "log_std_init": self.std_init}, saccade_vectors=self.saccade_vectors
+            )
             return actor.to(self.device)
         actor = super().make_actor(features_extractor)
         n = actor.features_extractor.n_cells
         dim = int(np.prod(self.action_space.shape))
-        actor.mu = nn.Sequential(_Slice(0, n), SoftArgmaxSaccade(np.asarray(self.saccade_vectors, np.float32), atanh=True))
+        actor.mu = nn.Sequential(
+            _Slice(0, n), SoftArgmaxSaccade(np.asarray(self.saccade_vectors, np.float32), atanh=True)
+        )
         actor.log_std = nn.Sequential(_Slice(n, None), nn.Linear(actor.features_dim - n, dim))
         with torch.no_grad():
             actor.features_extractor.encoder.logit.weight.mul_(0.01)
@@ -362,12 +442,17 @@ def architecture(model, algo: str) -> dict[str, Any]:
     if algo == "ppo":
         kwargs["use_sde"] = bool(model.use_sde)
     if "features_extractor_class" in kwargs or "optimizer_class" in kwargs or "activation_fn" in kwargs:
-        raise ValueError("policy_kwargs naming classes (features_extractor_class, optimizer_class, activation_fn) "
-                         "cannot be saved as data; use the policy names of the hyper-parameter files")
+        raise ValueError(
+            "policy_kwargs naming classes (features_extractor_class, optimizer_class, activation_fn) "
+            "cannot be saved as data; use the policy names of the hyper-parameter files"
+        )
     kwargs = json.loads(json.dumps(kwargs))
-    return {"policy_class": name, "policy_kwargs": kwargs,
-            "observation_space": space_to_json(model.observation_space),
-            "action_space": space_to_json(model.action_space)}
+    return {
+        "policy_class": name,
+        "policy_kwargs": kwargs,
+        "observation_space": space_to_json(model.observation_space),
+        "action_space": space_to_json(model.action_space),
+    }
 
 
 def save_agent(out: Path, model, algo: str, meta: dict[str, Any]) -> dict[str, Any]:
@@ -376,9 +461,17 @@ def save_agent(out: Path, model, algo: str, meta: dict[str, Any]) -> dict[str, A
     atomically; returns the JSON."""
     arrays: dict[str, np.ndarray] = {}
     skeleton = pack(model.policy.state_dict(), "policy", arrays)
-    meta = {**meta, "format": FORMAT, "algo": algo, "architecture": architecture(model, algo),
-            "versions": {"stable_baselines3": __import__("stable_baselines3").__version__,
-                         "torch": torch.__version__, "numpy": np.__version__}}
+    meta = {
+        **meta,
+        "format": FORMAT,
+        "algo": algo,
+        "architecture": architecture(model, algo),
+        "versions": {
+            "stable_baselines3": __import__("stable_baselines3").__version__,
+            "torch": torch.__version__,
+            "numpy": np.__version__,
+        },
+    }
     write_unit(out / f"{algo}.npz", arrays, {**meta, "state_dict": skeleton})
     meta["weights_sha256"] = file_sha256(out / f"{algo}.npz")
     write_json(out / f"{algo}.json", meta)
@@ -399,17 +492,23 @@ def read_agent_meta(directory: str | Path) -> tuple[str, dict[str, Any]]:
             raise TypeError("not a JSON object")
         meta["task"], meta["env_kwargs"] = str(meta["task"]), dict(meta["env_kwargs"])
     except (OSError, UnicodeDecodeError, KeyError, TypeError, ValueError) as err:
-        raise ValueError(f"{metas[0]} is not a valid {metas[0].stem.upper()} metadata file "
-                         f"({type(err).__name__}: {str(err)[:80]}); retrain") from None
+        raise ValueError(
+            f"{metas[0]} is not a valid {metas[0].stem.upper()} metadata file "
+            f"({type(err).__name__}: {str(err)[:80]}); retrain"
+        ) from None
     algo = metas[0].stem
     if meta.get("algo", algo) != algo:
         raise ValueError(f"{metas[0]} says algo {meta.get('algo')!r}; retrain")
     if meta.get("format") == "skrl-npz-1":
-        raise ValueError(f"{d} is a run of the batched engine's skrl recipe: evaluate loads the folders of "
-                         "'train' and of the SB3 recipe")
+        raise ValueError(
+            f"{d} is a run of the batched engine's skrl recipe: evaluate loads the folders of "
+            "'train' and of the SB3 recipe"
+        )
     if meta.get("format") != FORMAT:
-        raise ValueError(f"{metas[0]} is not a {FORMAT!r} model (format {meta.get('format')!r}; models saved as "
-                         "Stable-Baselines3 zips are never loaded, they run code): retrain with this version")
+        raise ValueError(
+            f"{metas[0]} is not a {FORMAT!r} model (format {meta.get('format')!r}; models saved as "
+            "Stable-Baselines3 zips are never loaded, they run code): retrain with this version"
+        )
     return algo, meta
 
 
@@ -423,8 +522,10 @@ def load_agent(directory: str | Path, deterministic: bool = True) -> SB3Agent:
     if not wpath.is_file():
         raise FileNotFoundError(f"{d} is not a saved SB3 model: missing {wpath.name}")
     if meta.get("weights_sha256") != file_sha256(wpath):
-        raise ValueError(f"{wpath} is not the file {algo}.json describes (its SHA-256 differs): the folder mixes "
-                         "two runs or was altered; retrain")
+        raise ValueError(
+            f"{wpath} is not the file {algo}.json describes (its SHA-256 differs): the folder mixes "
+            "two runs or was altered; retrain"
+        )
     arrays, inner = read_unit(wpath)
     try:
         arch = inner["architecture"]
@@ -433,8 +534,10 @@ def load_agent(directory: str | Path, deterministic: bool = True) -> SB3Agent:
         policy = cls(obs_space, act_space, lambda _: 1e-3, **dict(arch["policy_kwargs"]))
         policy.load_state_dict(unpack(inner["state_dict"], arrays, tensors=True), strict=True)
     except (KeyError, TypeError, ValueError, RuntimeError) as err:
-        raise ValueError(f"{wpath}: the saved policy cannot be rebuilt ({type(err).__name__}: "
-                         f"{str(err).splitlines()[0][:160]}); retrain") from None
+        raise ValueError(
+            f"{wpath}: the saved policy cannot be rebuilt ({type(err).__name__}: "
+            f"{str(err).splitlines()[0][:160]}); retrain"
+        ) from None
     policy.set_training_mode(False)
     return SB3Agent(policy, {**meta, "algo": algo}, d, deterministic)
 
@@ -477,8 +580,9 @@ def _one_torch_thread() -> None:
     torch.set_num_threads(1)
 
 
-def plan_run(algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0,
-             timesteps: int | None = None) -> dict[str, Any]:
+def plan_run(
+    algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0, timesteps: int | None = None
+) -> dict[str, Any]:
     """The settings of one run (``train.json``): ``hyperparams`` split into the env's, the shaping,
     the policy's, the evaluation's and the algorithm's own; ``ValueError`` for bad ones."""
     if algo not in ALGOS:
@@ -495,11 +599,20 @@ def plan_run(algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0,
         raise ValueError(f"SAC takes policy 'cortical-sac' or 'mlp'; got {policy!r}")
     if algo == "ppo" and policy == "cortical-sac":
         raise ValueError("policy 'cortical-sac' is SAC's; PPO takes 'cortical-cell', 'cortical-dense' or 'mlp'")
-    plan = {"format": FORMAT, "algo": algo, "task": task, "seed": int(seed), "policy": policy,
-            "env_kwargs": {"action_mode": "cell", "image_size": 96, **hp.pop("env_kwargs", {})},
-            "shaping": dict(hp.pop("shaping", {}) or {}), "n_envs": int(hp.pop("n_envs", 1)),
-            "eval_freq": int(hp.pop("eval_freq", 1000)), "eval_episodes": int(hp.pop("eval_episodes", 20)),
-            "policy_kwargs": dict(hp.pop("policy_kwargs", {}) or {}), "total_timesteps": total}
+    plan = {
+        "format": FORMAT,
+        "algo": algo,
+        "task": task,
+        "seed": int(seed),
+        "policy": policy,
+        "env_kwargs": {"action_mode": "cell", "image_size": 96, **hp.pop("env_kwargs", {})},
+        "shaping": dict(hp.pop("shaping", {}) or {}),
+        "n_envs": int(hp.pop("n_envs", 1)),
+        "eval_freq": int(hp.pop("eval_freq", 1000)),
+        "eval_episodes": int(hp.pop("eval_episodes", 20)),
+        "policy_kwargs": dict(hp.pop("policy_kwargs", {}) or {}),
+        "total_timesteps": total,
+    }
     if plan["eval_freq"] < 1 or plan["eval_episodes"] < 1 or plan["n_envs"] < 1:
         raise ValueError("n_envs, eval_freq and eval_episodes must be >= 1")
     augment = hp.pop("augment", None)
@@ -539,11 +652,14 @@ def _capture(model) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Everything a resumed run needs beyond the settings: weights and optimizers, SAC's entropy
     coefficient and replay buffer, counters, and every random-number generator the training reads."""
     arrays: dict[str, np.ndarray] = {}
-    state: dict[str, Any] = {"params": pack(model.get_parameters(), "params", arrays),
-                             "num_timesteps": int(model.num_timesteps), "n_updates": int(model._n_updates),
-                             "episode_num": int(model._episode_num),
-                             "action_space_rng": model.action_space.np_random.bit_generator.state,
-                             "rng": rng_state(arrays)}
+    state: dict[str, Any] = {
+        "params": pack(model.get_parameters(), "params", arrays),
+        "num_timesteps": int(model.num_timesteps),
+        "n_updates": int(model._n_updates),
+        "episode_num": int(model._episode_num),
+        "action_space_rng": model.action_space.np_random.bit_generator.state,
+        "rng": rng_state(arrays),
+    }
     if getattr(model, "ent_coef_optimizer", None) is not None:
         state["log_ent_coef"] = pack(model.log_ent_coef, "log_ent_coef", arrays)
     rb = getattr(model, "replay_buffer", None)
@@ -584,8 +700,10 @@ def _restore(model, arrays: dict[str, np.ndarray], state: dict[str, Any]) -> Non
             rb.pos, rb.full = int(b["pos"]), bool(b["full"])
         set_rng_state(state["rng"], arrays)
     except (KeyError, TypeError, ValueError, RuntimeError, IndexError) as err:
-        raise ValueError(f"the checkpoint does not fit this run ({type(err).__name__}: "
-                         f"{str(err).splitlines()[0][:160]}); delete checkpoint.npz to train this run again") from None
+        raise ValueError(
+            f"the checkpoint does not fit this run ({type(err).__name__}: "
+            f"{str(err).splitlines()[0][:160]}); delete checkpoint.npz to train this run again"
+        ) from None
 
 
 def finished_meta(out: Path, algo: str, settings: dict[str, Any]) -> dict[str, Any] | None:
@@ -596,13 +714,19 @@ def finished_meta(out: Path, algo: str, settings: dict[str, Any]) -> dict[str, A
     if meta.get("settings") != json.loads(json.dumps(settings)):
         raise ValueError(f"{out / (algo + '.json')} describes another run than {SETTINGS}; use another --out")
     if not (out / f"{algo}.npz").is_file() or meta.get("weights_sha256") != file_sha256(out / f"{algo}.npz"):
-        raise ValueError(f"{out / (algo + '.npz')} is missing or not the file {algo}.json describes; "
-                         "use another --out")
+        raise ValueError(f"{out / (algo + '.npz')} is missing or not the file {algo}.json describes; use another --out")
     return meta
 
 
-def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any], seed: int = 0,
-              timesteps: int | None = None, log=print) -> dict[str, Any]:
+def train_sb3(
+    out: str | Path,
+    algo: str,
+    task: str,
+    hyperparams: dict[str, Any],
+    seed: int = 0,
+    timesteps: int | None = None,
+    log=print,
+) -> dict[str, Any]:
     """Train ``algo`` ("ppo" or "sac") on ``task`` with ``hyperparams`` (one entry of a file in
     ``experiments/hyperparams/``, see :func:`experiments.agents.hyperparams.load_hyperparams`), or
     resume the run in ``out``. Writes ``train.json`` (the settings), ``training_log.csv`` (a row per
@@ -627,13 +751,24 @@ def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any]
         return done
     _one_torch_thread()
     torch.manual_seed(seed)
-    env_kwargs, shaping, total, eval_freq = plan["env_kwargs"], plan["shaping"], plan["total_timesteps"], plan["eval_freq"]
+    env_kwargs, shaping, total, eval_freq = (
+        plan["env_kwargs"],
+        plan["shaping"],
+        plan["total_timesteps"],
+        plan["eval_freq"],
+    )
     gamma = float(plan["algo_kwargs"].get("gamma", 0.99))
 
     def factory(rank: int):
         def _make():
-            return make_rl_env(task, gamma=gamma, shaping=bool(shaping.get("enabled", False)),
-                               shaping_scale_deg=float(shaping.get("scale_deg", 10.0)), **env_kwargs)
+            return make_rl_env(
+                task,
+                gamma=gamma,
+                shaping=bool(shaping.get("enabled", False)),
+                shaping_scale_deg=float(shaping.get("scale_deg", 10.0)),
+                **env_kwargs,
+            )
+
         return _make
 
     venv = DummyVecEnv([factory(i) for i in range(plan["n_envs"])])
@@ -641,9 +776,18 @@ def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any]
     eval_env = make_env(task, **env_kwargs)
     try:
         model = _make_model(plan, venv)
-        meta = {"algo": algo, "task": task, "policy": plan["policy"], "env_kwargs": {**env_kwargs, "cortex": "eyes"},
-                "shaping": shaping, "seed": seed, "n_envs": plan["n_envs"], "total_timesteps": total,
-                "hyperparams": plan["hyperparams"], "settings": json.loads(json.dumps(plan))}
+        meta = {
+            "algo": algo,
+            "task": task,
+            "policy": plan["policy"],
+            "env_kwargs": {**env_kwargs, "cortex": "eyes"},
+            "shaping": shaping,
+            "seed": seed,
+            "n_envs": plan["n_envs"],
+            "total_timesteps": total,
+            "hyperparams": plan["hyperparams"],
+            "settings": json.loads(json.dumps(plan)),
+        }
         eval_seeds = episode_seeds(seed, plan["eval_episodes"], VALIDATION_STREAM)
         cb = _callback()
         log_path, ck = out / "training_log.csv", out / CHECKPOINT
@@ -658,16 +802,23 @@ def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any]
             eval_s += time.perf_counter() - t
             k = len(cb.train) if hasattr(cb, "train") else 0
             tr = cb.train if k else []
-            row = {"env_steps": int(model.num_timesteps), "elapsed_s": round(before_s + time.perf_counter() - t0, 2),
-                   "success_rate": ev.success_rate, "mean_return": round(ev.mean_reward, 5),
-                   "mean_saccades": ev.mean_saccades, "train_episodes": k,
-                   "train_success_rate": round(sum(s for _, s in tr) / k, 4) if k else "",
-                   "train_return": round(sum(r for r, _ in tr) / k, 5) if k else ""}
+            row = {
+                "env_steps": int(model.num_timesteps),
+                "elapsed_s": round(before_s + time.perf_counter() - t0, 2),
+                "success_rate": ev.success_rate,
+                "mean_return": round(ev.mean_reward, 5),
+                "mean_saccades": ev.mean_saccades,
+                "train_episodes": k,
+                "train_success_rate": round(sum(s for _, s in tr) / k, 4) if k else "",
+                "train_return": round(sum(r for r, _ in tr) / k, 5) if k else "",
+            }
             cb.train = []
             rows.append(row)
             append_csv_row(log_path, CURVE_COLUMNS, row)
-            log(f"{algo} {task}: {row['env_steps']}/{total} steps, {row['elapsed_s']:.0f} s: validation success "
-                f"{ev.success_rate:.2f}, return {ev.mean_reward:+.3f}; training episodes {k}")
+            log(
+                f"{algo} {task}: {row['env_steps']}/{total} steps, {row['elapsed_s']:.0f} s: validation success "
+                f"{ev.success_rate:.2f}, return {ev.mean_reward:+.3f}; training episodes {k}"
+            )
 
         if ck.exists():
             arrays, state = read_unit(ck, hint=f"delete {ck.name} to train this run again")
@@ -684,19 +835,38 @@ def train_sb3(out: str | Path, algo: str, task: str, hyperparams: dict[str, Any]
         while model.num_timesteps < total:
             venv.seed(int(np.random.SeedSequence([seed, 3, chunk]).generate_state(1)[0] & 0x7FFFFFFF))
             model._last_obs = None  # learn() resets the env (with the seeds above) at the chunk's start
-            model.learn(total_timesteps=min(eval_freq, total - model.num_timesteps), callback=cb,
-                        reset_num_timesteps=False, progress_bar=False)
+            model.learn(
+                total_timesteps=min(eval_freq, total - model.num_timesteps),
+                callback=cb,
+                reset_num_timesteps=False,
+                progress_bar=False,
+            )
             chunk += 1
             evaluation()
             arrays, state = _capture(model)
-            write_unit(ck, arrays, {**state, "settings": meta["settings"], "log": rows, "chunk": chunk,
-                                    "elapsed_s": before_s + time.perf_counter() - t0, "eval_s": eval_s})
+            write_unit(
+                ck,
+                arrays,
+                {
+                    **state,
+                    "settings": meta["settings"],
+                    "log": rows,
+                    "chunk": chunk,
+                    "elapsed_s": before_s + time.perf_counter() - t0,
+                    "eval_s": eval_s,
+                },
+            )
         wall = before_s + time.perf_counter() - t0
-        meta.update(wall_s=round(wall, 1), eval_s=round(eval_s, 1),
-                    train_steps_per_s=round(model.num_timesteps / max(1e-9, wall - eval_s), 1),
-                    env_steps=int(model.num_timesteps), final=rows[-1])
-        plot_training_log(log_path, out / "learning_curve.png",
-                          title=f"{task}: {algo.upper()} ({plan['policy']}), seed {seed}")
+        meta.update(
+            wall_s=round(wall, 1),
+            eval_s=round(eval_s, 1),
+            train_steps_per_s=round(model.num_timesteps / max(1e-9, wall - eval_s), 1),
+            env_steps=int(model.num_timesteps),
+            final=rows[-1],
+        )
+        plot_training_log(
+            log_path, out / "learning_curve.png", title=f"{task}: {algo.upper()} ({plan['policy']}), seed {seed}"
+        )
         meta = save_agent(out, model, algo, meta)
         ck.unlink(missing_ok=True)
         return meta

@@ -48,13 +48,15 @@ def _require_sb3():
     try:
         import stable_baselines3
     except ImportError as err:  # pragma: no cover - depends on the optional extra
-        raise ImportError("the SB3 recipe needs the 'rl' extra: pip install torch==2.13.0 (CPU) "
-                          "then pip install -e '.[rl]'") from err
+        raise ImportError(
+            "the SB3 recipe needs the 'rl' extra: pip install torch==2.13.0 (CPU) then pip install -e '.[rl]'"
+        ) from err
     return stable_baselines3
 
 
-def make_vec(n_envs: int = 2, vec: str = "subproc", seed: int = 0, task: str = "fixate",
-             env_kwargs: dict[str, Any] | None = None):
+def make_vec(
+    n_envs: int = 2, vec: str = "subproc", seed: int = 0, task: str = "fixate", env_kwargs: dict[str, Any] | None = None
+):
     """``n_envs`` copies of the cell-action env in a ``SubprocVecEnv`` (spawn) or ``DummyVecEnv``."""
     _require_sb3()
     from stable_baselines3.common.env_util import make_vec_env
@@ -66,8 +68,14 @@ def make_vec(n_envs: int = 2, vec: str = "subproc", seed: int = 0, task: str = "
         raise ValueError(f"n_envs must be >= 1; got {n_envs}")
     kwargs = {"task": task, **DEFAULT_ENV_KWARGS, **(env_kwargs or {})}
     if vec == "subproc":
-        return make_vec_env(make_env, n_envs=n_envs, seed=seed, env_kwargs=kwargs,
-                            vec_env_cls=SubprocVecEnv, vec_env_kwargs={"start_method": "spawn"})
+        return make_vec_env(
+            make_env,
+            n_envs=n_envs,
+            seed=seed,
+            env_kwargs=kwargs,
+            vec_env_cls=SubprocVecEnv,
+            vec_env_kwargs={"start_method": "spawn"},
+        )
     return make_vec_env(make_env, n_envs=n_envs, seed=seed, env_kwargs=kwargs, vec_env_cls=DummyVecEnv)
 
 
@@ -97,18 +105,32 @@ def _progress_callback(total: int, stream=None):
         def _on_rollout_end(self) -> None:
             el = time.perf_counter() - self.t0
             k = len(self.succ)
-            stats = (f"{k} episodes ended, success {sum(self.succ) / k:.2f}, mean return {sum(self.rets) / k:+.3f}"
-                     if k else "no episode ended")
-            print(f"ppo: {self.num_timesteps}/{total} steps, {el:.0f} s; this rollout: {stats}",
-                  file=stream or sys.stderr, flush=True)
+            stats = (
+                f"{k} episodes ended, success {sum(self.succ) / k:.2f}, mean return {sum(self.rets) / k:+.3f}"
+                if k
+                else "no episode ended"
+            )
+            print(
+                f"ppo: {self.num_timesteps}/{total} steps, {el:.0f} s; this rollout: {stats}",
+                file=stream or sys.stderr,
+                flush=True,
+            )
             self.succ, self.rets = [], []
 
     return Progress()
 
 
-def train_ppo(out: str | Path, total_timesteps: int = 4096, n_envs: int = 2, n_steps: int = 256,
-              vec: str = "subproc", seed: int = 0, task: str = "fixate",
-              env_kwargs: dict[str, Any] | None = None, progress: bool = True) -> Path:
+def train_ppo(
+    out: str | Path,
+    total_timesteps: int = 4096,
+    n_envs: int = 2,
+    n_steps: int = 256,
+    vec: str = "subproc",
+    seed: int = 0,
+    task: str = "fixate",
+    env_kwargs: dict[str, Any] | None = None,
+    progress: bool = True,
+) -> Path:
     """Train PPO (``MultiInputPolicy``) and save it as data into ``out`` (locked while it runs):
     ``ppo.npz`` (weights) and ``ppo.json`` (architecture, spaces, settings, versions; written last),
     as :func:`experiments.agents.sb3.save_agent` does; with ``progress`` one line per rollout goes to
@@ -125,15 +147,34 @@ def train_ppo(out: str | Path, total_timesteps: int = 4096, n_envs: int = 2, n_s
         venv = make_vec(n_envs, vec, seed, task, env_kwargs)
         try:
             batch = min(64, n_steps * n_envs)
-            model = sb3.PPO("MultiInputPolicy", venv, n_steps=n_steps, batch_size=batch, gamma=0.9,
-                            seed=seed, device="cpu", verbose=0)
-            model.learn(total_timesteps=total_timesteps, progress_bar=False,
-                        callback=_progress_callback(total_timesteps) if progress else None)
+            model = sb3.PPO(
+                "MultiInputPolicy",
+                venv,
+                n_steps=n_steps,
+                batch_size=batch,
+                gamma=0.9,
+                seed=seed,
+                device="cpu",
+                verbose=0,
+            )
+            model.learn(
+                total_timesteps=total_timesteps,
+                progress_bar=False,
+                callback=_progress_callback(total_timesteps) if progress else None,
+            )
         finally:
             venv.close()
-        meta = {"task": task, "env_kwargs": {**DEFAULT_ENV_KWARGS, **(env_kwargs or {})}, "seed": seed,
-                "total_timesteps": total_timesteps, "n_envs": n_envs, "n_steps": n_steps, "vec": vec,
-                "policy": "mlp", "recipe": "sb3_recipe"}
+        meta = {
+            "task": task,
+            "env_kwargs": {**DEFAULT_ENV_KWARGS, **(env_kwargs or {})},
+            "seed": seed,
+            "total_timesteps": total_timesteps,
+            "n_envs": n_envs,
+            "n_steps": n_steps,
+            "vec": vec,
+            "policy": "mlp",
+            "recipe": "sb3_recipe",
+        }
         save_agent(out, model, "ppo", meta)
     return out / "ppo.npz"
 
@@ -194,23 +235,39 @@ def evaluate_ppo(path: str | Path, episodes: int = 50, seed: int = 0) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m experiments.agents.sb3_recipe",
-                                description="PPO (Stable-Baselines3, MultiInputPolicy) on the cell-action saccade env; "
-                                            "saves the model and prints one JSON line of evaluation results.")
+    p = argparse.ArgumentParser(
+        prog="python -m experiments.agents.sb3_recipe",
+        description="PPO (Stable-Baselines3, MultiInputPolicy) on the cell-action saccade env; "
+        "saves the model and prints one JSON line of evaluation results.",
+    )
     p.add_argument("--out", required=True, type=out_dir, help="output directory")
     p.add_argument("--task", choices=TASKS, default="fixate", help="env task (default fixate)")
     p.add_argument("--timesteps", type=int_in(1, 10**8), default=4096, help="total env steps (saccades) (default 4096)")
     p.add_argument("--n-envs", type=int_in(1, 64), default=2, help="parallel envs (default 2)")
     p.add_argument("--n-steps", type=int_in(2, 10**6), default=256, help="PPO rollout length per env (default 256)")
-    p.add_argument("--vec", choices=("subproc", "dummy"), default="subproc",
-                   help="SubprocVecEnv with spawn (default) or DummyVecEnv")
+    p.add_argument(
+        "--vec",
+        choices=("subproc", "dummy"),
+        default="subproc",
+        help="SubprocVecEnv with spawn (default) or DummyVecEnv",
+    )
     p.add_argument("--seed", type=seed_type(), default=0, help="seed (default 0)")
-    p.add_argument("--eval-episodes", type=int_in(1, 10**6), default=50, help="evaluation episodes after training (default 50)")
+    p.add_argument(
+        "--eval-episodes", type=int_in(1, 10**6), default=50, help="evaluation episodes after training (default 50)"
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress line per rollout")
     args = p.parse_args(argv)
     try:
-        path = train_ppo(args.out, args.timesteps, args.n_envs, args.n_steps, args.vec, args.seed, args.task,
-                         progress=not args.no_progress)
+        path = train_ppo(
+            args.out,
+            args.timesteps,
+            args.n_envs,
+            args.n_steps,
+            args.vec,
+            args.seed,
+            args.task,
+            progress=not args.no_progress,
+        )
         res = evaluate_ppo(path, args.eval_episodes, args.seed)
     except (ValueError, ImportError, FileNotFoundError, LockBusyError) as err:
         print(f"sb3_recipe: error: {err}", file=sys.stderr)

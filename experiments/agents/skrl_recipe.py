@@ -58,7 +58,7 @@ def _require():
 
         from envs.batched_physics import require_gpu_extra
     except ImportError as e:
-        sys.exit(f"this recipe needs the gpu extra ({e.name} is missing): pip install -e \".[gpu]\"")
+        sys.exit(f'this recipe needs the gpu extra ({e.name} is missing): pip install -e ".[gpu]"')
     require_gpu_extra()
 
 
@@ -161,7 +161,7 @@ def _cortical_models(obs_space, act_space, device, single_obs_space, vectors, ch
     offsets = np.concatenate([[0], np.cumsum(sizes)])
 
     def unflatten(x: torch.Tensor) -> dict[str, torch.Tensor]:
-        return {k: x[:, offsets[i]:offsets[i + 1]].reshape(-1, *shapes[k]) for i, k in enumerate(OBS_KEYS)}
+        return {k: x[:, offsets[i] : offsets[i + 1]].reshape(-1, *shapes[k]) for i, k in enumerate(OBS_KEYS)}
 
     def encoder() -> CorticalEncoder:
         return CorticalEncoder(shapes["cortical"], shapes["fovea"], sizes[OBS_KEYS.index("eyes")], channels)
@@ -215,8 +215,14 @@ def _models(obs_space, act_space, device, hidden: int):
             Model.__init__(self, observation_space=obs_space, action_space=act_space, device=device)
             GaussianMixin.__init__(self, clip_actions=True, clip_log_std=True, min_log_std=-5, max_log_std=1)
             d = obs_space.shape[0]
-            self.net = nn.Sequential(nn.Linear(d, hidden), nn.ELU(), nn.Linear(hidden, hidden // 2), nn.ELU(),
-                                     nn.Linear(hidden // 2, act_space.shape[0]), nn.Tanh())
+            self.net = nn.Sequential(
+                nn.Linear(d, hidden),
+                nn.ELU(),
+                nn.Linear(hidden, hidden // 2),
+                nn.ELU(),
+                nn.Linear(hidden // 2, act_space.shape[0]),
+                nn.Tanh(),
+            )
             self.log_std = nn.Parameter(torch.full((act_space.shape[0],), -0.7))
 
         def compute(self, inputs, role=""):
@@ -227,8 +233,9 @@ def _models(obs_space, act_space, device, hidden: int):
             Model.__init__(self, observation_space=obs_space, action_space=act_space, device=device)
             DeterministicMixin.__init__(self)
             d = obs_space.shape[0]
-            self.net = nn.Sequential(nn.Linear(d, hidden), nn.ELU(), nn.Linear(hidden, hidden // 2), nn.ELU(),
-                                     nn.Linear(hidden // 2, 1))
+            self.net = nn.Sequential(
+                nn.Linear(d, hidden), nn.ELU(), nn.Linear(hidden, hidden // 2), nn.ELU(), nn.Linear(hidden // 2, 1)
+            )
 
         def compute(self, inputs, role=""):
             return self.net(inputs["observations"]), {}
@@ -236,9 +243,22 @@ def _models(obs_space, act_space, device, hidden: int):
     return Policy(), Value()
 
 
-def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps: int, image_size: int,
-          rollouts: int, hidden: int, seed: int, policy: str = "mlp", action_mode: str = "vector",
-          channels: tuple[int, ...] = (16, 16), log=print) -> dict[str, Any]:
+def train(
+    *,
+    out: Path,
+    device: str | None,
+    num_envs: int,
+    task: str,
+    timesteps: int,
+    image_size: int,
+    rollouts: int,
+    hidden: int,
+    seed: int,
+    policy: str = "mlp",
+    action_mode: str = "vector",
+    channels: tuple[int, ...] = (16, 16),
+    log=print,
+) -> dict[str, Any]:
     """Train PPO for ``timesteps`` batched steps (each ``num_envs`` env steps); returns the summary.
     ``policy="mlp"``: MLPs on the flattened, standardised observation (``action_mode`` must be
     "vector"); ``"cortical"``: the wrap-around cortical convolution (:func:`_cortical_models`), with
@@ -248,8 +268,10 @@ def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps:
     if action_mode not in ("vector", "cell"):
         raise ValueError(f"action_mode must be 'vector' or 'cell'; got {action_mode!r}")
     if policy == "mlp" and action_mode != "vector":
-        raise ValueError("the mlp policy is a Gaussian over the vector saccade: use action_mode='vector' "
-                         "or policy='cortical' for cell actions")
+        raise ValueError(
+            "the mlp policy is a Gaussian over the vector saccade: use action_mode='vector' "
+            "or policy='cortical' for cell actions"
+        )
     _require()
     from skrl.agents.torch.ppo import PPO, PPO_CFG
     from skrl.memories.torch import RandomMemory
@@ -260,8 +282,15 @@ def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps:
     import envs
 
     set_seed(seed)
-    env = envs.BatchedBinocularSaccade(num_envs, device=device, task=task, image_size=image_size,
-                                       autoreset_mode="same_step", output="torch", action_mode=action_mode)
+    env = envs.BatchedBinocularSaccade(
+        num_envs,
+        device=device,
+        task=task,
+        image_size=image_size,
+        autoreset_mode="same_step",
+        output="torch",
+        action_mode=action_mode,
+    )
     env.reset(seed=seed)
     wrapped = DeviceVectorWrapper(env)
     dev = wrapped.device
@@ -269,27 +298,45 @@ def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps:
         from experiments.agents.extractors import cell_saccade_vectors
 
         vectors = cell_saccade_vectors(env.grid.points, env.max_amplitude)
-        policy_m, value = _cortical_models(wrapped.observation_space, wrapped.action_space, dev,
-                                           env.single_observation_space, vectors, tuple(channels))
+        policy_m, value = _cortical_models(
+            wrapped.observation_space, wrapped.action_space, dev, env.single_observation_space, vectors, tuple(channels)
+        )
         pre = {}  # the convolution reads the intensities in [0, 1] as they are
     else:
         policy_m, value = _models(wrapped.observation_space, wrapped.action_space, dev, hidden)
-        pre = {"observation_preprocessor": RunningStandardScaler,
-               "observation_preprocessor_kwargs": {"size": wrapped.observation_space, "device": dev}}
-    cfg = PPO_CFG(rollouts=rollouts, learning_epochs=4, mini_batches=max(1, min(4, rollouts * num_envs // 64)),
-                  learning_rate=3e-4 if policy == "mlp" else 1e-3, discount_factor=0.95,
-                  entropy_loss_scale=0.0 if policy == "mlp" else 0.01, **pre,
-                  value_preprocessor=RunningStandardScaler, value_preprocessor_kwargs={"size": 1, "device": dev})
+        pre = {
+            "observation_preprocessor": RunningStandardScaler,
+            "observation_preprocessor_kwargs": {"size": wrapped.observation_space, "device": dev},
+        }
+    cfg = PPO_CFG(
+        rollouts=rollouts,
+        learning_epochs=4,
+        mini_batches=max(1, min(4, rollouts * num_envs // 64)),
+        learning_rate=3e-4 if policy == "mlp" else 1e-3,
+        discount_factor=0.95,
+        entropy_loss_scale=0.0 if policy == "mlp" else 0.01,
+        **pre,
+        value_preprocessor=RunningStandardScaler,
+        value_preprocessor_kwargs={"size": 1, "device": dev},
+    )
     cfg.experiment.directory = str(out)
     cfg.experiment.experiment_name = "skrl"
     cfg.experiment.write_interval = 0
     cfg.experiment.checkpoint_interval = 0
     memory = RandomMemory(memory_size=rollouts, num_envs=num_envs, device=dev)
-    agent = PPO(models={"policy": policy_m, "value": value}, memory=memory, observation_space=wrapped.observation_space,
-                action_space=wrapped.action_space, device=dev, cfg=cfg)
-    trainer = SequentialTrainer(env=wrapped, agents=agent,
-                                cfg={"timesteps": timesteps, "headless": True, "disable_progressbar": True,
-                                     "close_environment_at_exit": False})
+    agent = PPO(
+        models={"policy": policy_m, "value": value},
+        memory=memory,
+        observation_space=wrapped.observation_space,
+        action_space=wrapped.action_space,
+        device=dev,
+        cfg=cfg,
+    )
+    trainer = SequentialTrainer(
+        env=wrapped,
+        agents=agent,
+        cfg={"timesteps": timesteps, "headless": True, "disable_progressbar": True, "close_environment_at_exit": False},
+    )
     with open(out / "learning_curve.csv", "w", newline="") as f:
         csv.writer(f).writerow(["env_steps", "episodes", "mean_return", "success_rate"])
     wrapped.curve_path, wrapped.per_rollout = out / "learning_curve.csv", rollouts * num_envs
@@ -298,11 +345,22 @@ def train(*, out: Path, device: str | None, num_envs: int, task: str, timesteps:
     wall = time.perf_counter() - t0
     rows = _curve(wrapped.episodes, rollouts * num_envs, timesteps * num_envs)
     _plot(rows, out / "learning_curve.png", f"PPO (skrl) on {task}, {num_envs} worlds, {env.device}")
-    summary = {"device": str(env.device), "num_envs": num_envs, "task": task, "policy": policy,
-               "action_mode": action_mode, "timesteps": timesteps,
-               "env_steps": timesteps * num_envs, "image_size": image_size, "rollouts": rollouts, "hidden": hidden,
-               "seed": seed, "wall_s": round(wall, 1), "env_steps_per_s": round(timesteps * num_envs / wall, 1),
-               "episodes": len(wrapped.episodes)}
+    summary = {
+        "device": str(env.device),
+        "num_envs": num_envs,
+        "task": task,
+        "policy": policy,
+        "action_mode": action_mode,
+        "timesteps": timesteps,
+        "env_steps": timesteps * num_envs,
+        "image_size": image_size,
+        "rollouts": rollouts,
+        "hidden": hidden,
+        "seed": seed,
+        "wall_s": round(wall, 1),
+        "env_steps_per_s": round(timesteps * num_envs / wall, 1),
+        "episodes": len(wrapped.episodes),
+    }
     summary["format"] = "skrl-npz-1"
     save_weights(out / "agent.npz", agent, summary)
     write_json(out / "ppo.json", summary)
@@ -363,21 +421,43 @@ def main(argv=None) -> int:
     ap.add_argument("--rollouts", type=int_in(1, 4096), default=8, help="batched steps per PPO update")
     ap.add_argument("--hidden", type=int_in(8, 4096), default=256)
     ap.add_argument("--seed", type=seed_type(), default=0)
-    ap.add_argument("--policy", choices=("mlp", "cortical"), default="mlp",
-                    help="mlp: MLPs on the flattened observation; cortical: the wrap-around cortical convolution")
-    ap.add_argument("--action-mode", choices=("vector", "cell"), default="vector",
-                    help="vector: the Box saccade; cell: a retina cell index (needs --policy cortical)")
+    ap.add_argument(
+        "--policy",
+        choices=("mlp", "cortical"),
+        default="mlp",
+        help="mlp: MLPs on the flattened observation; cortical: the wrap-around cortical convolution",
+    )
+    ap.add_argument(
+        "--action-mode",
+        choices=("vector", "cell"),
+        default="vector",
+        help="vector: the Box saccade; cell: a retina cell index (needs --policy cortical)",
+    )
     args = ap.parse_args(argv)
     if args.timesteps < args.rollouts:
-        ap.error(f"--timesteps ({args.timesteps}) must be at least --rollouts ({args.rollouts}): PPO updates once per rollout")
+        ap.error(
+            f"--timesteps ({args.timesteps}) must be at least --rollouts ({args.rollouts}): PPO updates once per rollout"
+        )
     if args.policy == "mlp" and args.action_mode == "cell":
         ap.error("--action-mode cell needs --policy cortical (the mlp policy is a Gaussian over the vector saccade)")
     args.out.mkdir(parents=True, exist_ok=True)
-    s = train(out=args.out, device=args.device, num_envs=args.num_envs, task=args.task, timesteps=args.timesteps,
-              image_size=args.image_size, rollouts=args.rollouts, hidden=args.hidden, seed=args.seed,
-              policy=args.policy, action_mode=args.action_mode)
-    print(f"{s['env_steps']} env steps in {s['wall_s']} s ({s['env_steps_per_s']} env-steps/s) on {s['device']}; "
-          f"wrote {args.out}/learning_curve.csv, learning_curve.png, agent.npz, ppo.json")
+    s = train(
+        out=args.out,
+        device=args.device,
+        num_envs=args.num_envs,
+        task=args.task,
+        timesteps=args.timesteps,
+        image_size=args.image_size,
+        rollouts=args.rollouts,
+        hidden=args.hidden,
+        seed=args.seed,
+        policy=args.policy,
+        action_mode=args.action_mode,
+    )
+    print(
+        f"{s['env_steps']} env steps in {s['wall_s']} s ({s['env_steps_per_s']} env-steps/s) on {s['device']}; "
+        f"wrote {args.out}/learning_curve.csv, learning_curve.png, agent.npz, ppo.json"
+    )
     return 0
 
 

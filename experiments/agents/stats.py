@@ -30,8 +30,9 @@ def iqm(scores) -> float:
     return float(stats.trim_mean(_scores(scores), 0.25))
 
 
-def bootstrap_ci(scores, statistic: Callable[[np.ndarray], float] = iqm, reps: int = 2000, confidence: float = 0.95,
-                 seed: int = 0) -> tuple[float, float]:
+def bootstrap_ci(
+    scores, statistic: Callable[[np.ndarray], float] = iqm, reps: int = 2000, confidence: float = 0.95, seed: int = 0
+) -> tuple[float, float]:
     """Percentile-bootstrap interval of ``statistic`` over runs: ``reps`` resamples of the runs with
     replacement; the (1-confidence)/2 and (1+confidence)/2 quantiles of the statistic."""
     x = _scores(scores)

@@ -6,21 +6,35 @@ Importing this package imports no command module, numba, MuJoCo, torch or Rerun.
 """
 
 from .parsing import (
-                      GENERATOR_HELP,
-                      DefaultsHelpFormatter,
-                      HintingParser,
-                      amplitude_list,
-                      bounded,
-                      check_path_text,
-                      generator_file,
-                      guarded,
-                      int_in,
-                      out_dir,
-                      out_file,
-                      whole_number,
+    GENERATOR_HELP,
+    DefaultsHelpFormatter,
+    HintingParser,
+    amplitude_list,
+    bounded,
+    check_path_text,
+    generator_file,
+    guarded,
+    int_in,
+    out_dir,
+    out_file,
+    whole_number,
 )
 from .progress import WARMUP, Progress, stage
 
-__all__ = ["GENERATOR_HELP", "WARMUP", "DefaultsHelpFormatter", "HintingParser", "Progress", "amplitude_list",
-           "bounded", "check_path_text", "generator_file", "guarded", "int_in", "out_dir", "out_file", "stage",
-           "whole_number"]
+__all__ = [
+    "GENERATOR_HELP",
+    "WARMUP",
+    "DefaultsHelpFormatter",
+    "HintingParser",
+    "Progress",
+    "amplitude_list",
+    "bounded",
+    "check_path_text",
+    "generator_file",
+    "guarded",
+    "int_in",
+    "out_dir",
+    "out_file",
+    "stage",
+    "whole_number",
+]

@@ -14,8 +14,15 @@ import argparse
 
 from .parsing import bounded
 
-__all__ = ["ENV_TASKS", "TASKS", "add_backend_options", "add_workers_option", "check_backend_options",
-           "image_size_type", "seed_type"]
+__all__ = [
+    "ENV_TASKS",
+    "TASKS",
+    "add_backend_options",
+    "add_workers_option",
+    "check_backend_options",
+    "image_size_type",
+    "seed_type",
+]
 
 #: The tasks an agent is trained and evaluated on (``envs.tasks.TASKS`` without free viewing).
 TASKS = ("fixate", "search")
@@ -35,17 +42,30 @@ def image_size_type():
 
 def add_workers_option(p, default: int = 2, what: str = "processes / Ray actors") -> None:
     """``--workers N`` (1-64): ``what`` runs the trials; 1 = in this process with the local backend."""
-    p.add_argument("--workers", type=bounded("workers"), default=default, metavar="N",
-                   help=f"{what}, 1-64 (default {default}); 1 = in-process with --backend local")
+    p.add_argument(
+        "--workers",
+        type=bounded("workers"),
+        default=default,
+        metavar="N",
+        help=f"{what}, 1-64 (default {default}); 1 = in-process with --backend local",
+    )
 
 
 def add_backend_options(p, what: str = "where trials are observed") -> None:
     """``--backend local|ray`` and ``--ray-address ADDR``."""
-    p.add_argument("--backend", choices=("local", "ray"), default="local",
-                   help=f"{what}: local processes, or Ray (local instance, or --ray-address)")
-    p.add_argument("--ray-address", default=None, metavar="ADDR",
-                   help="with --backend ray: a Ray cluster to join (e.g. ray://head:10001 or auto); default: "
-                        "start a local instance")
+    p.add_argument(
+        "--backend",
+        choices=("local", "ray"),
+        default="local",
+        help=f"{what}: local processes, or Ray (local instance, or --ray-address)",
+    )
+    p.add_argument(
+        "--ray-address",
+        default=None,
+        metavar="ADDR",
+        help="with --backend ray: a Ray cluster to join (e.g. ray://head:10001 or auto); default: "
+        "start a local instance",
+    )
 
 
 def check_backend_options(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
@@ -56,4 +76,4 @@ def check_backend_options(args: argparse.Namespace, parser: argparse.ArgumentPar
         try:
             import ray  # noqa: F401  (imported only to check that it is installed)
         except ImportError:
-            parser.error("argument --backend: ray is not installed: pip install -e \".[ray]\"")
+            parser.error('argument --backend: ray is not installed: pip install -e ".[ray]"')

@@ -17,8 +17,18 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["DefaultsHelpFormatter", "HintingParser", "int_in", "out_dir", "out_file", "whole_number", "amplitude_list", "bounded", "check_path_text",
-           "guarded"]
+__all__ = [
+    "DefaultsHelpFormatter",
+    "HintingParser",
+    "int_in",
+    "out_dir",
+    "out_file",
+    "whole_number",
+    "amplitude_list",
+    "bounded",
+    "check_path_text",
+    "guarded",
+]
 
 
 class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -82,8 +92,7 @@ class HintingParser(argparse.ArgumentParser):
             argv = getattr(self, "_argv", [])
             for i, word in enumerate(argv[:-1]):
                 if word in names and argv[i + 1].startswith("-") and len(argv[i + 1]) > 1:
-                    return (f"; a value that starts with '-' must be joined to its option with '=': "
-                            f"{word}={argv[i + 1]}")
+                    return f"; a value that starts with '-' must be joined to its option with '=': {word}={argv[i + 1]}"
             return ""
         m = re.search(r"invalid choice: (.+?) \(choose from (.*)\)$", message)
         if m:
@@ -190,7 +199,9 @@ def out_file(*suffixes: str) -> Callable[[str], Path]:
         if p.suffix.lower() not in suffixes:
             raise argparse.ArgumentTypeError(f"expected a file name ending in {' or '.join(suffixes)}; got {text!r}")
         if p.is_dir():
-            raise argparse.ArgumentTypeError(f"{text!r} is a folder; give a file name such as {p / ('data' + suffixes[0])}")
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is a folder; give a file name such as {p / ('data' + suffixes[0])}"
+            )
         if p.exists() and not os.access(p, os.W_OK):
             raise argparse.ArgumentTypeError(f"cannot overwrite {text!r} (permission denied); choose another path")
         _writable_parent(p, text)
@@ -217,8 +228,9 @@ def amplitude_list(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"each amplitude must be in {lim.text()}; got {bad[0]!r} in {text!r}")
     dup = sorted({v for v in vals if vals.count(v) > 1})
     if dup:
-        raise argparse.ArgumentTypeError(f"amplitude {dup[0]:g} is listed twice in {text!r}; list each once "
-                                         "(use --repetitions for more trials)")
+        raise argparse.ArgumentTypeError(
+            f"amplitude {dup[0]:g} is listed twice in {text!r}; list each once (use --repetitions for more trials)"
+        )
     return vals
 
 
@@ -234,8 +246,10 @@ def generator_file(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-GENERATOR_HELP = ("burst-generator parameters from a JSON file (the generator.json that `saccades --recording` "
-                  "fits to a person's eye-tracker recording); default: the generator's defaults")
+GENERATOR_HELP = (
+    "burst-generator parameters from a JSON file (the generator.json that `saccades --recording` "
+    "fits to a person's eye-tracker recording); default: the generator's defaults"
+)
 
 
 def bounded(name: str, what: str = "") -> Callable[[str], float | int]:
@@ -260,8 +274,15 @@ def bounded(name: str, what: str = "") -> Callable[[str], float | int]:
     return parse
 
 
-def guarded(prog: str, work: Callable[[], int], *, resume_hint: str, errors: dict | None = None,
-            usage: tuple = (), parser: argparse.ArgumentParser | None = None) -> int:
+def guarded(
+    prog: str,
+    work: Callable[[], int],
+    *,
+    resume_hint: str,
+    errors: dict | None = None,
+    usage: tuple = (),
+    parser: argparse.ArgumentParser | None = None,
+) -> int:
     """Run a command's ``work()`` as every command that writes results does: SIGINT/SIGTERM end it
     with one line (``resume_hint``) and exit 128 + signal; exceptions of ``usage`` are usage errors
     of ``--out`` (exit 2); those of ``errors`` (type -> exit status) and ``OSError`` (exit 1) print

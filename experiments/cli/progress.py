@@ -33,8 +33,17 @@ class Progress:
     tqdm's ``smoothing`` is lowered so that one slow batch does not swing the ETA.
     """
 
-    def __init__(self, total: int, *, desc: str, unit: str, initial: int = 0, warmup: str | None = WARMUP,
-                 enabled: bool = True, smoothing: float = 0.1) -> None:
+    def __init__(
+        self,
+        total: int,
+        *,
+        desc: str,
+        unit: str,
+        initial: int = 0,
+        warmup: str | None = WARMUP,
+        enabled: bool = True,
+        smoothing: float = 0.1,
+    ) -> None:
         self.total, self.desc, self.unit, self.smoothing = total, desc, unit, smoothing
         self.n = initial
         self.enabled = enabled
@@ -47,8 +56,9 @@ class Progress:
     def _open(self) -> None:
         from tqdm import tqdm
 
-        self._bar = tqdm(total=self.total, initial=self.n, desc=self.desc, unit=self.unit, smoothing=self.smoothing,
-                         file=sys.stderr)
+        self._bar = tqdm(
+            total=self.total, initial=self.n, desc=self.desc, unit=self.unit, smoothing=self.smoothing, file=sys.stderr
+        )
 
     def update(self, n: int = 1) -> None:
         """``n`` more units done; the first call after warm-up opens the bar (its clock starts here)."""

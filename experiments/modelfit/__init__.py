@@ -14,7 +14,31 @@ from .observe import BACKENDS, observe_trials
 from .published import PUBLISHED_DIR
 from .published import check as check_published
 
-__all__ = ["REQUIRED", "OPTIONAL", "DataFormatError", "DataConventionWarning", "LocalizationData", "read_data", "fit",
-           "compare", "simulate_data", "IMAGE_SIZE", "FitError", "FitFolderError", "fit_key", "ForwardModel",
-           "ForwardModelError", "forward_model", "FIT_MODELS", "NESTED", "FitModel", "Parameter", "BACKENDS", "observe_trials",
-           "crossvalidate", "CrossvalFolderError", "PUBLISHED_DIR", "check_published"]
+__all__ = [
+    "REQUIRED",
+    "OPTIONAL",
+    "DataFormatError",
+    "DataConventionWarning",
+    "LocalizationData",
+    "read_data",
+    "fit",
+    "compare",
+    "simulate_data",
+    "IMAGE_SIZE",
+    "FitError",
+    "FitFolderError",
+    "fit_key",
+    "ForwardModel",
+    "ForwardModelError",
+    "forward_model",
+    "FIT_MODELS",
+    "NESTED",
+    "FitModel",
+    "Parameter",
+    "BACKENDS",
+    "observe_trials",
+    "crossvalidate",
+    "CrossvalFolderError",
+    "PUBLISHED_DIR",
+    "check_published",
+]

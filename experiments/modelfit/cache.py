@@ -57,19 +57,40 @@ def _pack(observations: list) -> dict[str, np.ndarray]:
     """The observations as named arrays (one leading axis over trials)."""
     o0 = observations[0]
     n_flash = len(o0.flashes)
-    a: dict[str, list] = {k: [] for k in (
-        "trial", "onset_ms", "scalars", "eye_position", *_PLAN_FIELDS, *_PLAN_OPTIONAL, "has_target",
-        "plan_check", "copy_axes", "copy_origins", "target_deg", "eye_h", "seen_z", "ref_z", "ref_activity",
-        "ref_on_ms")}
-    per_flash = {f"flash{f}_{k}": [] for f in range(n_flash)
-                 for k in ("head", "true_deg", "z_t", "periphery", "fovea", "mask", "fovea_mask")}
+    a: dict[str, list] = {
+        k: []
+        for k in (
+            "trial",
+            "onset_ms",
+            "scalars",
+            "eye_position",
+            *_PLAN_FIELDS,
+            *_PLAN_OPTIONAL,
+            "has_target",
+            "plan_check",
+            "copy_axes",
+            "copy_origins",
+            "target_deg",
+            "eye_h",
+            "seen_z",
+            "ref_z",
+            "ref_activity",
+            "ref_on_ms",
+        )
+    }
+    per_flash = {
+        f"flash{f}_{k}": []
+        for f in range(n_flash)
+        for k in ("head", "true_deg", "z_t", "periphery", "fovea", "mask", "fovea_mask")
+    }
     a.update(per_flash)
     for o in observations:
         t, p = o.trial, o.plan
         if len(o.flashes) != n_flash:
             raise ValueError("observations with different numbers of flashes cannot share a cache file")
-        a["trial"].append([t.trial_id, t.amplitude_deg, t.flash_dx_deg, t.flash_dy_deg, t.flash_time_ms,
-                           t.repetition, t.seed])
+        a["trial"].append(
+            [t.trial_id, t.amplitude_deg, t.flash_dx_deg, t.flash_dy_deg, t.flash_time_ms, t.repetition, t.seed]
+        )
         a["onset_ms"].append(p.onset_ms)
         a["scalars"].append([p.amplitude, p.intended_amplitude, o.t_abs, o.t_mid, o.exposure, o.t_post])
         a["eye_position"].append([p.eye_position.sigma_ms, p.eye_position.delay_ms])
@@ -112,8 +133,13 @@ def save(path: Path, observations: list, key: str) -> None:
     if not observations:
         raise ValueError("no observations to cache")
     arrays = _pack(observations)
-    meta = {"format": FORMAT, "key": key, "n": len(observations), "n_flashes": len(observations[0].flashes),
-            "sha256": _checksum(arrays)}
+    meta = {
+        "format": FORMAT,
+        "key": key,
+        "n": len(observations),
+        "n_flashes": len(observations[0].flashes),
+        "sha256": _checksum(arrays),
+    }
     buf = io.BytesIO()
     np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
     atomic_write_bytes(path, buf.getvalue())
@@ -161,34 +187,55 @@ def _unpack(a: dict, n_flash: int, trials: list, runner) -> list:
     out = []
     for i, t in enumerate(trials):
         stored = a["trial"][i]
-        mine = np.array([t.trial_id, t.amplitude_deg, t.flash_dx_deg, t.flash_dy_deg, t.flash_time_ms,
-                         t.repetition, t.seed], float)
+        mine = np.array(
+            [t.trial_id, t.amplitude_deg, t.flash_dx_deg, t.flash_dy_deg, t.flash_time_ms, t.repetition, t.seed], float
+        )
         if not np.array_equal(stored, mine):
             raise ValueError(f"trial {i} differs from the one asked for")
         amp, iamp, t_abs, t_mid, exposure, t_post = (float(v) for v in a["scalars"][i])
         kw = {k: a[k][i] for k in _PLAN_FIELDS}
         for j, k in enumerate(_PLAN_OPTIONAL):
             kw[k] = a[k][i] if a["has_target"][i][j] else None
-        plan = models.SaccadePlan(onset_ms=int(a["onset_ms"][i]), amplitude=amp, intended_amplitude=iamp,
-                                  generator=generator, vergence=head.vergence,
-                                  eye_position=models.EyePositionSignal(*(float(v) for v in a["eye_position"][i])),
-                                  **kw)
+        plan = models.SaccadePlan(
+            onset_ms=int(a["onset_ms"][i]),
+            amplitude=amp,
+            intended_amplitude=iamp,
+            generator=generator,
+            vergence=head.vergence,
+            eye_position=models.EyePositionSignal(*(float(v) for v in a["eye_position"][i])),
+            **kw,
+        )
         got = np.stack([plan.angles(float(s)) for s in _check_times(plan)])
         if got.shape != a["plan_check"][i].shape or not np.allclose(got, a["plan_check"][i], rtol=0, atol=1e-9):
-            raise ValueError(f"trial {i}: the saccade plan rebuilt from the cache does not reproduce the stored "
-                             "trajectory (another version of the oculomotor model)")
+            raise ValueError(
+                f"trial {i}: the saccade plan rebuilt from the cache does not reproduce the stored "
+                "trajectory (another version of the oculomotor model)"
+            )
         flashes = []
         for f in range(n_flash):
             eyes = []
             for e in range(2):
-                cs = CentredSamples(grid, *(a[f"flash{f}_{k}"][i][e] for k in ("periphery", "fovea", "mask",
-                                                                               "fovea_mask")))
+                cs = CentredSamples(
+                    grid, *(a[f"flash{f}_{k}"][i][e] for k in ("periphery", "fovea", "mask", "fovea_mask"))
+                )
                 eyes.append((None, cs, complex(a[f"flash{f}_z_t"][i][e])))
             flashes.append({"eyes": eyes, "head": a[f"flash{f}_head"][i], "true_deg": a[f"flash{f}_true_deg"][i]})
-        out.append(Observation(trial=dataclasses.replace(t), plan=plan, t_abs=int(t_abs), t_mid=t_mid,
-                               exposure=exposure, copy_pose=(a["copy_axes"][i], a["copy_origins"][i]),
-                               flashes=flashes, target_deg=a["target_deg"][i], eye_h=a["eye_h"][i],
-                               seen_z=[complex(z) for z in a["seen_z"][i]], t_post=int(t_post),
-                               ref_z=[complex(z) for z in a["ref_z"][i]], ref_activity=np.array(a["ref_activity"][i]),
-                               ref_on_ms=float(a["ref_on_ms"][i])))
+        out.append(
+            Observation(
+                trial=dataclasses.replace(t),
+                plan=plan,
+                t_abs=int(t_abs),
+                t_mid=t_mid,
+                exposure=exposure,
+                copy_pose=(a["copy_axes"][i], a["copy_origins"][i]),
+                flashes=flashes,
+                target_deg=a["target_deg"][i],
+                eye_h=a["eye_h"][i],
+                seen_z=[complex(z) for z in a["seen_z"][i]],
+                t_post=int(t_post),
+                ref_z=[complex(z) for z in a["ref_z"][i]],
+                ref_activity=np.array(a["ref_activity"][i]),
+                ref_on_ms=float(a["ref_on_ms"][i]),
+            )
+        )
     return out

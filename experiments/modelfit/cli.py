@@ -90,8 +90,12 @@ def _observing_options(p: argparse.ArgumentParser, defaults_from: str) -> None:
     g.add_argument("--fovea-deg", type=bounded("fovea_deg"), default=None, help="foveal radius of the retina")
     g.add_argument("--saccade-model", choices=("burst", "legacy"), default=None, help="saccade trajectories")
     g.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
-    g.add_argument("--endpoint-noise", type=bounded("endpoint_noise"), default=None,
-                   help="saccade endpoint noise (fraction of the amplitude; trials' seeds from the data)")
+    g.add_argument(
+        "--endpoint-noise",
+        type=bounded("endpoint_noise"),
+        default=None,
+        help="saccade endpoint noise (fraction of the amplitude; trials' seeds from the data)",
+    )
 
 
 def _observing(args) -> dict:
@@ -101,13 +105,21 @@ def _observing(args) -> dict:
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--data", type=bundled_data, required=True,
-                   help=f"CSV or Parquet data file (bundled: {EXAMPLE.name}, found by that name)")
+    p.add_argument(
+        "--data",
+        type=bundled_data,
+        required=True,
+        help=f"CSV or Parquet data file (bundled: {EXAMPLE.name}, found by that name)",
+    )
     p.add_argument("--out", type=out_dir, required=True, help="output folder (created; the same fit there resumes)")
     add_backend_options(p)
     add_workers_option(p)
-    p.add_argument("--max-evals", type=int_in(10, 100000), default=300,
-                   help="likelihood evaluations of the optimizer per model, 10-100000")
+    p.add_argument(
+        "--max-evals",
+        type=int_in(10, 100000),
+        default=300,
+        help="likelihood evaluations of the optimizer per model, 10-100000",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     _observing_options(p, "the data's sidecar, else run's defaults")
 
@@ -142,10 +154,14 @@ def _guarded(args, work) -> int:
     from ..psychophysics.runner import FolderBusyError, OutputFolderError
     from .fitting import FitError, FitFolderError
 
-    return guarded(f"python -m experiments {args.command}", work,
-                   resume_hint=f"what was computed is kept in {args.out}: run the same command again to resume",
-                   usage=(FitFolderError, OutputFolderError), parser=args._parser,
-                   errors={FolderBusyError: 1, LockBusyError: 1, FitError: 1})
+    return guarded(
+        f"python -m experiments {args.command}",
+        work,
+        resume_hint=f"what was computed is kept in {args.out}: run the same command again to resume",
+        usage=(FitFolderError, OutputFolderError),
+        parser=args._parser,
+        errors={FolderBusyError: 1, LockBusyError: 1, FitError: 1},
+    )
 
 
 def _ci_text(ci) -> str:
@@ -159,11 +175,22 @@ def _fit(args) -> int:
     data, forward = _prepare(args)
 
     def work() -> int:
-        r = fit(data, args.model, args.out, backend=args.backend, workers=args.workers, ray_address=args.ray_address,
-                max_evals=args.max_evals, forward=forward, progress=not args.no_progress)
+        r = fit(
+            data,
+            args.model,
+            args.out,
+            backend=args.backend,
+            workers=args.workers,
+            ray_address=args.ray_address,
+            max_evals=args.max_evals,
+            forward=forward,
+            progress=not args.no_progress,
+        )
         if r["already_done"]:
-            print(f"already finished: {Path(args.out) / 'fit.json'} holds this fit (fit_key {r['fit_key']}); "
-                  "nothing was recomputed")
+            print(
+                f"already finished: {Path(args.out) / 'fit.json'} holds this fit (fit_key {r['fit_key']}); "
+                "nothing was recomputed"
+            )
         print(f"{r['model']}: log L = {r['log_likelihood']:.2f}, AIC {r['aic']:.2f}, BIC {r['bic']:.2f}, n = {r['n']}")
         for k, v in r["parameters"].items():
             print(f"  {k:16s} {v:10.4g}   95 % CI {_ci_text(r['ci'][k])}")
@@ -181,13 +208,23 @@ def _compare(args) -> int:
     data, forward = _prepare(args)
 
     def work() -> int:
-        rows = compare(data, args.models, args.out, backend=args.backend, workers=args.workers,
-                       ray_address=args.ray_address, max_evals=args.max_evals, forward=forward,
-                       progress=not args.no_progress)
+        rows = compare(
+            data,
+            args.models,
+            args.out,
+            backend=args.backend,
+            workers=args.workers,
+            ray_address=args.ray_address,
+            max_evals=args.max_evals,
+            forward=forward,
+            progress=not args.no_progress,
+        )
         print(f"{'model':32s} {'log L':>10s} {'AIC':>10s} {'BIC':>10s}  k  dAIC")
         for r in rows:
-            print(f"{r['model']:32s} {r['log_likelihood']:10.2f} {r['aic']:10.2f} {r['bic']:10.2f} "
-                  f"{r['n_parameters']:2d}  {r['delta_aic']:.1f}")
+            print(
+                f"{r['model']:32s} {r['log_likelihood']:10.2f} {r['aic']:10.2f} {r['bic']:10.2f} "
+                f"{r['n_parameters']:2d}  {r['delta_aic']:.1f}"
+            )
         lrt = (Path(args.out) / "lrt.csv").read_text().strip().splitlines()
         for line in lrt[1:]:
             print("LRT " + line)
@@ -208,8 +245,7 @@ def _simulate(args) -> int:
     values = {p.name: p.default for p in m.parameters}
     unknown = [k for k in args.params if k not in values]
     if unknown:
-        parser.error(f"argument --params: {', '.join(unknown)} not a parameter of {args.model} "
-                     f"({', '.join(values)})")
+        parser.error(f"argument --params: {', '.join(unknown)} not a parameter of {args.model} ({', '.join(values)})")
     for p in m.parameters:
         v = args.params.get(p.name, p.default)
         if not p.lo <= v <= p.hi:
@@ -217,8 +253,12 @@ def _simulate(args) -> int:
     values.update(args.params)
     offsets = ((-8.0, 3.0), (8.0, -3.0), (-4.0, -6.0), (4.0, 6.0), (-12.0, 3.0), (2.0, -4.0))
     try:
-        design = Design(amplitudes_deg=tuple(args.amplitudes), flash_offsets_deg=offsets,
-                        flash_times_ms=(-150, -100, -50, -25, 0, 25, 50, 100), seed=args.seed)
+        design = Design(
+            amplitudes_deg=tuple(args.amplitudes),
+            flash_offsets_deg=offsets,
+            flash_times_ms=(-150, -100, -50, -25, 0, 25, 50, 100),
+            seed=args.seed,
+        )
         config = TrialConfig(**{k: v for k, v in _observing(args).items() if v is not None})
     except (TypeError, ValueError) as e:
         parser.error(str(e))
@@ -230,8 +270,17 @@ def _simulate(args) -> int:
 
     def work() -> int:
         with path_lock(out.parent / f".{out.name}.lock", str(out)):
-            data = simulate_data(args.model, values, design, reports=args.reports, seed=args.seed, out_csv=out,
-                                 workers=args.workers, config=config, progress=not args.no_progress)
+            data = simulate_data(
+                args.model,
+                values,
+                design,
+                reports=args.reports,
+                seed=args.seed,
+                out_csv=out,
+                workers=args.workers,
+                config=config,
+                progress=not args.no_progress,
+            )
         print(f"wrote {len(data)} rows to {out} (parameters and configuration in {out.with_suffix('.json')})")
         return 0
 
@@ -240,29 +289,54 @@ def _simulate(args) -> int:
 
 def add_subcommands(subparsers) -> None:
     """Register ``fit``, ``compare`` and ``simulate``."""
-    p = subparsers.add_parser("fit", help="fit a perception model to localization data (maximum likelihood)",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "fit",
+        help="fit a perception model to localization data (maximum likelihood)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     _common(p)
     p.add_argument("--model", type=_model, default="mechanistic", help="the model to fit")
     p.set_defaults(func=_fit, _parser=p)
-    p = subparsers.add_parser("compare", help="fit several models to the same data and rank them (AIC, BIC, LRT)",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "compare",
+        help="fit several models to the same data and rank them (AIC, BIC, LRT)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     _common(p)
-    p.add_argument("--models", type=_models, default=["mechanistic", "mechanistic/no_command_remap", "paper"],
-                   help="comma-separated model names, each once")
+    p.add_argument(
+        "--models",
+        type=_models,
+        default=["mechanistic", "mechanistic/no_command_remap", "paper"],
+        help="comma-separated model names, each once",
+    )
     p.set_defaults(func=_compare, _parser=p)
-    p = subparsers.add_parser("simulate", help="simulate a localization data set from a model (for recovery checks)",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "simulate",
+        help="simulate a localization data set from a model (for recovery checks)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--model", type=_model, default="mechanistic")
     p.add_argument("--params", type=_params, default={}, metavar="k=v,...", help="parameter values (others default)")
-    p.add_argument("--amplitudes", type=amplitude_list, default=(16.0, 24.0), metavar="DEG,...",
-                   help="saccade amplitudes (deg), each once")
+    p.add_argument(
+        "--amplitudes",
+        type=amplitude_list,
+        default=(16.0, 24.0),
+        metavar="DEG,...",
+        help="saccade amplitudes (deg), each once",
+    )
     p.add_argument("--reports", type=int_in(1, 100), default=3, help="noisy reports per trial, 1-100")
     p.add_argument("--seed", type=seed_type(), default=0, help="seed of the trials and the report noise")
     add_workers_option(p, default=1, what="processes observing the trials")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--out", type=out_file(".csv"), required=True,
-                   help="CSV file to write (a .json of the same name beside it holds the parameters and the "
-                        "configuration that fit reads)")
+    p.add_argument(
+        "--out",
+        type=out_file(".csv"),
+        required=True,
+        help="CSV file to write (a .json of the same name beside it holds the parameters and the "
+        "configuration that fit reads)",
+    )
     _observing_options(p, "TrialConfig's, at 128 px")
     p.set_defaults(func=_simulate, _parser=p, image_size=128)

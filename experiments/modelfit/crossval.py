@@ -38,8 +38,19 @@ import numpy as np
 
 from ..folders import save_figure
 
-__all__ = ["add_subcommand", "crossvalidate", "CrossvalFolderError", "THEORIES", "HELDOUT", "COLUMNS",
-           "CONDITIONS", "MOTOR_NOISE", "PAIR_COLUMNS", "paired_difference", "score"]
+__all__ = [
+    "add_subcommand",
+    "crossvalidate",
+    "CrossvalFolderError",
+    "THEORIES",
+    "HELDOUT",
+    "COLUMNS",
+    "CONDITIONS",
+    "MOTOR_NOISE",
+    "PAIR_COLUMNS",
+    "paired_difference",
+    "score",
+]
 
 #: The theories fitted, and by default the ones that generate the data.
 THEORIES = ("observer", "population", "paper", "mechanistic")
@@ -57,9 +68,11 @@ def _marker() -> tuple[float, float]:
 
 def conditions() -> dict[str, dict]:
     """Condition name -> ``TrialConfig`` overrides (the observing configuration of its trials)."""
-    return {"references": dict(condition="references"),
-            "dark": dict(condition="dark"),
-            "marker": dict(condition="references", target_off_ms=0, markers=(_marker(),), ruler=False)}
+    return {
+        "references": dict(condition="references"),
+        "dark": dict(condition="dark"),
+        "marker": dict(condition="references", target_off_ms=0, markers=(_marker(),), ruler=False),
+    }
 
 
 CONDITIONS = ("references", "dark", "marker")
@@ -70,8 +83,18 @@ HELDOUT: dict[str, tuple[str, tuple[int, ...], list[tuple[str, str, tuple[int, .
 }
 COLUMNS = ["data", "theory", "fit_set", "condition", "role", "metric", "value", "ci_low", "ci_high", "n", "lost"]
 #: ``crossval_pairs.csv``: per data set and held-out condition, the best theory against the runner-up.
-PAIR_COLUMNS = ["data", "fit_set", "condition", "best", "runner_up", "delta_loglik_per_report", "ci_low", "ci_high",
-                "n", "separated"]
+PAIR_COLUMNS = [
+    "data",
+    "fit_set",
+    "condition",
+    "best",
+    "runner_up",
+    "delta_loglik_per_report",
+    "ci_low",
+    "ci_high",
+    "n",
+    "separated",
+]
 
 
 class CrossvalFolderError(ValueError):
@@ -82,14 +105,33 @@ def _design(quick: bool, seed: int):
     from ..psychophysics import MORRONE_OFFSETS_DEG, Design
 
     if quick:  # 4 positions on both sides of the target, above and below its row; 4 times
-        return Design(amplitudes_deg=(20.0,), flash_offsets_deg=MORRONE_OFFSETS_DEG[1::2],
-                      flash_times_ms=(-150, -25, 0, 50), seed=seed, name="crossval-quick")
-    return Design(amplitudes_deg=(20.0,), flash_offsets_deg=MORRONE_OFFSETS_DEG,
-                  flash_times_ms=(-150, -100, -50, -25, 0, 25, 50, 100), seed=seed, name="crossval")
+        return Design(
+            amplitudes_deg=(20.0,),
+            flash_offsets_deg=MORRONE_OFFSETS_DEG[1::2],
+            flash_times_ms=(-150, -25, 0, 50),
+            seed=seed,
+            name="crossval-quick",
+        )
+    return Design(
+        amplitudes_deg=(20.0,),
+        flash_offsets_deg=MORRONE_OFFSETS_DEG,
+        flash_times_ms=(-150, -100, -50, -25, 0, 25, 50, 100),
+        seed=seed,
+        name="crossval",
+    )
 
 
-def settings(*, quick: bool = False, seed: int = 0, theories=THEORIES, data_from=None, reports: int | None = None,
-             noise_deg: float = 1.5, image_size: int | None = None, max_evals: int | None = None) -> dict:
+def settings(
+    *,
+    quick: bool = False,
+    seed: int = 0,
+    theories=THEORIES,
+    data_from=None,
+    reports: int | None = None,
+    noise_deg: float = 1.5,
+    image_size: int | None = None,
+    max_evals: int | None = None,
+) -> dict:
     """The configuration of a cross-validation (what the folder's key is made of), defaults filled in."""
     from .likelihood import FIT_MODELS
 
@@ -106,11 +148,18 @@ def settings(*, quick: bool = False, seed: int = 0, theories=THEORIES, data_from
             raise ValueError(f"{what}: {dup[0]} is listed twice; list each once")
     if not (isinstance(noise_deg, (int, float)) and math.isfinite(noise_deg) and 0.05 <= noise_deg <= 20):
         raise ValueError(f"noise_deg must be a number in [0.05, 20]; got {noise_deg!r}")
-    return {"format": FORMAT, "quick": bool(quick), "seed": int(seed), "theories": theories, "data_from": data_from,
-            "reports": int(reports if reports is not None else 2), "noise_deg": float(noise_deg),
-            "image_size": int(image_size if image_size is not None else (64 if quick else 128)),
-            "max_evals": int(max_evals if max_evals is not None else (15 if quick else 120)),
-            "motor_noise": MOTOR_NOISE}
+    return {
+        "format": FORMAT,
+        "quick": bool(quick),
+        "seed": int(seed),
+        "theories": theories,
+        "data_from": data_from,
+        "reports": int(reports if reports is not None else 2),
+        "noise_deg": float(noise_deg),
+        "image_size": int(image_size if image_size is not None else (64 if quick else 128)),
+        "max_evals": int(max_evals if max_evals is not None else (15 if quick else 120)),
+        "motor_noise": MOTOR_NOISE,
+    }
 
 
 def _key(cfg: dict) -> str:
@@ -129,12 +178,16 @@ def _claim_folder(out: Path, cfg: dict) -> None:
         except (OSError, UnicodeDecodeError, ValueError):
             held = None
         if not isinstance(held, dict) or held.get("key") != _key(held.get("settings", {})):
-            raise CrossvalFolderError(f"{path} is damaged (unreadable or its key does not match its settings); "
-                                      "delete it or use another --out folder")
+            raise CrossvalFolderError(
+                f"{path} is damaged (unreadable or its key does not match its settings); "
+                "delete it or use another --out folder"
+            )
         if held["key"] != key:
             diff = sorted(k for k in set(cfg) | set(held["settings"]) if cfg.get(k) != held["settings"].get(k))
-            raise CrossvalFolderError(f"{out} holds a cross-validation of another configuration (it differs in "
-                                      f"{', '.join(diff)}); use another --out folder or delete it")
+            raise CrossvalFolderError(
+                f"{out} holds a cross-validation of another configuration (it differs in "
+                f"{', '.join(diff)}); use another --out folder or delete it"
+            )
         return
     write_json(path, {"generated_by": "python -m experiments crossval", "key": key, "settings": cfg})
 
@@ -181,12 +234,23 @@ def _simulate(gen: str, cond: _Condition, noisy_obs: list, noisy_runner, cfg: di
     for k, (t, o) in enumerate(zip(cond.trials, noisy_obs)):
         r = noisy_runner.readout(o, rcfg)
         if not (math.isfinite(r["perceived_x_deg"]) and math.isfinite(r["perceived_y_deg"])):
-            raise FitError(f"{gen} loses the flash of trial {t.trial_id} ({cond.name}: offset ({t.flash_dx_deg:g}, "
-                           f"{t.flash_dy_deg:g}) deg, {t.flash_time_ms} ms): no report can be simulated")
+            raise FitError(
+                f"{gen} loses the flash of trial {t.trial_id} ({cond.name}: offset ({t.flash_dx_deg:g}, "
+                f"{t.flash_dy_deg:g}) deg, {t.flash_time_ms} ms): no report can be simulated"
+            )
         for _ in range(cfg["reports"]):
-            rows.append((r["saccade_amplitude_deg"], r["flash_time_ms"], r["true_x_deg"], r["true_y_deg"],
-                         r["perceived_x_deg"] + rng.normal(0, cfg["noise_deg"]),
-                         r["perceived_y_deg"] + rng.normal(0, cfg["noise_deg"]), k, t.seed))
+            rows.append(
+                (
+                    r["saccade_amplitude_deg"],
+                    r["flash_time_ms"],
+                    r["true_x_deg"],
+                    r["true_y_deg"],
+                    r["perceived_x_deg"] + rng.normal(0, cfg["noise_deg"]),
+                    r["perceived_y_deg"] + rng.normal(0, cfg["noise_deg"]),
+                    k,
+                    t.seed,
+                )
+            )
     return np.array(rows, float)
 
 
@@ -205,16 +269,36 @@ def _write_data(path: Path, rows: np.ndarray, cond: _Condition, design, gen: str
     label = cond.config.condition
     for r in rows:
         t = cond.trials[int(r[6])]
-        w.writerow([f"{r[0]:g}", int(r[1]), *(f"{round(v, 9) + 0.0:.10g}" for v in r[2:6]), label, int(r[7]),
-                    f"{t.flash_dx_deg:g}", f"{t.flash_dy_deg:g}"])
+        w.writerow(
+            [
+                f"{r[0]:g}",
+                int(r[1]),
+                *(f"{round(v, 9) + 0.0:.10g}" for v in r[2:6]),
+                label,
+                int(r[7]),
+                f"{t.flash_dx_deg:g}",
+                f"{t.flash_dy_deg:g}",
+            ]
+        )
     fp = config_fingerprint(design, dataclasses.replace(cond.config, endpoint_noise=cfg["motor_noise"]))
     fp["config"].pop("condition", None)
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_json(path.with_suffix(".json"), {
-        "generated_by": "python -m experiments crossval", "model": gen, "crossval_condition": cond.name,
-        "note": "a simulated observer: the generating theory at its defaults, motor and report noise",
-        "report_noise_deg": cfg["noise_deg"], "reports_per_trial": cfg["reports"], "seed": cfg["seed"],
-        "design": fp["design"], "conditions": [label], "rows": len(rows), "config": fp["config"]})
+    write_json(
+        path.with_suffix(".json"),
+        {
+            "generated_by": "python -m experiments crossval",
+            "model": gen,
+            "crossval_condition": cond.name,
+            "note": "a simulated observer: the generating theory at its defaults, motor and report noise",
+            "report_noise_deg": cfg["noise_deg"],
+            "reports_per_trial": cfg["reports"],
+            "seed": cfg["seed"],
+            "design": fp["design"],
+            "conditions": [label],
+            "rows": len(rows),
+            "config": fp["config"],
+        },
+    )
     atomic_write_text(path, buf.getvalue())
 
 
@@ -224,9 +308,16 @@ def _localization(rows: np.ndarray, label: str, axes: tuple, source: str):
     perceived = rows[:, 4:6].copy()
     if 1 not in axes:
         perceived[:, 1] = np.nan
-    return LocalizationData(rows[:, 0], rows[:, 1].astype(int), rows[:, 2:4], perceived,
-                            np.array([label] * len(rows)), np.ones(len(rows), int), np.full((len(rows), 2), np.nan),
-                            source)
+    return LocalizationData(
+        rows[:, 0],
+        rows[:, 1].astype(int),
+        rows[:, 2:4],
+        perceived,
+        np.array([label] * len(rows)),
+        np.ones(len(rows), int),
+        np.full((len(rows), 2), np.nan),
+        source,
+    )
 
 
 # ---------------------------------------------------------------------------------------------- scoring
@@ -253,8 +344,13 @@ def score(rows: np.ndarray, pred: np.ndarray, noise: tuple[float, float], axes: 
     r, p = rows[keep], pred[trial[keep]]
     lost = int(np.sum(~ok_trial[np.unique(trial)]))
     if not len(r):
-        return {"n": 0, "lost": lost, "loglik_per_report": (math.nan,) * 3, "rmse_deg": (math.nan,) * 3,
-                "per_trial": {}}
+        return {
+            "n": 0,
+            "lost": lost,
+            "loglik_per_report": (math.nan,) * 3,
+            "rmse_deg": (math.nan,) * 3,
+            "per_trial": {},
+        }
     ll = np.zeros(len(r))
     sq = np.zeros(len(r))
     for a in axes:
@@ -276,9 +372,13 @@ def score(rows: np.ndarray, pred: np.ndarray, noise: tuple[float, float], axes: 
     draws = rng.integers(0, len(ids), size=(N_BOOT, len(ids)))
     boot = np.array([stats(np.bincount(d, minlength=len(ids)).astype(float)) for d in draws])
     lo, hi = np.percentile(boot, [2.5, 97.5], axis=0)
-    return {"n": int(len(r)), "lost": lost, "loglik_per_report": (point[0], lo[0], hi[0]),
-            "rmse_deg": (point[1], lo[1], hi[1]),
-            "per_trial": {int(t): (float(a), float(c)) for t, a, c in zip(ids, ll_t, cnt)}}
+    return {
+        "n": int(len(r)),
+        "lost": lost,
+        "loglik_per_report": (point[0], lo[0], hi[0]),
+        "rmse_deg": (point[1], lo[1], hi[1]),
+        "per_trial": {int(t): (float(a), float(c)) for t, a, c in zip(ids, ll_t, cnt)},
+    }
 
 
 def paired_difference(a: dict, b: dict, rng) -> tuple[float, float, float, int]:
@@ -328,10 +428,22 @@ def _warm_up(cfg: dict, design, progress: bool) -> None:
             bar.close()
 
 
-def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES, data_from=None,
-                  reports: int | None = None, noise_deg: float = 1.5, image_size: int | None = None,
-                  max_evals: int | None = None, backend: str = "local", workers: int = 1,
-                  ray_address: str | None = None, progress: bool = False) -> list[dict]:
+def crossvalidate(
+    out,
+    *,
+    quick: bool = False,
+    seed: int = 0,
+    theories=THEORIES,
+    data_from=None,
+    reports: int | None = None,
+    noise_deg: float = 1.5,
+    image_size: int | None = None,
+    max_evals: int | None = None,
+    backend: str = "local",
+    workers: int = 1,
+    ray_address: str | None = None,
+    progress: bool = False,
+) -> list[dict]:
     """Simulate each data set, fit each theory on each fit set, score it on the held-out conditions;
     writes ``crossval.csv``, ``crossval_pairs.csv``, ``crossval.png``, ``summary.txt`` in ``out`` and
     returns the rows of ``crossval.csv``."""
@@ -341,8 +453,16 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
     from .forward import ForwardModel
     from .likelihood import FIT_MODELS
 
-    cfg = settings(quick=quick, seed=seed, theories=theories, data_from=data_from, reports=reports,
-                   noise_deg=noise_deg, image_size=image_size, max_evals=max_evals)
+    cfg = settings(
+        quick=quick,
+        seed=seed,
+        theories=theories,
+        data_from=data_from,
+        reports=reports,
+        noise_deg=noise_deg,
+        image_size=image_size,
+        max_evals=max_evals,
+    )
     design = _design(cfg["quick"], cfg["seed"])
     options = dict(backend=backend, workers=workers, ray_address=ray_address, progress=progress)
     rows: list[dict] = []
@@ -369,20 +489,30 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
                 for fit_set, (cname, axes, heldout) in HELDOUT.items():
                     cond = conds[cname]
                     train = data[gen, cname]
-                    ld = _localization(train, cond.config.condition, axes,
-                                       str(out / "data" / gen / f"{cname}.csv"))
-                    offsets = np.array([[cond.trials[int(k)].flash_dx_deg, cond.trials[int(k)].flash_dy_deg]
-                                        for k in train[:, 6]])
-                    fwd = ForwardModel(config=cond.config, offset_deg=offsets, seed=np.zeros(len(train), np.int64),
-                                       source="crossval: the design's trials without motor noise")
+                    ld = _localization(train, cond.config.condition, axes, str(out / "data" / gen / f"{cname}.csv"))
+                    offsets = np.array(
+                        [[cond.trials[int(k)].flash_dx_deg, cond.trials[int(k)].flash_dy_deg] for k in train[:, 6]]
+                    )
+                    fwd = ForwardModel(
+                        config=cond.config,
+                        offset_deg=offsets,
+                        seed=np.zeros(len(train), np.int64),
+                        source="crossval: the design's trials without motor noise",
+                    )
                     prepared: list = []
                     for theory in cfg["theories"]:
-                        sub = out / "fits" / gen / fit_set.replace(" ", "_").replace("(", "").replace(")", "") / \
-                            theory.replace("/", "_")
+                        sub = (
+                            out
+                            / "fits"
+                            / gen
+                            / fit_set.replace(" ", "_").replace("(", "").replace(")", "")
+                            / theory.replace("/", "_")
+                        )
                         sub.mkdir(parents=True, exist_ok=True)
                         with folder_lock(sub):
-                            fit = _fit_in(FIT_MODELS[theory], ld, fwd, sub, out, cfg["max_evals"], progress,
-                                          options, prepared)
+                            fit = _fit_in(
+                                FIT_MODELS[theory], ld, fwd, sub, out, cfg["max_evals"], progress, options, prepared
+                            )
                         params = fit["parameters"]
                         noise_x = params["noise_x_deg"]
                         noise = (noise_x, params["noise_y_deg"] if 1 in axes else noise_x)
@@ -395,10 +525,21 @@ def crossvalidate(out, *, quick: bool = False, seed: int = 0, theories=THEORIES,
                             per_trial[f"simulated:{gen}", fit_set, label, theory] = s["per_trial"]
                             for metric in ("loglik_per_report", "rmse_deg"):
                                 v, lo, hi = s[metric]
-                                rows.append({"data": f"simulated:{gen}", "theory": theory, "fit_set": fit_set,
-                                             "condition": label, "role": role, "metric": metric,
-                                             "value": _r(v), "ci_low": _r(lo), "ci_high": _r(hi), "n": s["n"],
-                                             "lost": s["lost"]})
+                                rows.append(
+                                    {
+                                        "data": f"simulated:{gen}",
+                                        "theory": theory,
+                                        "fit_set": fit_set,
+                                        "condition": label,
+                                        "role": role,
+                                        "metric": metric,
+                                        "value": _r(v),
+                                        "ci_low": _r(lo),
+                                        "ci_high": _r(hi),
+                                        "n": s["n"],
+                                        "lost": s["lost"],
+                                    }
+                                )
                         if bar is not None:
                             bar.update(1)
         finally:
@@ -427,14 +568,25 @@ def winners(rows: list[dict], metric: str = "loglik_per_report") -> list[dict]:
     out = []
     keys = dict.fromkeys((r["data"], r["fit_set"], r["condition"]) for r in rows if r["role"] == "held-out")
     for data, fit_set, cond in keys:
-        mine = [r for r in rows if (r["data"], r["fit_set"], r["condition"], r["metric"]) == (data, fit_set, cond,
-                                                                                          metric) and r["value"] != ""]
+        mine = [
+            r
+            for r in rows
+            if (r["data"], r["fit_set"], r["condition"], r["metric"]) == (data, fit_set, cond, metric)
+            and r["value"] != ""
+        ]
         if not mine:
             continue
         best = better(mine, key=lambda r: float(r["value"]))
         ranked = sorted(mine, key=lambda r: float(r["value"]), reverse=better is max)
-        out.append({"data": data, "fit_set": fit_set, "condition": cond, "best": best["theory"],
-                    "ranking": [(r["theory"], float(r["value"])) for r in ranked]})
+        out.append(
+            {
+                "data": data,
+                "fit_set": fit_set,
+                "condition": cond,
+                "best": best["theory"],
+                "ranking": [(r["theory"], float(r["value"])) for r in ranked],
+            }
+        )
     return out
 
 
@@ -446,21 +598,36 @@ def _pairs(rows: list[dict], per_trial: dict, seed: int) -> list[dict]:
             continue
         best, second = w["ranking"][0][0], w["ranking"][1][0]
         key = (w["data"], w["fit_set"], w["condition"])
-        d, lo, hi, n = paired_difference(per_trial[(*key, best)], per_trial[(*key, second)],
-                                         np.random.default_rng([seed, 7919, k]))
-        out.append({"data": w["data"], "fit_set": w["fit_set"], "condition": w["condition"], "best": best,
-                    "runner_up": second, "delta_loglik_per_report": _r(d), "ci_low": _r(lo), "ci_high": _r(hi),
-                    "n": n, "separated": bool(math.isfinite(lo) and lo > 0)})
+        d, lo, hi, n = paired_difference(
+            per_trial[(*key, best)], per_trial[(*key, second)], np.random.default_rng([seed, 7919, k])
+        )
+        out.append(
+            {
+                "data": w["data"],
+                "fit_set": w["fit_set"],
+                "condition": w["condition"],
+                "best": best,
+                "runner_up": second,
+                "delta_loglik_per_report": _r(d),
+                "ci_low": _r(lo),
+                "ci_high": _r(hi),
+                "n": n,
+                "separated": bool(math.isfinite(lo) and lo > 0),
+            }
+        )
     return out
 
 
 def summary(rows: list[dict], cfg: dict, pairs: list[dict] | None = None) -> str:
-    lines = [f"python -m experiments crossval: {'--quick, ' if cfg['quick'] else ''}seed {cfg['seed']}, "
-             f"{cfg['image_size']} px, {cfg['reports']} reports per trial, report noise {cfg['noise_deg']:g} deg, "
-             f"motor noise {cfg['motor_noise']:g}, {cfg['max_evals']} evaluations per fit",
-             "data: simulated observers (each generating theory at its defaults); no published condition-level "
-             "data set is in the repository", "",
-             "held-out log-likelihood per report (higher is better), best first:"]
+    lines = [
+        f"python -m experiments crossval: {'--quick, ' if cfg['quick'] else ''}seed {cfg['seed']}, "
+        f"{cfg['image_size']} px, {cfg['reports']} reports per trial, report noise {cfg['noise_deg']:g} deg, "
+        f"motor noise {cfg['motor_noise']:g}, {cfg['max_evals']} evaluations per fit",
+        "data: simulated observers (each generating theory at its defaults); no published condition-level "
+        "data set is in the repository",
+        "",
+        "held-out log-likelihood per report (higher is better), best first:",
+    ]
     wins = winners(rows)
     own = 0
     for w in wins:
@@ -471,18 +638,26 @@ def summary(rows: list[dict], cfg: dict, pairs: list[dict] | None = None) -> str
     lines += ["", f"the generating theory predicts its own held-out condition best in {own} of {len(wins)} cases"]
     if pairs:
         sep = [p for p in pairs if p["separated"]]
-        lines += [f"the best theory's lead over the runner-up (paired bootstrap over trials) excludes 0 in "
-                  f"{len(sep)} of {len(pairs)} cases"]
+        lines += [
+            f"the best theory's lead over the runner-up (paired bootstrap over trials) excludes 0 in "
+            f"{len(sep)} of {len(pairs)} cases"
+        ]
         for p in pairs:
             if not p["separated"]:
-                lines.append(f"  not separated: {p['data']} {p['condition']}: {p['best']} - {p['runner_up']} = "
-                             f"{p['delta_loglik_per_report']} [{p['ci_low']}, {p['ci_high']}]")
+                lines.append(
+                    f"  not separated: {p['data']} {p['condition']}: {p['best']} - {p['runner_up']} = "
+                    f"{p['delta_loglik_per_report']} [{p['ci_low']}, {p['ci_high']}]"
+                )
     lost = [r for r in rows if r["lost"] and r["metric"] == "rmse_deg"]
     for r in lost:
-        lines.append(f"note: {r['theory']} loses {r['lost']} trial(s) of {r['condition']} ({r['data']}); scored "
-                     "on the others")
-    lines += ["", "not predicted: separation (two flashes per trial; the likelihood models one report of one "
-              "flash), displacement (a direction report; the fit has no binomial likelihood)"]
+        lines.append(
+            f"note: {r['theory']} loses {r['lost']} trial(s) of {r['condition']} ({r['data']}); scored on the others"
+        )
+    lines += [
+        "",
+        "not predicted: separation (two flashes per trial; the likelihood models one report of one "
+        "flash), displacement (a direction report; the fit has no binomial likelihood)",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -501,8 +676,15 @@ def _plot(rows: list[dict], cfg: dict, path: Path) -> None:
         for j, th in enumerate(theories):
             vals, lo, hi = [], [], []
             for d in datas:
-                r = next((r for r in rows if (r["data"], r["theory"], r["fit_set"], r["condition"], r["metric"])
-                          == (d, th, fit_set, cond, "loglik_per_report")), None)
+                r = next(
+                    (
+                        r
+                        for r in rows
+                        if (r["data"], r["theory"], r["fit_set"], r["condition"], r["metric"])
+                        == (d, th, fit_set, cond, "loglik_per_report")
+                    ),
+                    None,
+                )
                 if r is not None and r["value"] != "":
                     v = float(r["value"])
                     vals.append(v)
@@ -517,11 +699,13 @@ def _plot(rows: list[dict], cfg: dict, path: Path) -> None:
         for k in range(1, len(datas)):
             ax.axvline(k - 0.5, color="0.85", lw=0.8)
         ax.set_xticks(range(len(datas)), [d.split(":", 1)[1] for d in datas])
-        ax.set(title=f"fit: {fit_set} -> {cond}", xlabel="data simulated by",
-               ylabel="held-out log-likelihood per report")
+        ax.set(
+            title=f"fit: {fit_set} -> {cond}", xlabel="data simulated by", ylabel="held-out log-likelihood per report"
+        )
     handles, labels = axs[0][0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(theories), title="fitted theory", fontsize=8,
-               title_fontsize=8)
+    fig.legend(
+        handles, labels, loc="lower center", ncol=len(theories), title="fitted theory", fontsize=8, title_fontsize=8
+    )
     fig.suptitle("cross-validation: which theory generalises (higher is better; 95 % bootstrap CI)")
     fig.tight_layout(rect=(0, 0.12, 1, 1))
     save_figure(fig, path, dpi=100)
@@ -566,46 +750,94 @@ def run(args: argparse.Namespace) -> int:
         parser.error(f"argument --out: {e}")
 
     def work() -> int:
-        rows = crossvalidate(out, quick=args.quick, seed=args.seed, theories=args.theories, data_from=args.data_from,
-                             reports=args.reports, noise_deg=args.noise_deg, image_size=args.image_size,
-                             max_evals=args.max_evals, backend=args.backend, workers=args.workers,
-                             ray_address=args.ray_address, progress=not args.no_progress)
+        rows = crossvalidate(
+            out,
+            quick=args.quick,
+            seed=args.seed,
+            theories=args.theories,
+            data_from=args.data_from,
+            reports=args.reports,
+            noise_deg=args.noise_deg,
+            image_size=args.image_size,
+            max_evals=args.max_evals,
+            backend=args.backend,
+            workers=args.workers,
+            ray_address=args.ray_address,
+            progress=not args.no_progress,
+        )
         print((out / "summary.txt").read_text(), end="")
         print(f"wrote {out / 'crossval.csv'} ({len(rows)} rows), crossval_pairs.csv, crossval.png, summary.txt")
         return 0
 
-    return guarded("python -m experiments crossval", work,
-                   resume_hint=f"what was computed is kept in {out}: run the same command again to resume",
-                   usage=(CrossvalFolderError, FitFolderError, OutputFolderError), parser=parser,
-                   errors={FolderBusyError: 1, LockBusyError: 1, FitError: 1})
+    return guarded(
+        "python -m experiments crossval",
+        work,
+        resume_hint=f"what was computed is kept in {out}: run the same command again to resume",
+        usage=(CrossvalFolderError, FitFolderError, OutputFolderError),
+        parser=parser,
+        errors={FolderBusyError: 1, LockBusyError: 1, FitError: 1},
+    )
 
 
 def add_subcommand(subparsers) -> None:
     from ..cli import int_in, out_dir
     from ..cli.options import add_backend_options, add_workers_option, image_size_type, seed_type
 
-    p = subparsers.add_parser("crossval", help="cross-validation: fit each theory on some conditions, predict "
-                                               "held-out ones (dark, marker, the 2-D shape): which theory generalises",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "crossval",
+        help="cross-validation: fit each theory on some conditions, predict "
+        "held-out ones (dark, marker, the 2-D shape): which theory generalises",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--out", type=out_dir, required=True, help="output folder (created; the same command resumes)")
-    p.add_argument("--quick", action="store_true",
-                   help="a small check: 4 flashes x 4 times, data from observer and paper, 64 px, 15 evaluations "
-                        "per fit (about a minute on 2 cores)")
-    p.add_argument("--seed", type=seed_type(), default=0,
-                   help="seed of the motor noise, the report noise and the bootstrap")
-    p.add_argument("--theories", type=_names, default=list(THEORIES), metavar="A,B,...",
-                   help=f"theories fitted (default {','.join(THEORIES)})")
-    p.add_argument("--data-from", type=_names, default=None, metavar="A,B,...",
-                   help="theories whose simulated observers give the data (default: --theories; with --quick "
-                        "observer,paper)")
-    p.add_argument("--reports", type=int_in(1, 20), default=None, metavar="N", help="reports per trial (1-20; "
-                                                                                     "default 2)")
-    p.add_argument("--noise-deg", type=_noise, default=1.5, metavar="DEG",
-                   help="report noise s.d. of the simulated observers (deg, 0.05-20; default 1.5)")
-    p.add_argument("--image-size", type=image_size_type(), default=None, metavar="PX",
-                   help="eye image side (32-1024; default 128, --quick 64)")
-    p.add_argument("--max-evals", type=int_in(10, 10_000), default=None, metavar="N",
-                   help="likelihood evaluations per fit (10-10000; default 120, --quick 15)")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="a small check: 4 flashes x 4 times, data from observer and paper, 64 px, 15 evaluations "
+        "per fit (about a minute on 2 cores)",
+    )
+    p.add_argument(
+        "--seed", type=seed_type(), default=0, help="seed of the motor noise, the report noise and the bootstrap"
+    )
+    p.add_argument(
+        "--theories",
+        type=_names,
+        default=list(THEORIES),
+        metavar="A,B,...",
+        help=f"theories fitted (default {','.join(THEORIES)})",
+    )
+    p.add_argument(
+        "--data-from",
+        type=_names,
+        default=None,
+        metavar="A,B,...",
+        help="theories whose simulated observers give the data (default: --theories; with --quick observer,paper)",
+    )
+    p.add_argument(
+        "--reports", type=int_in(1, 20), default=None, metavar="N", help="reports per trial (1-20; default 2)"
+    )
+    p.add_argument(
+        "--noise-deg",
+        type=_noise,
+        default=1.5,
+        metavar="DEG",
+        help="report noise s.d. of the simulated observers (deg, 0.05-20; default 1.5)",
+    )
+    p.add_argument(
+        "--image-size",
+        type=image_size_type(),
+        default=None,
+        metavar="PX",
+        help="eye image side (32-1024; default 128, --quick 64)",
+    )
+    p.add_argument(
+        "--max-evals",
+        type=int_in(10, 10_000),
+        default=None,
+        metavar="N",
+        help="likelihood evaluations per fit (10-10000; default 120, --quick 15)",
+    )
     add_backend_options(p)
     add_workers_option(p, default=1, what="observing processes / Ray actors")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")

@@ -76,13 +76,30 @@ def fit_key(model: str, data: LocalizationData, fwd: ForwardModel, max_evals: in
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(fwd.offset_deg, float).tobytes())
     h.update(np.ascontiguousarray(fwd.seed, np.int64).tobytes())
-    text = json.dumps({"format": FIT_FORMAT, "model": model, "data": _data_hash(data), "trials": h.hexdigest(),
-                       "forward": fwd.fingerprint(), "max_evals": int(max_evals)}, sort_keys=True)
+    text = json.dumps(
+        {
+            "format": FIT_FORMAT,
+            "model": model,
+            "data": _data_hash(data),
+            "trials": h.hexdigest(),
+            "forward": fwd.fingerprint(),
+            "max_evals": int(max_evals),
+        },
+        sort_keys=True,
+    )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def prepare(data: LocalizationData, out: Path | None, fwd: ForwardModel | None = None, *, backend: str = "local",
-            workers: int = 1, ray_address: str | None = None, progress: bool = False):
+def prepare(
+    data: LocalizationData,
+    out: Path | None,
+    fwd: ForwardModel | None = None,
+    *,
+    backend: str = "local",
+    workers: int = 1,
+    ray_address: str | None = None,
+    progress: bool = False,
+):
     """The unique trials behind the data rows, observed once per condition under the forward model
     ``fwd`` (default: ``forward_model(data)``): (runners, observations, row_trial)."""
     from dataclasses import replace
@@ -97,16 +114,38 @@ def prepare(data: LocalizationData, out: Path | None, fwd: ForwardModel | None =
         rows = np.flatnonzero(data.condition == cond)
         keys: dict = {}
         for r in rows:
-            k = (float(data.amplitude_deg[r]), int(data.flash_time_ms[r]), round(float(fwd.offset_deg[r, 0]), 6),
-                 round(float(fwd.offset_deg[r, 1]), 6), int(fwd.seed[r]) if noisy else 0)
+            k = (
+                float(data.amplitude_deg[r]),
+                int(data.flash_time_ms[r]),
+                round(float(fwd.offset_deg[r, 0]), 6),
+                round(float(fwd.offset_deg[r, 1]), 6),
+                int(fwd.seed[r]) if noisy else 0,
+            )
             row_trial[r] = keys.setdefault(k, len(keys))
-        trials = [Trial(trial_id=i, amplitude_deg=k[0], flash_dx_deg=k[2], flash_dy_deg=k[3], flash_time_ms=k[1],
-                        repetition=0, seed=k[4]) for k, i in sorted(keys.items(), key=lambda kv: kv[1])]
+        trials = [
+            Trial(
+                trial_id=i,
+                amplitude_deg=k[0],
+                flash_dx_deg=k[2],
+                flash_dy_deg=k[3],
+                flash_time_ms=k[1],
+                repetition=0,
+                seed=k[4],
+            )
+            for k, i in sorted(keys.items(), key=lambda kv: kv[1])
+        ]
         config = replace(fwd.config, condition=cond)
         runners[cond] = TrialRunner(config)
-        observations[cond] = observe_trials(trials, config, None if out is None else out / "observations",
-                                            backend=backend, workers=workers, ray_address=ray_address,
-                                            progress=progress, runner=runners[cond])
+        observations[cond] = observe_trials(
+            trials,
+            config,
+            None if out is None else out / "observations",
+            backend=backend,
+            workers=workers,
+            ray_address=ray_address,
+            progress=progress,
+            runner=runners[cond],
+        )
     return runners, observations, row_trial
 
 
@@ -141,7 +180,7 @@ def _quadratic_hessian(f, x: np.ndarray, steps: np.ndarray) -> np.ndarray:
     A = np.column_stack([np.ones(len(pts)), pts, np.array([np.outer(p, p)[iu] for p in pts])])
     coef = np.linalg.lstsq(A, vals, rcond=None)[0]
     Q = np.zeros((k, k))
-    Q[iu] = coef[1 + k:]
+    Q[iu] = coef[1 + k :]
     H = Q + Q.T  # d2/dp2 of sum_{i<=j} q_ij p_i p_j: 2 q_ii on the diagonal, q_ij off it
     return H / np.outer(steps, steps)
 
@@ -175,11 +214,14 @@ class _Log:
                     kept.append(line)
                     self.memo[row[0]] = row[1]
             elif lines:
-                raise FitFolderError(f"{path} is the log of another fit (its header differs); use another --out "
-                                     "folder or delete it")
+                raise FitFolderError(
+                    f"{path} is the log of another fit (its header differs); use another --out folder or delete it"
+                )
         if dropped:
-            print(f"{path}: dropped {dropped} torn, damaged or foreign row(s); those evaluations are redone",
-                  file=sys.stderr)
+            print(
+                f"{path}: dropped {dropped} torn, damaged or foreign row(s); those evaluations are redone",
+                file=sys.stderr,
+            )
         from ..folders import atomic_write_text
 
         atomic_write_text(path, "\n".join([",".join(self.header), *kept]) + "\n")
@@ -198,7 +240,7 @@ class _Log:
         except ValueError:
             return None
         k = len(self.free)
-        return tuple(f[2:2 + k]), (vals[0], vals[1 + k], vals[2 + k])
+        return tuple(f[2 : 2 + k]), (vals[0], vals[1 + k], vals[2 + k])
 
     def add(self, key: tuple, ll: float, noise: tuple) -> None:
         self.memo[key] = (ll, *noise)
@@ -225,9 +267,11 @@ def _lost_rows(data: LocalizationData, preds: list[np.ndarray]) -> np.ndarray:
 def _rows_text(data: LocalizationData, rows: np.ndarray) -> str:
     shown = ", ".join(str(int(i) + 2) for i in rows[:10]) + (f" and {len(rows) - 10} more" if len(rows) > 10 else "")
     i = int(rows[0])
-    return (f"{len(rows)} of {len(data)} rows ({shown}; row {i + 2}: amplitude {data.amplitude_deg[i]:g} deg, flash "
-            f"at ({data.true_deg[i, 0]:g}, {data.true_deg[i, 1]:g}) deg, {data.flash_time_ms[i]} ms, "
-            f"{data.condition[i]})")
+    return (
+        f"{len(rows)} of {len(data)} rows ({shown}; row {i + 2}: amplitude {data.amplitude_deg[i]:g} deg, flash "
+        f"at ({data.true_deg[i, 0]:g}, {data.true_deg[i, 1]:g}) deg, {data.flash_time_ms[i]} ms, "
+        f"{data.condition[i]})"
+    )
 
 
 #: Starting points of a fit besides the defaults (a fixed scrambled Sobol' design: deterministic).
@@ -245,8 +289,17 @@ def _starts(free: list) -> list[dict]:
     return pts
 
 
-def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: Path | None, max_evals: int,
-                  key: str = "", progress: bool = False) -> dict:
+def _fit_prepared(
+    model: FitModel,
+    data,
+    runners,
+    observations,
+    row_trial,
+    out: Path | None,
+    max_evals: int,
+    key: str = "",
+    progress: bool = False,
+) -> dict:
     """Maximize the likelihood over the model's parameters with the report noise profiled out
     (its closed-form maximum for the others): Nelder-Mead from the best of fixed starting points (``_starts``).
     Deterministic: the same data, model and options give the same evaluations in the same order."""
@@ -262,8 +315,11 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=1 + N_STARTS + max_evals + 1 + 2 * len(free) ** 2 + 2 * len(free) + 1, unit="eval",
-                   desc=f"fitting {model.name}")
+        bar = tqdm(
+            total=1 + N_STARTS + max_evals + 1 + 2 * len(free) ** 2 + 2 * len(free) + 1,
+            unit="eval",
+            desc=f"fitting {model.name}",
+        )
     replayed = 0
 
     def profiled(values: dict) -> tuple[float, dict]:
@@ -292,12 +348,18 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
         if not any(math.isfinite(v) for v in lls):
             lost = _lost_rows(data, [ev.predict(v) for v in starts])
             lost = lost if lost.size else np.flatnonzero(~np.isfinite(ev.predict(starts[-1])).all(axis=1))
-            raise FitError(f"{model.name} cannot be fitted: at every starting point it loses the flash of "
-                           f"{_rows_text(data, lost)} -- no activity to read out (a flash outside the eyes' field "
-                           "of view, or one the read-out's threshold drops); remove those rows or check their units")
+            raise FitError(
+                f"{model.name} cannot be fitted: at every starting point it loses the flash of "
+                f"{_rows_text(data, lost)} -- no activity to read out (a flash outside the eyes' field "
+                "of view, or one the read-out's threshold drops); remove those rows or check their units"
+            )
         start = starts[int(np.argmax([v if math.isfinite(v) else -np.inf for v in lls]))]
-        res = minimize(lambda z: -objective(_from_z(sub, z)), _to_z(sub, start), method="Nelder-Mead",
-                       options={"maxfev": max_evals, "xatol": 1e-3, "fatol": 1e-2, "adaptive": True})
+        res = minimize(
+            lambda z: -objective(_from_z(sub, z)),
+            _to_z(sub, start),
+            method="Nelder-Mead",
+            options={"maxfev": max_evals, "xatol": 1e-3, "fatol": 1e-2, "adaptive": True},
+        )
         ll, best = profiled(_from_z(sub, res.x))
         x = np.array([best[n] for n in free_names])
         span = np.array([p.hi - p.lo for p in free])
@@ -340,22 +402,44 @@ def _fit_prepared(model: FitModel, data, runners, observations, row_trial, out: 
     for j, nm in enumerate(_NOISE):  # the MLE of a Gaussian s.d.: SE = s / sqrt(2 N); none without data
         se[nm] = best[nm] / math.sqrt(2 * n_eff) if data.measured[:, j].any() else math.nan
     bounds = {p.name: (p.lo, p.hi) for p in model.parameters}
-    ci = {n: ([max(bounds[n][0], best[n] - 1.96 * se[n]), min(bounds[n][1], best[n] + 1.96 * se[n])]
-              if math.isfinite(se[n]) else [None, None]) for n in names}
-    at_bound = [n for n in names if min(best[n] - bounds[n][0], bounds[n][1] - best[n]) <= 1e-3 * (bounds[n][1]
-                                                                                                   - bounds[n][0])]
+    ci = {
+        n: (
+            [max(bounds[n][0], best[n] - 1.96 * se[n]), min(bounds[n][1], best[n] + 1.96 * se[n])]
+            if math.isfinite(se[n])
+            else [None, None]
+        )
+        for n in names
+    }
+    at_bound = [
+        n for n in names if min(best[n] - bounds[n][0], bounds[n][1] - best[n]) <= 1e-3 * (bounds[n][1] - bounds[n][0])
+    ]
     # a parameter without data (noise_y_deg of 1-D data) is not counted
     k, n_obs = len(names) - int(not data.measured[:, 1].any()), data.n_observations
     m = data.measured
     resid = np.where(m, data.perceived_deg - pred, 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
         rms = np.sqrt(np.sum(data.n[:, None] * resid**2, axis=0) / np.sum(np.where(m, data.n[:, None], 0), axis=0))
-    return {"model": model.name, "parameters": {n: float(best[n]) for n in names},
-            "se": {n: (float(se[n]) if math.isfinite(se[n]) else None) for n in names}, "ci": ci,
-            "log_likelihood": float(ll), "aic": 2 * k - 2 * ll, "bic": k * math.log(n_obs) - 2 * ll, "n": n_obs,
-            "n_parameters": k, "n_rows": len(data), "converged": bool(res.success), "evaluations": len(log.memo),
-            "hessian_ok": ok, "at_bounds": at_bound, "residual_rms_deg": [float(v) if math.isfinite(v) else None for v in rms],
-            "data": data.source, "data_hash": _data_hash(data), "fit_key": key, "_predict": pred}
+    return {
+        "model": model.name,
+        "parameters": {n: float(best[n]) for n in names},
+        "se": {n: (float(se[n]) if math.isfinite(se[n]) else None) for n in names},
+        "ci": ci,
+        "log_likelihood": float(ll),
+        "aic": 2 * k - 2 * ll,
+        "bic": k * math.log(n_obs) - 2 * ll,
+        "n": n_obs,
+        "n_parameters": k,
+        "n_rows": len(data),
+        "converged": bool(res.success),
+        "evaluations": len(log.memo),
+        "hessian_ok": ok,
+        "at_bounds": at_bound,
+        "residual_rms_deg": [float(v) if math.isfinite(v) else None for v in rms],
+        "data": data.source,
+        "data_hash": _data_hash(data),
+        "fit_key": key,
+        "_predict": pred,
+    }
 
 
 def _checksum(result: dict) -> str:
@@ -378,8 +462,10 @@ def finished_fit(out: Path, key: str) -> dict | None:
         print(f"{path} is damaged (unreadable or its checksum fails); fitting again", file=sys.stderr)
         return None
     if result.get("fit_key") != key:
-        raise FitFolderError(f"{out} holds a fit of another model, data set or options (fit_key "
-                             f"{result.get('fit_key')}; this fit: {key}); use another --out folder or delete it")
+        raise FitFolderError(
+            f"{out} holds a fit of another model, data set or options (fit_key "
+            f"{result.get('fit_key')}; this fit: {key}); use another --out folder or delete it"
+        )
     if not all((out / f).exists() for f in ("fitted_trials.csv", "fit.png")):
         return None
     return result
@@ -395,11 +481,32 @@ def _write_fit(result: dict, data: LocalizationData, out: Path, fwd: ForwardMode
     result["checksum"] = _checksum(result)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["saccade_amplitude_deg", "flash_time_ms", "condition", "true_x_deg", "true_y_deg", "n",
-                "perceived_x_deg", "perceived_y_deg", "predicted_x_deg", "predicted_y_deg"])
+    w.writerow(
+        [
+            "saccade_amplitude_deg",
+            "flash_time_ms",
+            "condition",
+            "true_x_deg",
+            "true_y_deg",
+            "n",
+            "perceived_x_deg",
+            "perceived_y_deg",
+            "predicted_x_deg",
+            "predicted_y_deg",
+        ]
+    )
     for i in range(len(data)):
-        w.writerow([data.amplitude_deg[i], data.flash_time_ms[i], data.condition[i], *data.true_deg[i], data.n[i],
-                    *data.perceived_deg[i], *pred[i]])
+        w.writerow(
+            [
+                data.amplitude_deg[i],
+                data.flash_time_ms[i],
+                data.condition[i],
+                *data.true_deg[i],
+                data.n[i],
+                *data.perceived_deg[i],
+                *pred[i],
+            ]
+        )
     atomic_write_text(out / "fitted_trials.csv", buf.getvalue())
     _plot_fit(data, pred, result, out / "fit.png")
     write_json(out / "fit.json", result)
@@ -420,9 +527,12 @@ def _plot_fit(data: LocalizationData, pred: np.ndarray, result: dict, path: Path
         for amp in sorted(set(data.amplitude_deg)):
             sel = (data.condition == cond) & (data.amplitude_deg == amp)
             ts = np.unique(data.flash_time_ms[sel])
-            m = [np.average(err[sel & (data.flash_time_ms == t)], weights=data.n[sel & (data.flash_time_ms == t)]) for t in ts]
+            m = [
+                np.average(err[sel & (data.flash_time_ms == t)], weights=data.n[sel & (data.flash_time_ms == t)])
+                for t in ts
+            ]
             pm = [perr[sel & (data.flash_time_ms == t)].mean() for t in ts]
-            line, = c.plot(ts, m, "o", label=f"data {amp:g}°")
+            (line,) = c.plot(ts, m, "o", label=f"data {amp:g}°")
             c.plot(ts, pm, "-", color=line.get_color(), label=f"model {amp:g}°")
         c.axhline(0, color="0.7", lw=0.8)
         c.set(title=f"{cond}: mean horizontal error", xlabel="flash time re onset (ms)", ylabel="deg")
@@ -432,9 +542,19 @@ def _plot_fit(data: LocalizationData, pred: np.ndarray, result: dict, path: Path
     save_figure(fig, path, dpi=100)
 
 
-def fit(data: LocalizationData, model: str, out, *, backend: str = "local", workers: int = 1,
-        ray_address: str | None = None, max_evals: int = 300, observing: dict | None = None,
-        forward: ForwardModel | None = None, progress: bool = False) -> dict:
+def fit(
+    data: LocalizationData,
+    model: str,
+    out,
+    *,
+    backend: str = "local",
+    workers: int = 1,
+    ray_address: str | None = None,
+    max_evals: int = 300,
+    observing: dict | None = None,
+    forward: ForwardModel | None = None,
+    progress: bool = False,
+) -> dict:
     """Fit ``model`` to ``data``; writes ``out/fit.json``, ``fitted_trials.csv``, ``fit.png`` and
     ``fit_log.csv``; returns the fit.json content (with ``already_done`` true when it was finished).
 
@@ -445,12 +565,21 @@ def fit(data: LocalizationData, model: str, out, *, backend: str = "local", work
     m = _model(model)
     fwd = forward or forward_model(data, observing)
     with folder_lock(out) as out:
-        return _fit_in(m, data, fwd, out, out, max_evals, progress, dict(backend=backend, workers=workers,
-                                                                         ray_address=ray_address, progress=progress))
+        return _fit_in(
+            m,
+            data,
+            fwd,
+            out,
+            out,
+            max_evals,
+            progress,
+            dict(backend=backend, workers=workers, ray_address=ray_address, progress=progress),
+        )
 
 
-def _fit_in(m, data, fwd, out: Path, root: Path, max_evals: int, progress: bool, options: dict,
-            prepared: list | None = None) -> dict:
+def _fit_in(
+    m, data, fwd, out: Path, root: Path, max_evals: int, progress: bool, options: dict, prepared: list | None = None
+) -> dict:
     prepared = [] if prepared is None else prepared
     key = fit_key(m.name, data, fwd, max_evals)
     done = finished_fit(out, key)
@@ -464,9 +593,19 @@ def _fit_in(m, data, fwd, out: Path, root: Path, max_evals: int, progress: bool,
     return {**_write_fit(r, data, out, fwd), "already_done": False}
 
 
-def compare(data: LocalizationData, models: list[str], out, *, backend: str = "local", workers: int = 1,
-            ray_address: str | None = None, max_evals: int = 300, observing: dict | None = None,
-            forward: ForwardModel | None = None, progress: bool = False) -> list[dict]:
+def compare(
+    data: LocalizationData,
+    models: list[str],
+    out,
+    *,
+    backend: str = "local",
+    workers: int = 1,
+    ray_address: str | None = None,
+    max_evals: int = 300,
+    observing: dict | None = None,
+    forward: ForwardModel | None = None,
+    progress: bool = False,
+) -> list[dict]:
     """Fit each of ``models`` (observations shared; each fit a no-op when finished); writes
     ``out/comparison.csv`` (ranked by AIC), ``out/lrt.csv`` (nested pairs), each fit in
     ``out/<model>/`` and ``comparison.png``. ``observing``, ``forward``: as for :func:`fit`."""
@@ -487,9 +626,20 @@ def compare(data: LocalizationData, models: list[str], out, *, backend: str = "l
             sub = out / m.name.replace("/", "_")
             with folder_lock(sub):
                 fits[m.name] = _fit_in(m, data, fwd, sub, out, max_evals, progress, options, prepared)
-        rows = sorted(({"model": k, "log_likelihood": r["log_likelihood"], "aic": r["aic"], "bic": r["bic"],
-                        "n_parameters": r["n_parameters"], "n": r["n"]} for k, r in fits.items()),
-                      key=lambda r: r["aic"])
+        rows = sorted(
+            (
+                {
+                    "model": k,
+                    "log_likelihood": r["log_likelihood"],
+                    "aic": r["aic"],
+                    "bic": r["bic"],
+                    "n_parameters": r["n_parameters"],
+                    "n": r["n"],
+                }
+                for k, r in fits.items()
+            ),
+            key=lambda r: r["aic"],
+        )
         for r in rows:
             r["delta_aic"] = r["aic"] - rows[0]["aic"]
             r["delta_bic"] = r["bic"] - min(x["bic"] for x in rows)
@@ -518,14 +668,37 @@ def _plot_comparison(rows: list[dict], path: Path) -> None:
     save_figure(fig, path, dpi=100)
 
 
-SIMULATED_COLUMNS = ("saccade_amplitude_deg", "flash_time_ms", "true_x_deg", "true_y_deg", "perceived_x_deg",
-                     "perceived_y_deg", "condition", "seed", "flash_dx_deg", "flash_dy_deg")
+SIMULATED_COLUMNS = (
+    "saccade_amplitude_deg",
+    "flash_time_ms",
+    "true_x_deg",
+    "true_y_deg",
+    "perceived_x_deg",
+    "perceived_y_deg",
+    "condition",
+    "seed",
+    "flash_dx_deg",
+    "flash_dy_deg",
+)
 
 
-def simulate_data(model: str, values: dict, design, conditions=("references", "dark"), reports: int = 1,
-                  seed: int = 0, out_csv=None, *, workers: int = 1, image_size: int = IMAGE_SIZE, config=None,
-                  progress: bool = False, meta: dict | None = None, backend: str = "local",
-                  ray_address: str | None = None) -> LocalizationData:
+def simulate_data(
+    model: str,
+    values: dict,
+    design,
+    conditions=("references", "dark"),
+    reports: int = 1,
+    seed: int = 0,
+    out_csv=None,
+    *,
+    workers: int = 1,
+    image_size: int = IMAGE_SIZE,
+    config=None,
+    progress: bool = False,
+    meta: dict | None = None,
+    backend: str = "local",
+    ray_address: str | None = None,
+) -> LocalizationData:
     """A data set from ``model`` at parameter ``values`` (noise included): every trial of ``design``
     in each condition, ``reports`` noisy reports each (seeded); observed on ``workers`` processes or
     Ray actors (``backend``).
@@ -548,28 +721,48 @@ def simulate_data(model: str, values: dict, design, conditions=("references", "d
     trials = list(design.trials())
     for cond in conditions:
         cfg0 = replace(base, condition=cond)
-        obs = observe_trials(trials, cfg0, None, workers=workers, progress=progress, backend=backend,
-                             ray_address=ray_address)
+        obs = observe_trials(
+            trials, cfg0, None, workers=workers, progress=progress, backend=backend, ray_address=ray_address
+        )
         runner = TrialRunner(cfg0)
         cfg = m.trial_config(cfg0, values)
         try:
             for t, o in zip(trials, obs):
                 r = runner.readout(o, cfg)
                 if not (math.isfinite(r["perceived_x_deg"]) and math.isfinite(r["perceived_y_deg"])):
-                    raise FitError(f"{model} loses the flash of trial {t.trial_id} ({cond}: amplitude "
-                                   f"{t.amplitude_deg:g} deg, offset ({t.flash_dx_deg:g}, {t.flash_dy_deg:g}) deg, "
-                                   f"{t.flash_time_ms} ms) at these parameters: no report can be simulated")
+                    raise FitError(
+                        f"{model} loses the flash of trial {t.trial_id} ({cond}: amplitude "
+                        f"{t.amplitude_deg:g} deg, offset ({t.flash_dx_deg:g}, {t.flash_dy_deg:g}) deg, "
+                        f"{t.flash_time_ms} ms) at these parameters: no report can be simulated"
+                    )
                 for _ in range(reports):
-                    rows.append((r["saccade_amplitude_deg"], r["flash_time_ms"], r["true_x_deg"], r["true_y_deg"],
-                                 r["perceived_x_deg"] + rng.normal(0, values["noise_x_deg"]),
-                                 r["perceived_y_deg"] + rng.normal(0, values["noise_y_deg"]), cond, t.seed,
-                                 t.flash_dx_deg, t.flash_dy_deg))
+                    rows.append(
+                        (
+                            r["saccade_amplitude_deg"],
+                            r["flash_time_ms"],
+                            r["true_x_deg"],
+                            r["true_y_deg"],
+                            r["perceived_x_deg"] + rng.normal(0, values["noise_x_deg"]),
+                            r["perceived_y_deg"] + rng.normal(0, values["noise_y_deg"]),
+                            cond,
+                            t.seed,
+                            t.flash_dx_deg,
+                            t.flash_dy_deg,
+                        )
+                    )
         finally:
             runner.close()
     a = np.array([r[:6] for r in rows], float)
-    data = LocalizationData(a[:, 0], a[:, 1].astype(int), a[:, 2:4], a[:, 4:6], np.array([r[6] for r in rows]),
-                            np.ones(len(rows), int), np.full((len(rows), 2), np.nan),
-                            str(out_csv) if out_csv is not None else "simulated")
+    data = LocalizationData(
+        a[:, 0],
+        a[:, 1].astype(int),
+        a[:, 2:4],
+        a[:, 4:6],
+        np.array([r[6] for r in rows]),
+        np.ones(len(rows), int),
+        np.full((len(rows), 2), np.nan),
+        str(out_csv) if out_csv is not None else "simulated",
+    )
     if out_csv is not None:
         from ..folders import atomic_write_text, json_safe, write_json
 
@@ -578,13 +771,31 @@ def simulate_data(model: str, values: dict, design, conditions=("references", "d
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(SIMULATED_COLUMNS)
         for r in rows:
-            w.writerow([f"{r[0]:g}", int(r[1]), *(f"{round(v, 9) + 0.0:.10g}" for v in r[2:6]), r[6], int(r[7]), f"{r[8]:g}",
-                        f"{r[9]:g}"])
+            w.writerow(
+                [
+                    f"{r[0]:g}",
+                    int(r[1]),
+                    *(f"{round(v, 9) + 0.0:.10g}" for v in r[2:6]),
+                    r[6],
+                    int(r[7]),
+                    f"{r[8]:g}",
+                    f"{r[9]:g}",
+                ]
+            )
         fp = config_fingerprint(design, m.trial_config(base, values))
         fp["config"].pop("condition", None)
-        side = {**(meta or {}), "generated_by": "python -m experiments simulate", "model": model,
-                "parameters": dict(values), "design": fp["design"], "conditions": list(conditions),
-                "reports_per_trial": reports, "seed": seed, "rows": len(rows), "config": fp["config"]}
+        side = {
+            **(meta or {}),
+            "generated_by": "python -m experiments simulate",
+            "model": model,
+            "parameters": dict(values),
+            "design": fp["design"],
+            "conditions": list(conditions),
+            "reports_per_trial": reports,
+            "seed": seed,
+            "rows": len(rows),
+            "config": fp["config"],
+        }
         write_json(out_csv.with_suffix(".json"), json_safe(side))
         atomic_write_text(out_csv, buf.getvalue())
     return data

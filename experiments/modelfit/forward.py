@@ -52,8 +52,9 @@ class ForwardModel:
     def fingerprint(self) -> dict:
         from ..psychophysics import Design, config_fingerprint
 
-        cfg = config_fingerprint(Design(amplitudes_deg=(1.0,), flash_offsets_deg=((0.0, 0.0),), flash_times_ms=(0,)),
-                                 self.config)["config"]
+        cfg = config_fingerprint(
+            Design(amplitudes_deg=(1.0,), flash_offsets_deg=((0.0, 0.0),), flash_times_ms=(0,)), self.config
+        )["config"]
         return {k: v for k, v in cfg.items() if k != "condition"}
 
 
@@ -73,8 +74,11 @@ def config_from_fingerprint(cfg: dict):
         kw["markers"] = tuple(tuple(m) if isinstance(m, list) else m for m in kw["markers"])
     import models
 
-    for name, kind in (("observer", ObserverParams), ("population", PopulationParams),
-                       ("generator", models.BurstGenerator)):
+    for name, kind in (
+        ("observer", ObserverParams),
+        ("population", PopulationParams),
+        ("generator", models.BurstGenerator),
+    ):
         if isinstance(kw.get(name), dict):
             try:
                 kw[name] = kind(**kw[name])
@@ -95,8 +99,11 @@ def _row_columns(path: Path, n_rows: int) -> dict[str, np.ndarray]:
         import pyarrow.parquet as pq
 
         t = pq.read_table(path)
-        cols = {c: np.asarray([("" if v is None else str(v)) for v in t.column(c).to_pylist()])
-                for c in _ROW_COLUMNS if c in t.column_names}
+        cols = {
+            c: np.asarray([("" if v is None else str(v)) for v in t.column(c).to_pylist()])
+            for c in _ROW_COLUMNS
+            if c in t.column_names
+        }
     else:
         with path.open(newline="", encoding="utf-8-sig") as fh:
             reader = csv.DictReader(fh)
@@ -120,8 +127,10 @@ def _sidecar(path: Path, cols: dict) -> tuple[dict | None, str]:
     if "config_hash" in cols and "config_hash" in meta:
         foreign = sorted(set(cols["config_hash"]) - {str(meta["config_hash"])})
         if foreign:
-            raise ForwardModelError(f"{meta_path} does not describe {path}: the table's rows carry config_hash "
-                                    f"{', '.join(foreign[:3])}, the sidecar {meta['config_hash']}")
+            raise ForwardModelError(
+                f"{meta_path} does not describe {path}: the table's rows carry config_hash "
+                f"{', '.join(foreign[:3])}, the sidecar {meta['config_hash']}"
+            )
     return meta["config"], str(meta_path)
 
 
@@ -136,19 +145,25 @@ def forward_model(data, overrides: dict | None = None, *, note: bool = True) -> 
     cfg_dict, source = _sidecar(path, cols) if path is not None and path.is_file() else (None, "")
     config = config_from_fingerprint(cfg_dict) if cfg_dict is not None else TrialConfig()
     if config.paradigm != "localization":
-        raise ForwardModelError(f"{source}: the data come from the {config.paradigm} paradigm; the fit models "
-                                "localization reports (one flash per trial)")
+        raise ForwardModelError(
+            f"{source}: the data come from the {config.paradigm} paradigm; the fit models "
+            "localization reports (one flash per trial)"
+        )
     if "paradigm" in cols:
         bad = np.flatnonzero(~np.isin(cols["paradigm"], ("localization", "")))
         if bad.size:
-            raise ForwardModelError(f"{data.source}: rows {', '.join(str(i + 2) for i in bad[:5])} are from the "
-                                    f"{cols['paradigm'][bad[0]]} paradigm (column paradigm); the fit models "
-                                    "localization reports only: remove those rows")
+            raise ForwardModelError(
+                f"{data.source}: rows {', '.join(str(i + 2) for i in bad[:5])} are from the "
+                f"{cols['paradigm'][bad[0]]} paradigm (column paradigm); the fit models "
+                "localization reports only: remove those rows"
+            )
     given = {k: v for k, v in (overrides or {}).items() if v is not None}
     changed = {k: v for k, v in given.items() if getattr(config, k) != v}
     if changed and source and note:
-        print(f"note: {', '.join(f'{k}={v}' for k, v in changed.items())} from the command line override "
-              f"{source}", file=sys.stderr)
+        print(
+            f"note: {', '.join(f'{k}={v}' for k, v in changed.items())} from the command line override {source}",
+            file=sys.stderr,
+        )
     try:
         config = dataclasses.replace(config, **given, condition="references")
     except (TypeError, ValueError) as e:
@@ -159,13 +174,16 @@ def forward_model(data, overrides: dict | None = None, *, note: bool = True) -> 
         try:
             designed = np.column_stack([cols["flash_dx_deg"].astype(float), cols["flash_dy_deg"].astype(float)])
         except ValueError:
-            raise ForwardModelError(f"{data.source}: columns flash_dx_deg/flash_dy_deg hold values that are not "
-                                    "numbers") from None
+            raise ForwardModelError(
+                f"{data.source}: columns flash_dx_deg/flash_dy_deg hold values that are not numbers"
+            ) from None
         far = np.flatnonzero(~(np.abs(designed - offset) < 0.05).all(axis=1))
         if far.size:
-            raise ForwardModelError(f"{data.source}: rows {', '.join(str(i + 2) for i in far[:5])}: flash_dx_deg/"
-                                    "flash_dy_deg disagree with true_x_deg - saccade_amplitude_deg/2 and true_y_deg "
-                                    "by more than 0.05 deg; fix the columns or remove flash_dx_deg/flash_dy_deg")
+            raise ForwardModelError(
+                f"{data.source}: rows {', '.join(str(i + 2) for i in far[:5])}: flash_dx_deg/"
+                "flash_dy_deg disagree with true_x_deg - saccade_amplitude_deg/2 and true_y_deg "
+                "by more than 0.05 deg; fix the columns or remove flash_dx_deg/flash_dy_deg"
+            )
         offset = designed
     seed = np.zeros(len(data), np.int64)
     if "seed" in cols:
@@ -175,10 +193,15 @@ def forward_model(data, overrides: dict | None = None, *, note: bool = True) -> 
             raise ForwardModelError(f"{data.source}: column seed holds values that are not numbers") from None
         ok = np.isfinite(s) & (s == np.round(s)) & (s >= 0) & (s < 2**31)
         if not ok.all():
-            raise ForwardModelError(f"{data.source}: column seed must hold whole numbers in [0, 2^31); rows "
-                                    f"{', '.join(str(i + 2) for i in np.flatnonzero(~ok)[:5])}")
+            raise ForwardModelError(
+                f"{data.source}: column seed must hold whole numbers in [0, 2^31); rows "
+                f"{', '.join(str(i + 2) for i in np.flatnonzero(~ok)[:5])}"
+            )
         seed = s.astype(np.int64)
     elif config.endpoint_noise > 0:
-        print(f"note: endpoint noise {config.endpoint_noise:g} but {data.source} has no seed column: every trial "
-              "is observed with seed 0", file=sys.stderr)
+        print(
+            f"note: endpoint noise {config.endpoint_noise:g} but {data.source} has no seed column: every trial "
+            "is observed with seed 0",
+            file=sys.stderr,
+        )
     return ForwardModel(config=config, offset_deg=offset, seed=seed, source=source or "TrialConfig defaults")

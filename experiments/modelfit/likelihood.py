@@ -44,12 +44,19 @@ class Parameter:
 
 
 NOISE = (Parameter("noise_x_deg", 1.0, 0.02, 20.0), Parameter("noise_y_deg", 1.0, 0.02, 20.0))
-MECH = (Parameter("feedback_gain", 4.5, 0.0, 20.0), Parameter("eps_sigma_ms", 50.0, 5.0, 200.0),
-        Parameter("eps_delay_ms", 50.0, -100.0, 200.0))
+MECH = (
+    Parameter("feedback_gain", 4.5, 0.0, 20.0),
+    Parameter("eps_sigma_ms", 50.0, 5.0, 200.0),
+    Parameter("eps_delay_ms", 50.0, -100.0, 200.0),
+)
 OBSERVER = (Parameter("prior_sd_deg", 4.0, 0.5, 50.0), Parameter("temporal_sd_ms", 40.0, 5.0, 150.0))
 POPULATION = (Parameter("gain_per_deg", 150.0, 0.0, 2000.0), Parameter("tau_ms", 20.0, 2.0, 100.0))
-PAPER = (Parameter("peak_gain", 0.693, 0.0, 3.0), Parameter("peak_time_ms", -10.0, -200.0, 200.0),
-         Parameter("rise_ms", 25.0, 2.0, 200.0), Parameter("decay_ms", 30.0, 2.0, 200.0))
+PAPER = (
+    Parameter("peak_gain", 0.693, 0.0, 3.0),
+    Parameter("peak_time_ms", -10.0, -200.0, 200.0),
+    Parameter("rise_ms", 25.0, 2.0, 200.0),
+    Parameter("decay_ms", 30.0, 2.0, 200.0),
+)
 
 
 @dataclass(frozen=True)
@@ -78,10 +85,12 @@ class FitModel:
 
 FIT_MODELS = {
     "mechanistic": FitModel("mechanistic", {"model": "mechanistic"}, MECH + NOISE),
-    "mechanistic/no_command_remap": FitModel("mechanistic/no_command_remap",
-                                             {"model": "mechanistic", "disabled": ("command_remap",)}, MECH[1:] + NOISE),
-    "mechanistic/no_references": FitModel("mechanistic/no_references",
-                                          {"model": "mechanistic", "disabled": ("references",)}, MECH + NOISE),
+    "mechanistic/no_command_remap": FitModel(
+        "mechanistic/no_command_remap", {"model": "mechanistic", "disabled": ("command_remap",)}, MECH[1:] + NOISE
+    ),
+    "mechanistic/no_references": FitModel(
+        "mechanistic/no_references", {"model": "mechanistic", "disabled": ("references",)}, MECH + NOISE
+    ),
     "paper": FitModel("paper", {"model": "paper"}, PAPER + NOISE),
     "observer": FitModel("observer", {"model": "observer"}, OBSERVER + NOISE),
     "population": FitModel("population", {"model": "population"}, POPULATION + NOISE),
@@ -109,8 +118,9 @@ class Evaluator:
         for cond, obs_list in self.observations.items():
             runner = self.runners[cond]
             cfg = self.model.trial_config(runner.config, values)
-            per_trial = np.array([[r["perceived_x_deg"], r["perceived_y_deg"]]
-                                  for r in (runner.readout(o, cfg) for o in obs_list)])
+            per_trial = np.array(
+                [[r["perceived_x_deg"], r["perceived_y_deg"]] for r in (runner.readout(o, cfg) for o in obs_list)]
+            )
             rows = self.data.condition == cond
             pred[rows] = per_trial[self.row_trial[rows]]
         self.evaluations += 1
@@ -128,8 +138,9 @@ class Evaluator:
         m = d.measured
         resid = np.where(m, d.perceived_deg - pred, 0.0)
         has_sd = np.isfinite(d.sd_deg) & (n >= 2) & m
-        num = np.sum(np.where(m, n * resid**2, 0.0), axis=0) + \
-            np.sum(np.where(has_sd, (n - 1) * np.nan_to_num(d.sd_deg) ** 2, 0.0), axis=0)
+        num = np.sum(np.where(m, n * resid**2, 0.0), axis=0) + np.sum(
+            np.where(has_sd, (n - 1) * np.nan_to_num(d.sd_deg) ** 2, 0.0), axis=0
+        )
         den = np.sum(m, axis=0) + np.sum(np.where(has_sd, n - 1, 0.0), axis=0)
         with np.errstate(invalid="ignore", divide="ignore"):
             s = np.sqrt(num / den)
@@ -156,6 +167,13 @@ class Evaluator:
             k = (n - 1) * np.ones((1, 2))
             s2 = d.sd_deg**2
             scale = sig**2 / k
-            ll += float(np.sum(np.where(has_sd, chi2.logpdf(np.where(has_sd, s2, 1.0) / scale, np.where(has_sd, k, 2.0))
-                                        - np.log(scale), 0.0)))
+            ll += float(
+                np.sum(
+                    np.where(
+                        has_sd,
+                        chi2.logpdf(np.where(has_sd, s2, 1.0) / scale, np.where(has_sd, k, 2.0)) - np.log(scale),
+                        0.0,
+                    )
+                )
+            )
         return ll

@@ -83,8 +83,8 @@ def _local(trials, config, workers: int, progress) -> list:
         _init(config)
         out = []
         for i in range(0, len(trials), 8):
-            out += _observe_batch(trials[i:i + 8])
-            progress(len(trials[i:i + 8]))
+            out += _observe_batch(trials[i : i + 8])
+            progress(len(trials[i : i + 8]))
         return out
     import multiprocessing as mp
 
@@ -93,8 +93,9 @@ def _local(trials, config, workers: int, progress) -> list:
     out = [None] * len(trials)
     size = max(1, min(8, -(-len(trials) // (2 * workers))))  # every worker gets work
     chunks = [list(range(i, min(i + size, len(trials)))) for i in range(0, len(trials), size)]
-    pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_init,
-                               initargs=(config, os.getpid()))
+    pool = ProcessPoolExecutor(
+        workers, mp_context=mp.get_context("spawn"), initializer=_init, initargs=(config, os.getpid())
+    )
     try:
         futures = {pool.submit(_observe_batch, [trials[i] for i in idx]): idx for idx in chunks}
         for f in as_completed(futures):
@@ -113,7 +114,7 @@ def _ray(trials, config, workers: int, address: str | None, progress) -> list:
 
     n_actors = max(1, min(workers, len(trials)))
     batches = _batches(list(range(len(trials))), n_actors)
-    small = [idx[j:j + 8] for idx in batches for j in range(0, len(idx), 8)]
+    small = [idx[j : j + 8] for idx in batches for j in range(0, len(idx), 8)]
     out = [None] * len(trials)
 
     def done(k: int, obs: list) -> None:
@@ -121,13 +122,29 @@ def _ray(trials, config, workers: int, address: str | None, progress) -> list:
             out[i] = o
         progress(len(small[k]))
 
-    ray_map(_init, (config,), _observe_batch, [[trials[i] for i in idx] for idx in small], done,
-            workers=n_actors, address=address)
+    ray_map(
+        _init,
+        (config,),
+        _observe_batch,
+        [[trials[i] for i in idx] for idx in small],
+        done,
+        workers=n_actors,
+        address=address,
+    )
     return out
 
 
-def observe_trials(trials: list, config, cache_dir: Path | None = None, *, backend: str = "local", workers: int = 1,
-                   ray_address: str | None = None, progress: bool = False, runner=None) -> list:
+def observe_trials(
+    trials: list,
+    config,
+    cache_dir: Path | None = None,
+    *,
+    backend: str = "local",
+    workers: int = 1,
+    ray_address: str | None = None,
+    progress: bool = False,
+    runner=None,
+) -> list:
     """Observations of ``trials`` under ``config``.
 
     With ``cache_dir``, they are read from (or computed and written to) its verified ``.npz``
@@ -155,8 +172,11 @@ def observe_trials(trials: list, config, cache_dir: Path | None = None, *, backe
         if path.exists():
             print(f"{path}: {why}; observing its {len(trials)} trials again", file=sys.stderr)
     with Progress(len(trials), unit="trial", desc=f"observing ({config.condition})", enabled=progress) as bar:
-        obs = (_ray(trials, config, workers, ray_address, bar.update) if backend == "ray"
-               else _local(trials, config, workers, bar.update))
+        obs = (
+            _ray(trials, config, workers, ray_address, bar.update)
+            if backend == "ray"
+            else _local(trials, config, workers, bar.update)
+        )
     if path is None:
         return obs
     cache.save(path, obs, key)

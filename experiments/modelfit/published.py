@@ -98,8 +98,11 @@ def check(folder: Path = PUBLISHED_DIR) -> list[str]:
                 problems.append(f"{side}: unreadable ({e})")
                 meta = None
             if meta is not None:
-                missing = [f for f in PROVENANCE_FIELDS
-                           if not (isinstance(meta, dict) and isinstance(meta.get(f), str) and meta[f].strip())]
+                missing = [
+                    f
+                    for f in PROVENANCE_FIELDS
+                    if not (isinstance(meta, dict) and isinstance(meta.get(f), str) and meta[f].strip())
+                ]
                 if missing:
                     problems.append(f"{side}: provenance field(s) {', '.join(missing)} missing or empty")
         try:

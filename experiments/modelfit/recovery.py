@@ -37,15 +37,35 @@ def _design(size: str):
     from ..psychophysics import MORRONE_OFFSETS_DEG, Design
 
     if size == "small":  # for tests: 4 flashes x 3 times
-        return Design(amplitudes_deg=(20.0,), flash_offsets_deg=MORRONE_OFFSETS_DEG[:4], flash_times_ms=(-150, -25, 50),
-                      name="recovery-small")
-    return Design(amplitudes_deg=(20.0,), flash_offsets_deg=MORRONE_OFFSETS_DEG,
-                  flash_times_ms=(-150, -75, -50, -25, 0, 25, 50, 100), name="recovery")
+        return Design(
+            amplitudes_deg=(20.0,),
+            flash_offsets_deg=MORRONE_OFFSETS_DEG[:4],
+            flash_times_ms=(-150, -25, 50),
+            name="recovery-small",
+        )
+    return Design(
+        amplitudes_deg=(20.0,),
+        flash_offsets_deg=MORRONE_OFFSETS_DEG,
+        flash_times_ms=(-150, -75, -50, -25, 0, 25, 50, 100),
+        name="recovery",
+    )
 
 
-def recover(out: Path, models=GENERATING, *, size: str = "default", reports: int = 2, noise_deg: float = 1.5,
-            image_size: int = 128, max_evals: int = 120, workers: int = 1, seed: int = 0,
-            progress: bool = False, backend: str = "local", ray_address: str | None = None) -> list[dict]:
+def recover(
+    out: Path,
+    models=GENERATING,
+    *,
+    size: str = "default",
+    reports: int = 2,
+    noise_deg: float = 1.5,
+    image_size: int = 128,
+    max_evals: int = 120,
+    workers: int = 1,
+    seed: int = 0,
+    progress: bool = False,
+    backend: str = "local",
+    ray_address: str | None = None,
+) -> list[dict]:
     """Simulate from each model, fit every model to each data set; write and return the rows.
     ``workers``, ``backend``, ``ray_address``: where the trials are observed (``backends``)."""
     from ..folders import write_csv
@@ -65,9 +85,20 @@ def recover(out: Path, models=GENERATING, *, size: str = "default", reports: int
         values = {p.name: p.default for p in FIT_MODELS[gen].parameters}
         values.update(noise_x_deg=noise_deg, noise_y_deg=noise_deg)
         if not csv_path.is_file() or not csv_path.with_suffix(".json").is_file():
-            simulate_data(gen, values, design, reports=reports, seed=seed + g, out_csv=csv_path, workers=workers,
-                          config=config, progress=progress, backend=backend, ray_address=ray_address,
-                          meta={"recovery": "generated at the model's defaults with motor noise"})
+            simulate_data(
+                gen,
+                values,
+                design,
+                reports=reports,
+                seed=seed + g,
+                out_csv=csv_path,
+                workers=workers,
+                config=config,
+                progress=progress,
+                backend=backend,
+                ray_address=ray_address,
+                meta={"recovery": "generated at the model's defaults with motor noise"},
+            )
         with warnings.catch_warnings():
             # the data are this run's own simulation, in the format's conventions; the convention
             # heuristics (e.g. perceived falling as true rises: compression) would only alarm the user
@@ -75,16 +106,37 @@ def recover(out: Path, models=GENERATING, *, size: str = "default", reports: int
             data = read_data(csv_path)
         # the fits' forward model leaves out the motor noise by design (no note about an override)
         fwd = forward_model(data, {"endpoint_noise": 0.0}, note=False)
-        fits = compare(data, list(models), folder / "fits", workers=workers, max_evals=max_evals,
-                       forward=fwd, progress=progress, backend=backend, ray_address=ray_address)
+        fits = compare(
+            data,
+            list(models),
+            folder / "fits",
+            workers=workers,
+            max_evals=max_evals,
+            forward=fwd,
+            progress=progress,
+            backend=backend,
+            ray_address=ray_address,
+        )
         best = min(fits, key=lambda r: r["aic"])["model"]
         for r in fits:
-            rows.append({"generating": gen, "fitted": r["model"], "log_likelihood": round(r["log_likelihood"], 3),
-                         "n_parameters": r["n_parameters"], "n": r["n"], "aic": round(r["aic"], 3),
-                         "delta_aic": round(r["delta_aic"], 3), "winner": r["model"] == best,
-                         "recovered": best == gen})
-    write_csv(out / "recovery.csv", ["generating", "fitted", "log_likelihood", "n_parameters", "n", "aic",
-                                     "delta_aic", "winner", "recovered"], rows)
+            rows.append(
+                {
+                    "generating": gen,
+                    "fitted": r["model"],
+                    "log_likelihood": round(r["log_likelihood"], 3),
+                    "n_parameters": r["n_parameters"],
+                    "n": r["n"],
+                    "aic": round(r["aic"], 3),
+                    "delta_aic": round(r["delta_aic"], 3),
+                    "winner": r["model"] == best,
+                    "recovered": best == gen,
+                }
+            )
+    write_csv(
+        out / "recovery.csv",
+        ["generating", "fitted", "log_likelihood", "n_parameters", "n", "aic", "delta_aic", "winner", "recovered"],
+        rows,
+    )
     _plot(rows, list(models), out / "recovery.png")
     return rows
 
@@ -122,9 +174,18 @@ def run(args: argparse.Namespace) -> int:
 
     def work() -> int:
         with path_lock(out / ".recovery.lock"):
-            rows = recover(out, size=args.size, reports=args.reports, noise_deg=args.noise_deg,
-                           image_size=args.image_size, max_evals=args.max_evals, workers=args.workers,
-                           progress=not args.no_progress, backend=args.backend, ray_address=args.ray_address)
+            rows = recover(
+                out,
+                size=args.size,
+                reports=args.reports,
+                noise_deg=args.noise_deg,
+                image_size=args.image_size,
+                max_evals=args.max_evals,
+                workers=args.workers,
+                progress=not args.no_progress,
+                backend=args.backend,
+                ray_address=args.ray_address,
+            )
         for gen in GENERATING:
             mine = [r for r in rows if r["generating"] == gen]
             order = ", ".join(f"{r['fitted']} {r['delta_aic']:+.1f}" for r in sorted(mine, key=lambda r: r["aic"]))
@@ -134,28 +195,48 @@ def run(args: argparse.Namespace) -> int:
 
     from ..folders import LockBusyError
 
-    return guarded("python -m experiments recovery", work,
-                   resume_hint=f"finished data sets and fits are kept in {out}: run the same command again to resume",
-                   errors={FolderBusyError: 1, LockBusyError: 1, ValueError: 2})
+    return guarded(
+        "python -m experiments recovery",
+        work,
+        resume_hint=f"finished data sets and fits are kept in {out}: run the same command again to resume",
+        errors={FolderBusyError: 1, LockBusyError: 1, ValueError: 2},
+    )
 
 
 def add_subcommand(subparsers) -> None:
     from ..cli import int_in, out_dir
     from ..cli.options import add_backend_options, add_workers_option, image_size_type
 
-    p = subparsers.add_parser("recovery", help="model recovery: simulate from each theory, fit every theory, "
-                                               "confusion matrix of delta AIC", description=__doc__,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "recovery",
+        help="model recovery: simulate from each theory, fit every theory, confusion matrix of delta AIC",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--out", type=out_dir, default="results/recovery", help="output folder (created; resumed)")
-    p.add_argument("--size", choices=("default", "small"), default="default",
-                   help="default: 8 flashes x 8 times x 2 conditions x --reports reports (256 rows at 2); small: "
-                        "4 x 3 x 2 (a quick check)")
+    p.add_argument(
+        "--size",
+        choices=("default", "small"),
+        default="default",
+        help="default: 8 flashes x 8 times x 2 conditions x --reports reports (256 rows at 2); small: "
+        "4 x 3 x 2 (a quick check)",
+    )
     p.add_argument("--reports", type=int_in(1, 20), default=2, metavar="N", help="noisy reports per trial (1-20)")
-    p.add_argument("--noise-deg", type=float, default=1.5, metavar="DEG",
-                   help="report noise s.d. of the simulated observers (deg; default 1.5)")
+    p.add_argument(
+        "--noise-deg",
+        type=float,
+        default=1.5,
+        metavar="DEG",
+        help="report noise s.d. of the simulated observers (deg; default 1.5)",
+    )
     p.add_argument("--image-size", type=image_size_type(), default=128, metavar="PX", help="eye image side (32-1024)")
-    p.add_argument("--max-evals", type=int_in(10, 10_000), default=120, metavar="N",
-                   help="likelihood evaluations per fit (10-10000)")
+    p.add_argument(
+        "--max-evals",
+        type=int_in(10, 10_000),
+        default=120,
+        metavar="N",
+        help="likelihood evaluations per fit (10-10000)",
+    )
     add_workers_option(p, default=1, what="processes / Ray actors observing the trials")
     add_backend_options(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bars")

@@ -6,5 +6,20 @@ from .asc import AscData, AscError, parse_asc
 from .kinematics import SG_SPAN_MS, engbert_kliegl, measure_saccade, speed_deg_s, steps_ok, velocity
 from .tables import PRESETS, Columns, TableError, decode, parse_columns, read_table
 
-__all__ = ["AscData", "AscError", "parse_asc", "SG_SPAN_MS", "engbert_kliegl", "measure_saccade", "speed_deg_s",
-           "steps_ok", "velocity", "PRESETS", "Columns", "TableError", "decode", "parse_columns", "read_table"]
+__all__ = [
+    "AscData",
+    "AscError",
+    "parse_asc",
+    "SG_SPAN_MS",
+    "engbert_kliegl",
+    "measure_saccade",
+    "speed_deg_s",
+    "steps_ok",
+    "velocity",
+    "PRESETS",
+    "Columns",
+    "TableError",
+    "decode",
+    "parse_columns",
+    "read_table",
+]

@@ -93,15 +93,19 @@ def _spread_times(t: np.ndarray, rate_hz: float, n_line: int) -> np.ndarray:
     per_ms = int(math.ceil(1.0 / period - 1e-9))
     if rate_hz <= 1000.0 or not np.all(t == np.round(t)):
         i = int(np.argmax(same))
-        raise AscError(f"sample time {t[i]:g} ms repeats (block starting at line {n_line}) at {rate_hz:g} Hz: "
-                       "corrupt or concatenated file")
+        raise AscError(
+            f"sample time {t[i]:g} ms repeats (block starting at line {n_line}) at {rate_hz:g} Hz: "
+            "corrupt or concatenated file"
+        )
     # k-th repeat of a stamp: index minus the index where its run started
     idx = np.arange(len(t))
     start = np.maximum.accumulate(np.where(~same, idx, 0))
     rep = idx - start
     if rep.max() >= per_ms:
-        raise AscError(f"sample time {t[int(np.argmax(rep >= per_ms))]:g} ms is written {int(rep.max()) + 1} times "
-                       f"(at most {per_ms} at {rate_hz:g} Hz): corrupt or concatenated file")
+        raise AscError(
+            f"sample time {t[int(np.argmax(rep >= per_ms))]:g} ms is written {int(rep.max()) + 1} times "
+            f"(at most {per_ms} at {rate_hz:g} Hz): corrupt or concatenated file"
+        )
     return t + rep * period
 
 
@@ -120,15 +124,19 @@ def _sample_values(lines: list[str], rows: list[int], need: int, eyes, name: str
     for i in rows:  # locate the first bad line (only on the error path)
         f = lines[i].split(None, need)[:need]
         if len(f) < need:
-            raise AscError(f"line {i + 1}: a sample with {len(lines[i].split())} fields where {'/'.join(eyes)} samples "
-                           f"have at least {need} (time, then x, y, pupil per eye): corrupt file, or a SAMPLES line "
-                           "naming the wrong eyes")
+            raise AscError(
+                f"line {i + 1}: a sample with {len(lines[i].split())} fields where {'/'.join(eyes)} samples "
+                f"have at least {need} (time, then x, y, pupil per eye): corrupt file, or a SAMPLES line "
+                "naming the wrong eyes"
+            )
         for v in f:
             try:
                 _value(v)
             except ValueError:
-                raise AscError(f"line {i + 1}: a sample holds {v[:20]!r}, not a number or '.' (block starting on line "
-                               f"{block_line})") from None
+                raise AscError(
+                    f"line {i + 1}: a sample holds {v[:20]!r}, not a number or '.' (block starting on line "
+                    f"{block_line})"
+                ) from None
     raise AscError(f"{name}: cannot read the samples of the block starting on line {block_line}")  # pragma: no cover
 
 
@@ -154,8 +162,10 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
         head = ln.split(None, 1)[0] if ln.strip() else ""
         if head == "START":
             if cur is not None:
-                raise AscError(f"line {n}: START inside the block that starts on line {cur['line']} (no END "
-                               "before it): corrupt or concatenated file")
+                raise AscError(
+                    f"line {n}: START inside the block that starts on line {cur['line']} (no END "
+                    "before it): corrupt or concatenated file"
+                )
             cur = {"line": n, "eyes": _eyes_of(ln.split()[2:]), "rate": None, "remote": False, "rows": []}
         elif head == "SAMPLES":
             tok = ln.split()
@@ -180,8 +190,10 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
             if "GAZE_COORDS" in ln:
                 r = _coords(ln, n)
                 if gaze_res is not None and r != gaze_res:
-                    raise AscError(f"line {n}: GAZE_COORDS {r[0]} x {r[1]} differs from the earlier {gaze_res[0]} x "
-                                   f"{gaze_res[1]}; split the file where the display changed")
+                    raise AscError(
+                        f"line {n}: GAZE_COORDS {r[0]} x {r[1]} differs from the earlier {gaze_res[0]} x "
+                        f"{gaze_res[1]}; split the file where the display changed"
+                    )
                 gaze_res = r
             elif "DISPLAY_COORDS" in ln:
                 display_res = _coords(ln, n)
@@ -196,11 +208,15 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
                 eye = {"L": "left", "R": "right"}[tok[1].upper()]
                 t0, t1 = float(tok[2]), float(tok[3])
             except (IndexError, KeyError, ValueError):
-                raise AscError(f"line {n}: cannot read the event {ln.strip()[:80]!r} (expected '{head} L|R START END ...')") from None
+                raise AscError(
+                    f"line {n}: cannot read the event {ln.strip()[:80]!r} (expected '{head} L|R START END ...')"
+                ) from None
             events.append(("saccade" if head == "ESACC" else "blink", eye, t0, t1))
     if cur is not None:
-        raise AscError(f"{name} looks truncated: the recording block that starts on line {cur['line']} has no END "
-                       "line (was the file cut short while copying or converting?)")
+        raise AscError(
+            f"{name} looks truncated: the recording block that starts on line {cur['line']} has no END "
+            "line (was the file cut short while copying or converting?)"
+        )
     if not blocks:
         raise AscError(f"{name}: no START/END block: not a recording of an EyeLink ASC file")
     times, block_ix, xs, ys = [], [], {e: [] for e in EYES}, {e: [] for e in EYES}
@@ -212,8 +228,10 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
         eyes = blk["eyes"] or ("left",)
         rate = blk["rate"] or rate_reccfg
         if not rate:
-            raise AscError(f"{name}: the block starting on line {blk['line']} has no sampling rate (no 'RATE' on its "
-                           "SAMPLES line and no RECCFG message)")
+            raise AscError(
+                f"{name}: the block starting on line {blk['line']} has no sampling rate (no 'RATE' on its "
+                "SAMPLES line and no RECCFG message)"
+            )
         rates.add(rate)
         remote |= blk["remote"]
         need = 1 + 3 * len(eyes)
@@ -232,15 +250,28 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
     if not times:
         raise AscError(f"{name}: no samples (was it converted with edf2asc -e, events only?)")
     if len(rates) > 1:
-        raise AscError(f"{name}: its blocks were sampled at different rates ({', '.join(f'{r:g}' for r in sorted(rates))} Hz); "
-                       "split the file by rate")
+        raise AscError(
+            f"{name}: its blocks were sampled at different rates ({', '.join(f'{r:g}' for r in sorted(rates))} Hz); "
+            "split the file by rate"
+        )
     t = np.concatenate(times)
     d = np.diff(t)
     if np.any(d <= 0):
         i = int(np.argmax(d <= 0)) + 1
         raise AscError(f"{name}: sample times go backwards or repeat (at {t[i]:g} ms): corrupt or concatenated file")
     recorded = {e for blk in blocks for e in (blk["eyes"] or ("left",)) if blk["rows"]}
-    res, src = (gaze_res, "GAZE_COORDS") if gaze_res else ((display_res, "DISPLAY_COORDS") if display_res else (None, None))
-    return AscData(t, np.concatenate(block_ix), {e: np.concatenate(xs[e]) for e in EYES if e in recorded},
-                   {e: np.concatenate(ys[e]) for e in EYES if e in recorded}, float(rates.pop()), res, src,
-                   events, remote, len(blocks))
+    res, src = (
+        (gaze_res, "GAZE_COORDS") if gaze_res else ((display_res, "DISPLAY_COORDS") if display_res else (None, None))
+    )
+    return AscData(
+        t,
+        np.concatenate(block_ix),
+        {e: np.concatenate(xs[e]) for e in EYES if e in recorded},
+        {e: np.concatenate(ys[e]) for e in EYES if e in recorded},
+        float(rates.pop()),
+        res,
+        src,
+        events,
+        remote,
+        len(blocks),
+    )

@@ -40,10 +40,27 @@ from .asc import AscError, parse_asc
 from .kinematics import SKEWNESS_MIN_RATE_HZ, THRESHOLD_DEG_S, engbert_kliegl, measure_saccade, speed_deg_s, steps_ok
 from .tables import PRESETS, TIME_UNITS, Columns, TableError, decode, read_table
 
-__all__ = ["Screen", "Recording", "RecordingError", "read_recording", "read_recordings", "detect_saccades",
-           "measure_saccade", "main_sequence_rows", "check_plausible", "write_recording", "speed_deg_s",
-           "synthetic_session", "FORMATS", "SKEWNESS_MIN_RATE_HZ", "BLINK_MARGIN_MS", "ROW_FIELDS", "EYE_CHOICES",
-           "MAX_PLAUSIBLE_VELOCITY_DEG_S", "PRESETS"]
+__all__ = [
+    "Screen",
+    "Recording",
+    "RecordingError",
+    "read_recording",
+    "read_recordings",
+    "detect_saccades",
+    "measure_saccade",
+    "main_sequence_rows",
+    "check_plausible",
+    "write_recording",
+    "speed_deg_s",
+    "synthetic_session",
+    "FORMATS",
+    "SKEWNESS_MIN_RATE_HZ",
+    "BLINK_MARGIN_MS",
+    "ROW_FIELDS",
+    "EYE_CHOICES",
+    "MAX_PLAUSIBLE_VELOCITY_DEG_S",
+    "PRESETS",
+]
 
 FORMATS = ("asc", "csv")
 EYE_CHOICES = ("left", "right", "both")
@@ -56,11 +73,15 @@ MAX_PLAUSIBLE_VELOCITY_DEG_S = 1000.0
 #: Share of implausible saccades above which the recording itself is refused (below: they are dropped).
 MAX_IMPLAUSIBLE_SHARE = 0.1
 PAUSE_PERIODS = 1.25
-ROW_FIELDS = ("saccade", "onset_ms", "amplitude_deg", "duration_ms", "peak_velocity_deg_s", "direction_deg",
-              "skewness")
+ROW_FIELDS = ("saccade", "onset_ms", "amplitude_deg", "duration_ms", "peak_velocity_deg_s", "direction_deg", "skewness")
 _SUFFIX_FORMAT = {".asc": "asc", ".csv": "csv", ".tsv": "csv", ".txt": "csv"}
-_SCREEN_RANGES = {"width_px": (16, 100_000), "height_px": (16, 100_000), "width_cm": (1.0, 2000.0),
-                  "height_cm": (1.0, 2000.0), "distance_cm": (5.0, 2000.0)}
+_SCREEN_RANGES = {
+    "width_px": (16, 100_000),
+    "height_px": (16, 100_000),
+    "width_cm": (1.0, 2000.0),
+    "height_cm": (1.0, 2000.0),
+    "distance_cm": (5.0, 2000.0),
+}
 
 
 class RecordingError(ValueError):
@@ -113,8 +134,10 @@ class Screen:
 
     def extent_deg(self) -> tuple[float, float]:
         """Width and height of the screen in degrees (edge to edge, from its centre)."""
-        return (2 * math.degrees(math.atan2(self.width_cm / 2, self.distance_cm)),
-                2 * math.degrees(math.atan2(self.height_cm / 2, self.distance_cm)))
+        return (
+            2 * math.degrees(math.atan2(self.width_cm / 2, self.distance_cm)),
+            2 * math.degrees(math.atan2(self.height_cm / 2, self.distance_cm)),
+        )
 
 
 @dataclass
@@ -182,8 +205,10 @@ def _format_of(path: Path, fmt: str | None) -> str:
     try:
         return _SUFFIX_FORMAT[path.suffix.lower()]
     except KeyError:
-        raise RecordingError(f"{path}: cannot tell the format from the suffix {path.suffix or '(none)'!r}; "
-                             "use .asc (EyeLink) or .csv/.tsv (samples), or give --format asc|csv") from None
+        raise RecordingError(
+            f"{path}: cannot tell the format from the suffix {path.suffix or '(none)'!r}; "
+            "use .asc (EyeLink) or .csv/.tsv (samples), or give --format asc|csv"
+        ) from None
 
 
 def _read_text(path: Path) -> str:
@@ -204,24 +229,31 @@ def _choose_eye(path: Path, have: dict, eye: str | None) -> tuple[str, str]:
     if eye is not None and eye != "both":
         if eye not in have:
             if names == ["gaze"]:
-                raise RecordingError(f"{path}: its gaze columns do not say which eye they are; leave out --eye "
-                                     "(or name a column of L/R with --columns ...,eye=NAME)")
-            raise RecordingError(f"{path}: no {eye} eye in this recording (it has {' and '.join(names)}); "
-                                 f"give --eye {names[0]}")
+                raise RecordingError(
+                    f"{path}: its gaze columns do not say which eye they are; leave out --eye "
+                    "(or name a column of L/R with --columns ...,eye=NAME)"
+                )
+            raise RecordingError(
+                f"{path}: no {eye} eye in this recording (it has {' and '.join(names)}); give --eye {names[0]}"
+            )
         return eye, "chosen with --eye"
     if len(names) == 1:
         return names[0], ("the only eye recorded" if names[0] != "gaze" else "one gaze column")
     lost = {e: float(np.mean(~np.isfinite(have[e]))) for e in names}
     best = min(names, key=lambda e: (lost[e], e != "left"))
     other = [e for e in names if e != best][0]
-    return best, (f"binocular file: the eye with fewer lost samples ({100 * lost[best]:.1f} % vs "
-                  f"{100 * lost[other]:.1f} % for the {other}; --eye both measures each)")
+    return best, (
+        f"binocular file: the eye with fewer lost samples ({100 * lost[best]:.1f} % vs "
+        f"{100 * lost[other]:.1f} % for the {other}; --eye both measures each)"
+    )
 
 
 def _asc_recordings(path: Path, text: str, screen: Screen | None, eye: str | None) -> list[Recording]:
     if not any(ln.startswith(("**", "MSG", "START")) for ln in text.splitlines()[:5000]):
-        raise RecordingError(f"{path} is not an EyeLink ASC file (no '**' header, MSG or START lines); "
-                             "give the edf2asc output, or --format csv for a CSV of samples")
+        raise RecordingError(
+            f"{path} is not an EyeLink ASC file (no '**' header, MSG or START lines); "
+            "give the edf2asc output, or --format csv for a CSV of samples"
+        )
     if not text.endswith("\n"):
         raise RecordingError(f"{path} looks truncated: its last line is incomplete")
     try:
@@ -232,20 +264,31 @@ def _asc_recordings(path: Path, text: str, screen: Screen | None, eye: str | Non
     res = data.resolution
     if screen is None:
         need = "WIDTH_CM HEIGHT_CM DISTANCE_CM" if res else "WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM"
-        why = f"(the resolution comes from the file's {data.resolution_source})" if res else \
-            "(the file has no GAZE_COORDS or DISPLAY_COORDS line, so the resolution too)"
-        raise RecordingError(f"{path}: the gaze is in pixels but the recording has no screen size or viewing "
-                             f"distance; give them: --screen {need} {why}")
+        why = (
+            f"(the resolution comes from the file's {data.resolution_source})"
+            if res
+            else "(the file has no GAZE_COORDS or DISPLAY_COORDS line, so the resolution too)"
+        )
+        raise RecordingError(
+            f"{path}: the gaze is in pixels but the recording has no screen size or viewing "
+            f"distance; give them: --screen {need} {why}"
+        )
     if res is None and screen.width_px is None:
-        raise RecordingError(f"{path}: no GAZE_COORDS or DISPLAY_COORDS line, so the screen's resolution is unknown; "
-                             "give all five numbers: --screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM")
+        raise RecordingError(
+            f"{path}: no GAZE_COORDS or DISPLAY_COORDS line, so the screen's resolution is unknown; "
+            "give all five numbers: --screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM"
+        )
     if res is not None and screen.width_px is not None and (screen.width_px, screen.height_px) != tuple(res):
-        raise RecordingError(f"{path}: --screen gives {screen.width_px} x {screen.height_px} px but the file's "
-                             f"{data.resolution_source} says {res[0]} x {res[1]}; give the three numbers "
-                             "WIDTH_CM HEIGHT_CM DISTANCE_CM to use the file's")
+        raise RecordingError(
+            f"{path}: --screen gives {screen.width_px} x {screen.height_px} px but the file's "
+            f"{data.resolution_source} says {res[0]} x {res[1]}; give the three numbers "
+            "WIDTH_CM HEIGHT_CM DISTANCE_CM to use the file's"
+        )
     scr = screen.with_resolution(*res) if res is not None else screen
-    notes = [f"resolution {scr.width_px} x {scr.height_px} px from "
-             f"{data.resolution_source if res is not None else '--screen'}"]
+    notes = [
+        f"resolution {scr.width_px} x {scr.height_px} px from "
+        f"{data.resolution_source if res is not None else '--screen'}"
+    ]
     if data.remote:
         notes.append("remote mode (HTARGET)")
     eyes = list(data.eyes) if eye == "both" else [_choose_eye(path, data.x_px, eye)[0]]
@@ -256,14 +299,36 @@ def _asc_recordings(path: Path, text: str, screen: Screen | None, eye: str | Non
         ev = [(k, a, b) for k, ee, a, b in data.events if ee == e]
         blinks = [(a, b) for k, a, b in ev if k == "blink"]
         sacc = [(a, b) for k, a, b in ev if k == "saccade"]
-        rec = Recording(path, "asc", data.times_ms, x, y, data.rate_hz, blinks, sacc or None, scr, "px", e, reason,
-                        data.block, list(notes))
+        rec = Recording(
+            path,
+            "asc",
+            data.times_ms,
+            x,
+            y,
+            data.rate_hz,
+            blinks,
+            sacc or None,
+            scr,
+            "px",
+            e,
+            reason,
+            data.block,
+            list(notes),
+        )
         out.append(_finish(rec))
     return out
 
 
-def _table_recordings(path: Path, text: str, screen: Screen | None, eye: str | None, columns: Columns | None,
-                      preset: str | None, time_unit: str | None, units: str | None) -> list[Recording]:
+def _table_recordings(
+    path: Path,
+    text: str,
+    screen: Screen | None,
+    eye: str | None,
+    columns: Columns | None,
+    preset: str | None,
+    time_unit: str | None,
+    units: str | None,
+) -> list[Recording]:
     try:
         tab = read_table(text, str(path), columns, preset)
     except TableError as e:
@@ -277,14 +342,17 @@ def _table_recordings(path: Path, text: str, screen: Screen | None, eye: str | N
     if tu not in TIME_UNITS:
         raise RecordingError(f"unknown time unit {tu!r}; choose one of {', '.join(TIME_UNITS)}")
     if un is None:
-        raise RecordingError(f"{path}: cannot tell whether {col.x!r} is in pixels or degrees; give --units px or "
-                             "--units deg")
+        raise RecordingError(
+            f"{path}: cannot tell whether {col.x!r} is in pixels or degrees; give --units px or --units deg"
+        )
     if un not in ("px", "deg"):
         raise RecordingError(f"unknown gaze unit {un!r}; choose px or deg")
     if un == "px" and (screen is None or screen.width_px is None):
-        raise RecordingError(f"{path}: the gaze is in pixels ({col.x}, {col.y}) but no screen geometry was given; give "
-                             "the screen geometry: --screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM, or "
-                             "write the gaze in degrees (columns x_deg, y_deg)")
+        raise RecordingError(
+            f"{path}: the gaze is in pixels ({col.x}, {col.y}) but no screen geometry was given; give "
+            "the screen geometry: --screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM, or "
+            "write the gaze in degrees (columns x_deg, y_deg)"
+        )
     have = tab.x
     chosen = list(have) if eye == "both" else [_choose_eye(path, have, eye)[0]]
     out = []
@@ -295,29 +363,58 @@ def _table_recordings(path: Path, text: str, screen: Screen | None, eye: str | N
         if len(t) < 10:
             raise RecordingError(f"{path}: fewer than 10 samples")
         if not np.all(np.isfinite(t)):
-            raise RecordingError(f"{path}: the time column {col.time!r} has a missing value (sample "
-                                 f"{int(np.argmax(~np.isfinite(t))) + 1})")
+            raise RecordingError(
+                f"{path}: the time column {col.time!r} has a missing value (sample "
+                f"{int(np.argmax(~np.isfinite(t))) + 1})"
+            )
         d = np.diff(t)
         if np.any(d <= 0):
             i = int(np.argmax(d <= 0)) + 1
-            raise RecordingError(f"{path}: the time column {col.time!r} must increase strictly; sample {i + 1} "
-                                 f"({tab.time[e][i]:g}) does not: corrupt or concatenated file")
+            raise RecordingError(
+                f"{path}: the time column {col.time!r} must increase strictly; sample {i + 1} "
+                f"({tab.time[e][i]:g}) does not: corrupt or concatenated file"
+            )
         period = float(np.median(d))
         rate = 1000.0 / period
         if not 20.0 <= rate <= 10_000.0:
-            guess = {r: u for u, r in (("us", rate * 1000.0), ("s", rate / 1000.0), ("ms", rate * TIME_UNITS[tu]))
-                     if 20.0 <= r <= 10_000.0}
-            hint = (f"; is the time in {', '.join(sorted(set(guess.values())))}? give --time-unit "
-                    f"{next(iter(guess.values()))}") if guess else ""
-            raise RecordingError(f"{path}: the median sample interval is {period:g} ms ({rate:.3g} Hz) with the time in "
-                                 f"{tu}: no eye tracker samples at that rate{hint}")
+            guess = {
+                r: u
+                for u, r in (("us", rate * 1000.0), ("s", rate / 1000.0), ("ms", rate * TIME_UNITS[tu]))
+                if 20.0 <= r <= 10_000.0
+            }
+            hint = (
+                (
+                    f"; is the time in {', '.join(sorted(set(guess.values())))}? give --time-unit "
+                    f"{next(iter(guess.values()))}"
+                )
+                if guess
+                else ""
+            )
+            raise RecordingError(
+                f"{path}: the median sample interval is {period:g} ms ({rate:.3g} Hz) with the time in "
+                f"{tu}: no eye tracker samples at that rate{hint}"
+            )
         if col.fraction:
             x, y = x * screen.width_px, y * screen.height_px
         if un == "px":
             x, y = screen.px2deg(x, y)
         block = np.concatenate([[0], np.cumsum(d > PAUSE_PERIODS * period)])
-        rec = Recording(path, "csv", t, x, y, rate, [], None, screen, un, e if e != "gaze" else "unnamed", reason,
-                        block, [f"columns {col.time}, {col.x}, {col.y} ({col.source or 'named'}); time in {tu}"])
+        rec = Recording(
+            path,
+            "csv",
+            t,
+            x,
+            y,
+            rate,
+            [],
+            None,
+            screen,
+            un,
+            e if e != "gaze" else "unnamed",
+            reason,
+            block,
+            [f"columns {col.time}, {col.x}, {col.y} ({col.source or 'named'}); time in {tu}"],
+        )
         out.append(_finish(rec))
     return out
 
@@ -328,9 +425,17 @@ def _finish(rec: Recording) -> Recording:
     return rec
 
 
-def read_recordings(path, *, screen: Screen | None = None, fmt: str | None = None, eye: str | None = None,
-                    columns: Columns | None = None, preset: str | None = None, time_unit: str | None = None,
-                    units: str | None = None) -> list[Recording]:
+def read_recordings(
+    path,
+    *,
+    screen: Screen | None = None,
+    fmt: str | None = None,
+    eye: str | None = None,
+    columns: Columns | None = None,
+    preset: str | None = None,
+    time_unit: str | None = None,
+    units: str | None = None,
+) -> list[Recording]:
     """Read an EyeLink ASC file or a CSV/TSV of samples (module docstring) into degrees: one
     :class:`Recording` per eye measured (``eye='both'``: each eye recorded; else one). Raises
     :class:`RecordingError` naming the problem for anything unusable."""
@@ -347,8 +452,10 @@ def read_recordings(path, *, screen: Screen | None = None, fmt: str | None = Non
         raise RecordingError(f"{path} is empty")
     if kind == "asc":
         if columns is not None or preset is not None or time_unit is not None or units is not None:
-            raise RecordingError(f"{path}: --columns, --preset, --time-unit and --units are for CSV/TSV files; an ASC "
-                                 "file says its own layout")
+            raise RecordingError(
+                f"{path}: --columns, --preset, --time-unit and --units are for CSV/TSV files; an ASC "
+                "file says its own layout"
+            )
         return _asc_recordings(path, text, screen, eye)
     first = next((ln for ln in text.splitlines() if ln.strip() and not ln.startswith("#")), "")
     if first.startswith("**") or first.startswith("MSG"):
@@ -374,7 +481,9 @@ def detect_saccades(rec: Recording, method: str = "auto", *, min_amplitude_deg: 
         raise RecordingError(f"unknown detection method {method!r}; choose auto, file or engbert")
     t = rec.times_ms
     if method == "file" and rec.file_saccades_ms is None:
-        raise RecordingError(f"{rec.path} has no saccade events of its own (ESACC) for the {rec.eye} eye; use --detect engbert")
+        raise RecordingError(
+            f"{rec.path} has no saccade events of its own (ESACC) for the {rec.eye} eye; use --detect engbert"
+        )
     if method in ("file", "auto") and rec.file_saccades_ms:
         events = rec.file_saccades_ms
     else:
@@ -391,7 +500,7 @@ def detect_saccades(rec: Recording, method: str = "auto", *, min_amplitude_deg: 
         i0, i1 = int(np.searchsorted(t, on)), int(np.searchsorted(t, off, side="right")) - 1
         if i1 - i0 < 1:
             continue
-        seg_x, seg_y = rec.x_deg[i0:i1 + 1], rec.y_deg[i0:i1 + 1]
+        seg_x, seg_y = rec.x_deg[i0 : i1 + 1], rec.y_deg[i0 : i1 + 1]
         if math.hypot(np.ptp(seg_x), np.ptp(seg_y)) < min_amplitude_deg:
             continue
         out.append((i0, i1))
@@ -422,7 +531,7 @@ def main_sequence_rows(rec: Recording, saccades: list[tuple[int, int]] | None = 
         lo, hi = max(i0 - pad, 0), min(i1 + pad, len(t) - 1)
         lo = max(lo, int(np.searchsorted(stretch, stretch[i0])))  # the search stays in the saccade's stretch
         hi = min(hi, int(np.searchsorted(stretch, stretch[i0], side="right")) - 1)
-        seg = s[lo:hi + 1]
+        seg = s[lo : hi + 1]
         if hi < lo or not np.any(np.isfinite(seg)):
             continue
         ip = lo + int(np.nanargmax(seg))
@@ -439,15 +548,24 @@ def main_sequence_rows(rec: Recording, saccades: list[tuple[int, int]] | None = 
         post = same & (t >= off + POST_WINDOW_MS[0]) & (t <= min(off + POST_WINDOW_MS[1], next_start))
         if pre.sum() < 2 or post.sum() < 2:
             continue
-        x0, y0, x1, y1 = (float(np.nanmedian(v[w])) if np.isfinite(v[w]).any() else math.nan
-                          for v, w in ((x, pre), (y, pre), (x, post), (y, post)))
+        x0, y0, x1, y1 = (
+            float(np.nanmedian(v[w])) if np.isfinite(v[w]).any() else math.nan
+            for v, w in ((x, pre), (y, pre), (x, post), (y, post))
+        )
         if not all(map(math.isfinite, (x0, y0, x1, y1))):
             continue
         peaks.add(ip)
-        rows.append({"saccade": len(rows) + 1, "onset_ms": round(on, 2), "amplitude_deg": round(math.hypot(x1 - x0, y1 - y0), 4),
-                     "duration_ms": round(off - on, 3), "peak_velocity_deg_s": round(pk, 2),
-                     "direction_deg": round(math.degrees(math.atan2(y1 - y0, x1 - x0)), 2),
-                     "skewness": round(skew, 4) if math.isfinite(skew) else math.nan})
+        rows.append(
+            {
+                "saccade": len(rows) + 1,
+                "onset_ms": round(on, 2),
+                "amplitude_deg": round(math.hypot(x1 - x0, y1 - y0), 4),
+                "duration_ms": round(off - on, 3),
+                "peak_velocity_deg_s": round(pk, 2),
+                "direction_deg": round(math.degrees(math.atan2(y1 - y0, x1 - x0)), 2),
+                "skewness": round(skew, 4) if math.isfinite(skew) else math.nan,
+            }
+        )
     return rows
 
 
@@ -472,18 +590,24 @@ def check_plausible(rec: Recording, rows: list[dict]) -> tuple[list[dict], list[
     dur = float(np.median([r["duration_ms"] for r in bad]))
     span = float(np.nanmax(np.abs(np.concatenate([rec.x_deg, rec.y_deg]))))
     if rec.units == "deg" and span > 90.0:
-        cause = (f"gaze reaches {span:.0f} deg from the centre: pixels in degree columns? give --units px and "
-                 "--screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM")
+        cause = (
+            f"gaze reaches {span:.0f} deg from the centre: pixels in degree columns? give --units px and "
+            "--screen WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM"
+        )
     elif amp > limit or (rec.units == "px" and amp > 0.6 * limit):
         cause = "saccades as large as the screen: wrong screen geometry? check --screen (sizes in cm, distance in cm)"
     elif dur < 8.0 or dur > 400.0:
-        cause = (f"median duration {dur:.1f} ms: wrong time unit? check --time-unit (ms, us or s)")
+        cause = f"median duration {dur:.1f} ms: wrong time unit? check --time-unit (ms, us or s)"
     else:
-        cause = ("wrong screen geometry (distance or size in cm) or a wrong time unit (--time-unit); or a very noisy "
-                 "recording")
-    raise RecordingError(f"{rec.path}: {len(bad)} of {len(rows)} saccades are implausible (above "
-                         f"{MAX_PLAUSIBLE_VELOCITY_DEG_S:.0f} deg/s or larger than {where}; median {amp:.1f} deg at "
-                         f"{pv:.0f} deg/s); probable cause: {cause}")
+        cause = (
+            "wrong screen geometry (distance or size in cm) or a wrong time unit (--time-unit); or a very noisy "
+            "recording"
+        )
+    raise RecordingError(
+        f"{rec.path}: {len(bad)} of {len(rows)} saccades are implausible (above "
+        f"{MAX_PLAUSIBLE_VELOCITY_DEG_S:.0f} deg/s or larger than {where}; median {amp:.1f} deg at "
+        f"{pv:.0f} deg/s); probable cause: {cause}"
+    )
 
 
 def write_rows(rows: list[dict], path) -> None:
@@ -494,9 +618,26 @@ def write_rows(rows: list[dict], path) -> None:
 
 
 # ---------------------------------------------------------------------------------------- writing
-def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: float, screen: Screen | None = None,
-                    blinks=(), saccades=(), units: str = "px", seed: int = 0, eyes: str = "left", right=None,
-                    coords: str = "gaze", remote: bool = False, blocks=None, whole_ms: bool = False) -> Path:
+def write_recording(
+    path,
+    times_ms,
+    x_deg,
+    y_deg,
+    *,
+    fmt: str = "asc",
+    rate_hz: float,
+    screen: Screen | None = None,
+    blinks=(),
+    saccades=(),
+    units: str = "px",
+    seed: int = 0,
+    eyes: str = "left",
+    right=None,
+    coords: str = "gaze",
+    remote: bool = False,
+    blocks=None,
+    whole_ms: bool = False,
+) -> Path:
     """Write gaze (degrees, y up; NaN = track loss) as an EyeLink ASC file or a CSV of samples.
 
     ASC: an ``edf2asc``-like file: header, ``GAZE_COORDS`` (``coords='gaze'``; ``'display'``: only
@@ -550,10 +691,16 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
         for s0, s1 in sacc_of.get(e, ()):
             i0, i1 = int(np.searchsorted(t, s0)), min(int(np.searchsorted(t, s1)), len(t) - 1)
             amp = math.hypot(ex[i1] - ex[i0], ey[i1] - ey[i0])
-            sp = speed_deg_s(ex[max(i0 - 3, 0):i1 + 4], ey[max(i0 - 3, 0):i1 + 4], 1000.0 / rate_hz)
+            sp = speed_deg_s(ex[max(i0 - 3, 0) : i1 + 4], ey[max(i0 - 3, 0) : i1 + 4], 1000.0 / rate_hz)
             events.append((s0, 1, f"SSACC {L}  {tf(s0)}"))
-            events.append((s1, 3, f"ESACC {L}  {tf(s0)}\t{tf(s1)}\t{int(round(s1 - s0 + 1000 / rate_hz))}\t{px[i0]:7.1f}\t"
-                                  f"{py[i0]:7.1f}\t{px[i1]:7.1f}\t{py[i1]:7.1f}\t{amp:6.2f}\t{np.nanmax(sp):7.0f}"))
+            events.append(
+                (
+                    s1,
+                    3,
+                    f"ESACC {L}  {tf(s0)}\t{tf(s1)}\t{int(round(s1 - s0 + 1000 / rate_hz))}\t{px[i0]:7.1f}\t"
+                    f"{py[i0]:7.1f}\t{px[i1]:7.1f}\t{py[i1]:7.1f}\t{amp:6.2f}\t{np.nanmax(sp):7.0f}",
+                )
+            )
     events.sort(key=lambda ev: (ev[0], ev[1]))
     w, h = screen.width_px, screen.height_px
     t0 = t[0]
@@ -572,13 +719,17 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
     ]
     if coords in ("gaze", "display"):
         head.append(f"MSG\t{tf(t0 - 10)} DISPLAY_COORDS 0 0 {w - 1} {h - 1}")
-    head.append(f"MSG\t{tf(t0 - 10)} RECCFG CR {int(round(rate_hz))} 2 1 {'LR' if eyes == 'both' else which[0][0].upper()}")
+    head.append(
+        f"MSG\t{tf(t0 - 10)} RECCFG CR {int(round(rate_hz))} 2 1 {'LR' if eyes == 'both' else which[0][0].upper()}"
+    )
     if coords == "gaze":
         head.append(f"MSG\t{tf(t0 - 10)} GAZE_COORDS 0.00 0.00 {w - 1:.2f} {h - 1:.2f}")
     elif coords != "display" and coords != "none":
         raise ValueError(f"coords must be 'gaze', 'display' or 'none'; got {coords!r}")
-    samples_line = (f"SAMPLES\tGAZE\t{eye_words}{chr(9) + 'HTARGET' if remote else ''}\tRATE\t{rate_hz:7.2f}"
-                    "\tTRACKING\tCR\tFILTER\t2")
+    samples_line = (
+        f"SAMPLES\tGAZE\t{eye_words}{chr(9) + 'HTARGET' if remote else ''}\tRATE\t{rate_hz:7.2f}"
+        "\tTRACKING\tCR\tFILTER\t2"
+    )
     spans = [(t[0], t[-1])] if blocks is None else list(blocks)
     pupil = 800.0 + rng.normal(0, 5, len(t))
     out = head
@@ -589,8 +740,14 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
         idx = np.flatnonzero((t >= b0) & (t <= b1))
         if not len(idx):
             continue
-        out += [f"START\t{tf(t[idx[0]])} \t{eye_words}\tSAMPLES\tEVENTS", "PRESCALER\t1", "VPRESCALER\t1", "PUPIL\tAREA",
-                samples_line.replace("SAMPLES", "EVENTS", 1), samples_line]
+        out += [
+            f"START\t{tf(t[idx[0]])} \t{eye_words}\tSAMPLES\tEVENTS",
+            "PRESCALER\t1",
+            "VPRESCALER\t1",
+            "PUPIL\tAREA",
+            samples_line.replace("SAMPLES", "EVENTS", 1),
+            samples_line,
+        ]
         for i in idx:
             while e_i < len(events) and events[e_i][0] <= t[i] and events[e_i][1] in (0, 1):
                 out.append(events[e_i][2])
@@ -611,8 +768,17 @@ def write_recording(path, times_ms, x_deg, y_deg, *, fmt: str = "asc", rate_hz: 
     return path
 
 
-def synthetic_session(generator=None, *, n_saccades: int = 60, rate_hz: float = 500.0, noise_deg: float = 0.02,
-                      n_blinks: int = 3, amplitudes=(2.0, 30.0), seed: int = 0, t0_ms: float = 1_000_000.0):
+def synthetic_session(
+    generator=None,
+    *,
+    n_saccades: int = 60,
+    rate_hz: float = 500.0,
+    noise_deg: float = 0.02,
+    n_blinks: int = 3,
+    amplitudes=(2.0, 30.0),
+    seed: int = 0,
+    t0_ms: float = 1_000_000.0,
+):
     """A recording made from the generator's own traces (nominal plant): ``n_saccades`` saccades of
     uniformly drawn amplitudes in random directions (kept within +-20 x +-12 deg), fixations of
     300-600 ms between them, Gaussian tracker noise, and ``n_blinks`` 100-200 ms blinks in
@@ -661,6 +827,12 @@ def synthetic_session(generator=None, *, n_saccades: int = 60, rate_hz: float = 
             blinks.append((float(t[m][0]), float(t[m][-1])))
     # snap event times to samples
     sacc_s = [(float(t[np.searchsorted(t, a)]), float(t[min(np.searchsorted(t, b), len(t) - 1)])) for a, b in sacc]
-    return dict(times_ms=t + t0_ms, x_deg=x, y_deg=y, blinks=[(a + t0_ms, b + t0_ms) for a, b in blinks],
-                saccades=[(a + t0_ms, b + t0_ms) for a, b in sacc_s], amplitudes=np.array([p[1] for p in plan]),
-                directions=np.degrees([p[2] for p in plan]))
+    return dict(
+        times_ms=t + t0_ms,
+        x_deg=x,
+        y_deg=y,
+        blinks=[(a + t0_ms, b + t0_ms) for a, b in blinks],
+        saccades=[(a + t0_ms, b + t0_ms) for a, b in sacc_s],
+        amplitudes=np.array([p[1] for p in plan]),
+        directions=np.degrees([p[2] for p in plan]),
+    )

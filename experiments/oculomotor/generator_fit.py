@@ -36,7 +36,19 @@ from models.saccade_generator import PARAMETER_BOUNDS
 
 from ..folders import save_figure
 
-__all__ = ["FitResult", "fit_generator", "identifiability", "coverage", "BOUND_TOLERANCE", "PARAMETER_BOUNDS", "predict", "plot_main_sequence", "DEFAULT_FIT", "FITTABLE", "DEFAULT_BOOTSTRAP"]
+__all__ = [
+    "FitResult",
+    "fit_generator",
+    "identifiability",
+    "coverage",
+    "BOUND_TOLERANCE",
+    "PARAMETER_BOUNDS",
+    "predict",
+    "plot_main_sequence",
+    "DEFAULT_FIT",
+    "FITTABLE",
+    "DEFAULT_BOOTSTRAP",
+]
 
 DEFAULT_FIT = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms")
 FITTABLE = ("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms", "adaptation_gain", "adaptation_ms", "plant_t2_ms")
@@ -85,22 +97,30 @@ class FitResult:
 
         if self.problems:
             raise ValueError(f"this fit is not identified ({'; '.join(self.problems)}): no generator file is written")
-        extra = json_safe(dict(fitted=list(self.fitted), kept_default=self.kept_default, at_bounds=list(self.at_bounds),
-                               ci95={k: [float(v[0]), float(v[1])] for k, v in self.ci95.items()},
-                               estimates={k: float(v) for k, v in self.estimates.items()},
-                               n_saccades=self.n_saccades, sampling_rate_hz=self.rate_hz,
-                               tracker_noise_deg=self.extra.get("noise_deg", 0.0),
-                               residual_sd=self.residual_sd,
-                               ci95_asymptotic={k: [float(v[0]), float(v[1])]
-                                                for k, v in self.extra.get("ci95_asymptotic", {}).items()},
-                               bootstrap_replicates=self.extra.get("bootstrap", 0),
-                               ci_scale=self.extra.get("ci_scale"),
-                               method="least squares on log peak velocity and log duration vs amplitude; "
-                                      "95% CIs from a bootstrap over saccades (percentile, log scale, widened "
-                                      "about the estimate by ci_scale, calibrated by simulation; "
-                                      "ci95_asymptotic: from the Jacobian)",
-                               bounds={k: list(PARAMETER_BOUNDS[k]) for k in self.fitted},
-                               source=source))
+        extra = json_safe(
+            dict(
+                fitted=list(self.fitted),
+                kept_default=self.kept_default,
+                at_bounds=list(self.at_bounds),
+                ci95={k: [float(v[0]), float(v[1])] for k, v in self.ci95.items()},
+                estimates={k: float(v) for k, v in self.estimates.items()},
+                n_saccades=self.n_saccades,
+                sampling_rate_hz=self.rate_hz,
+                tracker_noise_deg=self.extra.get("noise_deg", 0.0),
+                residual_sd=self.residual_sd,
+                ci95_asymptotic={
+                    k: [float(v[0]), float(v[1])] for k, v in self.extra.get("ci95_asymptotic", {}).items()
+                },
+                bootstrap_replicates=self.extra.get("bootstrap", 0),
+                ci_scale=self.extra.get("ci_scale"),
+                method="least squares on log peak velocity and log duration vs amplitude; "
+                "95% CIs from a bootstrap over saccades (percentile, log scale, widened "
+                "about the estimate by ci_scale, calibrated by simulation; "
+                "ci95_asymptotic: from the Jacobian)",
+                bounds={k: list(PARAMETER_BOUNDS[k]) for k in self.fitted},
+                source=source,
+            )
+        )
         self.generator.to_file(path, **extra)
 
 
@@ -165,8 +185,12 @@ def predict(generator, amplitudes_deg, rate_hz: float, noise_deg: float = 0.0, p
     phases = phases or (_PHASES if noise_deg <= 0 else 4 * _PHASES)
     rng = np.random.default_rng(12345)
     t, p, k = _traces(generator, A, rate_hz)
-    m = np.stack([_measure(t, p, k, rate_hz, noise_deg, rng, np.full(len(A), int(round(ph * k / phases))))
-                  for ph in range(phases)])
+    m = np.stack(
+        [
+            _measure(t, p, k, rate_hz, noise_deg, rng, np.full(len(A), int(round(ph * k / phases))))
+            for ph in range(phases)
+        ]
+    )
     return dict(zip(("amplitude_deg", "peak_velocity_deg_s", "duration_ms", "skewness"), m.mean(axis=0)))
 
 
@@ -190,8 +214,17 @@ def _rows_arrays(rows) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return A[ok], pv[ok], du[ok]
 
 
-def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0.0, start=None,
-                  bootstrap: int = DEFAULT_BOOTSTRAP, seed: int = 0, ci_scale: float = None) -> FitResult:
+def fit_generator(
+    rows,
+    *,
+    fit=DEFAULT_FIT,
+    rate_hz: float,
+    noise_deg: float = 0.0,
+    start=None,
+    bootstrap: int = DEFAULT_BOOTSTRAP,
+    seed: int = 0,
+    ci_scale: float = None,
+) -> FitResult:
     """Least-squares fit of the generator parameters ``fit`` to the main sequence ``rows`` of a
     recording sampled at ``rate_hz`` with tracker noise ``noise_deg`` (``Recording.noise_deg``;
     module docstring). ``start``: a ``BurstGenerator`` to start from and to take the unfitted
@@ -206,9 +239,13 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
     fit = tuple(fit)
     bad = [f for f in fit if f not in FITTABLE]
     if bad or not fit or len(set(fit)) != len(fit):
-        raise ValueError(f"parameters to fit must be distinct names among {', '.join(FITTABLE)}; got {', '.join(fit) or '(none)'}")
+        raise ValueError(
+            f"parameters to fit must be distinct names among {', '.join(FITTABLE)}; got {', '.join(fit) or '(none)'}"
+        )
     if bootstrap != 0 and not (isinstance(bootstrap, int) and 20 <= bootstrap <= 10_000):
-        raise ValueError(f"bootstrap must be 0 (asymptotic CIs) or a whole number of replicates in [20, 10000]; got {bootstrap!r}")
+        raise ValueError(
+            f"bootstrap must be 0 (asymptotic CIs) or a whole number of replicates in [20, 10000]; got {bootstrap!r}"
+        )
     A, pv, du = _rows_arrays(rows)
     need = max(5, 2 * len(fit))
     if len(A) < need:
@@ -268,13 +305,18 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
         grid = _grid(amp_lo, amp_hi)
         noisy = predict(g, grid, rate_hz, noise_deg, phases=_NOISE_DRAWS)
         clean_all = predict(g, grid, rate_hz)  # the clean curves of ``raw`` before their NaN filter
-        if not all(np.isfinite(d[k]).all() for d in (noisy, clean_all)
-                   for k in ("amplitude_deg", "peak_velocity_deg_s", "duration_ms")):
+        if not all(
+            np.isfinite(d[k]).all()
+            for d in (noisy, clean_all)
+            for k in ("amplitude_deg", "peak_velocity_deg_s", "duration_ms")
+        ):
             break
         order = np.argsort(clean_all["amplitude_deg"])
-        bias = [(noisy["amplitude_deg"] - clean_all["amplitude_deg"])[order],
-                np.log(noisy["peak_velocity_deg_s"] / clean_all["peak_velocity_deg_s"])[order],
-                np.log(noisy["duration_ms"] / clean_all["duration_ms"])[order]]
+        bias = [
+            (noisy["amplitude_deg"] - clean_all["amplitude_deg"])[order],
+            np.log(noisy["peak_velocity_deg_s"] / clean_all["peak_velocity_deg_s"])[order],
+            np.log(noisy["duration_ms"] / clean_all["duration_ms"])[order],
+        ]
         res = least_squares(resid, res.x, **kw)
     # asymptotic CIs: the Jacobian by central differences over +-3 % of each parameter (the forward
     # model's threshold crossings and grid make it piecewise smooth: the optimiser's 0.1 % steps can
@@ -293,7 +335,9 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
     except np.linalg.LinAlgError:
         se = np.full(len(fit), np.inf)
     with np.errstate(over="ignore", invalid="ignore"):
-        asym = {f: (float(from_x(res.x - 1.96 * se)[i]), float(from_x(res.x + 1.96 * se)[i])) for i, f in enumerate(fit)}
+        asym = {
+            f: (float(from_x(res.x - 1.96 * se)[i]), float(from_x(res.x + 1.96 * se)[i])) for i, f in enumerate(fit)
+        }
     ci, boot_x = asym, None
     if bootstrap:
         # bootstrap over saccades: the recorded saccades resampled with replacement, each resample fitted
@@ -317,17 +361,32 @@ def fit_generator(rows, *, fit=DEFAULT_FIT, rate_hz: float, noise_deg: float = 0
     r = raw(res.x, (A, pv, du))
     gen = gen_of(res.x)
     kept = {f.name: getattr(gen, f.name) for f in dataclasses.fields(gen) if f.name not in fit}
-    extra = {"noise_deg": float(noise_deg), "ci95_asymptotic": asym,
-             "bootstrap": 0 if boot_x is None else int(len(boot_x)),
-             "ci_scale": (CI_SCALE if ci_scale is None else float(ci_scale)) if ci is not asym else None}
+    extra = {
+        "noise_deg": float(noise_deg),
+        "ci95_asymptotic": asym,
+        "bootstrap": 0 if boot_x is None else int(len(boot_x)),
+        "ci_scale": (CI_SCALE if ci_scale is None else float(ci_scale)) if ci is not asym else None,
+    }
     at_bounds, problems = identifiability(fit, res.x, lo, hi, ci, from_x)
     try:
         gen.profile(1.0)  # builds the table: the peak-velocity ceiling is a joint bound of the parameters
     except ValueError as exc:
         problems.append(f"the fitted generator exceeds the peak-velocity ceiling ({str(exc).split(';')[0]})")
-    return FitResult(gen, fit, {f: float(v) for f, v in zip(fit, est)}, ci, kept, n, float(rate_hz),
-                     {"peak_velocity_rel": float(np.std(r[:n])), "duration_rel": float(np.std(r[n:]))},
-                     bool(res.success), str(res.message), extra, at_bounds, problems)
+    return FitResult(
+        gen,
+        fit,
+        {f: float(v) for f, v in zip(fit, est)},
+        ci,
+        kept,
+        n,
+        float(rate_hz),
+        {"peak_velocity_rel": float(np.std(r[:n])), "duration_rel": float(np.std(r[n:]))},
+        bool(res.success),
+        str(res.message),
+        extra,
+        at_bounds,
+        problems,
+    )
 
 
 #: An estimate this close to a bound (share of the parameter's range on the fit's scale) is on it.
@@ -346,19 +405,34 @@ def identifiability(fit, x, lo, hi, ci, from_x) -> tuple[list[str], list[str]]:
         if x[i] - lo[i] <= BOUND_TOLERANCE * span or hi[i] - x[i] <= BOUND_TOLERANCE * span:
             at.append(f)
             side = "lower" if x[i] - lo[i] <= BOUND_TOLERANCE * span else "upper"
-            problems.append(f"{f} = {float(from_x(x)[i]):.4g} is on its {side} bound ({b_lo if side == 'lower' else b_hi:g})")
+            problems.append(
+                f"{f} = {float(from_x(x)[i]):.4g} is on its {side} bound ({b_lo if side == 'lower' else b_hi:g})"
+            )
         c_lo, c_hi = ci[f]
         if not (np.isfinite(c_lo) and np.isfinite(c_hi)) or (c_hi - c_lo) >= (b_hi - b_lo):
-            problems.append(f"the 95% CI of {f} [{c_lo:.4g}, {c_hi:.4g}] is as wide as its whole range [{b_lo:g}, {b_hi:g}]")
+            problems.append(
+                f"the 95% CI of {f} [{c_lo:.4g}, {c_hi:.4g}] is as wide as its whole range [{b_lo:g}, {b_hi:g}]"
+            )
         elif f not in at and (c_lo <= b_lo or c_hi >= b_hi):  # near a bound the data do not exclude
-            problems.append(f"the 95% CI of {f} [{c_lo:.4g}, {c_hi:.4g}] reaches its "
-                            f"{'lower' if c_lo <= b_lo else 'upper'} bound ({b_lo if c_lo <= b_lo else b_hi:g})")
+            problems.append(
+                f"the 95% CI of {f} [{c_lo:.4g}, {c_hi:.4g}] reaches its "
+                f"{'lower' if c_lo <= b_lo else 'upper'} bound ({b_lo if c_lo <= b_lo else b_hi:g})"
+            )
     return at, problems
 
 
-def coverage(truth: dict, *, n_sessions: int = 20, n_saccades: int = 60, rate_hz: float = 500.0,
-             noise_deg: float = 0.02, bootstrap: int = 40, seed: int = 0, ci_scale: float = None,
-             progress=None) -> dict:
+def coverage(
+    truth: dict,
+    *,
+    n_sessions: int = 20,
+    n_saccades: int = 60,
+    rate_hz: float = 500.0,
+    noise_deg: float = 0.02,
+    bootstrap: int = 40,
+    seed: int = 0,
+    ci_scale: float = None,
+    progress=None,
+) -> dict:
     """How often the 95 % CIs hold the generating values: ``n_sessions`` recordings simulated from
     ``BurstGenerator(**truth)`` (``eyetracking.synthetic_session``: random amplitudes 2-30 deg,
     directions, blinks, Gaussian tracker noise; seeds ``seed``, ``seed + 1``, ...), each measured and
@@ -376,8 +450,15 @@ def coverage(truth: dict, *, n_sessions: int = 20, n_saccades: int = 60, rate_hz
         s = et.synthetic_session(gen, n_saccades=n_saccades, rate_hz=rate_hz, noise_deg=noise_deg, seed=seed + i)
         rec = et.Recording(et.Path(f"session{i}"), "csv", s["times_ms"], s["x_deg"], s["y_deg"], rate_hz)
         rows = et.main_sequence_rows(rec)
-        f = fit_generator(rows, fit=fit_names, rate_hz=rate_hz, noise_deg=rec.noise_deg, bootstrap=bootstrap,
-                          seed=seed + i, ci_scale=ci_scale)
+        f = fit_generator(
+            rows,
+            fit=fit_names,
+            rate_hz=rate_hz,
+            noise_deg=rec.noise_deg,
+            bootstrap=bootstrap,
+            seed=seed + i,
+            ci_scale=ci_scale,
+        )
         for k in fit_names:
             est[k].append(f.estimates[k])
             cis[k].append(list(f.ci95[k]))

@@ -28,8 +28,18 @@ import math
 
 import numpy as np
 
-__all__ = ["THRESHOLD_DEG_S", "SG_SPAN_MS", "sg_half_window", "steps_ok", "velocity", "speed_deg_s",
-           "crossing", "measure_saccade", "engbert_kliegl", "SKEWNESS_MIN_RATE_HZ"]
+__all__ = [
+    "THRESHOLD_DEG_S",
+    "SG_SPAN_MS",
+    "sg_half_window",
+    "steps_ok",
+    "velocity",
+    "speed_deg_s",
+    "crossing",
+    "measure_saccade",
+    "engbert_kliegl",
+    "SKEWNESS_MIN_RATE_HZ",
+]
 
 THRESHOLD_DEG_S = 30.0  #: = models.saccade_generator.DETECTION_THRESHOLD_DEG_S (not imported: no MuJoCo here)
 SG_SPAN_MS = 4.0
@@ -76,7 +86,7 @@ def velocity(a: np.ndarray, dt_ms: float, ok_steps: np.ndarray | None = None) ->
     v = np.full(n, np.nan)
     if n < 2 * m + 1:
         return v
-    v[m:n - m] = np.correlate(np.nan_to_num(a), w, mode="valid")
+    v[m : n - m] = np.correlate(np.nan_to_num(a), w, mode="valid")
     good = _window_all(np.isfinite(a), -m, m + 1, n)
     if ok_steps is not None:
         good &= _window_all(np.asarray(ok_steps, bool), -m, m, n)
@@ -105,7 +115,9 @@ def crossing(t, s, i, step) -> float | None:
     return None
 
 
-def measure_saccade(t: np.ndarray, s: np.ndarray, i_peak: int, rate_hz: float) -> tuple[float, float, float, float, float] | None:
+def measure_saccade(
+    t: np.ndarray, s: np.ndarray, i_peak: int, rate_hz: float
+) -> tuple[float, float, float, float, float] | None:
     """Onset and offset (30 deg/s crossings), peak velocity, peak time and skewness of the saccade
     whose speed trace ``s`` (at times ``t``) peaks at sample ``i_peak``; None where a crossing is
     missing. The peak time is refined by a parabola through the top three samples."""
@@ -115,7 +127,7 @@ def measure_saccade(t: np.ndarray, s: np.ndarray, i_peak: int, rate_hz: float) -
         return None
     pk = float(s[i_peak])
     tp = float(t[i_peak])
-    if 0 < i_peak < len(s) - 1 and np.all(np.isfinite(s[i_peak - 1:i_peak + 2])):
+    if 0 < i_peak < len(s) - 1 and np.all(np.isfinite(s[i_peak - 1 : i_peak + 2])):
         a, b, c = s[i_peak - 1], s[i_peak], s[i_peak + 1]
         den = a - 2 * b + c
         if den < 0:

@@ -26,14 +26,37 @@ from pathlib import Path
 from statistics import median
 from typing import Any
 
-__all__ = ["BINS_DEG", "RECORDING_FIELDS", "BIN_FIELDS", "file_events", "screen_from_res", "run_recording",
-           "render", "update_docs", "main"]
+__all__ = [
+    "BINS_DEG",
+    "RECORDING_FIELDS",
+    "BIN_FIELDS",
+    "file_events",
+    "screen_from_res",
+    "run_recording",
+    "render",
+    "update_docs",
+    "main",
+]
 
 #: Amplitude bins (deg) of the per-bin medians.
 BINS_DEG = ((0.0, 2.0), (2.0, 5.0), (5.0, 10.0), (10.0, 20.0), (20.0, 90.0))
-RECORDING_FIELDS = ("recording", "rate_hz", "eye", "samples", "file_events", "saccades", "exit", "burst_max_deg_s",
-                    "burst_max_ci", "burst_scale_deg", "burst_scale_ci", "burst_lag_ms", "burst_lag_ci", "at_bounds",
-                    "note")
+RECORDING_FIELDS = (
+    "recording",
+    "rate_hz",
+    "eye",
+    "samples",
+    "file_events",
+    "saccades",
+    "exit",
+    "burst_max_deg_s",
+    "burst_max_ci",
+    "burst_scale_deg",
+    "burst_scale_ci",
+    "burst_lag_ms",
+    "burst_lag_ci",
+    "at_bounds",
+    "note",
+)
 BIN_FIELDS = ("recording", "bin_deg", "n_measured", "median_pv_measured", "n_file", "median_pv_file")
 ASSUMED_DISTANCE_CM = 60.0
 _DATA = Path(__file__).resolve().parents[1] / "data" / "recordings"
@@ -91,8 +114,20 @@ def run_recording(path: str | Path, out: str | Path, bootstrap: int = 40) -> tup
         screen = [str(v) for v in screen_from_res(path)]
     except ValueError:  # (a cut-off file: the command says what is wrong with it)
         screen = []
-    cmd = [sys.executable, "-m", "experiments", "saccades", "--recording", str(path), *(["--screen", *screen] if screen else []),
-           "--bootstrap", str(bootstrap), "--out", str(out), "--no-progress"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "experiments",
+        "saccades",
+        "--recording",
+        str(path),
+        *(["--screen", *screen] if screen else []),
+        "--bootstrap",
+        str(bootstrap),
+        "--out",
+        str(out),
+        "--no-progress",
+    ]
     done = subprocess.run(cmd, capture_output=True, text=True)
     row: dict[str, Any] = {k: "" for k in RECORDING_FIELDS}
     row.update(recording=path.name, exit=done.returncode)
@@ -107,7 +142,9 @@ def run_recording(path: str | Path, out: str | Path, bootstrap: int = 40) -> tup
         row.update(eye=eye, file_events=len(events))
         return row, _bins(path.name, [], events)
     info = json.loads(ident.read_text())
-    row.update(rate_hz=info["sampling_rate_hz"], eye=info["eye"], samples=info["n_samples"], saccades=info["n_saccades"])
+    row.update(
+        rate_hz=info["sampling_rate_hz"], eye=info["eye"], samples=info["n_samples"], saccades=info["n_saccades"]
+    )
     events = file_events(path, info["eye"])
     row["file_events"] = len(events)
     bounds = []
@@ -120,10 +157,20 @@ def run_recording(path: str | Path, out: str | Path, bootstrap: int = 40) -> tup
             if m.group(5):
                 bounds.append(m.group(1))
     row["at_bounds"] = " ".join(bounds)
-    why = re.search(r"eye\): (?:the generator is not identified by these \d+ saccades \()?(.*?)\)?: no generator",
-                    error[-1]) if error else None
-    row["note"] = ("generator.json written" if done.returncode == 0 else
-                   f"not identified: {why.group(1)}" if why else (error[-1] if error else f"exit {done.returncode}"))
+    why = (
+        re.search(
+            r"eye\): (?:the generator is not identified by these \d+ saccades \()?(.*?)\)?: no generator", error[-1]
+        )
+        if error
+        else None
+    )
+    row["note"] = (
+        "generator.json written"
+        if done.returncode == 0
+        else f"not identified: {why.group(1)}"
+        if why
+        else (error[-1] if error else f"exit {done.returncode}")
+    )
     with open(out / "main_sequence.csv", newline="") as f:
         measured = [(float(r["amplitude_deg"]), float(r["peak_velocity_deg_s"])) for r in csv.DictReader(f)]
     return row, _bins(path.name, measured, events)
@@ -144,22 +191,44 @@ def _bins(name: str, measured, events) -> list[dict]:
         m = [pv for a, pv in measured if lo <= a < hi]
         e = [pv for a, pv in events if lo <= a < hi]
         if m or e:
-            rows.append({"recording": name, "bin_deg": f"{lo:g}-{hi:g}", "n_measured": len(m),
-                         "median_pv_measured": f"{median(m):.0f}" if m else "",
-                         "n_file": len(e), "median_pv_file": f"{median(e):.0f}" if e else ""})
+            rows.append(
+                {
+                    "recording": name,
+                    "bin_deg": f"{lo:g}-{hi:g}",
+                    "n_measured": len(m),
+                    "median_pv_measured": f"{median(m):.0f}" if m else "",
+                    "n_file": len(e),
+                    "median_pv_file": f"{median(e):.0f}" if e else "",
+                }
+            )
     return rows
 
 
 # ------------------------------------------------------------------------------------------ docs
 _HEADINGS = {
-    "recordings.csv": (("recording", "file"), ("rate_hz", "Hz"), ("eye", "eye"), ("samples", "samples"),
-                       ("file_events", "file's saccades (eye)"), ("saccades", "measured"),
-                       ("burst_max_deg_s", "burst_max (deg/s)"), ("burst_max_ci", "95 % CI"),
-                       ("burst_scale_deg", "burst_scale (deg)"), ("burst_scale_ci", "95 % CI"),
-                       ("burst_lag_ms", "burst_lag (ms)"), ("burst_lag_ci", "95 % CI"), ("note", "result")),
-    "bins.csv": (("recording", "file"), ("bin_deg", "amplitude (deg)"), ("n_measured", "n measured"),
-                 ("median_pv_measured", "median peak (deg/s), measured"), ("n_file", "n file"),
-                 ("median_pv_file", "median peak (deg/s), file's events")),
+    "recordings.csv": (
+        ("recording", "file"),
+        ("rate_hz", "Hz"),
+        ("eye", "eye"),
+        ("samples", "samples"),
+        ("file_events", "file's saccades (eye)"),
+        ("saccades", "measured"),
+        ("burst_max_deg_s", "burst_max (deg/s)"),
+        ("burst_max_ci", "95 % CI"),
+        ("burst_scale_deg", "burst_scale (deg)"),
+        ("burst_scale_ci", "95 % CI"),
+        ("burst_lag_ms", "burst_lag (ms)"),
+        ("burst_lag_ci", "95 % CI"),
+        ("note", "result"),
+    ),
+    "bins.csv": (
+        ("recording", "file"),
+        ("bin_deg", "amplitude (deg)"),
+        ("n_measured", "n measured"),
+        ("median_pv_measured", "median peak (deg/s), measured"),
+        ("n_file", "n file"),
+        ("median_pv_file", "median peak (deg/s), file's events"),
+    ),
 }
 _START = re.compile(r"<!-- recordings table: (?P<name>\S+) -->\n")
 _END = "<!-- end of recordings table -->"
@@ -188,9 +257,9 @@ def update_docs(page: str | Path, check: bool = False, data: Path = _DATA) -> li
     for m in _START.finditer(text):
         end = text.index(_END, m.end())
         table = render(data / m.group("name"))
-        if text[m.end():end] != table:
+        if text[m.end() : end] != table:
             stale.append(m.group("name"))
-        out += [text[pos:m.end()], table]
+        out += [text[pos : m.end()], table]
         pos = end
     out.append(text[pos:])
     if stale and not check:
@@ -201,12 +270,19 @@ def update_docs(page: str | Path, check: bool = False, data: Path = _DATA) -> li
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m experiments.oculomotor.recordings", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m experiments.oculomotor.recordings",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("files", nargs="*", type=Path, help="ASC files to run (each into WORK/<name>)")
-    parser.add_argument("--work", type=Path, default=Path("results/recordings"), help="output folders (default: %(default)s)")
+    parser.add_argument(
+        "--work", type=Path, default=Path("results/recordings"), help="output folders (default: %(default)s)"
+    )
     parser.add_argument("--data", type=Path, default=_DATA, help="where the two CSVs go (default: %(default)s)")
-    parser.add_argument("--bootstrap", type=int, default=40, help="bootstrap resamples of each fit (default: %(default)s)")
+    parser.add_argument(
+        "--bootstrap", type=int, default=40, help="bootstrap resamples of each fit (default: %(default)s)"
+    )
     parser.add_argument("--docs", type=Path, help="a docs page whose marked tables are rendered from the CSVs")
     parser.add_argument("--check", action="store_true", help="with --docs: exit 1 where a table is not its CSV's")
     args = parser.parse_args(argv)

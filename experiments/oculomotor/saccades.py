@@ -67,9 +67,11 @@ def measure(model: str, amplitudes=AMPLITUDES_DEG, progress: bool = False) -> di
             head.start_saccade(plan)
             tr = head.step_ms(plan.end_ms - head.time_ms + 250, record=True)
             w = np.degrees(tr.velocities[:, :, 0])
-            rows = {"left": _kinematics(tr.times_ms, np.abs(w[:, 0])),
-                    "right": _kinematics(tr.times_ms, np.abs(w[:, 1])),
-                    "version": _kinematics(tr.times_ms, np.abs(w.mean(axis=1)))}
+            rows = {
+                "left": _kinematics(tr.times_ms, np.abs(w[:, 0])),
+                "right": _kinematics(tr.times_ms, np.abs(w[:, 1])),
+                "version": _kinematics(tr.times_ms, np.abs(w.mean(axis=1))),
+            }
             out[a] = {"plan": plan, "trace": tr, "kinematics": rows}
             bar.update()
     return out
@@ -80,8 +82,16 @@ def main_sequence_rows(results: dict[str, dict]) -> list[dict]:
     for model, res in results.items():
         for a, r in res.items():
             for eye, (pk, dur, skew) in r["kinematics"].items():
-                rows.append({"model": model, "amplitude_deg": a, "eye": eye, "peak_velocity_deg_s": round(pk, 1),
-                             "duration_ms": round(dur, 2), "skewness": round(skew, 3)})
+                rows.append(
+                    {
+                        "model": model,
+                        "amplitude_deg": a,
+                        "eye": eye,
+                        "peak_velocity_deg_s": round(pk, 1),
+                        "duration_ms": round(dur, 2),
+                        "skewness": round(skew, 3),
+                    }
+                )
     return rows
 
 
@@ -100,14 +110,23 @@ def plot(results: dict[str, dict], path: Path) -> None:
         tr, plan = r["trace"], r["plan"]
         t = tr.times_ms - plan.onset_ms
         w = np.degrees(tr.velocities[:, :, 0])
-        line, = ax[0].plot(t, w[:, 1], lw=1.4, label=f"{a}°")
+        (line,) = ax[0].plot(t, w[:, 1], lw=1.4, label=f"{a}°")
         ax[0].plot(t, w[:, 0], lw=1.0, ls="--", color=line.get_color())
         if "legacy" in results and a in results["legacy"]:
             rl = results["legacy"][a]
-            ax[0].plot(rl["trace"].times_ms - rl["plan"].onset_ms, np.degrees(rl["trace"].velocities[:, 1, 0]),
-                       lw=0.7, color=line.get_color(), alpha=0.35)
-    ax[0].set(xlim=(-5, 150), xlabel="time re burst onset (ms)", ylabel="horizontal eye velocity (deg/s)",
-              title="velocity profiles: abducting (solid), adducting (dashed),\nlegacy E(t) (faint)")
+            ax[0].plot(
+                rl["trace"].times_ms - rl["plan"].onset_ms,
+                np.degrees(rl["trace"].velocities[:, 1, 0]),
+                lw=0.7,
+                color=line.get_color(),
+                alpha=0.35,
+            )
+    ax[0].set(
+        xlim=(-5, 150),
+        xlabel="time re burst onset (ms)",
+        ylabel="horizontal eye velocity (deg/s)",
+        title="velocity profiles: abducting (solid), adducting (dashed),\nlegacy E(t) (faint)",
+    )
     ax[0].legend(fontsize=8)
     A = np.linspace(0.5, 52, 200)
     ax[1].plot(A, 525 * (1 - np.exp(-A / 7)), color="0.5", lw=1, label="Van Wetter & Van Opstal 2008")
@@ -118,8 +137,15 @@ def plot(results: dict[str, dict], path: Path) -> None:
         amps = sorted(res)
         for k, col in ((0, 1), (1, 2)):
             for eye, ls in (("right", "-"), ("left", "--")):
-                ax[col].plot(amps, [res[a]["kinematics"][eye][k] for a in amps], ls=ls, ms=4, lw=1,
-                             label=f"{model}, {'abducting' if eye == 'right' else 'adducting'}", **styles[model])
+                ax[col].plot(
+                    amps,
+                    [res[a]["kinematics"][eye][k] for a in amps],
+                    ls=ls,
+                    ms=4,
+                    lw=1,
+                    label=f"{model}, {'abducting' if eye == 'right' else 'adducting'}",
+                    **styles[model],
+                )
     ax[1].set(xlabel="amplitude (deg)", ylabel="peak velocity (deg/s)", title="main sequence: peak velocity")
     ax[2].set(xlabel="amplitude (deg)", ylabel="duration (ms, 30 deg/s crossings)", title="main sequence: duration")
     ax[1].legend(fontsize=7)
@@ -135,8 +161,11 @@ def plot(results: dict[str, dict], path: Path) -> None:
     ax[3].plot(rel, true, color="k", lw=1.5, label="true eye (version)")
     ax[3].plot(rel, eps_comp, color="C2", lw=1.2, label="eye-position signal at the comparator")
     ax[3].plot(rel, eps_flash, color="C2", lw=1.2, ls="--", label=f"signal paired with a flash at t (t + {lat:.0f} ms)")
-    ax[3].set(xlabel="time re saccade onset (ms)", ylabel="horizontal position (deg)",
-              title="eye-position signal, 20° saccade")
+    ax[3].set(
+        xlabel="time re saccade onset (ms)",
+        ylabel="horizontal position (deg)",
+        title="eye-position signal, 20° saccade",
+    )
     ax[3].legend(fontsize=7)
     fig.tight_layout()
     save_figure(fig, path, dpi=110)
@@ -147,8 +176,10 @@ def _screen(values: list[str]):
     from .eyetracking import RecordingError, Screen
 
     if len(values) not in (3, 5):
-        raise argparse.ArgumentTypeError(f"--screen takes 3 numbers (WIDTH_CM HEIGHT_CM DISTANCE_CM) or 5 "
-                                         f"(WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM); got {len(values)}")
+        raise argparse.ArgumentTypeError(
+            f"--screen takes 3 numbers (WIDTH_CM HEIGHT_CM DISTANCE_CM) or 5 "
+            f"(WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM); got {len(values)}"
+        )
     try:
         nums = [float(v) for v in values]
     except ValueError:
@@ -156,7 +187,9 @@ def _screen(values: list[str]):
     if len(nums) == 3:
         nums = [None, None] + nums  # resolution from the ASC file (a CSV in pixels needs all five)
     elif any(v != int(v) for v in nums[:2]):
-        raise argparse.ArgumentTypeError(f"--screen WIDTH_PX HEIGHT_PX must be whole numbers; got {values[0]} {values[1]}")
+        raise argparse.ArgumentTypeError(
+            f"--screen WIDTH_PX HEIGHT_PX must be whole numbers; got {values[0]} {values[1]}"
+        )
     try:
         return Screen(*(int(v) if v is not None else None for v in nums[:2]), *nums[2:])
     except RecordingError as e:
@@ -207,21 +240,33 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
     show = not getattr(args, "no_progress", False)
     stage(f"reading {path} and detecting saccades", enabled=show)
     try:
-        recs = et.read_recordings(path, screen=screen, fmt=args.format, eye=eye, columns=getattr(args, "columns", None),
-                                  preset=getattr(args, "preset", None), time_unit=getattr(args, "time_unit", None),
-                                  units=getattr(args, "units", None))
+        recs = et.read_recordings(
+            path,
+            screen=screen,
+            fmt=args.format,
+            eye=eye,
+            columns=getattr(args, "columns", None),
+            preset=getattr(args, "preset", None),
+            time_unit=getattr(args, "time_unit", None),
+            units=getattr(args, "units", None),
+        )
         measured = []
         for rec in recs:
             sacc = et.detect_saccades(rec, args.detect)
             rows = et.main_sequence_rows(rec, sacc)
             if not rows:
                 broken = float(np.mean(~rec.ok_steps)) if len(rec.times_ms) > 1 else 0.0
-                why = (f"; {100 * broken:.0f} % of the sample intervals differ from the median by more than 25 %: "
-                       "irregular time stamps leave no unbroken stretch long enough to measure a saccade"
-                       if broken > 0.05 else "")
-                raise et.RecordingError(f"{path}: no measurable saccades found in the {rec.eye} eye ({len(sacc)} candidate(s) "
-                                        f"from {'the file events' if rec.file_saccades_ms and args.detect != 'engbert' else 'Engbert-Kliegl detection'}, "
-                                        f"{len(rec.times_ms)} samples at {rec.rate_hz:g} Hz in {rec.n_blocks} unbroken stretch(es)){why}")
+                why = (
+                    f"; {100 * broken:.0f} % of the sample intervals differ from the median by more than 25 %: "
+                    "irregular time stamps leave no unbroken stretch long enough to measure a saccade"
+                    if broken > 0.05
+                    else ""
+                )
+                raise et.RecordingError(
+                    f"{path}: no measurable saccades found in the {rec.eye} eye ({len(sacc)} candidate(s) "
+                    f"from {'the file events' if rec.file_saccades_ms and args.detect != 'engbert' else 'Engbert-Kliegl detection'}, "
+                    f"{len(rec.times_ms)} samples at {rec.rate_hz:g} Hz in {rec.n_blocks} unbroken stretch(es)){why}"
+                )
             rows, bad = et.check_plausible(rec, rows)
             measured.append((rec, rows, bad))
     except et.RecordingError as e:
@@ -244,10 +289,20 @@ def _source_identity(path: Path, rec, args) -> dict:
     with open(path, "rb") as f:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
-    return {"file": path.name, "sha256": h.hexdigest(), "eye": rec.eye, "eye_reason": rec.eye_reason,
-            "format": rec.fmt, "detection": args.detect, "sampling_rate_hz": rec.rate_hz,
-            "n_samples": int(len(rec.times_ms)), "n_blocks": rec.n_blocks, "units": rec.units,
-            "screen": None if rec.screen is None else vars(rec.screen), "notes": list(rec.notes)}
+    return {
+        "file": path.name,
+        "sha256": h.hexdigest(),
+        "eye": rec.eye,
+        "eye_reason": rec.eye_reason,
+        "format": rec.fmt,
+        "detection": args.detect,
+        "sampling_rate_hz": rec.rate_hz,
+        "n_samples": int(len(rec.times_ms)),
+        "n_blocks": rec.n_blocks,
+        "units": rec.units,
+        "screen": None if rec.screen is None else vars(rec.screen),
+        "notes": list(rec.notes),
+    }
 
 
 def _claim_folder(out: Path, ident: dict) -> str | None:
@@ -269,7 +324,9 @@ def _claim_folder(out: Path, ident: dict) -> str | None:
         same = isinstance(doc, dict) and all(doc.get(k) == ident[k] for k in ("sha256", "eye", "detection"))
         if not same:
             previous = (doc.get("file") if isinstance(doc, dict) else None) or "an unknown recording"
-            for f in ("saccades.png",) + RECORDING_FILES[::-1]:  # the manifest last: until then it says whose files remain
+            for f in ("saccades.png",) + RECORDING_FILES[
+                ::-1
+            ]:  # the manifest last: until then it says whose files remain
                 (out / f).unlink(missing_ok=True)
     write_json(out / "recording.json", ident)
     return previous
@@ -288,31 +345,59 @@ def _write_recording_results(args, path: Path, rec, rows: list[dict], bad: list[
     (out / "generator.json").unlink(missing_ok=True)  # written again only if the fit is identified
     et.write_rows(rows, out / "main_sequence.csv")
     noise = rec.noise_deg
-    print(f"{path.name}, {rec.eye} eye ({rec.eye_reason}): {len(rec.times_ms)} samples at {rec.rate_hz:g} Hz in "
-          f"{rec.n_blocks} unbroken stretch(es), {len(rows)} saccades measured (tracker noise {noise:.3f} deg)"
-          + (f"; {len(bad)} implausible saccade(s) dropped" if bad else ""))
+    print(
+        f"{path.name}, {rec.eye} eye ({rec.eye_reason}): {len(rec.times_ms)} samples at {rec.rate_hz:g} Hz in "
+        f"{rec.n_blocks} unbroken stretch(es), {len(rows)} saccades measured (tracker noise {noise:.3f} deg)"
+        + (f"; {len(bad)} implausible saccade(s) dropped" if bad else "")
+    )
     need = max(5, 2 * len(args.fit_parameters))
     if len(rows) < need:
-        gf.plot_main_sequence(rows, None, out / "main_sequence.png", rate_hz=rec.rate_hz, noise_deg=noise,
-                              title=f"{path.name} ({rec.eye}): {len(rows)} saccades at {rec.rate_hz:g} Hz")
-        print(f"saccades: error: {path.name} ({rec.eye} eye): only {len(rows)} measurable saccade(s); fitting "
-              f"{len(args.fit_parameters)} parameters needs at least {need}: no generator.json written", file=sys.stderr)
+        gf.plot_main_sequence(
+            rows,
+            None,
+            out / "main_sequence.png",
+            rate_hz=rec.rate_hz,
+            noise_deg=noise,
+            title=f"{path.name} ({rec.eye}): {len(rows)} saccades at {rec.rate_hz:g} Hz",
+        )
+        print(
+            f"saccades: error: {path.name} ({rec.eye} eye): only {len(rows)} measurable saccade(s); fitting "
+            f"{len(args.fit_parameters)} parameters needs at least {need}: no generator.json written",
+            file=sys.stderr,
+        )
         return 3
     boot = getattr(args, "bootstrap", gf.DEFAULT_BOOTSTRAP)
-    stage(f"fitting the burst generator ({', '.join(args.fit_parameters)}) to {len(rows)} saccades"
-          + (f", {boot} bootstrap refits for the CIs" if boot else ""), enabled=not getattr(args, "no_progress", False))
-    fit = gf.fit_generator(rows, fit=args.fit_parameters, rate_hz=rec.rate_hz, noise_deg=noise,
-                           bootstrap=getattr(args, "bootstrap", gf.DEFAULT_BOOTSTRAP))
-    gf.plot_main_sequence(rows, fit.generator, out / "main_sequence.png", rate_hz=rec.rate_hz, noise_deg=noise,
-                          title=f"{path.name} ({rec.eye}): {len(rows)} saccades at {rec.rate_hz:g} Hz")
+    stage(
+        f"fitting the burst generator ({', '.join(args.fit_parameters)}) to {len(rows)} saccades"
+        + (f", {boot} bootstrap refits for the CIs" if boot else ""),
+        enabled=not getattr(args, "no_progress", False),
+    )
+    fit = gf.fit_generator(
+        rows,
+        fit=args.fit_parameters,
+        rate_hz=rec.rate_hz,
+        noise_deg=noise,
+        bootstrap=getattr(args, "bootstrap", gf.DEFAULT_BOOTSTRAP),
+    )
+    gf.plot_main_sequence(
+        rows,
+        fit.generator,
+        out / "main_sequence.png",
+        rate_hz=rec.rate_hz,
+        noise_deg=noise,
+        title=f"{path.name} ({rec.eye}): {len(rows)} saccades at {rec.rate_hz:g} Hz",
+    )
     for name in fit.fitted:
         lo, hi = fit.ci95[name]
         flag = "  ON A BOUND" if name in fit.at_bounds else ""
         print(f"  {name:18s} {fit.estimates[name]:9.3f}  95% CI [{lo:.4g}, {hi:.4g}]{flag}")
     if fit.problems:
-        print(f"saccades: error: {path.name} ({rec.eye} eye): the generator is not identified by these "
-              f"{len(rows)} saccades ({'; '.join(fit.problems)}): no generator.json written; "
-              f"{out / 'main_sequence.csv'} and {out / 'main_sequence.png'} are", file=sys.stderr)
+        print(
+            f"saccades: error: {path.name} ({rec.eye} eye): the generator is not identified by these "
+            f"{len(rows)} saccades ({'; '.join(fit.problems)}): no generator.json written; "
+            f"{out / 'main_sequence.csv'} and {out / 'main_sequence.png'} are",
+            file=sys.stderr,
+        )
         return 3
     fit.to_file(out / "generator.json", **{k: v for k, v in ident.items() if k != "notes"})
     print(f"wrote {out / 'main_sequence.csv'}, {out / 'generator.json'} and {out / 'main_sequence.png'}")
@@ -332,9 +417,12 @@ def run(args: argparse.Namespace) -> int:
         with path_lock(out / ".lock", f"the folder {out}"):
             return _run_models(args, out)
 
-    return guarded("python -m experiments saccades", work,
-                   resume_hint="files already written are complete; run the command again for the rest",
-                   errors={LockBusyError: 1})
+    return guarded(
+        "python -m experiments saccades",
+        work,
+        resume_hint="files already written are complete; run the command again for the rest",
+        errors={LockBusyError: 1},
+    )
 
 
 def _run_models(args: argparse.Namespace, out: Path) -> int:
@@ -348,12 +436,16 @@ def _run_models(args: argparse.Namespace, out: Path) -> int:
     write_csv(out / "main_sequence.csv", list(rows[0]), rows)
     if "burst" in results:
         plot(results, out / "saccades.png")
-    print(f"{'model':7s} {'amp':>4s}  {'peak (deg/s) abd/add':>21s}  {'duration (ms) abd/add':>22s}  {'skewness abd/add':>17s}")
+    print(
+        f"{'model':7s} {'amp':>4s}  {'peak (deg/s) abd/add':>21s}  {'duration (ms) abd/add':>22s}  {'skewness abd/add':>17s}"
+    )
     for m, res in results.items():
         for a in sorted(res):
             k = res[a]["kinematics"]
-            print(f"{m:7s} {a:4d}  {k['right'][0]:10.0f} {k['left'][0]:10.0f}  {k['right'][1]:11.1f} {k['left'][1]:10.1f}"
-                  f"  {k['right'][2]:8.2f} {k['left'][2]:8.2f}")
+            print(
+                f"{m:7s} {a:4d}  {k['right'][0]:10.0f} {k['left'][0]:10.0f}  {k['right'][1]:11.1f} {k['left'][1]:10.1f}"
+                f"  {k['right'][2]:8.2f} {k['left'][2]:8.2f}"
+            )
     print(f"wrote {out / 'main_sequence.csv'}" + (f" and {out / 'saccades.png'}" if "burst" in results else ""))
     return 0
 
@@ -369,39 +461,91 @@ def _bootstrap(text: str) -> int:
 
 def add_subcommand(subparsers) -> None:
     """Register ``saccades`` on the ``experiments`` command line."""
-    p = subparsers.add_parser("saccades", help="saccade kinematics vs the published main sequence (figure, table)",
-                              description=__doc__, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = subparsers.add_parser(
+        "saccades",
+        help="saccade kinematics vs the published main sequence (figure, table)",
+        description=__doc__,
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     p.add_argument("--out", type=out_dir, default="results/saccades", help="output folder (created)")
-    p.add_argument("--model", choices=("burst", "legacy", "both"), default="both",
-                   help="trajectory model(s) to measure (the figure needs burst)")
+    p.add_argument(
+        "--model",
+        choices=("burst", "legacy", "both"),
+        default="both",
+        help="trajectory model(s) to measure (the figure needs burst)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bars (they go to stderr)")
     g = p.add_argument_group("a person's recording (experiments.oculomotor.eyetracking)")
-    g.add_argument("--recording", metavar="FILE", default=None,
-                   help="EyeLink ASC file or CSV/TSV of samples (time_ms and x_deg,y_deg or x_px,y_px); writes "
-                        "main_sequence.csv, generator.json and main_sequence.png instead of the model's kinematics")
+    g.add_argument(
+        "--recording",
+        metavar="FILE",
+        default=None,
+        help="EyeLink ASC file or CSV/TSV of samples (time_ms and x_deg,y_deg or x_px,y_px); writes "
+        "main_sequence.csv, generator.json and main_sequence.png instead of the model's kinematics",
+    )
     g.add_argument("--format", choices=("asc", "csv"), default=None, help="recording format (default: from the suffix)")
-    g.add_argument("--screen", nargs="+", metavar="N", default=None,
-                   help="screen geometry for gaze in pixels: WIDTH_CM HEIGHT_CM DISTANCE_CM (ASC: resolution from "
-                        "GAZE_COORDS or DISPLAY_COORDS) or WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM")
-    g.add_argument("--eye", choices=("left", "right", "both"), default=None,
-                   help="eye to measure (default: the only one recorded, or in a binocular file the one with fewer "
-                        "lost samples, said in the output); both: each eye into DIR/left and DIR/right")
-    g.add_argument("--columns", type=_columns, default=None, metavar="time=NAME,x=NAME,y=NAME[,eye=NAME]",
-                   help="CSV/TSV: the columns of time and gaze (eye: a column saying L/R per row)")
-    g.add_argument("--preset", choices=sorted(__import__("experiments.oculomotor.tables", fromlist=["PRESETS"]).PRESETS),
-                   default=None, help="CSV/TSV: a documented export layout (default: the one the header matches)")
-    g.add_argument("--time-unit", choices=("ms", "us", "s"), default=None,
-                   help="CSV/TSV: unit of the time column (default: from the preset or the column name, else ms)")
-    g.add_argument("--units", choices=("px", "deg"), default=None,
-                   help="CSV/TSV: unit of the gaze columns (default: from the preset or the column name)")
-    g.add_argument("--detect", choices=("auto", "file", "engbert"), default="auto",
-                   help="saccades: the file's own ESACC events (file), Engbert & Kliegl 2003 detection (engbert), "
-                        "or the events where the file has them (auto)")
-    g.add_argument("--fit-parameters", type=_fit_parameters, default=("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms"),
-                   metavar="NAMES", help="comma-separated burst-generator parameters to fit (the others keep their defaults)")
-    g.add_argument("--bootstrap", type=_bootstrap, default=100, metavar="N",
-                   help="resamples of the saccades behind the 95%% CIs (20-10000, default 100; 0: asymptotic CIs "
-                        "from the Jacobian only)")
+    g.add_argument(
+        "--screen",
+        nargs="+",
+        metavar="N",
+        default=None,
+        help="screen geometry for gaze in pixels: WIDTH_CM HEIGHT_CM DISTANCE_CM (ASC: resolution from "
+        "GAZE_COORDS or DISPLAY_COORDS) or WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM",
+    )
+    g.add_argument(
+        "--eye",
+        choices=("left", "right", "both"),
+        default=None,
+        help="eye to measure (default: the only one recorded, or in a binocular file the one with fewer "
+        "lost samples, said in the output); both: each eye into DIR/left and DIR/right",
+    )
+    g.add_argument(
+        "--columns",
+        type=_columns,
+        default=None,
+        metavar="time=NAME,x=NAME,y=NAME[,eye=NAME]",
+        help="CSV/TSV: the columns of time and gaze (eye: a column saying L/R per row)",
+    )
+    g.add_argument(
+        "--preset",
+        choices=sorted(__import__("experiments.oculomotor.tables", fromlist=["PRESETS"]).PRESETS),
+        default=None,
+        help="CSV/TSV: a documented export layout (default: the one the header matches)",
+    )
+    g.add_argument(
+        "--time-unit",
+        choices=("ms", "us", "s"),
+        default=None,
+        help="CSV/TSV: unit of the time column (default: from the preset or the column name, else ms)",
+    )
+    g.add_argument(
+        "--units",
+        choices=("px", "deg"),
+        default=None,
+        help="CSV/TSV: unit of the gaze columns (default: from the preset or the column name)",
+    )
+    g.add_argument(
+        "--detect",
+        choices=("auto", "file", "engbert"),
+        default="auto",
+        help="saccades: the file's own ESACC events (file), Engbert & Kliegl 2003 detection (engbert), "
+        "or the events where the file has them (auto)",
+    )
+    g.add_argument(
+        "--fit-parameters",
+        type=_fit_parameters,
+        default=("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms"),
+        metavar="NAMES",
+        help="comma-separated burst-generator parameters to fit (the others keep their defaults)",
+    )
+    g.add_argument(
+        "--bootstrap",
+        type=_bootstrap,
+        default=100,
+        metavar="N",
+        help="resamples of the saccades behind the 95%% CIs (20-10000, default 100; 0: asymptotic CIs "
+        "from the Jacobian only)",
+    )
     p.set_defaults(func=run, parser=p)
 
 

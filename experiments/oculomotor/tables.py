@@ -66,15 +66,45 @@ class Columns:
 PRESETS: dict[str, Columns] = {
     "project-deg": Columns("time_ms", "x_deg", "y_deg", time_unit="ms", units="deg", source="this project"),
     "project-px": Columns("time_ms", "x_px", "y_px", time_unit="ms", units="px", source="this project"),
-    "smi": Columns("Time", "{eye} POR X [px]", "{eye} POR Y [px]", time_unit="us", units="px",
-                   eye_names=(("left", "L"), ("right", "R")), row_filter=("Type", "SMP"), source="SMI BeGaze"),
-    "tobii": Columns("Recording timestamp", "Gaze point {eye}X", "Gaze point {eye}Y", time_unit="us", units="px",
-                     eye_names=(("left", "left "), ("right", "right ")), source="Tobii Pro Lab"),
-    "gazepoint": Columns("TIME", "{eye}POGX", "{eye}POGY", time_unit="s", units="px", fraction=True,
-                         eye_names=(("left", "L"), ("right", "R")), source="Gazepoint"),
+    "smi": Columns(
+        "Time",
+        "{eye} POR X [px]",
+        "{eye} POR Y [px]",
+        time_unit="us",
+        units="px",
+        eye_names=(("left", "L"), ("right", "R")),
+        row_filter=("Type", "SMP"),
+        source="SMI BeGaze",
+    ),
+    "tobii": Columns(
+        "Recording timestamp",
+        "Gaze point {eye}X",
+        "Gaze point {eye}Y",
+        time_unit="us",
+        units="px",
+        eye_names=(("left", "left "), ("right", "right ")),
+        source="Tobii Pro Lab",
+    ),
+    "gazepoint": Columns(
+        "TIME",
+        "{eye}POGX",
+        "{eye}POGY",
+        time_unit="s",
+        units="px",
+        fraction=True,
+        eye_names=(("left", "L"), ("right", "R")),
+        source="Gazepoint",
+    ),
     "gazebase": Columns("n", "x", "y", time_unit="ms", units="deg", source="pymovements GazeBase"),
-    "judo1000": Columns("time", "x_{eye}", "y_{eye}", time_unit="ms", units="px",
-                        eye_names=(("left", "left"), ("right", "right")), source="pymovements JuDo1000"),
+    "judo1000": Columns(
+        "time",
+        "x_{eye}",
+        "y_{eye}",
+        time_unit="ms",
+        units="px",
+        eye_names=(("left", "left"), ("right", "right")),
+        source="pymovements JuDo1000",
+    ),
     "potec": Columns("time", "x", "y", time_unit="ms", units="px", source="pymovements PoTeC"),
 }
 
@@ -94,8 +124,10 @@ def decode(data: bytes, name: str) -> str:
             return data.decode("utf-16-le", errors="strict") if len(data) % 2 == 0 else data[:-1].decode("utf-16-le")
         if even > 0.4 * half and odd < 0.05 * half:
             return data.decode("utf-16-be") if len(data) % 2 == 0 else data[:-1].decode("utf-16-be")
-        raise TableError(f"{name} is a binary file, not a text recording; convert an EyeLink .edf with edf2asc "
-                         "first, or export samples as CSV")
+        raise TableError(
+            f"{name} is a binary file, not a text recording; convert an EyeLink .edf with edf2asc "
+            "first, or export samples as CSV"
+        )
     if head[:3] == b"\xef\xbb\xbf":
         data = data[3:]
     try:
@@ -122,8 +154,11 @@ def parse_columns(spec: str) -> Columns:
 def _unit_from_name(name: str, kind: str) -> str | None:
     n = name.lower().replace("µ", "u").replace("μ", "u")
     if kind == "time":
-        for unit, pats in (("us", ("[us]", "(us)", "_us", " us")), ("ms", ("[ms]", "(ms)", "_ms", " ms")),
-                           ("s", ("[s]", "(s)", "_s", " s", "_sec", "[sec]"))):
+        for unit, pats in (
+            ("us", ("[us]", "(us)", "_us", " us")),
+            ("ms", ("[ms]", "(ms)", "_ms", " ms")),
+            ("s", ("[s]", "(s)", "_s", " s", "_sec", "[sec]")),
+        ):
             if any(n.endswith(p) for p in pats):
                 return unit
         return None
@@ -202,8 +237,10 @@ def _floats(values: list[str], col: str, lines: list[int], sep: str) -> np.ndarr
             if comma and re.fullmatch(r"[-+]?\d+,\d*", v):
                 out[i] = float(v.replace(",", "."))
                 continue
-            raise TableError(f"line {lines[i]}: column {col!r} holds {v[:30]!r}, not a number (missing values: "
-                             "empty, nan, NA or '.')") from None
+            raise TableError(
+                f"line {lines[i]}: column {col!r} holds {v[:30]!r}, not a number (missing values: "
+                "empty, nan, NA or '.')"
+            ) from None
     return out
 
 
@@ -216,8 +253,10 @@ def read_table(text: str, name: str, columns: Columns | None = None, preset: str
     counts = {s: first.count(s) for s in ("\t", ",", ";")}
     sep = "\t" if counts["\t"] else max(counts, key=counts.get)
     if not counts[sep]:
-        raise TableError(f"{name}: its header {first[:80]!r} has no tab, comma or semicolon: not a table of samples "
-                         "(an EyeLink file needs --format asc)")
+        raise TableError(
+            f"{name}: its header {first[:80]!r} has no tab, comma or semicolon: not a table of samples "
+            "(an EyeLink file needs --format asc)"
+        )
     parsed = list(csv.reader([ln for _, ln in rows], delimiter=sep, skipinitialspace=False))
     header = [h.strip().strip('"').strip() for h in parsed[0]]
     body, body_lines = parsed[1:], [n for n, _ in rows[1:]]
@@ -230,9 +269,12 @@ def read_table(text: str, name: str, columns: Columns | None = None, preset: str
         if columns is not None:
             columns = _resolve(columns, header)
         if columns is None:
-            raise TableError(f"{name}: no known columns in its header {first[:100]!r}: name them with --columns "
-                             "time=NAME,x=NAME,y=NAME (or a --preset: " + ", ".join(PRESETS) +
-                             "; the project's own names are time_ms and x_deg, y_deg or x_px, y_px)")
+            raise TableError(
+                f"{name}: no known columns in its header {first[:100]!r}: name them with --columns "
+                "time=NAME,x=NAME,y=NAME (or a --preset: "
+                + ", ".join(PRESETS)
+                + "; the project's own names are time_ms and x_deg, y_deg or x_px, y_px)"
+            )
     if not body:
         raise TableError(f"{name}: a header and no samples")
     widths = {len(r) for r in body}
@@ -240,19 +282,33 @@ def read_table(text: str, name: str, columns: Columns | None = None, preset: str
         if header[-1] == "" and len(header) - 1 >= max(widths):
             header = header[:-1]
         else:
-            raise TableError(f"{name}: the header has {len(header)} fields but no row has more than {max(widths)}: "
-                             "a header field too many (or a column missing from every row); fix the header")
+            raise TableError(
+                f"{name}: the header has {len(header)} fields but no row has more than {max(widths)}: "
+                "a header field too many (or a column missing from every row); fix the header"
+            )
     last = body[-1]
-    if len(last) < len(header) and len(widths) > 1 and text.rstrip("\r\n") == text.rstrip("\r\n").rstrip() \
-            and not text.endswith(("\n", "\r")):
-        raise TableError(f"{name} looks truncated: its last line ({body_lines[-1]}) has {len(last)} of {len(header)} fields")
+    if (
+        len(last) < len(header)
+        and len(widths) > 1
+        and text.rstrip("\r\n") == text.rstrip("\r\n").rstrip()
+        and not text.endswith(("\n", "\r"))
+    ):
+        raise TableError(
+            f"{name} looks truncated: its last line ({body_lines[-1]}) has {len(last)} of {len(header)} fields"
+        )
     index = {h: i for i, h in enumerate(header)}
 
     def col_index(c: str) -> int:
         if c not in index:
             close = [h for h in header if h.lower() == c.lower()]
-            raise TableError(f"{name}: no column {c!r} in the header" + (f" (did you mean {close[0]!r}?)" if close else
-                             f"; it has {', '.join(repr(h) for h in header[:12])}{' ...' if len(header) > 12 else ''}"))
+            raise TableError(
+                f"{name}: no column {c!r} in the header"
+                + (
+                    f" (did you mean {close[0]!r}?)"
+                    if close
+                    else f"; it has {', '.join(repr(h) for h in header[:12])}{' ...' if len(header) > 12 else ''}"
+                )
+            )
         return index[c]
 
     keep = np.ones(len(body), bool)
@@ -292,12 +348,23 @@ def read_table(text: str, name: str, columns: Columns | None = None, preset: str
         if not xs:
             raise TableError(f"{name}: the eye column {columns.eye!r} holds neither L/left nor R/right")
         # a long table: each eye's rows are its samples, on their own time base
-        return Table({e: t[lab == e[0]] for e in xs}, {e: xs[e][lab == e[0]] for e in xs},
-                     {e: ys[e][lab == e[0]] for e in xs}, columns,
-                     columns.time_unit or _unit_from_name(columns.time, "time"),
-                     columns.units or _unit_from_name(columns.x, "units"), header)
+        return Table(
+            {e: t[lab == e[0]] for e in xs},
+            {e: xs[e][lab == e[0]] for e in xs},
+            {e: ys[e][lab == e[0]] for e in xs},
+            columns,
+            columns.time_unit or _unit_from_name(columns.time, "time"),
+            columns.units or _unit_from_name(columns.x, "units"),
+            header,
+        )
     else:
         xs["gaze"], ys["gaze"] = column(columns.x), column(columns.y)
-    return Table({e: t for e in xs}, xs, ys, columns, columns.time_unit or _unit_from_name(columns.time, "time"),
-                 columns.units or _unit_from_name(columns.x.replace("{eye}", ""), "units"), header)
-
+    return Table(
+        {e: t for e in xs},
+        xs,
+        ys,
+        columns,
+        columns.time_unit or _unit_from_name(columns.time, "time"),
+        columns.units or _unit_from_name(columns.x.replace("{eye}", ""), "units"),
+        header,
+    )

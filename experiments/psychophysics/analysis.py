@@ -14,8 +14,14 @@ import numpy as np
 
 from .timecourse import RemapTimeCourse
 
-__all__ = ["compression_index", "separation_compression", "displacement_psychometrics", "summary", "format_summary",
-           "sampling_error"]
+__all__ = [
+    "compression_index",
+    "separation_compression",
+    "displacement_psychometrics",
+    "summary",
+    "format_summary",
+    "sampling_error",
+]
 
 
 def _spread(x: np.ndarray, y: np.ndarray) -> float:
@@ -31,8 +37,11 @@ def compression_index(table: dict[str, np.ndarray]) -> dict[float, tuple[np.ndar
         ci = []
         for s in times:
             m = (amp == a) & (t == s)
-            ci.append(1 - _spread(table["perceived_x_deg"][m], table["perceived_y_deg"][m])
-                      / _spread(table["true_x_deg"][m], table["true_y_deg"][m]))
+            ci.append(
+                1
+                - _spread(table["perceived_x_deg"][m], table["perceived_y_deg"][m])
+                / _spread(table["true_x_deg"][m], table["true_y_deg"][m])
+            )
         out[float(a)] = (times, np.array(ci))
     return out
 
@@ -44,12 +53,16 @@ def separation_compression(table: dict[str, np.ndarray]) -> dict[float, tuple[np
     out = {}
     amp, t = table["saccade_amplitude_deg"], table["flash_time_ms"]
     true = np.hypot(table["second_true_x_deg"] - table["true_x_deg"], table["second_true_y_deg"] - table["true_y_deg"])
-    seen = np.hypot(table["second_perceived_x_deg"] - table["perceived_x_deg"],
-                    table["second_perceived_y_deg"] - table["perceived_y_deg"])
+    seen = np.hypot(
+        table["second_perceived_x_deg"] - table["perceived_x_deg"],
+        table["second_perceived_y_deg"] - table["perceived_y_deg"],
+    )
     for a in np.unique(amp):
         times = np.unique(t[amp == a])
-        out[float(a)] = (times, np.array([1 - seen[(amp == a) & (t == s)].mean() / true[(amp == a) & (t == s)].mean()
-                                          for s in times]))
+        out[float(a)] = (
+            times,
+            np.array([1 - seen[(amp == a) & (t == s)].mean() / true[(amp == a) & (t == s)].mean() for s in times]),
+        )
     return out
 
 
@@ -65,8 +78,13 @@ def _probit_fit(x: np.ndarray, y: np.ndarray, start: tuple[float, float] | None 
 
     span = max(float(np.ptp(x)), 1e-3)
     starts = [(m, s) for m in (float(np.median(x)), 0.0) for s in (0.25 * span, span)] if start is None else [start]
-    best = min((minimize(nll, [m, np.log(s)], method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-4})
-                for m, s in starts), key=lambda r: r.fun)
+    best = min(
+        (
+            minimize(nll, [m, np.log(s)], method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-4})
+            for m, s in starts
+        ),
+        key=lambda r: r.fun,
+    )
     return float(best.x[0]), float(min(np.exp(best.x[1]), 1e3))
 
 
@@ -88,8 +106,9 @@ def _monotone_p(p: np.ndarray, n: np.ndarray) -> float:
     return float(chi2.sf(max(0.0, 2 * (ll(p) - ll(iso))), pooled))
 
 
-def displacement_psychometrics(table: dict[str, np.ndarray], n_boot: int = 0, seed: int = 0,
-                               start: dict | None = None) -> dict[int, dict]:
+def displacement_psychometrics(
+    table: dict[str, np.ndarray], n_boot: int = 0, seed: int = 0, start: dict | None = None
+) -> dict[int, dict]:
     """Per blank duration (ms) of a ``displacement`` table: the proportion of "forward" reports per
     step and a cumulative-Gaussian fit by maximum likelihood (2 % lapses): ``pse_deg`` (the step
     seen as none) and ``threshold_deg`` (its s.d.: the step from 50 % to 84 % "forward"), and
@@ -107,8 +126,14 @@ def displacement_psychometrics(table: dict[str, np.ndarray], n_boot: int = 0, se
         levels = np.unique(x)
         p = np.array([y[x == v].mean() for v in levels])
         n = np.array([(x == v).sum() for v in levels])
-        r = {"steps_deg": levels, "p_forward": p, "pse_deg": pse, "threshold_deg": sd,
-             "monotonic": bool(np.all(np.diff(p) >= 0)), "monotone_p": _monotone_p(p, n)}
+        r = {
+            "steps_deg": levels,
+            "p_forward": p,
+            "pse_deg": pse,
+            "threshold_deg": sd,
+            "monotonic": bool(np.all(np.diff(p) >= 0)),
+            "monotone_p": _monotone_p(p, n),
+        }
         if n_boot:
             groups = [np.flatnonzero(x == v) for v in levels]
             boots = []
@@ -151,29 +176,42 @@ def summary(table: dict[str, np.ndarray], window_ms: float = 50.0) -> list[dict]
         near = (amp == a) & (np.abs(t) <= window_ms)
         far = (amp == a) & (np.abs(t) >= 150)
         pre = (amp == a) & (t >= -100) & (t <= -25)
-        rows.append({
-            "saccade_amplitude_deg": a, "peak_compression": float(vals[i]), "peak_time_ms": float(times[i]),
-            "fwhm_ms": _fwhm(times, vals),
-            "mean_toward_x_deg": float(np.mean(table["error_toward_x_deg"][near])) if near.any() else float("nan"),
-            "mean_toward_y_deg": float(np.mean(table["error_toward_y_deg"][near])) if near.any() else float("nan"),
-            "far_rms_error_deg": float(np.sqrt(np.mean(table["error_x_deg"][far] ** 2 + table["error_y_deg"][far] ** 2)))
-            if far.any() else float("nan"),
-            # the uniform shift before the saccade, along it (the saccade goes to +x)
-            "pre_shift_x_deg": float(np.mean(table["error_x_deg"][pre])) if pre.any() else float("nan"),
-            "n_trials": int(np.sum(amp == a)),
-        })
+        rows.append(
+            {
+                "saccade_amplitude_deg": a,
+                "peak_compression": float(vals[i]),
+                "peak_time_ms": float(times[i]),
+                "fwhm_ms": _fwhm(times, vals),
+                "mean_toward_x_deg": float(np.mean(table["error_toward_x_deg"][near])) if near.any() else float("nan"),
+                "mean_toward_y_deg": float(np.mean(table["error_toward_y_deg"][near])) if near.any() else float("nan"),
+                "far_rms_error_deg": float(
+                    np.sqrt(np.mean(table["error_x_deg"][far] ** 2 + table["error_y_deg"][far] ** 2))
+                )
+                if far.any()
+                else float("nan"),
+                # the uniform shift before the saccade, along it (the saccade goes to +x)
+                "pre_shift_x_deg": float(np.mean(table["error_x_deg"][pre])) if pre.any() else float("nan"),
+                "n_trials": int(np.sum(amp == a)),
+            }
+        )
     return rows
 
 
 def sampling_error(table: dict[str, np.ndarray]) -> dict[str, float]:
     """Bias and RMS of the localization error (deg), for a table run with gain 0."""
     ex, ey = table["error_x_deg"], table["error_y_deg"]
-    return {"bias_x_deg": float(ex.mean()), "bias_y_deg": float(ey.mean()), "rms_x_deg": float(np.sqrt(np.mean(ex**2))),
-            "rms_y_deg": float(np.sqrt(np.mean(ey**2))), "max_deg": float(np.max(np.hypot(ex, ey)))}
+    return {
+        "bias_x_deg": float(ex.mean()),
+        "bias_y_deg": float(ey.mean()),
+        "rms_x_deg": float(np.sqrt(np.mean(ex**2))),
+        "rms_y_deg": float(np.sqrt(np.mean(ey**2))),
+        "max_deg": float(np.max(np.hypot(ex, ey))),
+    }
 
 
-def format_summary(rows: list[dict], timecourse: RemapTimeCourse | None = None, n_trials: int | None = None,
-                   config=None) -> str:
+def format_summary(
+    rows: list[dict], timecourse: RemapTimeCourse | None = None, n_trials: int | None = None, config=None
+) -> str:
     """A short text report of ``summary`` rows; ``config`` (a ``TrialConfig``) names the model and
     condition (and, for the paper model, its time course: ``timecourse`` alone does the same)."""
     lines = ["Perisaccadic flash localization (conformal camera, log-radius remapping, paper §6.5)"]
@@ -188,15 +226,23 @@ def format_summary(rows: list[dict], timecourse: RemapTimeCourse | None = None, 
         timecourse = config.timecourse if model.uses_timecourse else None
     if timecourse is not None:
         tc = timecourse
-        lines.append(f"gain time course: peak {tc.peak_gain:.3f} (compression {1 - np.exp(-tc.peak_gain):.0%}) at "
-                     f"{tc.peak_time_ms:+.0f} ms, rise {tc.rise_ms:.0f} ms, decay {tc.decay_ms:.0f} ms")
-    lines.append("amplitude  peak CI  at (ms)  FWHM (ms)  toward-target x / y (deg, |t|<=50 ms)  shift x (deg, -100..-25 ms)"
-                 "  rms error |t|>=150 ms")
+        lines.append(
+            f"gain time course: peak {tc.peak_gain:.3f} (compression {1 - np.exp(-tc.peak_gain):.0%}) at "
+            f"{tc.peak_time_ms:+.0f} ms, rise {tc.rise_ms:.0f} ms, decay {tc.decay_ms:.0f} ms"
+        )
+    lines.append(
+        "amplitude  peak CI  at (ms)  FWHM (ms)  toward-target x / y (deg, |t|<=50 ms)  shift x (deg, -100..-25 ms)"
+        "  rms error |t|>=150 ms"
+    )
     for r in rows:
-        lines.append(f"{r['saccade_amplitude_deg']:7.1f}    {r['peak_compression']:6.3f}  {r['peak_time_ms']:+7.0f}"
-                     f"  {r['fwhm_ms']:9.1f}  {r['mean_toward_x_deg']:+8.2f} / {r['mean_toward_y_deg']:+6.2f}"
-                     f"                    {r.get('pre_shift_x_deg', float('nan')):+6.2f}"
-                     f"                     {r['far_rms_error_deg']:6.2f}")
-    lines.append("CI = 1 - perceived spread / true spread; toward-target > 0 means errors point at the target; "
-                 "shift x > 0: in the saccade's direction.")
+        lines.append(
+            f"{r['saccade_amplitude_deg']:7.1f}    {r['peak_compression']:6.3f}  {r['peak_time_ms']:+7.0f}"
+            f"  {r['fwhm_ms']:9.1f}  {r['mean_toward_x_deg']:+8.2f} / {r['mean_toward_y_deg']:+6.2f}"
+            f"                    {r.get('pre_shift_x_deg', float('nan')):+6.2f}"
+            f"                     {r['far_rms_error_deg']:6.2f}"
+        )
+    lines.append(
+        "CI = 1 - perceived spread / true spread; toward-target > 0 means errors point at the target; "
+        "shift x > 0: in the saccade's direction."
+    )
     return "\n".join(lines) + "\n"

@@ -18,7 +18,7 @@ from typing import Any
 __all__ = ["BACKENDS", "check_backend", "ray_map"]
 
 BACKENDS = ("local", "ray")
-RAY_MISSING = "the ray backend needs Ray: pip install -e \".[ray]\" (or pip install ray)"
+RAY_MISSING = 'the ray backend needs Ray: pip install -e ".[ray]" (or pip install ray)'
 
 
 def check_backend(backend: str, ray_address: str | None = None) -> None:
@@ -29,8 +29,16 @@ def check_backend(backend: str, ray_address: str | None = None) -> None:
         raise ValueError("ray_address is only for the ray backend (the local backend starts no cluster)")
 
 
-def ray_map(init: Callable[..., None], init_args: tuple, work: Callable[[Any], Any], batches: Sequence,
-            on_result: Callable[[int, Any], None], *, workers: int, address: str | None = None) -> None:
+def ray_map(
+    init: Callable[..., None],
+    init_args: tuple,
+    work: Callable[[Any], Any],
+    batches: Sequence,
+    on_result: Callable[[int, Any], None],
+    *,
+    workers: int,
+    address: str | None = None,
+) -> None:
     """Run ``work(batch)`` for every batch on at most ``workers`` Ray actors (batch k on actor
     k mod n), calling ``on_result(k, result)`` as each finishes. Starts (and afterwards stops) a
     local Ray instance unless one is running or ``address`` names a cluster."""
@@ -46,6 +54,7 @@ def ray_map(init: Callable[..., None], init_args: tuple, work: Callable[[Any], A
             ray.init(num_cpus=max(1, workers), include_dashboard=False, log_to_driver=False)
         started = True
     try:
+
         @ray.remote(num_cpus=1)
         class Worker:
             def __init__(self, driver_pid):

@@ -32,6 +32,7 @@ class Limit:
 
     def text(self) -> str:
         """The interval as text, e.g. ``[0, 5]`` or ``(0, 40] deg``."""
+
         def num(v: float) -> str:
             return f"{v:g}" if not float(v).is_integer() or abs(v) < 1e6 else f"{int(v):d}"
 

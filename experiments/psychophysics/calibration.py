@@ -17,8 +17,17 @@ import csv
 import re
 from pathlib import Path
 
-__all__ = ["CALIBRATION_CSV", "CALIBRATION_COLUMNS", "ALL_MODELS", "read_calibration", "citation_keys",
-           "calibration_keys", "role", "constant_value", "markdown_table"]
+__all__ = [
+    "CALIBRATION_CSV",
+    "CALIBRATION_COLUMNS",
+    "ALL_MODELS",
+    "read_calibration",
+    "citation_keys",
+    "calibration_keys",
+    "role",
+    "constant_value",
+    "markdown_table",
+]
 
 CALIBRATION_CSV = Path(__file__).resolve().parents[1] / "data" / "calibration.csv"
 CALIBRATION_COLUMNS = ("model", "constant", "value", "source")

@@ -42,8 +42,9 @@ def activity_centroid(
     if f.ndim == 2:
         f = f.sum(axis=-1)
     if p.shape != (grid.M, grid.N) or f.shape != (grid.n_fovea,):
-        raise ValueError(f"maps must be (M, N) = ({grid.M}, {grid.N}) and (N_f,) = ({grid.n_fovea},); "
-                         f"got {p.shape} and {f.shape}")
+        raise ValueError(
+            f"maps must be (M, N) = ({grid.M}, {grid.N}) and (N_f,) = ({grid.n_fovea},); got {p.shape} and {f.shape}"
+        )
     if mask is not None:
         p = np.where(mask, p, 0.0)
     if fovea_mask is not None:

@@ -19,12 +19,18 @@ __all__ = ["Design", "Trial", "FIG11_OFFSETS_DEG", "MORRONE_OFFSETS_DEG", "defau
 #: Columns lie before and beyond the target along the saccade, rows above and below its path,
 #: none nearer the target than 4 deg (so that compressed flashes stay outside the fovea).
 FIG11_OFFSETS_DEG: tuple[tuple[float, float], ...] = tuple(
-    (dx, dy) for dy in (6.0, 3.0, -3.0, -6.0) for dx in (-12.0, -8.0, -4.0, 4.0, 8.0, 12.0)
-    if math.hypot(dx, dy) >= 4.0
+    (dx, dy) for dy in (6.0, 3.0, -3.0, -6.0) for dx in (-12.0, -8.0, -4.0, 4.0, 8.0, 12.0) if math.hypot(dx, dy) >= 4.0
 )
 #: A reduced Morrone-style set: 4 positions along the path (just above it) and 4 above/below.
 MORRONE_OFFSETS_DEG: tuple[tuple[float, float], ...] = (
-    (-12.0, 3.0), (-8.0, 3.0), (-4.0, 3.0), (8.0, 3.0), (-8.0, -3.0), (-4.0, -6.0), (4.0, 6.0), (8.0, -6.0),
+    (-12.0, 3.0),
+    (-8.0, 3.0),
+    (-4.0, 3.0),
+    (8.0, 3.0),
+    (-8.0, -3.0),
+    (-4.0, -6.0),
+    (4.0, 6.0),
+    (8.0, -6.0),
 )
 
 
@@ -111,8 +117,10 @@ class Design:
             raise TypeError(f"name must be a string; got {self.name!r}")
         n = len(amps) * len(offs) * len(times) * reps
         if n > MAX_TRIALS:
-            raise ValueError(f"the design has {n} trials, more than {MAX_TRIALS}: use fewer repetitions, "
-                             "amplitudes, flash offsets or flash times")
+            raise ValueError(
+                f"the design has {n} trials, more than {MAX_TRIALS}: use fewer repetitions, "
+                "amplitudes, flash offsets or flash times"
+            )
         for a in amps:
             for dx, dy in offs:
                 if abs(a / 2 + dx) > 40 or abs(dy) > 30:
@@ -130,8 +138,9 @@ class Design:
     def trials(self) -> list[Trial]:
         """All trials in a fixed order (trial_id = position); the same design gives the same list."""
         out = []
-        combos = itertools.product(range(self.repetitions), self.amplitudes_deg, self.flash_offsets_deg,
-                                   self.flash_times_ms)
+        combos = itertools.product(
+            range(self.repetitions), self.amplitudes_deg, self.flash_offsets_deg, self.flash_times_ms
+        )
         for i, (rep, a, (dx, dy), t) in enumerate(combos):
             out.append(Trial(i, a, dx, dy, t, rep, self.seed + i))
         return out
@@ -149,5 +158,10 @@ def default_design(seed: int = 0) -> Design:
 
 def quick_design(seed: int = 0) -> Design:
     """A reduced study (~1 minute): one 20-deg saccade, 8 flash positions, 7 flash times."""
-    return Design(amplitudes_deg=(20.0,), flash_offsets_deg=MORRONE_OFFSETS_DEG,
-                  flash_times_ms=(-150, -100, -50, -25, 0, 50, 150), seed=seed, name="quick")
+    return Design(
+        amplitudes_deg=(20.0,),
+        flash_offsets_deg=MORRONE_OFFSETS_DEG,
+        flash_times_ms=(-150, -100, -50, -25, 0, 50, 150),
+        seed=seed,
+        name="quick",
+    )

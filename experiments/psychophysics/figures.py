@@ -54,7 +54,9 @@ def fig11(table: dict[str, np.ndarray], window_ms: float = 25.0):
         ax.scatter(px, py, color="tab:purple", s=12, label="perceived")
         ax.plot([-a / 2], [0], "o", color="tab:red", label="fixation")
         ax.plot([a / 2], [0], "*", color="gold", markeredgecolor="k", ms=12, label="saccade target")
-        ax.annotate("", xy=(a / 2 - 1, -8.5), xytext=(-a / 2 + 1, -8.5), arrowprops=dict(arrowstyle="->", color="tab:red"))
+        ax.annotate(
+            "", xy=(a / 2 - 1, -8.5), xytext=(-a / 2 + 1, -8.5), arrowprops=dict(arrowstyle="->", color="tab:red")
+        )
         ax.set_ylim(-9.5, 9.5)
         ax.set_aspect("equal")
         ax.set_ylabel("elevation (deg)")
@@ -110,8 +112,12 @@ def compression_vs_time(table: dict[str, np.ndarray], timecourse: RemapTimeCours
     return fig
 
 
-def save_all(table: dict[str, np.ndarray], out_dir: str | Path, timecourse: RemapTimeCourse | None = None,
-             formats: tuple[str, ...] = ("png", "svg")) -> list[Path]:
+def save_all(
+    table: dict[str, np.ndarray],
+    out_dir: str | Path,
+    timecourse: RemapTimeCourse | None = None,
+    formats: tuple[str, ...] = ("png", "svg"),
+) -> list[Path]:
     """Write fig11, perceived_vs_time and compression_vs_time into ``out_dir``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -130,21 +136,27 @@ def psychometric(table: dict[str, np.ndarray]):
 
     fig, ax = _plt().subplots(figsize=(5.5, 3.8))
     for b, r in displacement_psychometrics(table).items():
-        line, = ax.plot(r["steps_deg"], r["p_forward"], "o", label=f"blank {b} ms: threshold {r['threshold_deg']:.2f} deg")
+        (line,) = ax.plot(
+            r["steps_deg"], r["p_forward"], "o", label=f"blank {b} ms: threshold {r['threshold_deg']:.2f} deg"
+        )
         xs = np.linspace(r["steps_deg"].min(), r["steps_deg"].max(), 200)
         ax.plot(xs, 0.01 + 0.98 * norm.cdf((xs - r["pse_deg"]) / r["threshold_deg"]), color=line.get_color())
-    ax.set(xlabel="target step during the saccade (deg, + = forward)", ylabel='P("forward")',
-           title="saccadic suppression of displacement", ylim=(-0.03, 1.03))
+    ax.set(
+        xlabel="target step during the saccade (deg, + = forward)",
+        ylabel='P("forward")',
+        title="saccadic suppression of displacement",
+        ylim=(-0.03, 1.03),
+    )
     ax.axvline(0, color="0.7", lw=0.8)
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
 
 
-def save_displacement(table: dict[str, np.ndarray], out_dir: str | Path,
-                      formats: tuple[str, ...] = ("png", "svg")) -> list[Path]:
+def save_displacement(
+    table: dict[str, np.ndarray], out_dir: str | Path, formats: tuple[str, ...] = ("png", "svg")
+) -> list[Path]:
     """Write the displacement paradigm's psychometric functions into ``out_dir``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     return _save(psychometric(table), out, "psychometric", formats)
-

@@ -76,8 +76,16 @@ import numpy as np
 
 from .bounds import check_constants
 
-__all__ = ["ObserverParams", "OBSERVER_SOURCES", "eye_estimate", "motor_cov", "suppression_log10",
-           "posterior_mean", "prior_precision", "sensory_sd_deg"]
+__all__ = [
+    "ObserverParams",
+    "OBSERVER_SOURCES",
+    "eye_estimate",
+    "motor_cov",
+    "suppression_log10",
+    "posterior_mean",
+    "prior_precision",
+    "sensory_sd_deg",
+]
 
 
 @dataclass(frozen=True)
@@ -103,28 +111,53 @@ class ObserverParams:
 #: name -> (role, source): ``calibrated`` constants were set from the named published number (which
 #: then cannot count as reproduced); ``assumed`` ones come from other measurements.
 OBSERVER_SOURCES = {
-    "temporal_sd_ms": ("assumed", "uncertainty of a flash's time re the saccade: perisaccadic temporal "
-                                  "misjudgements of 50-100 ms (Binda et al. 2009), temporal-order JNDs ~20-40 ms "
-                                  "(Hirsh & Sherrick 1961); 40 ms taken between them"),
-    "prior_sd_deg": ("calibrated", "peak compression ~50 % for 20 deg saccades with references "
-                                   "(Morrone, Ross & Burr 1997): phenomenon compression_peak"),
-    "weber": ("assumed", "flash localization s.d. ~5 % of eccentricity without references "
-                         "(White, Levi & Aitsebaomo 1992, Vision Res 32:513)"),
+    "temporal_sd_ms": (
+        "assumed",
+        "uncertainty of a flash's time re the saccade: perisaccadic temporal "
+        "misjudgements of 50-100 ms (Binda et al. 2009), temporal-order JNDs ~20-40 ms "
+        "(Hirsh & Sherrick 1961); 40 ms taken between them",
+    ),
+    "prior_sd_deg": (
+        "calibrated",
+        "peak compression ~50 % for 20 deg saccades with references "
+        "(Morrone, Ross & Burr 1997): phenomenon compression_peak",
+    ),
+    "weber": (
+        "assumed",
+        "flash localization s.d. ~5 % of eccentricity without references "
+        "(White, Levi & Aitsebaomo 1992, Vision Res 32:513)",
+    ),
     "floor_deg": ("assumed", "foveal positional acuity ~0.1 deg (Levi, Klein & Aitsebaomo 1985)"),
     "integration_ms": ("assumed", "Bloch's law: complete temporal summation up to ~100 ms (Barlow 1958)"),
-    "reference_unit": ("assumed", "the unit of reference activity: the retina's summed response (image-plane "
-                                  "area x intensity) to the default references (target dot + ruler at full "
-                                  "contrast), measured at 256 px (tests/test_perception_theories.py)"),
-    "motor_weber": ("assumed", "saccade endpoint s.d. ~5 % of amplitude (Kowler & Blaser 1995), horizontal and "
-                               "vertical: the observer's uncertainty about its own motor scatter, eq. (1b)"),
-    "suppression_log10": ("assumed", "saccadic suppression: a 10-fold loss of luminance contrast sensitivity "
-                                     "(Diamond, Ross & Morrone 2000, abstract), eq. (0)"),
-    "suppression_lead_ms": ("assumed", "suppression anticipates saccades by 50 ms (Diamond, Ross & Morrone 2000, "
-                                       "abstract)"),
-    "suppression_lag_ms": ("assumed", "suppression outlasts saccades by ~50 ms (Diamond, Ross & Morrone 2000, "
-                                      "abstract)"),
-    "acuity_contrast_exponent": ("assumed", "vernier thresholds scale as contrast^-0.8 (Bradley & Skottun 1987, "
-                                            "abstract): the positional cost of the lost sensitivity"),
+    "reference_unit": (
+        "assumed",
+        "the unit of reference activity: the retina's summed response (image-plane "
+        "area x intensity) to the default references (target dot + ruler at full "
+        "contrast), measured at 256 px (tests/test_perception_theories.py)",
+    ),
+    "motor_weber": (
+        "assumed",
+        "saccade endpoint s.d. ~5 % of amplitude (Kowler & Blaser 1995), horizontal and "
+        "vertical: the observer's uncertainty about its own motor scatter, eq. (1b)",
+    ),
+    "suppression_log10": (
+        "assumed",
+        "saccadic suppression: a 10-fold loss of luminance contrast sensitivity "
+        "(Diamond, Ross & Morrone 2000, abstract), eq. (0)",
+    ),
+    "suppression_lead_ms": (
+        "assumed",
+        "suppression anticipates saccades by 50 ms (Diamond, Ross & Morrone 2000, abstract)",
+    ),
+    "suppression_lag_ms": (
+        "assumed",
+        "suppression outlasts saccades by ~50 ms (Diamond, Ross & Morrone 2000, abstract)",
+    ),
+    "acuity_contrast_exponent": (
+        "assumed",
+        "vernier thresholds scale as contrast^-0.8 (Bradley & Skottun 1987, "
+        "abstract): the positional cost of the lost sensitivity",
+    ),
 }
 
 # Gauss-Hermite nodes for E[f(t')], t' ~ N(t, s^2): t' = t + sqrt(2) s x_k, weights w_k / sqrt(pi)

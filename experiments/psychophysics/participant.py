@@ -45,8 +45,10 @@ class Participant:
 PARTICIPANT = Participant()
 
 #: Reported columns: (perceived x, perceived y, true x, true y) of each flash a row can hold.
-_FLASHES = (("perceived_x_deg", "perceived_y_deg", "true_x_deg", "true_y_deg"),
-            ("second_perceived_x_deg", "second_perceived_y_deg", "second_true_x_deg", "second_true_y_deg"))
+_FLASHES = (
+    ("perceived_x_deg", "perceived_y_deg", "true_x_deg", "true_y_deg"),
+    ("second_perceived_x_deg", "second_perceived_y_deg", "second_true_x_deg", "second_true_y_deg"),
+)
 
 
 def add_report_noise(table: dict[str, np.ndarray], participant: Participant, stream: str) -> dict[str, np.ndarray]:

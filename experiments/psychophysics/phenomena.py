@@ -41,8 +41,19 @@ from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir, stag
 from ..cli.options import add_backend_options, add_workers_option, check_backend_options
 from .scoring import SCORE_COLUMNS
 
-__all__ = ["add_subcommand", "ROWS", "THEORIES", "COLUMNS", "REPETITIONS", "measure", "score", "bootstrap",
-           "statistics", "resample_cells", "markdown_table"]
+__all__ = [
+    "add_subcommand",
+    "ROWS",
+    "THEORIES",
+    "COLUMNS",
+    "REPETITIONS",
+    "measure",
+    "score",
+    "bootstrap",
+    "statistics",
+    "resample_cells",
+    "markdown_table",
+]
 
 IMAGE_SIZE = 256
 TIMES = (-150, -100, -75, -50, -25, 0, 25, 50, 75, 100, 150)
@@ -59,57 +70,127 @@ STEP_REPETITIONS = 30
 
 #: phenomenon -> (published statement, source (citation, figure), published range (lo, hi) or None, unit)
 ROWS = {
-    "compression_peak": ("peak compression ~50 % for 20 deg saccades with references",
-                         "Morrone, Ross & Burr 1997, Fig. 3", (0.35, 0.65), "index"),
-    "compression_peak_time_ms": ("compression is maximal just before saccade onset",
-                                 "Morrone, Ross & Burr 1997, abstract", (-50.0, 0.0), "ms"),
-    "compression_onset_ms": ("errors appear up to 100 ms before the saccade: first time at half the peak",
-                             "Morrone, Ross & Burr 1997, abstract", (-100.0, -25.0), "ms"),
-    "compression_fwhm_ms": ("compression confined to roughly +-50 ms around onset: full width at half maximum",
-                            "Morrone, Ross & Burr 1997, Fig. 3", (40.0, 110.0), "ms"),
-    "compression_fixation": ("no compression during fixation, long before the saccade (errors appear up to 100 ms "
-                             "before it): index at -150 ms with references; the range is the index's tolerance "
-                             "around none", "Morrone, Ross & Burr 1997, abstract", (-0.1, 0.1), "index"),
-    "shift_with_references_deg": ("no published number for the uniform shift with references: the model's mean "
-                                  "horizontal error at 0 ms minus -150 ms, with references", "none found", None,
-                                  "deg"),
-    "compression_amplitude_growth": ("compression grows with saccade amplitude: index 24 deg minus 12 deg near "
-                                     "onset", "Lavergne, Vergilino-Perez, Lappe & Dore-Mazars 2010, abstract",
-                                     (0.02, 1.0), "index"),
-    "shift_dark_presaccadic_deg": ("in the dark, flashes before onset are seen shifted in the saccade's direction: "
-                                   "mean error at -50 minus -150 ms", "Honda 1989, abstract; Honda 1991", (0.5, 10.0), "deg"),
-    "shift_dark_reversal_deg": ("flashes near the end of the saccade are seen shifted against it: mean error at +50 "
-                                "minus -150 ms", "Honda 1989, abstract; Honda 1991", (-10.0, -0.5), "deg"),
-    "compression_needs_references": ("compression with post-saccadic references, none in complete darkness: index "
-                                     "references minus dark near onset", "Lappe, Awater & Krekelberg 2000, Fig. 2",
-                                     (0.2, 1.0), "index"),
-    "compression_needs_postsaccadic_references": ("compression needs references present after the saccade, not only "
-                                                  "before it: index with the target and ruler on after saccade "
-                                                  "offset minus with the target on only until offset (reference_ms "
-                                                  "0), near onset; the paper's figure was not checked, so no range",
-                                                  "Lappe, Awater & Krekelberg 2000 (figure not checked)", None,
-                                                  "index"),
-    "compression_vs_reference_contrast": ("no published grading with the references' contrast found: the model's "
-                                          "prediction (index at contrast 1 minus 0.25, near onset)",
-                                          "none found", None, "index"),
-    "compression_along_minus_across": ("2-D compression, stronger along the saccade than across it: index along "
-                                       "minus across near onset", "Kaiser & Lappe 2004, Fig. 3", (0.05, 1.0),
-                                       "index"),
-    "compression_across": ("compression also across the saccade: index across near onset",
-                           "Kaiser & Lappe 2004, Fig. 3", (0.05, 1.0), "index"),
-    "separation_over_localization": ("perceived separation of two simultaneous flashes compresses much less than "
-                                     "their localization: ratio near onset", "Reeve, Clark & O'Regan 2008, abstract",
-                                     (-1.0, 0.5), "ratio"),
-    "displacement_blank_ratio": ("a 50-300 ms post-saccadic blank restores detection of intrasaccadic target steps: "
-                                 "threshold without / with a 250 ms blank",
-                                 "Deubel, Schneider & Bridgeman 1996, Fig. 2", (2.0, 1000.0), "ratio"),
-    "focus_toward_reference": ("with no target after onset, compression is focused on a visible reference object: "
-                               "focus position from the goal (0) to the marker (1)",
-                               "Zimmermann, Morrone & Burr 2014, abstract", (0.5, 1.5), "fraction"),
-    "memory_guided_reduction": ("memory-guided saccades (no visible target) give weaker, more veridical "
-                                "localization: index with the target lit minus with it off from 100 ms before "
-                                "onset, no ruler, near onset", "Zimmermann, Morrone & Burr 2014, abstract",
-                                (0.05, 1.0), "index"),
+    "compression_peak": (
+        "peak compression ~50 % for 20 deg saccades with references",
+        "Morrone, Ross & Burr 1997, Fig. 3",
+        (0.35, 0.65),
+        "index",
+    ),
+    "compression_peak_time_ms": (
+        "compression is maximal just before saccade onset",
+        "Morrone, Ross & Burr 1997, abstract",
+        (-50.0, 0.0),
+        "ms",
+    ),
+    "compression_onset_ms": (
+        "errors appear up to 100 ms before the saccade: first time at half the peak",
+        "Morrone, Ross & Burr 1997, abstract",
+        (-100.0, -25.0),
+        "ms",
+    ),
+    "compression_fwhm_ms": (
+        "compression confined to roughly +-50 ms around onset: full width at half maximum",
+        "Morrone, Ross & Burr 1997, Fig. 3",
+        (40.0, 110.0),
+        "ms",
+    ),
+    "compression_fixation": (
+        "no compression during fixation, long before the saccade (errors appear up to 100 ms "
+        "before it): index at -150 ms with references; the range is the index's tolerance "
+        "around none",
+        "Morrone, Ross & Burr 1997, abstract",
+        (-0.1, 0.1),
+        "index",
+    ),
+    "shift_with_references_deg": (
+        "no published number for the uniform shift with references: the model's mean "
+        "horizontal error at 0 ms minus -150 ms, with references",
+        "none found",
+        None,
+        "deg",
+    ),
+    "compression_amplitude_growth": (
+        "compression grows with saccade amplitude: index 24 deg minus 12 deg near onset",
+        "Lavergne, Vergilino-Perez, Lappe & Dore-Mazars 2010, abstract",
+        (0.02, 1.0),
+        "index",
+    ),
+    "shift_dark_presaccadic_deg": (
+        "in the dark, flashes before onset are seen shifted in the saccade's direction: "
+        "mean error at -50 minus -150 ms",
+        "Honda 1989, abstract; Honda 1991",
+        (0.5, 10.0),
+        "deg",
+    ),
+    "shift_dark_reversal_deg": (
+        "flashes near the end of the saccade are seen shifted against it: mean error at +50 minus -150 ms",
+        "Honda 1989, abstract; Honda 1991",
+        (-10.0, -0.5),
+        "deg",
+    ),
+    "compression_needs_references": (
+        "compression with post-saccadic references, none in complete darkness: index references minus dark near onset",
+        "Lappe, Awater & Krekelberg 2000, Fig. 2",
+        (0.2, 1.0),
+        "index",
+    ),
+    "compression_needs_postsaccadic_references": (
+        "compression needs references present after the saccade, not only "
+        "before it: index with the target and ruler on after saccade "
+        "offset minus with the target on only until offset (reference_ms "
+        "0), near onset; the paper's figure was not checked, so no range",
+        "Lappe, Awater & Krekelberg 2000 (figure not checked)",
+        None,
+        "index",
+    ),
+    "compression_vs_reference_contrast": (
+        "no published grading with the references' contrast found: the model's "
+        "prediction (index at contrast 1 minus 0.25, near onset)",
+        "none found",
+        None,
+        "index",
+    ),
+    "compression_along_minus_across": (
+        "2-D compression, stronger along the saccade than across it: index along minus across near onset",
+        "Kaiser & Lappe 2004, Fig. 3",
+        (0.05, 1.0),
+        "index",
+    ),
+    "compression_across": (
+        "compression also across the saccade: index across near onset",
+        "Kaiser & Lappe 2004, Fig. 3",
+        (0.05, 1.0),
+        "index",
+    ),
+    "separation_over_localization": (
+        "perceived separation of two simultaneous flashes compresses much less than "
+        "their localization: ratio near onset",
+        "Reeve, Clark & O'Regan 2008, abstract",
+        (-1.0, 0.5),
+        "ratio",
+    ),
+    "displacement_blank_ratio": (
+        "a 50-300 ms post-saccadic blank restores detection of intrasaccadic target steps: "
+        "threshold without / with a 250 ms blank",
+        "Deubel, Schneider & Bridgeman 1996, Fig. 2",
+        (2.0, 1000.0),
+        "ratio",
+    ),
+    "focus_toward_reference": (
+        "with no target after onset, compression is focused on a visible reference object: "
+        "focus position from the goal (0) to the marker (1)",
+        "Zimmermann, Morrone & Burr 2014, abstract",
+        (0.5, 1.5),
+        "fraction",
+    ),
+    "memory_guided_reduction": (
+        "memory-guided saccades (no visible target) give weaker, more veridical "
+        "localization: index with the target lit minus with it off from 100 ms before "
+        "onset, no ruler, near onset",
+        "Zimmermann, Morrone & Burr 2014, abstract",
+        (0.05, 1.0),
+        "index",
+    ),
 }
 
 
@@ -122,8 +203,9 @@ def _designs(quick: bool = False) -> dict:
     reps = 2 if quick else REPETITIONS
 
     def design(name, times, amplitudes=(20.0,)):
-        return Design(amplitudes_deg=amplitudes, flash_offsets_deg=pos, flash_times_ms=times, repetitions=reps,
-                      name=name)
+        return Design(
+            amplitudes_deg=amplitudes, flash_offsets_deg=pos, flash_times_ms=times, repetitions=reps, name=name
+        )
 
     loc, near = design("localization", TIMES), design("near", NEAR)
     return {
@@ -143,8 +225,13 @@ def _displacement(quick: bool = False):
     from . import Design
 
     steps = tuple(float(s) for s in range(-3, 4)) if quick else STEPS_DEG
-    return Design(amplitudes_deg=(20.0,), flash_offsets_deg=tuple((s, 0.0) for s in steps),
-                  flash_times_ms=(0, 250), repetitions=6 if quick else STEP_REPETITIONS, name="displacement")
+    return Design(
+        amplitudes_deg=(20.0,),
+        flash_offsets_deg=tuple((s, 0.0) for s in steps),
+        flash_times_ms=(0, 250),
+        repetitions=6 if quick else STEP_REPETITIONS,
+        name="displacement",
+    )
 
 
 def _model_config(base, model: str):
@@ -162,8 +249,17 @@ def _columns(rows: list[dict]) -> dict[str, np.ndarray]:
     return {k: np.array([r[k] for r in rows]) for k in rows[0]}
 
 
-def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False, image_size: int = IMAGE_SIZE,
-            quick: bool = False, generator=None, backend: str = "local", ray_address: str | None = None) -> dict:
+def measure(
+    out: Path,
+    models=THEORIES,
+    workers: int = 1,
+    progress: bool = False,
+    image_size: int = IMAGE_SIZE,
+    quick: bool = False,
+    generator=None,
+    backend: str = "local",
+    ray_address: str | None = None,
+) -> dict:
     """Observe every design once (cached), read it out with every model; returns {model: {design:
     table}}, the localization tables holding the participant's reports (``participant.add_report_noise``;
     ``DIR/tables/`` keeps the models' percepts). Saccades land with the participant's motor noise.
@@ -180,14 +276,25 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
     designs = _designs(quick)
     for k, (name, (design, kw)) in enumerate(designs.items(), 1):
         base = TrialConfig(image_size=image_size, generator=generator, endpoint_noise=noise, **kw)
-        stage(f"phenomena: design {k}/{len(designs)} ({name}, {design.n_trials} trials): loading the head",
-              enabled=progress)
+        stage(
+            f"phenomena: design {k}/{len(designs)} ({name}, {design.n_trials} trials): loading the head",
+            enabled=progress,
+        )
         runner = TrialRunner(base)
         try:
-            obs = observe_trials(design.trials(), base, out / "observations", workers=workers, progress=progress,
-                                 runner=runner, backend=backend, ray_address=ray_address)
-            stage(f"phenomena: design {k}/{len(designs)} ({name}): reading out {len(models)} theories",
-                  enabled=progress)
+            obs = observe_trials(
+                design.trials(),
+                base,
+                out / "observations",
+                workers=workers,
+                progress=progress,
+                runner=runner,
+                backend=backend,
+                ray_address=ray_address,
+            )
+            stage(
+                f"phenomena: design {k}/{len(designs)} ({name}): reading out {len(models)} theories", enabled=progress
+            )
             for m in models:
                 rows = [{**runner.readout(o, _model_config(base, m)), "model": m} for o in obs]
                 write_csv(out / "tables" / f"{m}_{name}.csv", list(ROW_COLUMNS + TEXT_COLUMNS), rows)
@@ -196,10 +303,25 @@ def measure(out: Path, models=THEORIES, workers: int = 1, progress: bool = False
             runner.close()
     for m in models:
         stage(f"phenomena: saccadic suppression of displacement, {m}", enabled=progress)
-        cfg = _model_config(TrialConfig(image_size=image_size, condition="dark", paradigm="displacement",
-                                        generator=generator, endpoint_noise=noise), m)
-        path = run_trials(_displacement(quick), cfg, out / "displacement" / m, workers=workers, progress=progress,
-                          backend=backend, ray_address=ray_address)
+        cfg = _model_config(
+            TrialConfig(
+                image_size=image_size,
+                condition="dark",
+                paradigm="displacement",
+                generator=generator,
+                endpoint_noise=noise,
+            ),
+            m,
+        )
+        path = run_trials(
+            _displacement(quick),
+            cfg,
+            out / "displacement" / m,
+            workers=workers,
+            progress=progress,
+            backend=backend,
+            ray_address=ray_address,
+        )
         tables[m]["displacement"] = read_table(path)
     return tables
 
@@ -241,8 +363,11 @@ def _near(t: dict, axis: int | None = None, amplitude: float | None = None) -> f
     if amplitude is not None:
         sel &= t["saccade_amplitude_deg"] == amplitude
     # per flash time, then averaged: the index is defined over one time's flashes
-    return float(np.mean([_index(t, sel & (t["flash_time_ms"] == s), axis) for s in NEAR
-                          if (sel & (t["flash_time_ms"] == s)).any()]))
+    return float(
+        np.mean(
+            [_index(t, sel & (t["flash_time_ms"] == s), axis) for s in NEAR if (sel & (t["flash_time_ms"] == s)).any()]
+        )
+    )
 
 
 def _half_crossings(times, vals) -> tuple[float, float, float]:
@@ -271,8 +396,9 @@ def _mean_error_x(t: dict, time: int) -> float:
 def _separation_ratio(t: dict) -> float:
     sel = np.isin(t["flash_time_ms"], NEAR)
     true = np.hypot(t["second_true_x_deg"] - t["true_x_deg"], t["second_true_y_deg"] - t["true_y_deg"])[sel]
-    seen = np.hypot(t["second_perceived_x_deg"] - t["perceived_x_deg"],
-                    t["second_perceived_y_deg"] - t["perceived_y_deg"])[sel]
+    seen = np.hypot(
+        t["second_perceived_x_deg"] - t["perceived_x_deg"], t["second_perceived_y_deg"] - t["perceived_y_deg"]
+    )[sel]
     sep = 1 - seen.mean() / true.mean()
     return float(sep / _near(t))
 
@@ -324,8 +450,12 @@ def statistics(tab: dict, psychometric_start: dict | None = None) -> dict[str, f
 
 
 #: Reported columns of a localization table, resampled by ``resample_cells`` (the rest describe the stimulus).
-_REPORTED = (("perceived_x_deg", "true_x_deg", "error_x_deg"), ("perceived_y_deg", "true_y_deg", "error_y_deg"),
-             ("second_perceived_x_deg", None, None), ("second_perceived_y_deg", None, None))
+_REPORTED = (
+    ("perceived_x_deg", "true_x_deg", "error_x_deg"),
+    ("perceived_y_deg", "true_y_deg", "error_y_deg"),
+    ("second_perceived_x_deg", None, None),
+    ("second_perceived_y_deg", None, None),
+)
 
 
 def _cells(t: dict) -> np.ndarray:
@@ -407,15 +537,24 @@ def _note(name: str, model: str, tab: dict, value: float, ci: tuple) -> str:
         spacing, span = float(np.min(np.diff(steps))), float(steps[-1] - steps[0])
         for b, r in fits.items():
             if r["threshold_deg"] < spacing:
-                notes.append(f"threshold {r['threshold_deg']:.2f} deg at blank {b} ms is under the {spacing:g} deg "
-                             f"step: not resolved by the grid")
+                notes.append(
+                    f"threshold {r['threshold_deg']:.2f} deg at blank {b} ms is under the {spacing:g} deg "
+                    f"step: not resolved by the grid"
+                )
             elif r["threshold_deg"] > span / 2 or not steps[0] < r["pse_deg"] < steps[-1]:
-                notes.append(f"blank {b} ms: PSE {r['pse_deg']:.2f}, threshold {r['threshold_deg']:.2f} deg reach "
-                             f"beyond the steps ({steps[0]:g} to {steps[-1]:g} deg): extrapolated")
+                notes.append(
+                    f"blank {b} ms: PSE {r['pse_deg']:.2f}, threshold {r['threshold_deg']:.2f} deg reach "
+                    f"beyond the steps ({steps[0]:g} to {steps[-1]:g} deg): extrapolated"
+                )
         bad = [f"{b} ms" for b, r in fits.items() if not r["monotonic"]]
         if bad:
-            notes.append("psychometric data not monotone at blank " + ", ".join(bad) +
-                         " (p = " + ", ".join(f"{fits[int(b.split()[0])]['monotone_p']:.2f}" for b in bad) + ")")
+            notes.append(
+                "psychometric data not monotone at blank "
+                + ", ".join(bad)
+                + " (p = "
+                + ", ".join(f"{fits[int(b.split()[0])]['monotone_p']:.2f}" for b in bad)
+                + ")"
+            )
     if ROWS[name][2] is None:
         notes.append("no published number: reported, not tested")
     return "; ".join(notes)
@@ -433,17 +572,26 @@ def score(tables: dict, n_boot: int = BOOT, progress: bool = False) -> list[dict
     from .scoring import finalize
 
     rows = []
-    bar = Progress(len(tables), desc=f"bootstrap CIs ({n_boot} resamples)", unit="theory", warmup=None,
-                   enabled=progress)
+    bar = Progress(
+        len(tables), desc=f"bootstrap CIs ({n_boot} resamples)", unit="theory", warmup=None, enabled=progress
+    )
     for model, tab in tables.items():
         point = statistics(tab)
         ci = bootstrap(tab, n_boot)
         for name, (_statement, source, rng, _unit) in ROWS.items():
-            rows.append({"phenomenon": name, "model": model, "source": source,
-                         "published_low": "" if rng is None else rng[0],
-                         "published_high": "" if rng is None else rng[1],
-                         "simulated": _fmt(point[name]), "ci_low": _fmt(ci[name][0]), "ci_high": _fmt(ci[name][1]),
-                         "note": _note(name, model, tab, point[name], ci[name])})
+            rows.append(
+                {
+                    "phenomenon": name,
+                    "model": model,
+                    "source": source,
+                    "published_low": "" if rng is None else rng[0],
+                    "published_high": "" if rng is None else rng[1],
+                    "simulated": _fmt(point[name]),
+                    "ci_low": _fmt(ci[name][0]),
+                    "ci_high": _fmt(ci[name][1]),
+                    "note": _note(name, model, tab, point[name], ci[name]),
+                }
+            )
         bar.update()
     bar.close()
     return finalize(rows)
@@ -481,11 +629,16 @@ def markdown_table(rows: list[dict]) -> str:
     for name in dict.fromkeys(r["phenomenon"] for r in rows):
         first = cell[(name, models[0])]
         unit = ROWS[name][3] if name in ROWS else ""
-        pub = (f"{float(first['published_low']):g} to {float(first['published_high']):g} {unit}"
-               if str(first["published_low"]).strip() else "none found")
+        pub = (
+            f"{float(first['published_low']):g} to {float(first['published_high']):g} {unit}"
+            if str(first["published_low"]).strip()
+            else "none found"
+        )
         src = "" if first["source"].startswith("none") else f" ({first['source']})"
-        cells = [f"{fmt(c['simulated'], unit)} [{fmt(c['ci_low'], unit)}, {fmt(c['ci_high'], unit)}] {verdict(c)}"
-                 for c in (cell[(name, m)] for m in models)]
+        cells = [
+            f"{fmt(c['simulated'], unit)} [{fmt(c['ci_low'], unit)}, {fmt(c['ci_high'], unit)}] {verdict(c)}"
+            for c in (cell[(name, m)] for m in models)
+        ]
         lines.append(f"| `{name}` | {pub}{src} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -526,8 +679,13 @@ def plot(tables: dict, out: Path) -> list[Path]:
     fig, ax = plt.subplots(figsize=(5.5, 3.6))
     for m in models:
         for b, r in displacement_psychometrics(tables[m]["displacement"]).items():
-            ax.plot(r["steps_deg"], r["p_forward"], "-o" if b == 0 else "--s", ms=3,
-                    label=f"{m}, blank {b} ms: {r['threshold_deg']:.2f}°")
+            ax.plot(
+                r["steps_deg"],
+                r["p_forward"],
+                "-o" if b == 0 else "--s",
+                ms=3,
+                label=f"{m}, blank {b} ms: {r['threshold_deg']:.2f}°",
+            )
     ax.set(title="target step during the saccade", xlabel="step (deg, + forward)", ylabel='P("forward")')
     ax.legend(fontsize=6)
     paths.append(_save(fig, out / "displacement_suppression.png"))
@@ -547,13 +705,17 @@ def _write(out: Path, tables: dict, n_boot: int = BOOT, progress: bool = False) 
 
     rows = score(tables, n_boot, progress)
     write_csv(out / "phenomena.csv", COLUMNS, rows)
-    lines = [f"{'phenomenon':34s} {'model':12s} {'role':10s} {'diag':4s} {'simulated':>9s}  {'95% CI':19s} "
-             f"{'published':14s} reproduced"]
+    lines = [
+        f"{'phenomenon':34s} {'model':12s} {'role':10s} {'diag':4s} {'simulated':>9s}  {'95% CI':19s} "
+        f"{'published':14s} reproduced"
+    ]
     for r in rows:
         pub = f"{r['published_low']}..{r['published_high']}" if str(r["published_low"]).strip() else "none"
-        lines.append(f"{r['phenomenon']:34s} {r['model']:12s} {r['role']:10s} {r['diagnostic']:4s} "
-                     f"{float(r['simulated']):9.3f}  [{float(r['ci_low']):7.3f}, {float(r['ci_high']):7.3f}] "
-                     f"{pub:14s} {r['reproduced']}" + (f"  ({r['note']})" if r["note"] else ""))
+        lines.append(
+            f"{r['phenomenon']:34s} {r['model']:12s} {r['role']:10s} {r['diagnostic']:4s} "
+            f"{float(r['simulated']):9.3f}  [{float(r['ci_low']):7.3f}, {float(r['ci_high']):7.3f}] "
+            f"{pub:14s} {r['reproduced']}" + (f"  ({r['note']})" if r["note"] else "")
+        )
     tally = [f"{m}: {a}/{b} predicted, diagnostic rows reproduced" for m, (a, b) in counts(rows).items()]
     text = "\n".join(lines + [""] + tally) + "\n"
     atomic_write_text(out / "phenomena.txt", text)
@@ -578,45 +740,84 @@ def run(args: argparse.Namespace) -> int:
 
     def work() -> int:
         with folder_lock(out):
-            tables = measure(out, workers=args.workers, progress=not args.no_progress,
-                             image_size=getattr(args, "image_size", IMAGE_SIZE), quick=getattr(args, "quick", False),
-                             generator=getattr(args, "generator", None), backend=getattr(args, "backend", "local"),
-                             ray_address=getattr(args, "ray_address", None))
-            stage("phenomena: scoring each theory (bootstrap CIs), writing the table and figures",
-                  enabled=not args.no_progress)
+            tables = measure(
+                out,
+                workers=args.workers,
+                progress=not args.no_progress,
+                image_size=getattr(args, "image_size", IMAGE_SIZE),
+                quick=getattr(args, "quick", False),
+                generator=getattr(args, "generator", None),
+                backend=getattr(args, "backend", "local"),
+                ray_address=getattr(args, "ray_address", None),
+            )
+            stage(
+                "phenomena: scoring each theory (bootstrap CIs), writing the table and figures",
+                enabled=not args.no_progress,
+            )
             text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT), progress=not args.no_progress)
         print(text, end="")
         print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
         return 0
 
-    return guarded("python -m experiments phenomena", work,
-                   resume_hint=f"the finished trials are kept in {out}/tables: run the same command again to resume",
-                   # ValueError: e.g. a tables/ folder holding another configuration
-                   errors={FolderBusyError: 1, ValueError: 2})
+    return guarded(
+        "python -m experiments phenomena",
+        work,
+        resume_hint=f"the finished trials are kept in {out}/tables: run the same command again to resume",
+        # ValueError: e.g. a tables/ folder holding another configuration
+        errors={FolderBusyError: 1, ValueError: 2},
+    )
 
 
 def add_subcommand(subparsers) -> None:
     """Register ``phenomena`` on the ``experiments`` command line."""
-    p = subparsers.add_parser("phenomena", help="which published perisaccadic phenomena each theory predicts "
-                                                "(table with CIs, calibrated/predicted, figures)",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--out", type=out_dir, default="results/phenomena",
-                   help="output folder (created; its tables/ are resumed)")
+    p = subparsers.add_parser(
+        "phenomena",
+        help="which published perisaccadic phenomena each theory predicts "
+        "(table with CIs, calibrated/predicted, figures)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--out", type=out_dir, default="results/phenomena", help="output folder (created; its tables/ are resumed)"
+    )
     add_workers_option(p)
     add_backend_options(p)
-    p.add_argument("--image-size", type=bounded("image_size"), default=IMAGE_SIZE, metavar="PX",
-                   help=f"eye image side (default {IMAGE_SIZE}; smaller is faster and adds the retina's sampling error)")
-    p.add_argument("--bootstrap", type=int_in(100, 100_000), default=BOOT, metavar="N",
-                   help=f"bootstrap resamples per confidence interval (100-100000, default {BOOT})")
-    p.add_argument("--quick", action="store_true",
-                   help="8 flash positions instead of 24, 2 repetitions instead of 4, 7 displacement steps x 6 reports "
-                        "instead of 13 x 30: a fast look "
-                        "with wider CIs (a folder holds one of the two)")
+    p.add_argument(
+        "--image-size",
+        type=bounded("image_size"),
+        default=IMAGE_SIZE,
+        metavar="PX",
+        help=f"eye image side (default {IMAGE_SIZE}; smaller is faster and adds the retina's sampling error)",
+    )
+    p.add_argument(
+        "--bootstrap",
+        type=int_in(100, 100_000),
+        default=BOOT,
+        metavar="N",
+        help=f"bootstrap resamples per confidence interval (100-100000, default {BOOT})",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="8 flash positions instead of 24, 2 repetitions instead of 4, 7 displacement steps x 6 reports "
+        "instead of 13 x 30: a fast look "
+        "with wider CIs (a folder holds one of the two)",
+    )
     p.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run, _parser=p)
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(run(argparse.Namespace(out="results/phenomena", workers=2, no_progress=False, image_size=IMAGE_SIZE,
-                                    bootstrap=BOOT, quick=False)))
+    sys.exit(
+        run(
+            argparse.Namespace(
+                out="results/phenomena",
+                workers=2,
+                no_progress=False,
+                image_size=IMAGE_SIZE,
+                bootstrap=BOOT,
+                quick=False,
+            )
+        )
+    )

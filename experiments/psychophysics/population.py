@@ -43,8 +43,14 @@ import numpy as np
 
 from .bounds import check_constants
 
-__all__ = ["PopulationParams", "POPULATION_SOURCES", "feedback_signal", "cortical_offset", "from_cortical_offset",
-           "population_estimate"]
+__all__ = [
+    "PopulationParams",
+    "POPULATION_SOURCES",
+    "feedback_signal",
+    "cortical_offset",
+    "from_cortical_offset",
+    "population_estimate",
+]
 
 
 @dataclass(frozen=True)
@@ -64,12 +70,21 @@ class PopulationParams:
 
 
 POPULATION_SOURCES = {
-    "gain_per_deg": ("calibrated", "peak compression ~50 % for 20 deg saccades with references "
-                                   "(Morrone, Ross & Burr 1997): phenomenon compression_peak"),
-    "field_sd": ("assumed", "gain field circumscribed around the goal on the cortical map, ~half the goal's "
-                            "eccentricity (Hamker et al. 2008, anisotropic magnification model)"),
-    "rf_sd": ("assumed", "the read-out layer's large receptive fields (Hamker et al. 2008's L2, LIP/TE-like: "
-                         "RF diameter ~ eccentricity), s.d. 0.6 on the log map"),
+    "gain_per_deg": (
+        "calibrated",
+        "peak compression ~50 % for 20 deg saccades with references "
+        "(Morrone, Ross & Burr 1997): phenomenon compression_peak",
+    ),
+    "field_sd": (
+        "assumed",
+        "gain field circumscribed around the goal on the cortical map, ~half the goal's "
+        "eccentricity (Hamker et al. 2008, anisotropic magnification model)",
+    ),
+    "rf_sd": (
+        "assumed",
+        "the read-out layer's large receptive fields (Hamker et al. 2008's L2, LIP/TE-like: "
+        "RF diameter ~ eccentricity), s.d. 0.6 on the log map",
+    ),
     "tau_ms": ("assumed", "burst-like feedback (Hamker et al. 2008, Fig. 5) smoothed by the FEF/SC loop; 20 ms"),
     "latency_ms": ("assumed", "visual latency of a flash in extrastriate cortex ~70 ms (Schmolesky et al. 1998)"),
     "response_ms": ("assumed", "transient visual response to an 8 ms flash lasts ~50 ms (Schmolesky et al. 1998)"),
@@ -137,6 +152,6 @@ def population_estimate(dw_flash: complex, strength: float, rf_sd: float, field_
         c^2 = rf^2 f^2 / (rf^2 + f^2),  w_c = w_f f^2 / (rf^2 + f^2),  E = exp(-|w_f|^2 / (2 (rf^2 + f^2)))."""
     rf2, f2 = rf_sd**2, field_sd**2
     c2 = rf2 * f2 / (rf2 + f2)
-    e = strength * c2 * math.exp(-abs(dw_flash) ** 2 / (2 * (rf2 + f2)))
+    e = strength * c2 * math.exp(-(abs(dw_flash) ** 2) / (2 * (rf2 + f2)))
     w_c = dw_flash * f2 / (rf2 + f2)
     return (rf2 * dw_flash + e * w_c) / (rf2 + e)

@@ -52,8 +52,18 @@ from .design import Design, Trial
 from .snapshots import write_snapshot
 from .trial import ROW_COLUMNS, TEXT_COLUMNS, TrialConfig, TrialRunner
 
-__all__ = ["run_trials", "read_table", "write_parquet", "config_fingerprint", "config_hash", "TABLE_COLUMNS",
-           "FolderBusyError", "OutputFolderError", "prepare_output_folder", "folder_lock"]
+__all__ = [
+    "run_trials",
+    "read_table",
+    "write_parquet",
+    "config_fingerprint",
+    "config_hash",
+    "TABLE_COLUMNS",
+    "FolderBusyError",
+    "OutputFolderError",
+    "prepare_output_folder",
+    "folder_lock",
+]
 
 #: The columns of ``trials.csv``: the trial's row (``ROW_COLUMNS``), then the integrity columns.
 TABLE_COLUMNS = ROW_COLUMNS + TEXT_COLUMNS + ("config_hash", "row_crc32")
@@ -136,8 +146,12 @@ def _worker_status() -> dict:
     """Diagnostics of a worker process (tests): pid, parent pid and its thread-pool sizes."""
     from threadpoolctl import threadpool_info
 
-    return {"pid": os.getpid(), "ppid": os.getppid(), "sigint": signal.getsignal(signal.SIGINT),
-            "threads": {i["internal_api"]: i["num_threads"] for i in threadpool_info()}}
+    return {
+        "pid": os.getpid(),
+        "ppid": os.getppid(),
+        "sigint": signal.getsignal(signal.SIGINT),
+        "threads": {i["internal_api"]: i["num_threads"] for i in threadpool_info()},
+    }
 
 
 @contextlib.contextmanager
@@ -155,8 +169,12 @@ def _sigint_ignored() -> Iterator[None]:
 
 
 def _make_pool(config: TrialConfig, workers: int) -> ProcessPoolExecutor:
-    return ProcessPoolExecutor(max_workers=int(workers), mp_context=mp.get_context("spawn"),
-                               initializer=_init_worker, initargs=(config, os.getpid()))
+    return ProcessPoolExecutor(
+        max_workers=int(workers),
+        mp_context=mp.get_context("spawn"),
+        initializer=_init_worker,
+        initargs=(config, os.getpid()),
+    )
 
 
 def _stop_pool(pool: ProcessPoolExecutor) -> None:
@@ -307,7 +325,7 @@ def _parse_line(line: str) -> tuple[dict | None, str]:
         vals = {c: float(v) for c, v in zip(ROW_COLUMNS, fields)}
     except ValueError:
         return None, "a value is not a number"
-    texts = fields[len(ROW_COLUMNS):len(ROW_COLUMNS) + len(TEXT_COLUMNS)]
+    texts = fields[len(ROW_COLUMNS) : len(ROW_COLUMNS) + len(TEXT_COLUMNS)]
     if not all(re.fullmatch(r"[a-z_]+", t) for t in texts):
         return None, "a text column is not a name"
     vals.update(zip(TEXT_COLUMNS, texts))
@@ -329,8 +347,10 @@ def _scan(path: Path) -> _Scan:
     lines = text.split("\n")
     header = lines[0].rstrip("\r")
     if header != ",".join(TABLE_COLUMNS):
-        raise ValueError(f"{path} has different columns than this version writes (it may come from an older "
-                         "version, or be damaged); use a new --out folder")
+        raise ValueError(
+            f"{path} has different columns than this version writes (it may come from an older "
+            "version, or be damaged); use a new --out folder"
+        )
     last = len(lines) - 1
     for i, raw in enumerate(lines[1:], start=2):
         line = raw.rstrip("\r")
@@ -370,8 +390,10 @@ def read_table(path: str | os.PathLike, *, partial: bool = False) -> dict[str, n
             what.append(f"rows of {len(hashes)} configurations (config_hash {', '.join(hashes)})")
         msg = f"{path}: " + "; ".join(what)
         if not partial:
-            raise ValueError(msg + ". Run the same study command again to redo the damaged trials, or read it "
-                             "with partial=True to skip them")
+            raise ValueError(
+                msg + ". Run the same study command again to redo the damaged trials, or read it "
+                "with partial=True to skip them"
+            )
         warnings.warn(msg + "; skipped", RuntimeWarning, stacklevel=2)
     rows = [scan.rows[k] for k in sorted(scan.rows)]
     table = {c: np.array([r[c] for r in rows], dtype=float) for c in ROW_COLUMNS}
@@ -420,7 +442,7 @@ def _lost_snapshots(out: Path, rows: dict, examples: frozenset, chash: str) -> l
 
 def _batches(trials: list[Trial], size: int) -> Iterable[list[Trial]]:
     for i in range(0, len(trials), size):
-        yield trials[i:i + size]
+        yield trials[i : i + size]
 
 
 def _check_resume(out: Path, csv_path: Path, meta_path: Path, fp: dict, chash: str) -> _Scan:
@@ -431,15 +453,18 @@ def _check_resume(out: Path, csv_path: Path, meta_path: Path, fp: dict, chash: s
         except (ValueError, OSError):
             old = None  # damaged: the rows' config_hash decides below
         if old is not None and {k: old.get(k) for k in ("design", "config")} != json.loads(json.dumps(fp)):
-            raise ValueError(f"{out} holds a run with a different design or configuration; use another --out "
-                             "folder or delete it")
+            raise ValueError(
+                f"{out} holds a run with a different design or configuration; use another --out folder or delete it"
+            )
     scan = _scan(csv_path)
     foreign = sorted({r["config_hash"] for r in scan.rows.values()} - {chash})
     if foreign:
         n = sum(r["config_hash"] != chash for r in scan.rows.values())
-        raise ValueError(f"{csv_path} holds {n} rows of a different design or configuration (config_hash "
-                         f"{', '.join(foreign)}; this run: {chash}); use another --out folder, or delete "
-                         f"{csv_path} to start over")
+        raise ValueError(
+            f"{csv_path} holds {n} rows of a different design or configuration (config_hash "
+            f"{', '.join(foreign)}; this run: {chash}); use another --out folder, or delete "
+            f"{csv_path} to start over"
+        )
     return scan
 
 
@@ -484,32 +509,50 @@ def run_trials(
         limit = check_int("limit", limit, _LIMIT)
     examples = frozenset(check_int("each of examples", i, _LIMIT) for i in examples)
     if examples and config.paradigm == "displacement":
-        raise ValueError("examples (snapshots for the recording) exist for the localization and separation "
-                         "paradigms only")
+        raise ValueError(
+            "examples (snapshots for the recording) exist for the localization and separation paradigms only"
+        )
     with folder_lock(out_dir) as out:
-        return _run_locked(design, config, out, workers, progress, batch_size, limit, on_row, examples,
-                           backend, ray_address)
+        return _run_locked(
+            design, config, out, workers, progress, batch_size, limit, on_row, examples, backend, ray_address
+        )
 
 
-def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, progress: bool, batch_size: int,
-                limit: int | None, on_row: Callable[[dict], None] | None, examples: frozenset = frozenset(),
-                backend: str = "local", ray_address: str | None = None) -> Path:
+def _run_locked(
+    design: Design,
+    config: TrialConfig,
+    out: Path,
+    workers: int,
+    progress: bool,
+    batch_size: int,
+    limit: int | None,
+    on_row: Callable[[dict], None] | None,
+    examples: frozenset = frozenset(),
+    backend: str = "local",
+    ray_address: str | None = None,
+) -> Path:
     csv_path, meta_path = out / "trials.csv", out / "run.json"
     fp = config_fingerprint(design, config)
     chash = config_hash(design, config)
     scan = _check_resume(out, csv_path, meta_path, fp, chash)
     if scan.bad or scan.duplicates:
         n = len(scan.bad)
-        print(f"{csv_path}: dropped {n} torn or damaged row(s) ({scan.problems()}); their trials are run again"
-              if n else f"{csv_path}: dropped {len(scan.duplicates)} repeated row(s)", file=sys.stderr)
+        print(
+            f"{csv_path}: dropped {n} torn or damaged row(s) ({scan.problems()}); their trials are run again"
+            if n
+            else f"{csv_path}: dropped {len(scan.duplicates)} repeated row(s)",
+            file=sys.stderr,
+        )
     from ..folders import atomic_write_text
 
     atomic_write_text(meta_path, json.dumps({**fp, "config_hash": chash}, indent=1))
     lost = _lost_snapshots(out, scan.rows, examples, chash)
     if lost:
-        print(f"{out / 'examples'}: {len(lost)} example trial(s) without a readable snapshot (trial_id "
-              f"{', '.join(map(str, lost[:6]))}{', ...' if len(lost) > 6 else ''}); they are run again",
-              file=sys.stderr)
+        print(
+            f"{out / 'examples'}: {len(lost)} example trial(s) without a readable snapshot (trial_id "
+            f"{', '.join(map(str, lost[:6]))}{', ...' if len(lost) > 6 else ''}); they are run again",
+            file=sys.stderr,
+        )
     done = [scan.rows[k] for k in sorted(scan.rows) if k not in lost]
     done_ids = set(scan.rows) - set(lost)
     todo = [t for t in design.trials() if t.trial_id not in done_ids]
@@ -523,7 +566,6 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
         bar = Progress(design.n_trials, initial=len(done), unit="trial", desc="flash trials")
     try:
         with csv_path.open("a", newline="") as fh:
-
             snap = (design, chash, examples) if examples else None
 
             def emit(results: list[tuple[dict, dict | None]]) -> None:
@@ -542,8 +584,15 @@ def _run_locked(design: Design, config: TrialConfig, out: Path, workers: int, pr
             if backend == "ray" and todo:
                 size = max(1, min(batch_size, math.ceil(len(todo) / (4 * workers))))
                 batches = list(_batches(todo, size))
-                ray_map(_init_worker, (config,), functools.partial(_run_batch, snap=snap), batches,
-                        lambda k, results: emit(results), workers=workers, address=ray_address)
+                ray_map(
+                    _init_worker,
+                    (config,),
+                    functools.partial(_run_batch, snap=snap),
+                    batches,
+                    lambda k, results: emit(results),
+                    workers=workers,
+                    address=ray_address,
+                )
             elif workers == 1 or len(todo) <= batch_size:
                 with _one_thread():
                     runner = TrialRunner(config)

@@ -25,8 +25,20 @@ from .calibration import read_calibration, role
 
 __all__ = ["SCORE_COLUMNS", "BASELINE", "reproduced", "finalize", "counts", "check_scoreboard"]
 
-SCORE_COLUMNS = ["phenomenon", "model", "source", "published_low", "published_high", "simulated", "ci_low",
-                 "ci_high", "role", "diagnostic", "reproduced", "note"]
+SCORE_COLUMNS = [
+    "phenomenon",
+    "model",
+    "source",
+    "published_low",
+    "published_high",
+    "simulated",
+    "ci_low",
+    "ci_high",
+    "role",
+    "diagnostic",
+    "reproduced",
+    "note",
+]
 _WHERE = re.compile(r"\b(?:Figs?|Table|abstract|text)\b|\bpp?\.\s*\d", re.IGNORECASE)
 #: The model with every mechanism off, which decides ``diagnostic``.
 BASELINE = "baseline"
@@ -108,6 +120,7 @@ def check_scoreboard(rows: list[dict], calibration: list[dict] | None = None) ->
     for i, (r, e) in enumerate(zip(rows, expected)):
         for col in ("role", "reproduced", "diagnostic"):
             if str(r[col]) != e[col]:
-                problems.append(f"row {i} ({r['phenomenon']}, {r['model']}): {col} is {r[col]!r}, the rules give "
-                                f"{e[col]!r}")
+                problems.append(
+                    f"row {i} ({r['phenomenon']}, {r['model']}): {col} is {r[col]!r}, the rules give {e[col]!r}"
+                )
     return problems

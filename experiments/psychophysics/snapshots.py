@@ -37,18 +37,47 @@ import numpy as np
 
 from .design import Design, Trial
 
-__all__ = ["SNAPSHOT_DIR", "TRACE_STEP_MS", "TRACE_MARGIN_MS", "example_trials", "take_snapshot",
-           "scene_state", "apply_scene_state",
-           "snapshot_path", "write_snapshot", "read_snapshot", "SnapshotError"]
+__all__ = [
+    "SNAPSHOT_DIR",
+    "TRACE_STEP_MS",
+    "TRACE_MARGIN_MS",
+    "example_trials",
+    "take_snapshot",
+    "scene_state",
+    "apply_scene_state",
+    "snapshot_path",
+    "write_snapshot",
+    "read_snapshot",
+    "SnapshotError",
+]
 
 SNAPSHOT_DIR = "examples"
 #: The example trial's eye trace: one sample every TRACE_STEP_MS, from the earliest flash time minus
 #: TRACE_MARGIN_MS to the latest plus TRACE_MARGIN_MS (re saccade onset).
 TRACE_STEP_MS = 2.0
 TRACE_MARGIN_MS = 100.0
-_KEYS = ("config_hash", "trial_id", "flash_time_ms", "flash_sim_ms", "image", "reference", "camera_position",
-         "camera_xmat", "pixels_per_unit", "fovea", "periphery", "coeffs", "qpos", "mocap_pos", "mocap_quat",
-         "geom_rgba", "flash_world", "trace_ms", "angles", "signal")
+_KEYS = (
+    "config_hash",
+    "trial_id",
+    "flash_time_ms",
+    "flash_sim_ms",
+    "image",
+    "reference",
+    "camera_position",
+    "camera_xmat",
+    "pixels_per_unit",
+    "fovea",
+    "periphery",
+    "coeffs",
+    "qpos",
+    "mocap_pos",
+    "mocap_quat",
+    "geom_rgba",
+    "flash_world",
+    "trace_ms",
+    "angles",
+    "signal",
+)
 
 
 class SnapshotError(ValueError):
@@ -61,8 +90,10 @@ def example_trials(design: Design, amplitude_deg: float | None = None) -> list[T
     trials = design.trials()
     amps = np.array(sorted({t.amplitude_deg for t in trials}))
     a = float(amps[np.argmin(np.abs(amps - (20.0 if amplitude_deg is None else float(amplitude_deg))))])
-    offsets = sorted({(t.flash_dx_deg, t.flash_dy_deg) for t in trials if t.amplitude_deg == a},
-                     key=lambda o: (abs(o[0] + 8.0) + abs(o[1]), o))
+    offsets = sorted(
+        {(t.flash_dx_deg, t.flash_dy_deg) for t in trials if t.amplitude_deg == a},
+        key=lambda o: (abs(o[0] + 8.0) + abs(o[1]), o),
+    )
     dx, dy = offsets[0]
     chosen: dict[int, Trial] = {}
     for t in trials:
@@ -88,13 +119,16 @@ def take_snapshot(runner, trial: Trial, row: dict, design: Design, config_hash: 
     t_ms = _trace_times(design)
     abs_ms = float(plan.onset_ms) + t_ms
     return {
-        "config_hash": np.array(config_hash), "trial_id": np.array(trial.trial_id),
-        "flash_time_ms": np.array(trial.flash_time_ms), "flash_sim_ms": np.array(float(row["flash_sim_ms"])),
+        "config_hash": np.array(config_hash),
+        "trial_id": np.array(trial.trial_id),
+        "flash_time_ms": np.array(trial.flash_time_ms),
+        "flash_sim_ms": np.array(float(row["flash_sim_ms"])),
         "image": np.stack([frame.left.image, frame.right.image]).astype(np.uint8),
         "reference": np.stack([ref.left.image, ref.right.image]).astype(np.uint8),
         "camera_position": np.stack([frame.left.camera_position, frame.right.camera_position]).astype(float),
-        "camera_xmat": np.stack([np.reshape(frame.left.camera_xmat, (3, 3)),
-                                 np.reshape(frame.right.camera_xmat, (3, 3))]).astype(float),
+        "camera_xmat": np.stack(
+            [np.reshape(frame.left.camera_xmat, (3, 3)), np.reshape(frame.right.camera_xmat, (3, 3))]
+        ).astype(float),
         "pixels_per_unit": np.array(float(frame.left.pixels_per_unit)),
         "fovea": np.stack([v.fovea for v in views]).astype(np.float32),
         "periphery": np.stack([v.periphery for v in views]).astype(np.float32),
@@ -144,21 +178,28 @@ def read_snapshot(out: str | os.PathLike, trial_id: int, config_hash: str | None
     if ``config_hash`` is given, of that run; ``SnapshotError`` says what is wrong."""
     path = snapshot_path(out, trial_id)
     if not path.is_file():
-        raise SnapshotError(f"{path} is missing; run the study again on the same folder (python -m experiments run "
-                            "--out FOLDER with the same options) to run that trial again and rewrite it")
+        raise SnapshotError(
+            f"{path} is missing; run the study again on the same folder (python -m experiments run "
+            "--out FOLDER with the same options) to run that trial again and rewrite it"
+        )
     try:
         with np.load(path, allow_pickle=False) as z:
             missing = [k for k in _KEYS if k not in z.files]
             if missing:
-                raise SnapshotError(f"{path} lacks {', '.join(missing)}; delete it and run the study again on the same folder to rewrite it")
+                raise SnapshotError(
+                    f"{path} lacks {', '.join(missing)}; delete it and run the study again on the same folder to rewrite it"
+                )
             snap = {k: z[k] for k in _KEYS}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
         if isinstance(e, SnapshotError):
             raise
-        raise SnapshotError(f"{path} cannot be read ({e}); delete it and run the study again on the same folder to rewrite it") from None
+        raise SnapshotError(
+            f"{path} cannot be read ({e}); delete it and run the study again on the same folder to rewrite it"
+        ) from None
     if int(snap["trial_id"]) != int(trial_id):
         raise SnapshotError(f"{path} holds trial {int(snap['trial_id'])}, not {trial_id}")
     if config_hash is not None and str(snap["config_hash"]) != config_hash:
-        raise SnapshotError(f"{path} belongs to another run (config_hash {snap['config_hash']}, this run "
-                            f"{config_hash})")
+        raise SnapshotError(
+            f"{path} belongs to another run (config_hash {snap['config_hash']}, this run {config_hash})"
+        )
     return snap

@@ -50,8 +50,15 @@ from .targetmap import TargetCentredMap
 from .theories import theory
 from .timecourse import RemapTimeCourse
 
-__all__ = ["TrialConfig", "TrialRunner", "Observation", "head_angles_deg", "ROW_COLUMNS", "TEXT_COLUMNS",
-           "READOUT_PARAMETERS"]
+__all__ = [
+    "TrialConfig",
+    "TrialRunner",
+    "Observation",
+    "head_angles_deg",
+    "ROW_COLUMNS",
+    "TEXT_COLUMNS",
+    "READOUT_PARAMETERS",
+]
 
 #: Eye-frame axes (x1 up, x2 optical axis, x3 right) in the head frame (x forward, y left, z up)
 #: at zero Fick angles (the README's eye frame; ``models.oculomotor``'s primary position).
@@ -76,20 +83,54 @@ LIT_NEAR_DEG = 8.0
 RULER_ELEVATION_DEG = models.scenes.RULER_ELEVATION_DEG
 
 ROW_COLUMNS = (
-    "trial_id", "repetition", "seed", "saccade_amplitude_deg", "flash_time_ms", "flash_dx_deg", "flash_dy_deg",
-    "gain", "true_x_deg", "true_y_deg", "perceived_x_deg", "perceived_y_deg", "target_x_deg", "target_y_deg",
-    "error_x_deg", "error_y_deg", "error_toward_x_deg", "error_toward_y_deg", "closed_form_x_deg",
-    "closed_form_y_deg", "perceived_left_x_deg", "perceived_left_y_deg", "perceived_right_x_deg",
-    "perceived_right_y_deg", "eye_h_left_deg", "eye_h_right_deg", "saccade_duration_ms", "flash_sim_ms",
-    "reference_weight", "second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg", "second_perceived_y_deg",
-    "perceived_step_deg", "reported_forward", "reference_contrast", "reference_ms", "target_off_ms",
-    "reference_activity", "n_markers", "ruler",
+    "trial_id",
+    "repetition",
+    "seed",
+    "saccade_amplitude_deg",
+    "flash_time_ms",
+    "flash_dx_deg",
+    "flash_dy_deg",
+    "gain",
+    "true_x_deg",
+    "true_y_deg",
+    "perceived_x_deg",
+    "perceived_y_deg",
+    "target_x_deg",
+    "target_y_deg",
+    "error_x_deg",
+    "error_y_deg",
+    "error_toward_x_deg",
+    "error_toward_y_deg",
+    "closed_form_x_deg",
+    "closed_form_y_deg",
+    "perceived_left_x_deg",
+    "perceived_left_y_deg",
+    "perceived_right_x_deg",
+    "perceived_right_y_deg",
+    "eye_h_left_deg",
+    "eye_h_right_deg",
+    "saccade_duration_ms",
+    "flash_sim_ms",
+    "reference_weight",
+    "second_true_x_deg",
+    "second_true_y_deg",
+    "second_perceived_x_deg",
+    "second_perceived_y_deg",
+    "perceived_step_deg",
+    "reported_forward",
+    "reference_contrast",
+    "reference_ms",
+    "target_off_ms",
+    "reference_activity",
+    "n_markers",
+    "ruler",
 )
 #: Columns that are NaN by design where they do not apply: the second flash of ``separation``, the
 #: step of ``displacement``.
-OPTIONAL_COLUMNS = {"separation": ("second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg",
-                                   "second_perceived_y_deg"),
-                    "displacement": ("perceived_step_deg", "reported_forward")}
+OPTIONAL_COLUMNS = {
+    "separation": ("second_true_x_deg", "second_true_y_deg", "second_perceived_x_deg", "second_perceived_y_deg"),
+    "displacement": ("perceived_step_deg", "reported_forward"),
+}
 #: Text columns of a trial's row (after ``ROW_COLUMNS``): the perception model, viewing condition, paradigm.
 TEXT_COLUMNS = ("model", "condition", "paradigm")
 #: Most markers a trial may show (the ``dots`` scene's ``marker_00`` ...).
@@ -182,10 +223,22 @@ class TrialConfig:
         # bounds: ``bounds.LIMITS`` (TypeError for wrong types, ValueError for NaN/inf/out of range)
         for name in ("image_size", "oversample", "reference_ms", "target_off_ms"):
             object.__setattr__(self, name, check_int(name, getattr(self, name)))
-        for name in ("fovy_deg", "fovea_deg", "threshold", "flash_radius_deg", "endpoint_noise", "visual_latency_ms",
-                     "feedback_gain", "reference_weight", "reference_unit", "stability_tolerance", "report_noise_deg",
-                     "eps_sigma_ms",
-                     "eps_delay_ms", "reference_contrast"):
+        for name in (
+            "fovy_deg",
+            "fovea_deg",
+            "threshold",
+            "flash_radius_deg",
+            "endpoint_noise",
+            "visual_latency_ms",
+            "feedback_gain",
+            "reference_weight",
+            "reference_unit",
+            "stability_tolerance",
+            "report_noise_deg",
+            "eps_sigma_ms",
+            "eps_delay_ms",
+            "reference_contrast",
+        ):
             object.__setattr__(self, name, check_real(name, getattr(self, name)))
         object.__setattr__(self, "markers", _markers(self.markers))
         if not isinstance(self.ruler, (bool, np.bool_)):
@@ -195,16 +248,23 @@ class TrialConfig:
             if not isinstance(getattr(self, name), kind):
                 raise TypeError(f"{name} must be a {kind.__name__}; got {getattr(self, name)!r:.60}")
         if not isinstance(self.disabled, (tuple, list)) or not all(isinstance(d, str) for d in self.disabled):
-            raise TypeError(f"disabled must be a tuple of mechanism names from {', '.join(MECHANISMS)}; "
-                            f"got {self.disabled!r:.60}")
+            raise TypeError(
+                f"disabled must be a tuple of mechanism names from {', '.join(MECHANISMS)}; got {self.disabled!r:.60}"
+            )
         unknown = [d for d in self.disabled if d not in MECHANISMS]
         if unknown:
-            raise ValueError(f"disabled: unknown mechanism(s) {', '.join(map(repr, unknown))}; "
-                             f"choose from {', '.join(MECHANISMS)}")
+            raise ValueError(
+                f"disabled: unknown mechanism(s) {', '.join(map(repr, unknown))}; choose from {', '.join(MECHANISMS)}"
+            )
         object.__setattr__(self, "disabled", tuple(sorted(set(self.disabled))))
-        for name, options in (("saccade_model", models.SACCADE_MODELS), ("eye_drive", models.EYE_DRIVES),
-                              ("eye_position", ("signal", "true")),
-                              ("model", MODELS), ("condition", CONDITIONS), ("paradigm", PARADIGMS)):
+        for name, options in (
+            ("saccade_model", models.SACCADE_MODELS),
+            ("eye_drive", models.EYE_DRIVES),
+            ("eye_position", ("signal", "true")),
+            ("model", MODELS),
+            ("condition", CONDITIONS),
+            ("paradigm", PARADIGMS),
+        ):
             value = getattr(self, name)
             if not isinstance(value, str):
                 raise TypeError(f"{name} must be one of {', '.join(options)}; got {value!r:.60}")
@@ -217,8 +277,10 @@ class TrialConfig:
         if not isinstance(self.timecourse, RemapTimeCourse):
             raise TypeError(f"timecourse must be a RemapTimeCourse; got {self.timecourse!r}")
         if self.fovea_deg >= self.fovy_deg / 4:
-            raise ValueError(f"fovea_deg ({self.fovea_deg}) must be less than a quarter of fovy_deg "
-                             f"({self.fovy_deg}): the retina needs a periphery")
+            raise ValueError(
+                f"fovea_deg ({self.fovea_deg}) must be less than a quarter of fovy_deg "
+                f"({self.fovy_deg}): the retina needs a periphery"
+            )
 
 
 def _markers(value) -> tuple:
@@ -239,13 +301,33 @@ def _markers(value) -> tuple:
 
 #: ``TrialConfig`` fields that only the read-out uses: ``TrialRunner.readout`` may be given a config
 #: that differs from the runner's in these (and only these), e.g. by a model fit.
-READOUT_PARAMETERS = ("timecourse", "threshold", "eye_position", "visual_latency_ms", "model", "feedback_gain",
-                      "reference_weight", "reference_unit", "eps_sigma_ms", "eps_delay_ms", "observer", "population")
+READOUT_PARAMETERS = (
+    "timecourse",
+    "threshold",
+    "eye_position",
+    "visual_latency_ms",
+    "model",
+    "feedback_gain",
+    "reference_weight",
+    "reference_unit",
+    "eps_sigma_ms",
+    "eps_delay_ms",
+    "observer",
+    "population",
+)
 #: ``READOUT_PARAMETERS`` that ``TrialRunner.observe`` never reads (the others -- the model, the
 #: centroid threshold, the eye-position signal's timing -- shape what it stores): an observation
 #: cache need not be keyed on them.
-READOUT_ONLY = ("timecourse", "eye_position", "visual_latency_ms", "feedback_gain", "reference_weight",
-                "reference_unit", "observer", "population")
+READOUT_ONLY = (
+    "timecourse",
+    "eye_position",
+    "visual_latency_ms",
+    "feedback_gain",
+    "reference_weight",
+    "reference_unit",
+    "observer",
+    "population",
+)
 
 
 @dataclass
@@ -288,10 +370,16 @@ class TrialRunner:
 
     def __init__(self, config: TrialConfig = TrialConfig()) -> None:
         self.config = config
-        self.head = models.Head("dots", int(config.image_size), fovy_deg=config.fovy_deg,
-                                endpoint_noise=config.endpoint_noise, saccade_model=config.saccade_model,
-                                generator=config.generator, eye_drive=config.eye_drive,
-                                eye_position=models.EyePositionSignal(config.eps_sigma_ms, config.eps_delay_ms))
+        self.head = models.Head(
+            "dots",
+            int(config.image_size),
+            fovy_deg=config.fovy_deg,
+            endpoint_noise=config.endpoint_noise,
+            saccade_model=config.saccade_model,
+            generator=config.generator,
+            eye_drive=config.eye_drive,
+            eye_position=models.EyePositionSignal(config.eps_sigma_ms, config.eps_delay_ms),
+        )
         # each eye's nodal point relative to its rotation centre, in the eye's own frame (constant)
         states = self.head.eye_states()
         self._centres = self.head.eye_centres_head
@@ -340,8 +428,9 @@ class TrialRunner:
         post_on = (not dark) and post_window
         if references is not None:
             post_on = references and not dark and cfg.reference_ms > 0
-            target_on = references and not dark and cfg.target_off_ms > plan.offset_ms - plan.onset_ms and \
-                cfg.reference_ms > 0
+            target_on = (
+                references and not dark and cfg.target_off_ms > plan.offset_ms - plan.onset_ms and cfg.reference_ms > 0
+            )
         # MuJoCo blends a transparent geom's back and front faces: opacity a shows 1 - (1 - a)^2 of its
         # contrast, so contrast c needs a = 1 - sqrt(1 - c) (tests/test_perception_theories.py measures it)
         alpha = 1.0 - math.sqrt(1.0 - cfg.reference_contrast)
@@ -368,15 +457,16 @@ class TrialRunner:
             zs.append(self._centroid(view, self.retina_grid))
             per = np.where(view.mask, view.periphery.sum(axis=-1), 0.0)
             fov = np.where(view.fovea_mask, view.fovea.sum(axis=-1), 0.0)
-            act.append(float((per * areas).sum() + fov.sum() * self.retina_grid.fovea_spacing ** 2))
+            act.append(float((per * areas).sum() + fov.sum() * self.retina_grid.fovea_spacing**2))
         return zs, np.array(act)
 
     def _centroid(self, view, grid, centred=None, shift_rings: float = 0.0, threshold: float | None = None) -> complex:
         """Activity centroid of a view (retina grid) or of a target-centred map shifted by ``shift_rings``."""
         thr = self.config.threshold if threshold is None else threshold
         if centred is None:
-            return activity_centroid(view.periphery, view.fovea, grid, mask=view.mask, fovea_mask=view.fovea_mask,
-                                     threshold=thr)
+            return activity_centroid(
+                view.periphery, view.fovea, grid, mask=view.mask, fovea_mask=view.fovea_mask, threshold=thr
+            )
         per = C.log_radius_shift(centred.periphery, grid, shift_rings) if shift_rings else centred.periphery
         return activity_centroid(per, centred.fovea, grid, fovea_mask=centred.fovea_mask, threshold=thr), per
 
@@ -393,8 +483,9 @@ class TrialRunner:
 
     def _place_markers(self, trial: Trial) -> None:
         for i, (dx, dy) in enumerate(self.config.markers):
-            self.head.set_object_position(f"marker_{i:02d}", _screen_world(trial.target_deg[0] + dx,
-                                                                            trial.target_deg[1] + dy))
+            self.head.set_object_position(
+                f"marker_{i:02d}", _screen_world(trial.target_deg[0] + dx, trial.target_deg[1] + dy)
+            )
 
     def _target_image_points(self) -> list[complex]:
         """Each eye's retinal image point of the target as the scene is now: the centroid of the
@@ -449,8 +540,10 @@ class TrialRunner:
         integrated frames, each flash's retina, DPFT and target-centred map, the post-saccadic
         retinal image of the target."""
         if self.config.paradigm == "displacement":
-            raise ValueError("observe/readout split the localization and separation paradigms; "
-                             "the displacement paradigm runs with run()")
+            raise ValueError(
+                "observe/readout split the localization and separation paradigms; "
+                "the displacement paradigm runs with run()"
+            )
         head, cfg = self.head, self.config
         mech_smear = theory(cfg.model).mechanisms_on(cfg)["smear"]
         two = cfg.paradigm == "separation"
@@ -485,10 +578,25 @@ class TrialRunner:
             flashes.append({"eyes": eyes, "head": head.to_head(w), "true_deg": head_angles_deg(head, w)[0]})
         seen_z, t_post = self._seen_target_retina(plan)
         ref_z, ref_act = self._references_seen(plan)
-        return Observation(trial=trial, plan=plan, t_abs=t_abs, t_mid=t_mid, exposure=exposure, copy_pose=copy_pose,
-                           flashes=flashes, target_deg=head_angles_deg(head, tgt_w)[0], eye_h=eye_h,
-                           seen_z=seen_z, t_post=t_post, frame=frames[0], reference=ref, ref_z=ref_z,
-                           ref_activity=ref_act, ref_on_ms=float(min(cfg.reference_ms, 1000)), scene=scene)
+        return Observation(
+            trial=trial,
+            plan=plan,
+            t_abs=t_abs,
+            t_mid=t_mid,
+            exposure=exposure,
+            copy_pose=copy_pose,
+            flashes=flashes,
+            target_deg=head_angles_deg(head, tgt_w)[0],
+            eye_h=eye_h,
+            seen_z=seen_z,
+            t_post=t_post,
+            frame=frames[0],
+            reference=ref,
+            ref_z=ref_z,
+            ref_activity=ref_act,
+            ref_on_ms=float(min(cfg.reference_ms, 1000)),
+            scene=scene,
+        )
 
     def _lit_near(self, trial: Trial, two: bool) -> list[str]:
         """The lit dots (fixation point, target, markers: opacity > 0 now) whose direction lies within
@@ -497,11 +605,18 @@ class TrialRunner:
         if two:
             flashes.append(flashes[0] + np.array(SEPARATION_DEG))
         dots = {"fixation": trial.fixation_deg, "target": trial.target_deg}
-        dots.update({f"marker_{i:02d}": (trial.target_deg[0] + dx, trial.target_deg[1] + dy)
-                     for i, (dx, dy) in enumerate(self.config.markers)})
+        dots.update(
+            {
+                f"marker_{i:02d}": (trial.target_deg[0] + dx, trial.target_deg[1] + dy)
+                for i, (dx, dy) in enumerate(self.config.markers)
+            }
+        )
         rgba = self.head.model.geom_rgba
-        return [n for n, d in dots.items() if rgba[self.head.model.geom(n).id, 3] > 0
-                and min(math.dist(d, f) for f in flashes) < LIT_NEAR_DEG]
+        return [
+            n
+            for n, d in dots.items()
+            if rgba[self.head.model.geom(n).id, 3] > 0 and min(math.dist(d, f) for f in flashes) < LIT_NEAR_DEG
+        ]
 
     def _increments(self, trial: Trial, names: tuple, exposure: float) -> tuple:
         """The flash-free frame and each flash's frame with the lit dots near a flash hidden (the same
@@ -550,30 +665,58 @@ class TrialRunner:
             true2 = p2 = np.full(2, np.nan)  # one flash: the second-flash columns do not apply
         eye_h = obs.eye_h
         return {
-            "trial_id": trial.trial_id, "repetition": trial.repetition, "seed": trial.seed,
-            "saccade_amplitude_deg": trial.amplitude_deg, "flash_time_ms": int(trial.flash_time_ms),
-            "flash_dx_deg": trial.flash_dx_deg, "flash_dy_deg": trial.flash_dy_deg, "gain": gain,
-            "true_x_deg": true[0], "true_y_deg": true[1], "perceived_x_deg": p[0], "perceived_y_deg": p[1],
-            "target_x_deg": target[0], "target_y_deg": target[1], "error_x_deg": err[0], "error_y_deg": err[1],
-            "error_toward_x_deg": toward[0], "error_toward_y_deg": toward[1],
-            "closed_form_x_deg": cf[0], "closed_form_y_deg": cf[1],
-            "perceived_left_x_deg": perceived[0][0], "perceived_left_y_deg": perceived[0][1],
-            "perceived_right_x_deg": perceived[1][0], "perceived_right_y_deg": perceived[1][1],
-            "eye_h_left_deg": eye_h[0], "eye_h_right_deg": eye_h[1],
-            "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": obs.t_abs, "reference_weight": weight,
-            "second_true_x_deg": true2[0], "second_true_y_deg": true2[1],
-            "second_perceived_x_deg": p2[0], "second_perceived_y_deg": p2[1],
-            "perceived_step_deg": float("nan"), "reported_forward": float("nan"),
+            "trial_id": trial.trial_id,
+            "repetition": trial.repetition,
+            "seed": trial.seed,
+            "saccade_amplitude_deg": trial.amplitude_deg,
+            "flash_time_ms": int(trial.flash_time_ms),
+            "flash_dx_deg": trial.flash_dx_deg,
+            "flash_dy_deg": trial.flash_dy_deg,
+            "gain": gain,
+            "true_x_deg": true[0],
+            "true_y_deg": true[1],
+            "perceived_x_deg": p[0],
+            "perceived_y_deg": p[1],
+            "target_x_deg": target[0],
+            "target_y_deg": target[1],
+            "error_x_deg": err[0],
+            "error_y_deg": err[1],
+            "error_toward_x_deg": toward[0],
+            "error_toward_y_deg": toward[1],
+            "closed_form_x_deg": cf[0],
+            "closed_form_y_deg": cf[1],
+            "perceived_left_x_deg": perceived[0][0],
+            "perceived_left_y_deg": perceived[0][1],
+            "perceived_right_x_deg": perceived[1][0],
+            "perceived_right_y_deg": perceived[1][1],
+            "eye_h_left_deg": eye_h[0],
+            "eye_h_right_deg": eye_h[1],
+            "saccade_duration_ms": plan.duration_ms,
+            "flash_sim_ms": obs.t_abs,
+            "reference_weight": weight,
+            "second_true_x_deg": true2[0],
+            "second_true_y_deg": true2[1],
+            "second_perceived_x_deg": p2[0],
+            "second_perceived_y_deg": p2[1],
+            "perceived_step_deg": float("nan"),
+            "reported_forward": float("nan"),
             **self._stimulus_columns(cfg, obs.ref_activity),
         }
 
     def _stimulus_columns(self, cfg: TrialConfig, activity) -> dict:
         """The row's stimulus description: reference visibility and timing, markers, the labels."""
         act = float(np.nanmean(activity)) if activity is not None and np.isfinite(activity).any() else 0.0
-        return {"reference_contrast": cfg.reference_contrast, "reference_ms": cfg.reference_ms,
-                "target_off_ms": cfg.target_off_ms, "reference_activity": act, "model": cfg.model,
-                "condition": cfg.condition, "paradigm": cfg.paradigm, "n_markers": len(cfg.markers),
-                "ruler": float(cfg.ruler)}
+        return {
+            "reference_contrast": cfg.reference_contrast,
+            "reference_ms": cfg.reference_ms,
+            "target_off_ms": cfg.target_off_ms,
+            "reference_activity": act,
+            "model": cfg.model,
+            "condition": cfg.condition,
+            "paradigm": cfg.paradigm,
+            "n_markers": len(cfg.markers),
+            "ruler": float(cfg.ruler),
+        }
 
     # ------------------------------------------------------------------ the theories' read-outs
     def plain_maps(self, flash: dict, threshold: float) -> list:
@@ -586,8 +729,9 @@ class TrialRunner:
             out.append((view, centred, per, z_t, z_rel))
         return out
 
-    def _target_seen(self, t_ms: int, plan: models.SaccadePlan, latency: float,
-                     true_eye: bool = False) -> tuple[np.ndarray, float, list[complex]]:
+    def _target_seen(
+        self, t_ms: int, plan: models.SaccadePlan, latency: float, true_eye: bool = False
+    ) -> tuple[np.ndarray, float, list[complex]]:
         """Step to ``t_ms``; the target's head-centred position (deg, mean of the eyes) as seen then
         through the eye-position signal of ``t_ms + latency`` (or the true eye), its retinal offset
         from the fovea (deg), and each eye's retinal image point of it."""
@@ -653,21 +797,41 @@ class TrialRunner:
         eye_h = np.degrees(head.eye_angles[:, 0])
         self.last = dict(plan=plan)
         return {
-            "trial_id": trial.trial_id, "repetition": trial.repetition, "seed": trial.seed,
-            "saccade_amplitude_deg": trial.amplitude_deg, "flash_time_ms": blank,
-            "flash_dx_deg": trial.flash_dx_deg, "flash_dy_deg": trial.flash_dy_deg, "gain": 0.0,
-            "true_x_deg": true[0], "true_y_deg": true[1], "perceived_x_deg": post[0], "perceived_y_deg": post[1],
-            "target_x_deg": target[0], "target_y_deg": target[1], "error_x_deg": err[0], "error_y_deg": err[1],
+            "trial_id": trial.trial_id,
+            "repetition": trial.repetition,
+            "seed": trial.seed,
+            "saccade_amplitude_deg": trial.amplitude_deg,
+            "flash_time_ms": blank,
+            "flash_dx_deg": trial.flash_dx_deg,
+            "flash_dy_deg": trial.flash_dy_deg,
+            "gain": 0.0,
+            "true_x_deg": true[0],
+            "true_y_deg": true[1],
+            "perceived_x_deg": post[0],
+            "perceived_y_deg": post[1],
+            "target_x_deg": target[0],
+            "target_y_deg": target[1],
+            "error_x_deg": err[0],
+            "error_y_deg": err[1],
             "error_toward_x_deg": np.sign(target[0] - true[0]) * err[0],
             "error_toward_y_deg": np.sign(target[1] - true[1]) * err[1],
-            "closed_form_x_deg": true[0], "closed_form_y_deg": true[1],
-            "perceived_left_x_deg": post[0], "perceived_left_y_deg": post[1],
-            "perceived_right_x_deg": post[0], "perceived_right_y_deg": post[1],
-            "eye_h_left_deg": eye_h[0], "eye_h_right_deg": eye_h[1],
-            "saccade_duration_ms": plan.duration_ms, "flash_sim_ms": t_seen, "reference_weight": weight,
-            "second_true_x_deg": float("nan"), "second_true_y_deg": float("nan"),
-            "second_perceived_x_deg": float("nan"), "second_perceived_y_deg": float("nan"),
-            "perceived_step_deg": step, "reported_forward": float(step + noise > 0),
+            "closed_form_x_deg": true[0],
+            "closed_form_y_deg": true[1],
+            "perceived_left_x_deg": post[0],
+            "perceived_left_y_deg": post[1],
+            "perceived_right_x_deg": post[0],
+            "perceived_right_y_deg": post[1],
+            "eye_h_left_deg": eye_h[0],
+            "eye_h_right_deg": eye_h[1],
+            "saccade_duration_ms": plan.duration_ms,
+            "flash_sim_ms": t_seen,
+            "reference_weight": weight,
+            "second_true_x_deg": float("nan"),
+            "second_true_y_deg": float("nan"),
+            "second_perceived_x_deg": float("nan"),
+            "second_perceived_y_deg": float("nan"),
+            "perceived_step_deg": step,
+            "reported_forward": float(step + noise > 0),
             **self._stimulus_columns(cfg, None),
         }
 

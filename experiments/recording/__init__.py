@@ -35,9 +35,30 @@ from .scene_geometry import (
 )
 from .web_viewer import WebViewer
 
-__all__ = ["Recorder", "SceneGeometry", "WebViewer", "record_env_run", "add_subcommand", "display_available",
-           "EYE_NAMES", "AXIS_NAMES", "TIMELINE", "TIMELINES", "STUDY_APP_ID",
-           "PANEL_SCALES", "gain_scaled", "symmetric_scaled", "log_scaled", "colormap_lut", "contrast",
-           "hemisphere_image", "grid_strips", "pinhole_matrix",
-           "SCENE_GEOM_GROUPS", "PLANE_HALF_THICKNESS", "INFINITE_PLANE_HALF_EXTENT", "POSE_TOLERANCE",
-           "OPTION_BOUNDS"]
+__all__ = [
+    "Recorder",
+    "SceneGeometry",
+    "WebViewer",
+    "record_env_run",
+    "add_subcommand",
+    "display_available",
+    "EYE_NAMES",
+    "AXIS_NAMES",
+    "TIMELINE",
+    "TIMELINES",
+    "STUDY_APP_ID",
+    "PANEL_SCALES",
+    "gain_scaled",
+    "symmetric_scaled",
+    "log_scaled",
+    "colormap_lut",
+    "contrast",
+    "hemisphere_image",
+    "grid_strips",
+    "pinhole_matrix",
+    "SCENE_GEOM_GROUPS",
+    "PLANE_HALF_THICKNESS",
+    "INFINITE_PLANE_HALF_EXTENT",
+    "POSE_TOLERANCE",
+    "OPTION_BOUNDS",
+]

@@ -15,5 +15,7 @@ def display_available() -> bool:
 
 
 def _no_display_message(flag: str) -> str:
-    return (f"{flag} needs a display (DISPLAY and WAYLAND_DISPLAY are unset); use --serve to view the run in a "
-            "web browser, or --out FILE.rrd to write it")
+    return (
+        f"{flag} needs a display (DISPLAY and WAYLAND_DISPLAY are unset); use --serve to view the run in a "
+        "web browser, or --out FILE.rrd to write it"
+    )

@@ -25,11 +25,24 @@ def _choose_target(head, rng: np.random.Generator, previous: str | None) -> str 
     return str(rng.choice(names)) if names else None
 
 
-def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int = 0, task: str = "fixate",
-                   scene: str | None = None, image_size: int = 128, fixation_ms: int = 250,
-                   latency_ms: int = 40, flash_lead_ms: int = 20, shift_rings: float = 2.0,
-                   remap_model: str = "homography", spawn: bool = False, connect: str | None = None,
-                   recording_id: str | None = None, progress: bool = False) -> dict[str, Any]:
+def record_env_run(
+    path: str | os.PathLike | None,
+    *,
+    steps: int = 4,
+    seed: int = 0,
+    task: str = "fixate",
+    scene: str | None = None,
+    image_size: int = 128,
+    fixation_ms: int = 250,
+    latency_ms: int = 40,
+    flash_lead_ms: int = 20,
+    shift_rings: float = 2.0,
+    remap_model: str = "homography",
+    spawn: bool = False,
+    connect: str | None = None,
+    recording_id: str | None = None,
+    progress: bool = False,
+) -> dict[str, Any]:
     """Record ``steps`` saccades of ``envs.BinocularSaccadeEnv`` (one env step each, driven through
     ``env.head`` and ``env.vision`` to see inside the saccade).
 
@@ -61,10 +74,13 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
         raise ValueError(f"remap_model must be one of {envs.REMAP_MODELS}; got {remap_model!r}")
     if int(latency_ms) != latency_ms or not 0 <= flash_lead_ms <= latency_ms:
         raise ValueError("need whole latency_ms >= flash_lead_ms >= 0")
-    stage(f"recording: building the head and the {'default' if scene is None else repr(scene)} scene, first render",
-          enabled=progress)
-    env = envs.BinocularSaccadeEnv(scene=scene, task=task, image_size=image_size, fixation_ms=fixation_ms,
-                                   shift_rings=shift_rings)
+    stage(
+        f"recording: building the head and the {'default' if scene is None else repr(scene)} scene, first render",
+        enabled=progress,
+    )
+    env = envs.BinocularSaccadeEnv(
+        scene=scene, task=task, image_size=image_size, fixation_ms=fixation_ms, shift_rings=shift_rings
+    )
     rng = np.random.default_rng(seed)
     summary: dict[str, Any] = {"start_ms": None, "end_ms": None, "saccades": [], "remap_error": []}
     try:
@@ -91,8 +107,13 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
             log_images(views, frame)
             rec.log_eye_angles(head.eye_angles, np.zeros((2, 3)), head.eye_position_signal())
             previous = None
-            bar = Progress(int(steps), unit="saccade", desc="recording", enabled=progress,
-                           warmup="first saccade (compiling numba kernels on a first run)")
+            bar = Progress(
+                int(steps),
+                unit="saccade",
+                desc="recording",
+                enabled=progress,
+                warmup="first saccade (compiling numba kernels on a first run)",
+            )
             for step in range(int(steps)):
                 rec.set_time("env_step", step + 1)
                 # alternate object saccades with random ones of 3-20 deg (the main sequence's range)
@@ -107,8 +128,9 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                 while plan is None:
                     amp, direction = np.radians(rng.uniform(3.0, 20.0)), rng.uniform(0.0, 2 * np.pi)
                     try:
-                        plan = head.plan_saccade(amp * math.cos(direction), amp * math.sin(direction),
-                                                 latency_ms=latency_ms)
+                        plan = head.plan_saccade(
+                            amp * math.cos(direction), amp * math.sin(direction), latency_ms=latency_ms
+                        )
                     except models.OculomotorRangeError:
                         plan = None
                 R = plan.efference_copy_eye
@@ -134,7 +156,9 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                     rec.set_time_ms(head.time_ms)
                     rec.log_head(head)
                 traces.append(head.step_ms(int(fixation_ms), record=True))
-                rec.log_eye_trace(models.EyeTrace.concatenate(traces))  # one batch per step: thousands of 1 ms batches load slowly
+                rec.log_eye_trace(
+                    models.EyeTrace.concatenate(traces)
+                )  # one batch per step: thousands of 1 ms batches load slowly
                 traces.clear()
                 rec.set_time_ms(head.time_ms)
                 rec.log_head(head)
@@ -143,9 +167,14 @@ def record_env_run(path: str | os.PathLike | None, *, steps: int = 4, seed: int 
                 log_images(new_views, frame)
                 rec.log_remap((preds[0][remap_model], preds[1][remap_model]), new_views, grid, errors)
                 views = new_views
-                summary["saccades"].append({"onset_ms": plan.onset_ms, "amplitude_deg": plan.amplitude_deg,
-                                            "peak_velocity_deg_s": math.degrees(plan.peak_velocity),
-                                            "duration_ms": plan.duration_ms})
+                summary["saccades"].append(
+                    {
+                        "onset_ms": plan.onset_ms,
+                        "amplitude_deg": plan.amplitude_deg,
+                        "peak_velocity_deg_s": math.degrees(plan.peak_velocity),
+                        "duration_ms": plan.duration_ms,
+                    }
+                )
                 summary["remap_error"].append(errors)
                 bar.update()
             bar.close()

@@ -14,8 +14,9 @@ def hemisphere_image(hemisphere: np.ndarray) -> np.ndarray:
     return np.concatenate([np.swapaxes(h[0], 0, 1), np.swapaxes(h[1], 0, 1)], axis=1)
 
 
-def grid_strips(grid: C.RetinaGrid, shape: tuple[int, int], pixels_per_unit: float,
-                n_arc: int = 96) -> list[np.ndarray]:
+def grid_strips(
+    grid: C.RetinaGrid, shape: tuple[int, int], pixels_per_unit: float, n_arc: int = 96
+) -> list[np.ndarray]:
     """Retina grid as 2-D line strips in Rerun pixel coordinates (x right, y down, pixel
     centres at +0.5): M + 1 ring circles (incl. the foveal edge r0) and N sector edges."""
     h, w = shape

@@ -27,8 +27,13 @@ TIMELINE = "sim_time"
 #: The recordings' timelines: name -> kind. ``sim_time``: simulated time (3-D replay, eye traces of a
 #: run); ``flash_time``: ms re saccade onset (a study's flash times and its example eye trace);
 #: ``trial``: a study's trial_id; ``env_step``: the env steps (saccades) of a run; ``episode``: its episode.
-TIMELINES = {"sim_time": "duration", "flash_time": "duration", "trial": "sequence", "env_step": "sequence",
-             "episode": "sequence"}
+TIMELINES = {
+    "sim_time": "duration",
+    "flash_time": "duration",
+    "trial": "sequence",
+    "env_step": "sequence",
+    "episode": "sequence",
+}
 #: Scalars are logged rounded to this many decimals (deg, deg/s, ms), so that a series that is constant
 #: up to float noise (1e-15) is constant and its axis ticks read as plain numbers.
 SCALAR_DECIMALS = 6
@@ -66,14 +71,27 @@ class Recorder:
     ``log_time=False`` leaves out Rerun's wall-clock ``log_time`` timeline.
     """
 
-    def __init__(self, path: str | os.PathLike | None = None, *, spawn: bool = False, connect: str | None = None,
-                 app_id: str = "conformal_head", recording_id: str | None = None, gaze_length: float = 1.0,
-                 image_plane_distance: float = 0.3, layout: str | None = None, log_time: bool = True) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike | None = None,
+        *,
+        spawn: bool = False,
+        connect: str | None = None,
+        app_id: str = "conformal_head",
+        recording_id: str | None = None,
+        gaze_length: float = 1.0,
+        image_plane_distance: float = 0.3,
+        layout: str | None = None,
+        log_time: bool = True,
+    ) -> None:
         if not app_id:
             raise ValueError("app_id must be a non-empty string")
         for name, v in (("gaze_length", gaze_length), ("image_plane_distance", image_plane_distance)):
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
-                    or not (math.isfinite(v) and v > 0):
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, (int, float, np.integer, np.floating))
+                or not (math.isfinite(v) and v > 0)
+            ):
                 raise ValueError(f"{name} must be a positive number of metres; got {v!r}")
         if spawn and connect is not None:
             raise ValueError("give spawn=True or connect=URL, not both")
@@ -86,8 +104,9 @@ class Recorder:
             if not self.path.strip():
                 raise ValueError("path must name a file, e.g. 'run.rrd'; got ''")
             if os.path.isdir(self.path):
-                raise ValueError(f"path {self.path!r} is a directory; give a file such as "
-                                 f"{os.path.join(self.path, 'run.rrd')!r}")
+                raise ValueError(
+                    f"path {self.path!r} is a directory; give a file such as {os.path.join(self.path, 'run.rrd')!r}"
+                )
         layout = layout or ("study" if app_id == STUDY_APP_ID else "run")
         bp = blueprint(layout)
         self.gaze_length = float(gaze_length)
@@ -97,8 +116,11 @@ class Recorder:
         # A file is read all at once: large chunks (a flush per 16 MiB or 30 s instead of Rerun's 2 MiB or
         # 200 ms) make a recording of thousands of small logs open in seconds, not minutes. A viewer that
         # is watching gets Rerun's default, low-latency batching.
-        batcher = None if streaming else rr.ChunkBatcherConfig(flush_tick=FILE_FLUSH_TICK, flush_num_bytes=16 * 2**20,
-                                                               flush_num_rows=2**20)
+        batcher = (
+            None
+            if streaming
+            else rr.ChunkBatcherConfig(flush_tick=FILE_FLUSH_TICK, flush_num_bytes=16 * 2**20, flush_num_rows=2**20)
+        )
         self.rec = rr.RecordingStream(app_id, recording_id=rid, batcher_config=batcher)
         if not log_time:  # no wall-clock timeline: the same data makes the same recording
             self.rec.set_log_time_enabled(False)
@@ -151,8 +173,9 @@ class Recorder:
             raise ValueError(f"timeline must be one of {tuple(TIMELINES)}; got {timeline!r}")
         v = float(value)
         if not math.isfinite(v) or (kind == "sequence" and (v != int(v) or v < 0)):
-            raise ValueError(f"{timeline} must be {'a whole number >= 0' if kind == 'sequence' else 'finite'}; "
-                             f"got {value!r}")
+            raise ValueError(
+                f"{timeline} must be {'a whole number >= 0' if kind == 'sequence' else 'finite'}; got {value!r}"
+            )
         if kind == "sequence":
             self.rec.set_time(timeline, sequence=int(v))
         else:
@@ -237,9 +260,16 @@ class Recorder:
         if self._changed(path, np.concatenate([p, R.ravel()]), POSE_TOLERANCE):
             self.rec.log(path, rr.Transform3D(translation=p, mat3x3=R))
         if self._changed(path + "/image#pinhole", [h, w, f, self.image_plane_distance]):
-            self.rec.log(path + "/image", rr.Pinhole(image_from_camera=pinhole_matrix(h, w, f), resolution=[w, h],
-                                                     camera_xyz=rr.ViewCoordinates.RUB, color=_EYE_COLORS[eye],
-                                                     image_plane_distance=self.image_plane_distance))
+            self.rec.log(
+                path + "/image",
+                rr.Pinhole(
+                    image_from_camera=pinhole_matrix(h, w, f),
+                    resolution=[w, h],
+                    camera_xyz=rr.ViewCoordinates.RUB,
+                    color=_EYE_COLORS[eye],
+                    image_plane_distance=self.image_plane_distance,
+                ),
+            )
 
     def log_head(self, head) -> None:
         """The scene's geoms and moving bodies, both eye cameras (pose and pinhole), head pose and
@@ -248,8 +278,9 @@ class Recorder:
         origin = head.to_world(np.zeros(3))
         axes = np.stack([head.to_world(np.eye(3)[i]) - origin for i in range(3)])
         self.rec.log("world/head/origin", rr.Points3D([origin], radii=0.01, colors=[[200, 200, 200]]))
-        self.rec.log("world/head/axes", rr.Arrows3D(vectors=0.1 * axes, origins=np.repeat([origin], 3, 0),
-                                                    colors=_AXIS_COLORS))
+        self.rec.log(
+            "world/head/axes", rr.Arrows3D(vectors=0.1 * axes, origins=np.repeat([origin], 3, 0), colors=_AXIS_COLORS)
+        )
         for name, state in zip(EYE_NAMES, head.eye_states()):
             p = np.asarray(state.camera_position, float)
             self.log_eye_camera(name, p, state.camera_xmat, head.image_shape, head.pixels_per_unit)
@@ -263,8 +294,9 @@ class Recorder:
             pos = np.stack([head.object_position(n) for n in names])
             colors = [[255, 60, 60] if n == "target" else [230, 230, 230] for n in names]
             self.rec.log("world/objects", rr.Points3D(pos, radii=rr.components.Radius.ui_points(4.0), colors=colors))
-            self._log_labels([n for n in names if n in LABELLED_OBJECTS],
-                             [p for n, p in zip(names, pos) if n in LABELLED_OBJECTS])
+            self._log_labels(
+                [n for n in names if n in LABELLED_OBJECTS], [p for n, p in zip(names, pos) if n in LABELLED_OBJECTS]
+            )
         visible = list(head.visible_flashes)
         pos = np.stack([head.object_position(n) for n in visible]) if visible else np.zeros((0, 3))
         self.rec.log("world/flashes", rr.Points3D(pos, radii=0.015, colors=[[255, 255, 0]] * len(visible)))
@@ -278,8 +310,12 @@ class Recorder:
         sign = -np.ones(len(names))
         sign[int(np.argmax([p[2] for p in positions]))] = 1.0  # the highest (the first of equals) above
         pos = np.array(positions, float) + np.outer(sign, [0.0, 0.0, LABEL_OFFSET_M])
-        self.rec.log("world/labels", rr.Points3D(pos, radii=rr.components.Radius.ui_points(0.5), labels=names,
-                                                 colors=[[255, 255, 255]], show_labels=True))
+        self.rec.log(
+            "world/labels",
+            rr.Points3D(
+                pos, radii=rr.components.Radius.ui_points(0.5), labels=names, colors=[[255, 255, 255]], show_labels=True
+            ),
+        )
 
     # ------------------------------------------------------------------ images
     def log_frame(self, frame, grid: C.RetinaGrid, target_px=None) -> None:
@@ -298,8 +334,9 @@ class Recorder:
             self.log_picture(f"world/eyes/{name}/camera/image", pix, rng, "gain")
             if name not in self._logged_once:
                 strips = grid_strips(grid, img.shape[:2], eye.pixels_per_unit)
-                self.rec.log(f"eyes/{name}/grid", rr.LineStrips2D(strips, colors=[[0, 200, 200, 110]], radii=0.25),
-                             static=True)
+                self.rec.log(
+                    f"eyes/{name}/grid", rr.LineStrips2D(strips, colors=[[0, 200, 200, 110]], radii=0.25), static=True
+                )
                 self._logged_once.add(name)
             if tp is not None:
                 xy = np.stack([tp[i, :, 1] + 0.5, tp[i, :, 0] + 0.5], -1)
@@ -332,18 +369,30 @@ class Recorder:
         """Each eye's log-polar response to a flash (flash minus no flash, >= 0), gain-scaled, magma."""
         for name, v in zip(EYE_NAMES, views):
             p = np.asarray(v.periphery, float)
-            self.log_picture(f"retina/{name}/flash_response", *gain_scaled(p.mean(axis=-1) if p.ndim == 3 else p),
-                             "gain")
+            self.log_picture(
+                f"retina/{name}/flash_response", *gain_scaled(p.mean(axis=-1) if p.ndim == 3 else p), "gain"
+            )
 
     def _log_cortex_labels(self, grid: C.RetinaGrid) -> None:
         """Labels in words on ``cortex/map`` (static), above and below the picture so as not to cover
         it: which hemisphere (and visual field) each half is; the columns are left eye | right eye."""
         rows, cols = grid.N // 2, 2 * grid.M
         pos = [[cols / 2, -1.5], [cols / 2, 2 * rows + CORTEX_GAP + 1.5]]
-        labels = ["right hemisphere (left visual field): left eye | right eye",
-                  "left hemisphere (right visual field): left eye | right eye"]
-        self.rec.log("cortex/labels", rr.Points2D(pos, radii=rr.components.Radius.ui_points(0.5), labels=labels,
-                                                  colors=[[120, 220, 255]], show_labels=True), static=True)
+        labels = [
+            "right hemisphere (left visual field): left eye | right eye",
+            "left hemisphere (right visual field): left eye | right eye",
+        ]
+        self.rec.log(
+            "cortex/labels",
+            rr.Points2D(
+                pos,
+                radii=rr.components.Radius.ui_points(0.5),
+                labels=labels,
+                colors=[[120, 220, 255]],
+                show_labels=True,
+            ),
+            static=True,
+        )
 
     def log_remap(self, predicted, actual, grid: C.RetinaGrid, errors: dict[str, float] | None = None) -> None:
         """Predicted (from the pre-saccadic DPFT and the efference copy) vs actual post-saccadic
@@ -362,8 +411,13 @@ class Recorder:
             self.rec.log(f"remap/error/{model}", rr.Scalars(_round(err)))
 
     # ------------------------------------------------------------------ flashes
-    def log_flash(self, true_deg: Sequence[float], perceived_deg: Sequence[float],
-                  target_deg: Sequence[float] | None = None, fixation_deg: Sequence[float] = (0.0, 0.0)) -> None:
+    def log_flash(
+        self,
+        true_deg: Sequence[float],
+        perceived_deg: Sequence[float],
+        target_deg: Sequence[float] | None = None,
+        fixation_deg: Sequence[float] = (0.0, 0.0),
+    ) -> None:
         """A flash's true and perceived (azimuth_deg, elevation_deg), and optionally the saccade
         target's, in one frame of visual angle with the fixation point at ``fixation_deg`` (static:
         one per recording); shown with up = up."""
@@ -375,15 +429,15 @@ class Recorder:
         flip = np.array([1.0, -1.0])
         t, p = pts[0], pts[1]
         if "flash/fixation" not in self._logged_once:
-            self.rec.log("flash/fixation", rr.Points2D([pts[2] * flip], radii=_DOT, colors=[[220, 220, 220]]),
-                         static=True)  # unlabelled (labels hid the flash): the panel's title names the colours
+            self.rec.log(
+                "flash/fixation", rr.Points2D([pts[2] * flip], radii=_DOT, colors=[[220, 220, 220]]), static=True
+            )  # unlabelled (labels hid the flash): the panel's title names the colours
             self._logged_once.add("flash/fixation")
         if target_deg is not None:
             self.rec.log("flash/target", rr.Points2D([pts[3] * flip], radii=_DOT, colors=[[255, 160, 0]]))
         self.rec.log("flash/true", rr.Points2D([t * flip], radii=_DOT, colors=[[40, 200, 40]]))
         self.rec.log("flash/perceived", rr.Points2D([p * flip], radii=_DOT, colors=[[230, 40, 40]]))
-        self.rec.log("flash/shift", rr.Arrows2D(vectors=[(p - t) * flip], origins=[t * flip],
-                                                colors=[[200, 200, 200]]))
+        self.rec.log("flash/shift", rr.Arrows2D(vectors=[(p - t) * flip], origins=[t * flip], colors=[[200, 200, 200]]))
 
     # ------------------------------------------------------------------ eye kinematics
     def log_eye_angles(self, angles_rad, velocities_rad_s, signal_rad=None) -> None:
@@ -404,8 +458,10 @@ class Recorder:
         if trace is None or len(trace.times_ms) == 0:
             return
         times = rr.TimeColumn(TIMELINE, duration=np.asarray(trace.times_ms, float) / 1000.0)
-        series = [("angle", np.degrees(np.asarray(trace.angles, float))),
-                  ("velocity", np.degrees(np.asarray(trace.velocities, float)))]
+        series = [
+            ("angle", np.degrees(np.asarray(trace.angles, float))),
+            ("velocity", np.degrees(np.asarray(trace.velocities, float))),
+        ]
         if trace.eye_position_signal is not None:
             series.append(("signal", np.degrees(np.asarray(trace.eye_position_signal, float))))
         for e, name in enumerate(EYE_NAMES):

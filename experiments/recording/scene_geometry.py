@@ -19,9 +19,13 @@ _DEFAULT_GEOM_RGBA = np.array([0.5, 0.5, 0.5, 1.0], np.float32)  # MuJoCo's: a m
 def _quat_to_mat(q) -> np.ndarray:
     """Unit quaternion (w, x, y, z) -> rotation matrix (child -> parent coordinates)."""
     w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _rgba_u8(rgba) -> np.ndarray:
@@ -48,18 +52,32 @@ class SceneGeometry:
         import mujoco  # imported by models before any model exists
 
         G = mujoco.mjtGeom
-        self._kinds = {int(G.mjGEOM_PLANE): "plane", int(G.mjGEOM_SPHERE): "sphere", int(G.mjGEOM_CAPSULE): "capsule",
-                       int(G.mjGEOM_ELLIPSOID): "ellipsoid", int(G.mjGEOM_CYLINDER): "cylinder",
-                       int(G.mjGEOM_BOX): "box", int(G.mjGEOM_MESH): "mesh"}
+        self._kinds = {
+            int(G.mjGEOM_PLANE): "plane",
+            int(G.mjGEOM_SPHERE): "sphere",
+            int(G.mjGEOM_CAPSULE): "capsule",
+            int(G.mjGEOM_ELLIPSOID): "ellipsoid",
+            int(G.mjGEOM_CYLINDER): "cylinder",
+            int(G.mjGEOM_BOX): "box",
+            int(G.mjGEOM_MESH): "mesh",
+        }
         self._rgb_role = int(mujoco.mjtTextureRole.mjTEXROLE_RGB)
         self.model = model
         m = model
-        self.geoms = np.array([g for g in range(m.ngeom) if int(m.geom_group[g]) in SCENE_GEOM_GROUPS
-                               and int(m.geom_type[g]) in self._kinds], dtype=int)
+        self.geoms = np.array(
+            [
+                g
+                for g in range(m.ngeom)
+                if int(m.geom_group[g]) in SCENE_GEOM_GROUPS and int(m.geom_type[g]) in self._kinds
+            ],
+            dtype=int,
+        )
         self.bodies = np.unique(m.geom_bodyid[self.geoms]).astype(int) if len(self.geoms) else np.zeros(0, int)
         self.body_paths = {int(b): f"{root}/{_part(m.body(int(b)).name, 'body', int(b))}" for b in self.bodies}
-        self.geom_paths = {int(g): self.body_paths[int(m.geom_bodyid[g])] + "/"
-                           + _part(m.geom(int(g)).name, "geom", int(g)) for g in self.geoms}
+        self.geom_paths = {
+            int(g): self.body_paths[int(m.geom_bodyid[g])] + "/" + _part(m.geom(int(g)).name, "geom", int(g))
+            for g in self.geoms
+        }
         self._tex_mean: dict[int, np.ndarray] = {}
         self._body_key: np.ndarray | None = None
         self._geom_key: np.ndarray | None = None
@@ -77,7 +95,9 @@ class SceneGeometry:
         if tex not in self._tex_mean:
             m = self.model
             n = int(m.tex_height[tex]) * int(m.tex_width[tex]) * int(m.tex_nchannel[tex])
-            px = np.asarray(m.tex_data[m.tex_adr[tex]:m.tex_adr[tex] + n], float).reshape(-1, int(m.tex_nchannel[tex]))
+            px = np.asarray(m.tex_data[m.tex_adr[tex] : m.tex_adr[tex] + n], float).reshape(
+                -1, int(m.tex_nchannel[tex])
+            )
             rgb = px[:, :3].mean(axis=0) / 255.0 if px.shape[1] >= 3 else np.repeat(px.mean() / 255.0, 3)
             self._tex_mean[tex] = np.append(rgb, 1.0)
         return self._tex_mean[tex]
@@ -105,23 +125,34 @@ class SceneGeometry:
         if kind in ("box", "plane"):
             half = size.copy()
             if kind == "plane":
-                half = np.array([size[0] or INFINITE_PLANE_HALF_EXTENT, size[1] or INFINITE_PLANE_HALF_EXTENT,
-                                 PLANE_HALF_THICKNESS])
+                half = np.array(
+                    [size[0] or INFINITE_PLANE_HALF_EXTENT, size[1] or INFINITE_PLANE_HALF_EXTENT, PLANE_HALF_THICKNESS]
+                )
             return rr.Boxes3D(half_sizes=np.reshape(half, (1, 3))[:n], colors=[c][:n], fill_mode="solid")
         if kind in ("sphere", "ellipsoid"):
             half = np.repeat(size[0], 3) if kind == "sphere" else size
             return rr.Ellipsoids3D(half_sizes=np.reshape(half, (1, 3))[:n], colors=[c][:n], fill_mode="solid")
         if kind == "capsule":  # Rerun's runs from its origin along +z; MuJoCo's is centred
-            return rr.Capsules3D(lengths=[2 * size[1]][:n], radii=[size[0]][:n],
-                                 translations=[[0.0, 0.0, -size[1]]][:n], colors=[c][:n], fill_mode="solid")
+            return rr.Capsules3D(
+                lengths=[2 * size[1]][:n],
+                radii=[size[0]][:n],
+                translations=[[0.0, 0.0, -size[1]]][:n],
+                colors=[c][:n],
+                fill_mode="solid",
+            )
         if kind == "cylinder":
-            return rr.Cylinders3D(lengths=[2 * size[1]][:n], radii=[size[0]][:n], centers=[[0.0, 0.0, 0.0]][:n],
-                                  colors=[c][:n], fill_mode="solid")
+            return rr.Cylinders3D(
+                lengths=[2 * size[1]][:n],
+                radii=[size[0]][:n],
+                centers=[[0.0, 0.0, 0.0]][:n],
+                colors=[c][:n],
+                fill_mode="solid",
+            )
         mesh = int(m.geom_dataid[gid])  # mesh vertices are stored in the geom's frame
         va, vn = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
         fa, fn = int(m.mesh_faceadr[mesh]), int(m.mesh_facenum[mesh])
-        verts = np.asarray(m.mesh_vert[va:va + vn], np.float32)
-        faces = np.asarray(m.mesh_face[fa:fa + fn], np.uint32)
+        verts = np.asarray(m.mesh_vert[va : va + vn], np.float32)
+        faces = np.asarray(m.mesh_face[fa : fa + fn], np.uint32)
         if hidden:
             verts, faces = verts[:0], faces[:0]
         return rr.Mesh3D(vertex_positions=verts, triangle_indices=faces, albedo_factor=c)
@@ -145,8 +176,18 @@ class SceneGeometry:
         g = self.geoms
         mat = m.geom_matid[g]
         mat_rgba = np.vstack([np.asarray(m.mat_rgba, float).reshape(-1, 4), np.zeros((1, 4))])  # [-1]: none
-        gkey = np.concatenate([m.geom_type[g][:, None], m.geom_size[g], m.geom_pos[g], m.geom_quat[g],
-                               m.geom_rgba[g], mat[:, None], mat_rgba[mat]], axis=1)
+        gkey = np.concatenate(
+            [
+                m.geom_type[g][:, None],
+                m.geom_size[g],
+                m.geom_pos[g],
+                m.geom_quat[g],
+                m.geom_rgba[g],
+                mat[:, None],
+                mat_rgba[mat],
+            ],
+            axis=1,
+        )
         changed = np.ones(len(g), bool) if self._geom_key is None else np.any(gkey != self._geom_key, axis=1)
         for i in np.flatnonzero(changed):
             gid = int(g[i])

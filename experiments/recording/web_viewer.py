@@ -134,8 +134,15 @@ class WebViewer:
 
     HOST = "127.0.0.1"
 
-    def __init__(self, web_port: int = 9090, grpc_port: int = 9876, *, server_memory_limit: str = "1GiB",
-                 start_timeout_s: float = 30.0, recordings: tuple = ()) -> None:
+    def __init__(
+        self,
+        web_port: int = 9090,
+        grpc_port: int = 9876,
+        *,
+        server_memory_limit: str = "1GiB",
+        start_timeout_s: float = 30.0,
+        recordings: tuple = (),
+    ) -> None:
         ports = {"web_port": web_port, "grpc_port": grpc_port}
         for name, port in ports.items():
             if isinstance(port, bool) or not isinstance(port, (int, np.integer)) or not 0 <= port <= 65535:
@@ -148,8 +155,10 @@ class WebViewer:
         files = [os.fspath(r) for r in recordings]
         for f in files:
             if not os.path.isfile(f):
-                raise FileNotFoundError(f"recording {f!r} does not exist (write one with 'python -m experiments "
-                                        f"run' or 'visualize --out FILE.rrd')")
+                raise FileNotFoundError(
+                    f"recording {f!r} does not exist (write one with 'python -m experiments "
+                    f"run' or 'visualize --out FILE.rrd')"
+                )
         self.proc = None
         self._log = None
         tries = 5 if 0 in (web_port, grpc_port) else 1
@@ -171,8 +180,19 @@ class WebViewer:
         of another process's server that holds a port); :class:`_PortTaken` if one was taken."""
         self.web_port, self.grpc_port = web, grpc
         self._log = tempfile.TemporaryFile()
-        cmd = [_rerun_executable(), "--serve-web", "--bind", self.HOST, "--port", str(grpc),
-               "--web-viewer-port", str(web), "--server-memory-limit", memory, *files]
+        cmd = [
+            _rerun_executable(),
+            "--serve-web",
+            "--bind",
+            self.HOST,
+            "--port",
+            str(grpc),
+            "--web-viewer-port",
+            str(web),
+            "--server-memory-limit",
+            memory,
+            *files,
+        ]
         if sys.platform.startswith("linux"):
             cmd = [sys.executable, "-c", _EXEC_WITH_PARENT, str(os.getpid()), *cmd]
         self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=self._log, stderr=subprocess.STDOUT)
@@ -191,10 +211,14 @@ class WebViewer:
                 taken = [p for p in (grpc, web) if _port_open(p, self.HOST) and owned[(grpc, web).index(p)] is not True]
                 self.close()
                 if taken:
-                    raise _PortTaken(f"port {taken[0]} on {self.HOST} is in use by another process; choose another "
-                                     f"({names[taken[0]]}), or 0 for a free one")
-                raise RuntimeError(f"the Rerun web viewer did not start on {self.HOST}:{web} "
-                                   f"(gRPC {grpc}); its output ends: {log[-500:]!r}")
+                    raise _PortTaken(
+                        f"port {taken[0]} on {self.HOST} is in use by another process; choose another "
+                        f"({names[taken[0]]}), or 0 for a free one"
+                    )
+                raise RuntimeError(
+                    f"the Rerun web viewer did not start on {self.HOST}:{web} "
+                    f"(gRPC {grpc}); its output ends: {log[-500:]!r}"
+                )
             time.sleep(0.05)
 
     @property
@@ -225,8 +249,10 @@ class WebViewer:
         deadline = math.inf if seconds is None else time.monotonic() + float(seconds)
         while time.monotonic() < deadline:
             if not self.running:
-                raise RuntimeError(f"the Rerun web viewer stopped (exit {self.proc.returncode}); "
-                                   f"its output ends: {self.output()[-500:]!r}")
+                raise RuntimeError(
+                    f"the Rerun web viewer stopped (exit {self.proc.returncode}); "
+                    f"its output ends: {self.output()[-500:]!r}"
+                )
             time.sleep(min(0.2, max(0.0, deadline - time.monotonic())))
 
     def close(self) -> None:

@@ -24,8 +24,16 @@ from conformal import checks
 
 from .._plan_kernels import listing_torsion as _listing_formula  # the formula's one home
 
-__all__ = ["PRIMARY_EYE_BASIS", "fick_matrix", "gaze_direction", "fick_angles", "listing_torsion", "with_listing",
-           "rotation_vector", "eye_frame_basis"]
+__all__ = [
+    "PRIMARY_EYE_BASIS",
+    "fick_matrix",
+    "gaze_direction",
+    "fick_angles",
+    "listing_torsion",
+    "with_listing",
+    "rotation_vector",
+    "eye_frame_basis",
+]
 
 _X = np.array([1.0, 0.0, 0.0])
 _Y = np.array([0.0, 1.0, 0.0])
@@ -49,8 +57,9 @@ def _angles(**named) -> list[np.ndarray]:
     try:
         np.broadcast_shapes(*(a.shape for a in out))
     except ValueError:
-        raise ValueError(f"{', '.join(named)} must have shapes that broadcast; got "
-                         f"{', '.join(str(a.shape) for a in out)}") from None
+        raise ValueError(
+            f"{', '.join(named)} must have shapes that broadcast; got {', '.join(str(a.shape) for a in out)}"
+        ) from None
     return out
 
 
@@ -58,8 +67,10 @@ def _rotations(name: str, R, single: bool = False) -> np.ndarray:
     """Finite rotation matrices (..., 3, 3) (orthogonal to 1e-6, det +1), or one (3, 3) if ``single``."""
     r = checks.array(name, R, kinds="biuf", ndim=2 if single else None).astype(float)
     if r.shape[-2:] != (3, 3):
-        raise ValueError(f"{name} must be {'a 3x3 rotation matrix' if single else 'rotation matrices (..., 3, 3)'}; "
-                         f"got shape {r.shape}")
+        raise ValueError(
+            f"{name} must be {'a 3x3 rotation matrix' if single else 'rotation matrices (..., 3, 3)'}; "
+            f"got shape {r.shape}"
+        )
     if r.size and (np.abs(r @ np.swapaxes(r, -1, -2) - np.eye(3)).max() > 1e-6 or np.linalg.det(r).min() < 0):
         raise ValueError(f"{name} must hold proper rotation matrices (orthogonal, det +1)")
     return r

@@ -54,8 +54,12 @@ def fixation_batch(p_head: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray,
     dist = np.linalg.norm(d, axis=2)
     h = np.arctan2(-d[..., 1], d[..., 0])
     v = np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1]))
-    ok = (np.all(dist >= MIN_TARGET_DISTANCE, axis=1) & np.all(np.abs(h) <= H_RANGE + 1e-9, axis=1)
-          & np.all(np.abs(v) <= V_RANGE + 1e-9, axis=1) & np.isfinite(p_head).all(axis=1))
+    ok = (
+        np.all(dist >= MIN_TARGET_DISTANCE, axis=1)
+        & np.all(np.abs(h) <= H_RANGE + 1e-9, axis=1)
+        & np.all(np.abs(v) <= V_RANGE + 1e-9, axis=1)
+        & np.isfinite(p_head).all(axis=1)
+    )
     return with_listing(np.stack([h, v], -1)), ok, dist
 
 
@@ -77,8 +81,16 @@ def cyclopean_amplitude(c: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.nda
     return np.arccos(np.clip((d0 * d1).sum(axis=-1), -1, 1))
 
 
-def noisy_endpoints(c: np.ndarray, centres: np.ndarray, fix: np.ndarray, targets: np.ndarray, angles: np.ndarray,
-                    amp: np.ndarray, noise: float | MotorNoise, rngs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def noisy_endpoints(
+    c: np.ndarray,
+    centres: np.ndarray,
+    fix: np.ndarray,
+    targets: np.ndarray,
+    angles: np.ndarray,
+    amp: np.ndarray,
+    noise: float | MotorNoise,
+    rngs,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Motor error on m planned saccades from the fixation points ``fix`` (m, 3) to the head-frame
     ``targets`` (m, 3) with fixation ``angles`` (m, 2, 3) and cyclopean amplitudes ``amp`` (m,): each
     saccade larger than ``NULL_SACCADE`` draws two standard normals from its own generator ``rngs[k]``

@@ -36,12 +36,31 @@ class MainSequence:
 
     def __post_init__(self):
         object.__setattr__(self, "m0_deg", checks.real("m0_deg", self.m0_deg, 0.0, 100.0, lo_open=True))
-        object.__setattr__(self, "vpk_deg_per_ms", checks.real(
-            "vpk_deg_per_ms", self.vpk_deg_per_ms, 0.0, MAX_PEAK_VELOCITY_DEG_S / 1000.0,
-            lo_open=True, hint=f"peak eye speed never exceeds {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s"))
-        object.__setattr__(self, "end_velocity_deg_s", checks.real(
-            "end_velocity_deg_s", self.end_velocity_deg_s, 0.0, 1000.0 * self.vpk_deg_per_ms, lo_open=True,
-            hi_open=True, hint="the offset speed lies below the peak speed vpk"))
+        object.__setattr__(
+            self,
+            "vpk_deg_per_ms",
+            checks.real(
+                "vpk_deg_per_ms",
+                self.vpk_deg_per_ms,
+                0.0,
+                MAX_PEAK_VELOCITY_DEG_S / 1000.0,
+                lo_open=True,
+                hint=f"peak eye speed never exceeds {MAX_PEAK_VELOCITY_DEG_S:.0f} deg/s",
+            ),
+        )
+        object.__setattr__(
+            self,
+            "end_velocity_deg_s",
+            checks.real(
+                "end_velocity_deg_s",
+                self.end_velocity_deg_s,
+                0.0,
+                1000.0 * self.vpk_deg_per_ms,
+                lo_open=True,
+                hi_open=True,
+                hint="the offset speed lies below the peak speed vpk",
+            ),
+        )
         object.__setattr__(self, "settle_deg", checks.real("settle_deg", self.settle_deg, 0.0, 1.0, lo_open=True))
 
     @staticmethod

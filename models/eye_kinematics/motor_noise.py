@@ -42,10 +42,18 @@ class MotorNoise:
 
     def __post_init__(self):
         for name in ("along", "across"):
-            object.__setattr__(self, name, checks.real(name, getattr(self, name), 0.0, 1.0,
-                                                       hint="the s.d. as a fraction of the amplitude"))
-        object.__setattr__(self, "gain", checks.real("gain", self.gain, 0.5, 1.5,
-                                                     hint="mean executed / intended amplitude; 0.9 is a 10 % undershoot"))
+            object.__setattr__(
+                self,
+                name,
+                checks.real(name, getattr(self, name), 0.0, 1.0, hint="the s.d. as a fraction of the amplitude"),
+            )
+        object.__setattr__(
+            self,
+            "gain",
+            checks.real(
+                "gain", self.gain, 0.5, 1.5, hint="mean executed / intended amplitude; 0.9 is a 10 % undershoot"
+            ),
+        )
         if not isinstance(self.isotropic, bool):
             raise checks.InputTypeError(f"isotropic must be True or False; got {type(self.isotropic).__name__}")
         if self.isotropic and (self.along != self.across or self.gain != 1.0):

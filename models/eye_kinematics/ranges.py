@@ -8,8 +8,17 @@ import numpy as np
 
 from conformal import checks
 
-__all__ = ["H_RANGE", "V_RANGE", "T_RANGE", "MAX_PEAK_VELOCITY", "MAX_PEAK_VELOCITY_DEG_S", "MIN_TARGET_DISTANCE", "NULL_SACCADE",
-           "OculomotorRangeError", "check_point"]
+__all__ = [
+    "H_RANGE",
+    "V_RANGE",
+    "T_RANGE",
+    "MAX_PEAK_VELOCITY",
+    "MAX_PEAK_VELOCITY_DEG_S",
+    "MIN_TARGET_DISTANCE",
+    "NULL_SACCADE",
+    "OculomotorRangeError",
+    "check_point",
+]
 
 H_RANGE = np.deg2rad(45.0)  #: horizontal oculomotor range (+-), radians
 V_RANGE = np.deg2rad(35.0)  #: vertical oculomotor range (+-), radians

@@ -45,8 +45,10 @@ _floats = amplitude_list  # comma-separated saccade amplitudes (deg), checked (e
 def _times(text: str) -> tuple[int, ...]:
     """``START:STOP:STEP`` (inclusive) or a comma-separated list of whole ms, within ``LIMITS``."""
     lim = LIMITS["flash_times_ms"]
-    usage = (f"flash times must be START:STOP:STEP (STEP > 0, STOP >= START) or a list of whole ms, "
-             f"each in {lim.text()}; got {text!r}")
+    usage = (
+        f"flash times must be START:STOP:STEP (STEP > 0, STOP >= START) or a list of whole ms, "
+        f"each in {lim.text()}; got {text!r}"
+    )
     try:
         if ":" in text:
             a, b, s = (int(v) for v in text.split(":"))
@@ -60,8 +62,9 @@ def _times(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(usage)
     dup = sorted({v for v in vals if vals.count(v) > 1})
     if dup:
-        raise argparse.ArgumentTypeError(f"flash time {dup[0]} ms is listed twice in {text!r}; list each once "
-                                         "(use --repetitions for more trials)")
+        raise argparse.ArgumentTypeError(
+            f"flash time {dup[0]} ms is listed twice in {text!r}; list each once (use --repetitions for more trials)"
+        )
     return vals
 
 
@@ -82,111 +85,243 @@ def _out(text: str) -> str:
 def add_subcommand(subparsers) -> None:
     """Register ``run`` (the flash-localization study) on the ``experiments`` command line."""
     p = subparsers.add_parser(
-        "run", help="perisaccadic flash-localization study (table, figures, summary, Rerun recording)",
-        description=__doc__, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        "run",
+        help="perisaccadic flash-localization study (table, figures, summary, Rerun recording)",
+        description=__doc__,
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     b = {k: v.text() for k, v in LIMITS.items()}
-    p.add_argument("--out", type=_out, default="results",
-                   help="output folder (created; a run there is resumed; one run at a time)")
-    p.add_argument("--quick", action="store_true",
-                   help="reduced design: one 20 deg saccade, 8 flash positions, 7 flash times "
-                        "(about 11 s on 2 idle cores)")
+    p.add_argument(
+        "--out", type=_out, default="results", help="output folder (created; a run there is resumed; one run at a time)"
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="reduced design: one 20 deg saccade, 8 flash positions, 7 flash times (about 11 s on 2 idle cores)",
+    )
     d = p.add_argument_group("design")
-    d.add_argument("--amplitudes", type=_floats, default=None, metavar="DEG,...",
-                   help=f"saccade amplitudes in deg, each in {b['amplitudes_deg']}, from -A/2 to +A/2 azimuth "
-                        "(default 12,16,20,24; --quick: 20)")
-    d.add_argument("--flash-times", type=_times, default=None, metavar="START:STOP:STEP|MS,...",
-                   help="flash times re saccade onset, whole ms in [-1000, 1000]; write --flash-times=-100:100:20 "
-                        "when the value starts with '-' (default -150:150:25; --quick: -150,-100,-50,-25,0,50,150)")
-    d.add_argument("--positions", choices=("fig11", "morrone"), default=None,
-                   help="flash array: fig11 = 24 dots (6 columns x 4 rows) around the target, morrone = 8 dots "
-                        "mostly along the saccade path (default fig11; --quick: morrone)")
-    d.add_argument("--repetitions", type=_num_type("repetitions"), default=None,
-                   help=f"repetitions of every condition, {b['repetitions']} (at most {MAX_TRIALS} trials in all; "
-                        "default 1, 10 for --paradigm displacement)")
+    d.add_argument(
+        "--amplitudes",
+        type=_floats,
+        default=None,
+        metavar="DEG,...",
+        help=f"saccade amplitudes in deg, each in {b['amplitudes_deg']}, from -A/2 to +A/2 azimuth "
+        "(default 12,16,20,24; --quick: 20)",
+    )
+    d.add_argument(
+        "--flash-times",
+        type=_times,
+        default=None,
+        metavar="START:STOP:STEP|MS,...",
+        help="flash times re saccade onset, whole ms in [-1000, 1000]; write --flash-times=-100:100:20 "
+        "when the value starts with '-' (default -150:150:25; --quick: -150,-100,-50,-25,0,50,150)",
+    )
+    d.add_argument(
+        "--positions",
+        choices=("fig11", "morrone"),
+        default=None,
+        help="flash array: fig11 = 24 dots (6 columns x 4 rows) around the target, morrone = 8 dots "
+        "mostly along the saccade path (default fig11; --quick: morrone)",
+    )
+    d.add_argument(
+        "--repetitions",
+        type=_num_type("repetitions"),
+        default=None,
+        help=f"repetitions of every condition, {b['repetitions']} (at most {MAX_TRIALS} trials in all; "
+        "default 1, 10 for --paradigm displacement)",
+    )
     d.add_argument("--seed", type=_num_type("seed"), default=0, help=f"base seed (trial i uses seed + i), {b['seed']}")
     pm = p.add_argument_group("perception model and condition")
-    pm.add_argument("--model", choices=("mechanistic", "paper", "population", "observer"), default="mechanistic",
-                    help="observer: optimal (Bayesian) combination of retina, an uncertain eye-position signal and "
-                         "post-saccadic references (experiments/psychophysics/observer.py); population: a gain field "
-                         "on the cortical map driven by the saccadic burst, read out by a population code "
-                         "(population.py); mechanistic: remapping driven by the oculomotor command, read out through "
-                         "the eye-position signal and post-saccadic references; paper: the log-radius shift with the "
-                         "set time course below (mechanisms.py)")
-    pm.add_argument("--condition", choices=("references", "dark"), default="references",
-                    help="references: the target stays lit and a ruler appears after the saccade; dark: black "
-                         "screen, the target goes off at saccade onset")
-    pm.add_argument("--paradigm", choices=("localization", "separation", "displacement"), default="localization",
-                    help="localization: one flash per trial; separation: two simultaneous flashes 4 deg apart "
-                         "along the saccade, each localized (perceived separation vs localization); displacement: "
-                         "the target steps by -4..4 deg during the saccade, with --flash-times as blank durations "
-                         "(default 0,250 ms); psychometric functions and thresholds")
-    pm.add_argument("--reference-contrast", type=_num_type("reference_contrast"), default=1.0,
-                    help=f"contrast (opacity) of the post-saccadic references: the target after onset, the ruler, "
-                         f"the markers, {b['reference_contrast']}")
-    pm.add_argument("--reference-ms", type=_num_type("reference_ms"), default=1000,
-                    help=f"how long the post-saccadic references stay on after saccade offset, {b['reference_ms']}")
-    pm.add_argument("--target-off-ms", type=_num_type("target_off_ms"), default=1000,
-                    help=f"the target goes off this long after saccade onset (negative: before it, a memory-guided "
-                         f"saccade), {b['target_off_ms']}")
-    pm.add_argument("--markers", type=_markers_arg, default=(), metavar="DX,DY;...",
-                    help="up to 4 extra post-saccadic references, deg from the target, e.g. '-10,0;0,-6'")
-    pm.add_argument("--no-ruler", action="store_true",
-                    help="references condition without the ruler (the target and markers are the references)")
-    pm.add_argument("--feedback-gain", type=_num_type("feedback_gain"), default=4.5,
-                    help=f"mechanistic: remapping gain per deg/ms of eye-position-signal speed, {b['feedback_gain']}")
-    pm.add_argument("--reference-weight", type=_num_type("reference_weight"), default=1.0,
-                    help=f"mechanistic: weight of the reference-anchored read-out when a reference is seen, "
-                         f"{b['reference_weight']}")
-    pm.add_argument("--stability-tolerance", type=_num_type("stability_tolerance"), default=0.1,
-                    help=f"displacement: a target seen at landing this close (x amplitude) is taken as stable, "
-                         f"{b['stability_tolerance']}")
-    pm.add_argument("--report-noise-deg", type=_num_type("report_noise_deg"), default=0.5,
-                    help=f"displacement: s.d. of the report noise, {b['report_noise_deg']}")
-    pm.add_argument("--disable", type=_mechanisms, default=(), metavar="NAME,...",
-                    help="mechanistic: switch ingredients off: smear, latency, eye_position_signal, command_remap, "
-                         "references")
-    t = p.add_argument_group("remapping gain time course g(t) of --model paper: distances from the target shrink by exp(-g)")
-    t.add_argument("--peak-time-ms", type=_num_type("peak_time_ms"), default=-10.0,
-                   help=f"time of peak compression re saccade onset, {b['peak_time_ms']}")
-    t.add_argument("--rise-ms", type=_num_type("rise_ms"), default=25.0,
-                   help=f"s.d. of the rising flank (before the peak), {b['rise_ms']}")
-    t.add_argument("--decay-ms", type=_num_type("decay_ms"), default=30.0,
-                   help=f"s.d. of the decaying flank (after the peak), {b['decay_ms']}")
-    t.add_argument("--peak-gain", type=_num_type("peak_gain"), default=math.log(2.0),
-                   help=f"peak log-radius shift, natural-log units, {b['peak_gain']} (ln 2 = 50%% compression; "
-                        "0 = no remapping)")
+    pm.add_argument(
+        "--model",
+        choices=("mechanistic", "paper", "population", "observer"),
+        default="mechanistic",
+        help="observer: optimal (Bayesian) combination of retina, an uncertain eye-position signal and "
+        "post-saccadic references (experiments/psychophysics/observer.py); population: a gain field "
+        "on the cortical map driven by the saccadic burst, read out by a population code "
+        "(population.py); mechanistic: remapping driven by the oculomotor command, read out through "
+        "the eye-position signal and post-saccadic references; paper: the log-radius shift with the "
+        "set time course below (mechanisms.py)",
+    )
+    pm.add_argument(
+        "--condition",
+        choices=("references", "dark"),
+        default="references",
+        help="references: the target stays lit and a ruler appears after the saccade; dark: black "
+        "screen, the target goes off at saccade onset",
+    )
+    pm.add_argument(
+        "--paradigm",
+        choices=("localization", "separation", "displacement"),
+        default="localization",
+        help="localization: one flash per trial; separation: two simultaneous flashes 4 deg apart "
+        "along the saccade, each localized (perceived separation vs localization); displacement: "
+        "the target steps by -4..4 deg during the saccade, with --flash-times as blank durations "
+        "(default 0,250 ms); psychometric functions and thresholds",
+    )
+    pm.add_argument(
+        "--reference-contrast",
+        type=_num_type("reference_contrast"),
+        default=1.0,
+        help=f"contrast (opacity) of the post-saccadic references: the target after onset, the ruler, "
+        f"the markers, {b['reference_contrast']}",
+    )
+    pm.add_argument(
+        "--reference-ms",
+        type=_num_type("reference_ms"),
+        default=1000,
+        help=f"how long the post-saccadic references stay on after saccade offset, {b['reference_ms']}",
+    )
+    pm.add_argument(
+        "--target-off-ms",
+        type=_num_type("target_off_ms"),
+        default=1000,
+        help=f"the target goes off this long after saccade onset (negative: before it, a memory-guided "
+        f"saccade), {b['target_off_ms']}",
+    )
+    pm.add_argument(
+        "--markers",
+        type=_markers_arg,
+        default=(),
+        metavar="DX,DY;...",
+        help="up to 4 extra post-saccadic references, deg from the target, e.g. '-10,0;0,-6'",
+    )
+    pm.add_argument(
+        "--no-ruler",
+        action="store_true",
+        help="references condition without the ruler (the target and markers are the references)",
+    )
+    pm.add_argument(
+        "--feedback-gain",
+        type=_num_type("feedback_gain"),
+        default=4.5,
+        help=f"mechanistic: remapping gain per deg/ms of eye-position-signal speed, {b['feedback_gain']}",
+    )
+    pm.add_argument(
+        "--reference-weight",
+        type=_num_type("reference_weight"),
+        default=1.0,
+        help=f"mechanistic: weight of the reference-anchored read-out when a reference is seen, "
+        f"{b['reference_weight']}",
+    )
+    pm.add_argument(
+        "--stability-tolerance",
+        type=_num_type("stability_tolerance"),
+        default=0.1,
+        help=f"displacement: a target seen at landing this close (x amplitude) is taken as stable, "
+        f"{b['stability_tolerance']}",
+    )
+    pm.add_argument(
+        "--report-noise-deg",
+        type=_num_type("report_noise_deg"),
+        default=0.5,
+        help=f"displacement: s.d. of the report noise, {b['report_noise_deg']}",
+    )
+    pm.add_argument(
+        "--disable",
+        type=_mechanisms,
+        default=(),
+        metavar="NAME,...",
+        help="mechanistic: switch ingredients off: smear, latency, eye_position_signal, command_remap, references",
+    )
+    t = p.add_argument_group(
+        "remapping gain time course g(t) of --model paper: distances from the target shrink by exp(-g)"
+    )
+    t.add_argument(
+        "--peak-time-ms",
+        type=_num_type("peak_time_ms"),
+        default=-10.0,
+        help=f"time of peak compression re saccade onset, {b['peak_time_ms']}",
+    )
+    t.add_argument(
+        "--rise-ms",
+        type=_num_type("rise_ms"),
+        default=25.0,
+        help=f"s.d. of the rising flank (before the peak), {b['rise_ms']}",
+    )
+    t.add_argument(
+        "--decay-ms",
+        type=_num_type("decay_ms"),
+        default=30.0,
+        help=f"s.d. of the decaying flank (after the peak), {b['decay_ms']}",
+    )
+    t.add_argument(
+        "--peak-gain",
+        type=_num_type("peak_gain"),
+        default=math.log(2.0),
+        help=f"peak log-radius shift, natural-log units, {b['peak_gain']} (ln 2 = 50%% compression; 0 = no remapping)",
+    )
     m = p.add_argument_group("model")
-    m.add_argument("--image-size", type=_num_type("image_size"), default=256,
-                   help=f"eye image side, {b['image_size']}")
-    m.add_argument("--fovy-deg", type=_num_type("fovy_deg"), default=90.0,
-                   help=f"each eye's vertical field of view, {b['fovy_deg']}")
-    m.add_argument("--fovea-deg", type=_num_type("fovea_deg"), default=2.0,
-                   help=f"foveal radius of the retina, {b['fovea_deg']} (under a quarter of --fovy-deg)")
-    m.add_argument("--oversample", type=_num_type("oversample"), default=3,
-                   help=f"density factor of the target-centred read-out grid, {b['oversample']}")
-    m.add_argument("--threshold", type=_num_type("threshold"), default=0.2,
-                   help=f"read-out: ignore activity below this fraction of the peak, {b['threshold']}")
-    m.add_argument("--flash-radius-deg", type=_num_type("flash_radius_deg"), default=1.0,
-                   help=f"radius of the flashed dot, {b['flash_radius_deg']}")
-    m.add_argument("--endpoint-noise", type=_num_type("endpoint_noise"), default=0.0,
-                   help=f"saccade endpoint noise, s.d. as a fraction of the amplitude, {b['endpoint_noise']} "
-                        "(seeded per trial)")
-    m.add_argument("--saccade-model", choices=("burst", "legacy"), default="burst",
-                   help="saccade trajectories: the brainstem burst generator or the legacy main-sequence planner")
+    m.add_argument("--image-size", type=_num_type("image_size"), default=256, help=f"eye image side, {b['image_size']}")
+    m.add_argument(
+        "--fovy-deg",
+        type=_num_type("fovy_deg"),
+        default=90.0,
+        help=f"each eye's vertical field of view, {b['fovy_deg']}",
+    )
+    m.add_argument(
+        "--fovea-deg",
+        type=_num_type("fovea_deg"),
+        default=2.0,
+        help=f"foveal radius of the retina, {b['fovea_deg']} (under a quarter of --fovy-deg)",
+    )
+    m.add_argument(
+        "--oversample",
+        type=_num_type("oversample"),
+        default=3,
+        help=f"density factor of the target-centred read-out grid, {b['oversample']}",
+    )
+    m.add_argument(
+        "--threshold",
+        type=_num_type("threshold"),
+        default=0.2,
+        help=f"read-out: ignore activity below this fraction of the peak, {b['threshold']}",
+    )
+    m.add_argument(
+        "--flash-radius-deg",
+        type=_num_type("flash_radius_deg"),
+        default=1.0,
+        help=f"radius of the flashed dot, {b['flash_radius_deg']}",
+    )
+    m.add_argument(
+        "--endpoint-noise",
+        type=_num_type("endpoint_noise"),
+        default=0.0,
+        help=f"saccade endpoint noise, s.d. as a fraction of the amplitude, {b['endpoint_noise']} (seeded per trial)",
+    )
+    m.add_argument(
+        "--saccade-model",
+        choices=("burst", "legacy"),
+        default="burst",
+        help="saccade trajectories: the brainstem burst generator or the legacy main-sequence planner",
+    )
     m.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
-    m.add_argument("--eye-drive", choices=("plant", "servo"), default="plant",
-                   help="how the eyes move: torques through the orbital plant (default) or the exact-pointing servo")
-    m.add_argument("--eye-position", choices=("signal", "true"), default="signal",
-                   help="read-out from retina to head: the extraretinal eye-position signal (slow, from the "
-                        "efference copy) or the true eye orientation (an oracle, for comparison)")
-    m.add_argument("--visual-latency-ms", type=_num_type("visual_latency_ms"), default=70.0,
-                   help=f"delay from a flash to its cortical response, {b['visual_latency_ms']}: the flash is "
-                        "read with the eye-position signal this much later")
+    m.add_argument(
+        "--eye-drive",
+        choices=("plant", "servo"),
+        default="plant",
+        help="how the eyes move: torques through the orbital plant (default) or the exact-pointing servo",
+    )
+    m.add_argument(
+        "--eye-position",
+        choices=("signal", "true"),
+        default="signal",
+        help="read-out from retina to head: the extraretinal eye-position signal (slow, from the "
+        "efference copy) or the true eye orientation (an oracle, for comparison)",
+    )
+    m.add_argument(
+        "--visual-latency-ms",
+        type=_num_type("visual_latency_ms"),
+        default=70.0,
+        help=f"delay from a flash to its cortical response, {b['visual_latency_ms']}: the flash is "
+        "read with the eye-position signal this much later",
+    )
     r = p.add_argument_group("execution and output")
     add_workers_option(r)
     add_backend_options(r)
-    r.add_argument("--formats", type=_formats, default="png,svg",
-                   help="figure formats, comma-separated (png, svg, pdf)")
+    r.add_argument(
+        "--formats", type=_formats, default="png,svg", help="figure formats, comma-separated (png, svg, pdf)"
+    )
     r.add_argument("--no-recording", action="store_true", help="do not write study.rrd")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_handler, _parser=p)
@@ -204,8 +339,9 @@ def _markers_arg(text: str) -> tuple[tuple[float, float], ...]:
         try:
             dx, dy = (float(v) for v in part.split(","))
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected DX,DY pairs separated by ';' (deg from the target); "
-                                             f"got {part!r}") from None
+            raise argparse.ArgumentTypeError(
+                f"expected DX,DY pairs separated by ';' (deg from the target); got {part!r}"
+            ) from None
         out.append((dx, dy))
     return tuple(out)
 
@@ -232,8 +368,12 @@ def _pointless_rules(args: argparse.Namespace) -> list[tuple[str, str, bool, str
         ("no_ruler", "--no-ruler", dark, _NOTHING_AFTER_DARK),
         ("reference_contrast", "--reference-contrast", dark, _NOTHING_AFTER_DARK),
         ("reference_ms", "--reference-ms", dark, _NOTHING_AFTER_DARK),
-        ("target_off_ms", "--target-off-ms", dark and getattr(args, "target_off_ms", -1) >= 0,
-         "in --condition dark the target goes off at saccade onset (a negative value, before onset, still applies)"),
+        (
+            "target_off_ms",
+            "--target-off-ms",
+            dark and getattr(args, "target_off_ms", -1) >= 0,
+            "in --condition dark the target goes off at saccade onset (a negative value, before onset, still applies)",
+        ),
         ("feedback_gain", "--feedback-gain", model != "mechanistic", "it is --model mechanistic's"),
         ("reference_weight", "--reference-weight", model != "mechanistic", "it is --model mechanistic's"),
         ("disable", "--disable", model != "mechanistic", "it switches off --model mechanistic's ingredients"),
@@ -241,8 +381,12 @@ def _pointless_rules(args: argparse.Namespace) -> list[tuple[str, str, bool, str
         ("rise_ms", "--rise-ms", model != "paper", _NOT_PAPER),
         ("decay_ms", "--decay-ms", model != "paper", _NOT_PAPER),
         ("peak_gain", "--peak-gain", model != "paper", _NOT_PAPER),
-        ("stability_tolerance", "--stability-tolerance", args.paradigm != "displacement",
-         "it is --paradigm displacement's"),
+        (
+            "stability_tolerance",
+            "--stability-tolerance",
+            args.paradigm != "displacement",
+            "it is --paradigm displacement's",
+        ),
         ("report_noise_deg", "--report-noise-deg", args.paradigm != "displacement", "it is --paradigm displacement's"),
     ]
 
@@ -261,9 +405,13 @@ def _build(args: argparse.Namespace):
     from .. import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, RemapTimeCourse, TrialConfig
 
     parser = args._parser
-    base = dict(amplitudes_deg=(20.0,), flash_times_ms=(-150, -100, -50, -25, 0, 50, 150), positions="morrone") \
-        if args.quick else dict(amplitudes_deg=(12.0, 16.0, 20.0, 24.0), flash_times_ms=tuple(range(-150, 151, 25)),
-                                positions="fig11")
+    base = (
+        dict(amplitudes_deg=(20.0,), flash_times_ms=(-150, -100, -50, -25, 0, 50, 150), positions="morrone")
+        if args.quick
+        else dict(
+            amplitudes_deg=(12.0, 16.0, 20.0, 24.0), flash_times_ms=tuple(range(-150, 151, 25)), positions="fig11"
+        )
+    )
     positions = args.positions or base["positions"]
     amps = args.amplitudes or base["amplitudes_deg"]
     times = args.flash_times or base["flash_times_ms"]
@@ -281,31 +429,57 @@ def _build(args: argparse.Namespace):
     _refuse_pointless(args, parser)
     n = len(amps) * len(offsets) * len(times) * reps
     if n > MAX_TRIALS:
-        parser.error(f"argument --repetitions: the design would have {n} trials, more than {MAX_TRIALS}; lower "
-                     "--repetitions or give fewer --amplitudes or --flash-times")
+        parser.error(
+            f"argument --repetitions: the design would have {n} trials, more than {MAX_TRIALS}; lower "
+            "--repetitions or give fewer --amplitudes or --flash-times"
+        )
     if args.fovea_deg >= args.fovy_deg / 4:
-        parser.error(f"argument --fovea-deg: must be less than a quarter of --fovy-deg ({args.fovy_deg:g}); "
-                     f"got {args.fovea_deg:g}")
+        parser.error(
+            f"argument --fovea-deg: must be less than a quarter of --fovy-deg ({args.fovy_deg:g}); "
+            f"got {args.fovea_deg:g}"
+        )
     try:
-        design = Design(amplitudes_deg=amps, flash_offsets_deg=offsets, flash_times_ms=times,
-                        repetitions=reps, seed=args.seed, name="quick" if args.quick else "default")
+        design = Design(
+            amplitudes_deg=amps,
+            flash_offsets_deg=offsets,
+            flash_times_ms=times,
+            repetitions=reps,
+            seed=args.seed,
+            name="quick" if args.quick else "default",
+        )
         tc = RemapTimeCourse(args.peak_time_ms, args.rise_ms, args.decay_ms, args.peak_gain)
-        config = TrialConfig(image_size=args.image_size, fovy_deg=args.fovy_deg, fovea_deg=args.fovea_deg,
-                             timecourse=tc, threshold=args.threshold, endpoint_noise=args.endpoint_noise,
-                             oversample=args.oversample, flash_radius_deg=args.flash_radius_deg,
-                             saccade_model=args.saccade_model, generator=args.generator, eye_drive=args.eye_drive,
-                             eye_position=args.eye_position,
-                             visual_latency_ms=args.visual_latency_ms, model=args.model, condition=args.condition,
-                             paradigm=args.paradigm, feedback_gain=args.feedback_gain,
-                             reference_weight=args.reference_weight, disabled=args.disable,
-                             stability_tolerance=args.stability_tolerance, report_noise_deg=args.report_noise_deg,
-                             reference_contrast=getattr(args, "reference_contrast", 1.0),
-                             reference_ms=getattr(args, "reference_ms", 1000),
-                             target_off_ms=getattr(args, "target_off_ms", 1000), markers=getattr(args, "markers", ()),
-                             ruler=not getattr(args, "no_ruler", False))
+        config = TrialConfig(
+            image_size=args.image_size,
+            fovy_deg=args.fovy_deg,
+            fovea_deg=args.fovea_deg,
+            timecourse=tc,
+            threshold=args.threshold,
+            endpoint_noise=args.endpoint_noise,
+            oversample=args.oversample,
+            flash_radius_deg=args.flash_radius_deg,
+            saccade_model=args.saccade_model,
+            generator=args.generator,
+            eye_drive=args.eye_drive,
+            eye_position=args.eye_position,
+            visual_latency_ms=args.visual_latency_ms,
+            model=args.model,
+            condition=args.condition,
+            paradigm=args.paradigm,
+            feedback_gain=args.feedback_gain,
+            reference_weight=args.reference_weight,
+            disabled=args.disable,
+            stability_tolerance=args.stability_tolerance,
+            report_noise_deg=args.report_noise_deg,
+            reference_contrast=getattr(args, "reference_contrast", 1.0),
+            reference_ms=getattr(args, "reference_ms", 1000),
+            target_off_ms=getattr(args, "target_off_ms", 1000),
+            markers=getattr(args, "markers", ()),
+            ruler=not getattr(args, "no_ruler", False),
+        )
     except (ValueError, TypeError) as e:
         parser.error(str(e))
     return design, config, args.formats
+
 
 # ---------------------------------------------------------------------------------------------- command
 def _command(args: argparse.Namespace) -> str:
@@ -362,14 +536,24 @@ def _handler(args: argparse.Namespace) -> int:
     csv_path = out / "trials.csv"
     try:
         with _interruptible():
-            res = run_study(design, config, out, workers=args.workers, progress=not args.no_progress,
-                            formats=formats, recording=not args.no_recording, backend=args.backend,
-                            ray_address=args.ray_address)
+            res = run_study(
+                design,
+                config,
+                out,
+                workers=args.workers,
+                progress=not args.no_progress,
+                formats=formats,
+                recording=not args.no_recording,
+                backend=args.backend,
+                ray_address=args.ray_address,
+            )
     except KeyboardInterrupt as e:
         signum = getattr(e, "signum", signal.SIGINT)
-        print(f"{PROG}: interrupted ({signal.Signals(signum).name}) with {_saved(csv_path)} of {design.n_trials} "
-              f"trials saved in {csv_path}; to resume, run the same command again: {_command(args)}",
-              file=sys.stderr)
+        print(
+            f"{PROG}: interrupted ({signal.Signals(signum).name}) with {_saved(csv_path)} of {design.n_trials} "
+            f"trials saved in {csv_path}; to resume, run the same command again: {_command(args)}",
+            file=sys.stderr,
+        )
         return 128 + int(signum)
     except OutputFolderError as e:
         parser.error(f"argument --out: {e}")
@@ -383,6 +567,9 @@ def _handler(args: argparse.Namespace) -> int:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return 1
     print(res["summary"], end="")
-    print(f"wrote {res['table']}, {len(res['figures'])} figures"
-          + (f", {res['recording']}" if res["recording"] else "") + f" in {out}")
+    print(
+        f"wrote {res['table']}, {len(res['figures'])} figures"
+        + (f", {res['recording']}" if res["recording"] else "")
+        + f" in {out}"
+    )
     return 0

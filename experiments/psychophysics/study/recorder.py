@@ -51,10 +51,20 @@ def record_study(out: Path, table: dict, design, config, path: Path | None = Non
                 by_trial = [rr.TimeColumn("trial", sequence=col["trial_id"].astype(np.int64))]
                 ones = np.ones(n, int)  # one point per trial, sent as columns (a few chunks, not n rows)
                 for entity, pts, rgb in (("study/true", true, [40, 200, 40]), ("study/perceived", seen, [230, 40, 40])):
-                    rec.send_columns(entity, by_trial, rr.Points2D.columns(
-                        positions=pts, colors=np.tile(rgb, (n, 1)), radii=np.full(n, -4.0)).partition(ones))  # -4: 4 UI points
-                rec.send_columns("study/error", by_trial, rr.Arrows2D.columns(
-                    vectors=seen - true, origins=true, colors=np.tile([200, 200, 200], (n, 1))).partition(ones))
+                    rec.send_columns(
+                        entity,
+                        by_trial,
+                        rr.Points2D.columns(
+                            positions=pts, colors=np.tile(rgb, (n, 1)), radii=np.full(n, -4.0)
+                        ).partition(ones),
+                    )  # -4: 4 UI points
+                rec.send_columns(
+                    "study/error",
+                    by_trial,
+                    rr.Arrows2D.columns(
+                        vectors=seen - true, origins=true, colors=np.tile([200, 200, 200], (n, 1))
+                    ).partition(ones),
+                )
                 rec.reset_time()
                 # ---- flash_time: per flash time, all trials of the example amplitude; CI and gain per amplitude
                 sel = col["saccade_amplitude_deg"] == a
@@ -63,17 +73,25 @@ def record_study(out: Path, table: dict, design, config, path: Path | None = Non
                     rec.set_time("flash_time", float(t))
                     rec.log("study/true", rr.Points2D(true[m], radii=dot, colors=[[40, 200, 40]]))
                     rec.log("study/perceived", rr.Points2D(seen[m], radii=dot, colors=[[230, 40, 40]]))
-                    rec.log("study/error", rr.Arrows2D(vectors=seen[m] - true[m], origins=true[m], colors=[[200, 200, 200]]))
+                    rec.log(
+                        "study/error", rr.Arrows2D(vectors=seen[m] - true[m], origins=true[m], colors=[[200, 200, 200]])
+                    )
                 rec.reset_time()
                 for amp, (tt, vals) in compression_index(col).items():
-                    rec.send_scalars(f"study/compression_index/{amp:g}deg",
-                                     [rr.TimeColumn("flash_time", duration=np.asarray(tt, float) / 1000.0)], vals)
+                    rec.send_scalars(
+                        f"study/compression_index/{amp:g}deg",
+                        [rr.TimeColumn("flash_time", duration=np.asarray(tt, float) / 1000.0)],
+                        vals,
+                    )
                 for amp in np.unique(col["saccade_amplitude_deg"]):
                     ma = col["saccade_amplitude_deg"] == amp
                     tt = np.unique(col["flash_time_ms"][ma])
                     gain = [float(np.mean(col["gain"][ma & (col["flash_time_ms"] == t)])) for t in tt]
-                    rec.send_scalars(f"study/gain/{amp:g}deg",
-                                     [rr.TimeColumn("flash_time", duration=np.asarray(tt, float) / 1000.0)], gain)
+                    rec.send_scalars(
+                        f"study/gain/{amp:g}deg",
+                        [rr.TimeColumn("flash_time", duration=np.asarray(tt, float) / 1000.0)],
+                        gain,
+                    )
                 ex = snaps[int(np.argmin([abs(int(s["flash_time_ms"])) for s in snaps]))]  # the trace nearest 0 ms
                 tcol = [rr.TimeColumn("flash_time", duration=np.asarray(ex["trace_ms"], float) / 1000.0)]
                 for e, eye in enumerate(("left", "right")):
@@ -88,18 +106,32 @@ def record_study(out: Path, table: dict, design, config, path: Path | None = Non
                     apply_scene_state(runner.head, snap)
                     rec.log_head(runner.head)
                     rec.log("world/flashes", rr.Points3D([snap["flash_world"]], radii=0.015, colors=[[255, 255, 0]]))
-                    eyes = [types.SimpleNamespace(image=snap["image"][e], camera_position=snap["camera_position"][e],
-                                                  camera_xmat=snap["camera_xmat"][e],
-                                                  pixels_per_unit=float(snap["pixels_per_unit"])) for e in range(2)]
+                    eyes = [
+                        types.SimpleNamespace(
+                            image=snap["image"][e],
+                            camera_position=snap["camera_position"][e],
+                            camera_xmat=snap["camera_xmat"][e],
+                            pixels_per_unit=float(snap["pixels_per_unit"]),
+                        )
+                        for e in range(2)
+                    ]
                     rec.log_frame(types.SimpleNamespace(left=eyes[0], right=eyes[1]), grid)
                     scene_views = [runner.vision.see(snap["image"][e]) for e in range(2)]
-                    flash_views = [types.SimpleNamespace(fovea=snap["fovea"][e], periphery=snap["periphery"][e],
-                                                         coeffs=snap["coeffs"][e]) for e in range(2)]
+                    flash_views = [
+                        types.SimpleNamespace(
+                            fovea=snap["fovea"][e], periphery=snap["periphery"][e], coeffs=snap["coeffs"][e]
+                        )
+                        for e in range(2)
+                    ]
                     rec.log_views(scene_views, grid, dpft=flash_views, cortex=flash_views)
                     rec.log_flash_response(flash_views, grid)
                     k = row_of[trial.trial_id]
-                    rec.log_flash((col["true_x_deg"][k], col["true_y_deg"][k]),
-                                  (col["perceived_x_deg"][k], col["perceived_y_deg"][k]), (a / 2, 0.0), (-a / 2, 0.0))
+                    rec.log_flash(
+                        (col["true_x_deg"][k], col["true_y_deg"][k]),
+                        (col["perceived_x_deg"][k], col["perceived_y_deg"][k]),
+                        (a / 2, 0.0),
+                        (-a / 2, 0.0),
+                    )
         finally:
             runner.close()
     return path

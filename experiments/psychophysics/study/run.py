@@ -39,12 +39,22 @@ def check_finite(table: dict, csv_path: Path) -> None:
         f"{len(ids)} of {len(bad)} trials produced NaN where a number was expected (trial_id {shown}; columns "
         f"{', '.join(cols[:4])}{', ...' if len(cols) > 4 else ''}): the read-out found no flash activity (e.g. a large "
         f"--peak-gain shifts flashes off the map; a small --image-size or --fovy-deg loses them); the table is in "
-        f"{csv_path}, no summary, figures or recording were written")
+        f"{csv_path}, no summary, figures or recording were written"
+    )
 
 
-def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = True,
-              formats: tuple[str, ...] = ("png", "svg"), recording: bool = True, backend: str = "local",
-              ray_address: str | None = None) -> dict:
+def run_study(
+    design,
+    config,
+    out: Path,
+    *,
+    workers: int = 2,
+    progress: bool = True,
+    formats: tuple[str, ...] = ("png", "svg"),
+    recording: bool = True,
+    backend: str = "local",
+    ray_address: str | None = None,
+) -> dict:
     """Run (or resume) the design, then write summary, figures and the recording into ``out``
     (the trials on ``workers`` local processes or Ray actors: ``runner.run_trials``' ``backend``).
 
@@ -58,8 +68,16 @@ def run_study(design, config, out: Path, *, workers: int = 2, progress: bool = T
 
     keep = [t.trial_id for t in example_trials(design)] if recording and config.paradigm != "displacement" else []
     with folder_lock(out) as out:
-        csv_path = run_trials(design, config, out, workers=workers, progress=progress, examples=keep,
-                              backend=backend, ray_address=ray_address)
+        csv_path = run_trials(
+            design,
+            config,
+            out,
+            workers=workers,
+            progress=progress,
+            examples=keep,
+            backend=backend,
+            ray_address=ray_address,
+        )
         table = read_table(csv_path)
         check_finite(table, csv_path)
         if config.paradigm == "displacement":

@@ -26,8 +26,10 @@ class Mechanistic(Theory):
     def describe(self, cfg) -> list[str]:
         """The remapping's drive, the reference weight and the ingredients switched off."""
         off = ", ".join(cfg.disabled) or "none"
-        return [f"remapping driven by the eye-position signal's speed x {cfg.feedback_gain:g} ms/deg; "
-                f"reference weight {cfg.reference_weight:g}; mechanisms off: {off}"]
+        return [
+            f"remapping driven by the eye-position signal's speed x {cfg.feedback_gain:g} ms/deg; "
+            f"reference weight {cfg.reference_weight:g}; mechanisms off: {off}"
+        ]
 
     def read(self, runner, obs, plan, true_pose, cfg):
         """Two routes per flash: the anchored one (the remapped offset from the seen anchor) and the
@@ -41,8 +43,10 @@ class Mechanistic(Theory):
             read_angles = plan.angles(obs.t_mid)
         read_pose = runner._pose(read_angles)  # eye-position estimate: retinal -> head
         seen, weight = self.anchor(runner, obs, plan, cfg) if on["references"] else (None, 0.0)
-        reads = [shift_read(runner, f, gain, weight, seen, obs.copy_pose, read_pose, true_pose, cfg.threshold, True)
-                 for f in obs.flashes]
+        reads = [
+            shift_read(runner, f, gain, weight, seen, obs.copy_pose, read_pose, true_pose, cfg.threshold, True)
+            for f in obs.flashes
+        ]
         return reads, gain, weight
 
     def anchor(self, runner, obs, plan, cfg) -> tuple[np.ndarray, float]:

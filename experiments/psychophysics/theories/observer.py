@@ -32,8 +32,11 @@ class Observer(ConstantsTheory):
         if obs.ref_z is not None:
             r_mean, _ = eye_estimate(plan, float(obs.t_post), p.temporal_sd_ms)
             r_axes, r_origins = runner._pose(r_mean)
-            seen = [runner._ray_to_screen_deg(r_origins[e], r_axes[e], z) for e, z in enumerate(obs.ref_z)
-                    if np.isfinite(z.real)]
+            seen = [
+                runner._ray_to_screen_deg(r_origins[e], r_axes[e], z)
+                for e, z in enumerate(obs.ref_z)
+                if np.isfinite(z.real)
+            ]
             if seen:
                 rho = np.mean(seen, axis=0)
                 act = float(np.mean([a for a, z in zip(obs.ref_activity, obs.ref_z) if np.isfinite(z.real)]))
@@ -47,7 +50,9 @@ class Observer(ConstantsTheory):
                 z = z_t + z_rel
                 xf = ta[e].T @ (f["head"] - to[e])
                 z_true = complex(xf[2], xf[0]) / xf[1]
-                m_e.append(runner._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan))
+                m_e.append(
+                    runner._ray_to_screen_deg(origins[e], axes[e], z) if np.isfinite(z.real) else np.full(2, np.nan)
+                )
                 c_e.append(runner._ray_to_screen_deg(origins[e], axes[e], z_true))
                 ecc = math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan
                 v_e.append(float(sensory_sd_deg(ecc, p, supp)) ** 2)
@@ -59,8 +64,9 @@ class Observer(ConstantsTheory):
             for ax in range(2):
                 if ok.any():
                     post[ok, e, ax] = posterior_mean(meas[ok, e, ax], var[ok, e], e_cov[ax, ax], rho[ax], lam)
-                post_cf[:, e, ax] = posterior_mean(cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg ** 2),
-                                                   e_cov[ax, ax], rho[ax], lam)
+                post_cf[:, e, ax] = posterior_mean(
+                    cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg**2), e_cov[ax, ax], rho[ax], lam
+                )
         v0 = float(np.nanmean(var[0]))
         weight_x = lam / (lam + 1.0 / (v0 + e_cov[0, 0])) if lam > 0 else 0.0
         reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], maps[k]) for k in range(len(maps))]
@@ -78,7 +84,7 @@ class Observer(ConstantsTheory):
             return np.full(2, np.nan), float("nan")
         ecc = np.nanmean([math.degrees(math.atan(abs(z))) for z in zs if np.isfinite(z.real)])
         sd = float(sensory_sd_deg(ecc, p, suppression_log10(plan, t_ms, p)))
-        return np.mean(pos, axis=0), sd ** 2 + float(e_cov[0, 0])
+        return np.mean(pos, axis=0), sd**2 + float(e_cov[0, 0])
 
     def displacement_looks(self, runner, plan, looks, cfg):
         """Both looks through the observer's own eye estimate; the report's noise is its own: the

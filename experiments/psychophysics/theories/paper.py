@@ -24,8 +24,10 @@ class Paper(Theory):
         gain = float(cfg.timecourse.gain(obs.trial.flash_time_ms))
         angles = plan.eye_position_signal(t_read) if cfg.eye_position == "signal" else plan.angles(obs.t_mid)
         read_pose = runner._pose(angles)  # eye-position estimate: retinal -> head
-        reads = [shift_read(runner, f, gain, 0.0, None, obs.copy_pose, read_pose, true_pose, cfg.threshold, False)
-                 for f in obs.flashes]
+        reads = [
+            shift_read(runner, f, gain, 0.0, None, obs.copy_pose, read_pose, true_pose, cfg.threshold, False)
+            for f in obs.flashes
+        ]
         return reads, gain, 0.0
 
 

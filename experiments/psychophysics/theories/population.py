@@ -52,11 +52,17 @@ class Population(ConstantsTheory):
                 z = z_t + z_rel
                 goal = image_to_deg(np.array([z_t]))[0][0]
                 dw = complex(cortical_offset(image_to_deg(np.array([z]))[0][0], goal, pp.map_a_deg))
-                est = from_cortical_offset(population_estimate(dw, strength, pp.rf_sd, pp.field_sd), goal,
-                                           pp.map_a_deg) if np.isfinite(dw.real) else complex(np.nan, np.nan)
+                est = (
+                    from_cortical_offset(population_estimate(dw, strength, pp.rf_sd, pp.field_sd), goal, pp.map_a_deg)
+                    if np.isfinite(dw.real)
+                    else complex(np.nan, np.nan)
+                )
                 z_hat = deg_to_image(est)
-                per_eye.append(runner._ray_to_screen_deg(origins[e], axes[e], z_hat) if np.isfinite(z_hat.real)
-                               else np.full(2, np.nan))
+                per_eye.append(
+                    runner._ray_to_screen_deg(origins[e], axes[e], z_hat)
+                    if np.isfinite(z_hat.real)
+                    else np.full(2, np.nan)
+                )
             reads.append((per_eye, per_eye, maps))
         return reads, strength, 0.0
 

@@ -12,8 +12,9 @@ import numpy as np
 __all__ = ["shift_read"]
 
 
-def shift_read(runner, flash: dict, gain, weight, seen, copy_pose, read_pose, true_pose, threshold: float,
-               anchored: bool):
+def shift_read(
+    runner, flash: dict, gain, weight, seen, copy_pose, read_pose, true_pose, threshold: float, anchored: bool
+):
     """Per eye, the perceived position (head-centred deg) of an observed flash and its closed form,
     and the maps (for recordings). ``anchored``: the two-route read-out (``weight`` of the route
     anchored on ``seen``, the rest the unremapped extraretinal route); else the shifted map through
