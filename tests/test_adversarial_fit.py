@@ -231,7 +231,7 @@ def test_kill_9_of_a_ray_fit_leaves_no_observers(data_file, tmp_path):
     try:
         while proc.poll() is None and len(observers) < 2:
             observers = [int(d.name) for d in Path("/proc").iterdir()
-                         if d.name.isdigit() and _cmdline(int(d.name)).startswith("ray::Observer")]
+                         if d.name.isdigit() and _cmdline(int(d.name)).startswith("ray::ExperimentWorker")]
             time.sleep(0.05)
         assert proc.poll() is None and len(observers) >= 2
         os.kill(proc.pid, signal.SIGKILL)

@@ -330,7 +330,7 @@ def test_cli_both_eyes_unidentified_fits_and_folder_of_another_recording(tmp_pat
     q = et.write_recording(tmp_path / "small.csv", small["times_ms"], small["x_deg"], small["y_deg"], fmt="csv",
                            rate_hz=500, units="deg")
     target = out / "left"  # holds bino.asc's left-eye results
-    code = main(["saccades", "--recording", str(q), "--bootstrap", "0", "--out", str(target)])
+    code = main(["saccades", "--recording", str(q), "--bootstrap", "0", "--out", str(target), "--no-progress"])
     captured = capsys.readouterr()
     assert code == 3
     err = [ln for ln in captured.err.splitlines() if ln.strip()]

@@ -56,7 +56,7 @@ def ray_map(
     try:
 
         @ray.remote(num_cpus=1)
-        class Worker:
+        class ExperimentWorker:  # its processes are titled ray::ExperimentWorker
             def __init__(self, driver_pid):
                 if driver_pid is not None:  # a local instance: exit with the driver, even after its kill -9
                     from ..folders import die_with
@@ -68,7 +68,7 @@ def ray_map(
                 return work(batch)
 
         n = max(1, min(workers, len(batches)))
-        actors = [Worker.remote(None if address else os.getpid()) for _ in range(n)]  # type: ignore[attr-defined]
+        actors = [ExperimentWorker.remote(None if address else os.getpid()) for _ in range(n)]  # type: ignore[attr-defined]
         refs = {actors[k % n].run.remote(b): k for k, b in enumerate(batches)}
         pending = list(refs)
         while pending:
