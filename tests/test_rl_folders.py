@@ -337,3 +337,20 @@ def test_evaluate_builtin_name_beside_a_folder_of_that_name(tmp_path, capsys, mo
     assert rc == 2 and "--image-size applies to the built-in policies" in err
     assert outs[0]["source"] == "built-in" and outs[1]["source"] == "folder (cem)"
     assert "deterministic" not in outs[0] and "deterministic" not in outs[1]
+
+
+def test_weights_not_described_by_their_json_are_refused(tmp_path):
+    """Every agent loader (SB3, batched PPO, CEM) checks its weights' SHA-256 against the one its JSON records
+    (one home: ``saved.check_weights_sha256``); a changed byte is a mixed or altered folder."""
+    import hashlib
+
+    from experiments.agents.saved import check_weights_sha256
+
+    w = tmp_path / "ppo.npz"
+    w.write_bytes(b"weights")
+    check_weights_sha256(w, hashlib.sha256(b"weights").hexdigest(), "ppo.json")  # the described file passes
+    w.write_bytes(b"weightz")
+    with pytest.raises(ValueError, match=r"not the file ppo.json describes \(its SHA-256 differs\).*retrain"):
+        check_weights_sha256(w, hashlib.sha256(b"weights").hexdigest(), "ppo.json")
+    with pytest.raises(ValueError, match="SHA-256 differs"):
+        check_weights_sha256(w, None, "ppo.json")  # no recorded hash is no proof

@@ -47,7 +47,7 @@ from .batched_folder import FORMAT, is_batched_folder
 from .extractors import CorticalEncoder
 from .rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, Evaluation, episode_seeds
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
-from .saved import file_sha256, pack, read_unit, unpack, write_unit
+from .saved import check_weights_sha256, file_sha256, pack, read_unit, unpack, write_unit
 
 __all__ = [
     "CURVE_COLUMNS",
@@ -550,11 +550,7 @@ def load_batched_agent(directory: str | Path, deterministic: bool = True) -> Bat
         ) from None
     if not wpath.is_file():
         raise FileNotFoundError(f"{d} is not a saved batched-PPO agent: missing ppo.npz")
-    if meta.get("weights_sha256") != file_sha256(wpath):
-        raise ValueError(
-            f"{wpath} is not the file ppo.json describes (its SHA-256 differs): the folder mixes two "
-            "runs or was altered; retrain"
-        )
+    check_weights_sha256(wpath, meta.get("weights_sha256"), "ppo.json")
     arrays, inner = read_unit(wpath)
     try:
         model = CellActorCritic.from_config(meta["architecture"])

@@ -191,13 +191,9 @@ def load_policy(directory: str | Path) -> LinearCellPolicy:
         )
     sha = meta.pop("weights_sha256", None)
     if sha is not None:
-        from .saved import file_sha256
+        from .saved import check_weights_sha256
 
-        if sha != file_sha256(d / "policy.npz"):
-            raise ValueError(
-                f"{d / 'policy.npz'} is not the file policy.json describes (its SHA-256 differs): "
-                "the folder mixes two runs or was altered; retrain"
-            )
+        check_weights_sha256(d / "policy.npz", sha, "policy.json")
     try:
         with np.load(d / "policy.npz", allow_pickle=False) as z:
             weights = np.array(z["weights"])

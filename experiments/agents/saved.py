@@ -30,6 +30,7 @@ import numpy as np
 from ..folders import atomic_write_bytes
 
 __all__ = [
+    "check_weights_sha256",
     "META_KEY",
     "file_sha256",
     "pack",
@@ -52,6 +53,16 @@ def file_sha256(path: str | Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
+
+
+def check_weights_sha256(weights: str | Path, expected: object, described_by: str) -> None:
+    """``ValueError`` unless ``weights``' SHA-256 is ``expected``, the one recorded in the JSON file
+    ``described_by``: a folder that mixes two runs, or was altered, is refused."""
+    if expected != file_sha256(weights):
+        raise ValueError(
+            f"{weights} is not the file {described_by} describes (its SHA-256 differs): the folder mixes two "
+            "runs or was altered; retrain"
+        )
 
 
 def write_unit(path: str | Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:

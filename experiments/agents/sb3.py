@@ -38,6 +38,7 @@ from .extractors import CorticalEncoder, SoftArgmaxSaccade, cell_saccade_vectors
 from .rollout import episode_seeds, evaluate, make_env
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
 from .saved import (
+    check_weights_sha256,
     file_sha256,
     pack,
     read_unit,
@@ -521,11 +522,7 @@ def load_agent(directory: str | Path, deterministic: bool = True) -> SB3Agent:
     wpath = d / f"{algo}.npz"
     if not wpath.is_file():
         raise FileNotFoundError(f"{d} is not a saved SB3 model: missing {wpath.name}")
-    if meta.get("weights_sha256") != file_sha256(wpath):
-        raise ValueError(
-            f"{wpath} is not the file {algo}.json describes (its SHA-256 differs): the folder mixes "
-            "two runs or was altered; retrain"
-        )
+    check_weights_sha256(wpath, meta.get("weights_sha256"), f"{algo}.json")
     arrays, inner = read_unit(wpath)
     try:
         arch = inner["architecture"]
