@@ -620,8 +620,11 @@ def test_baselines_command_trains_evaluates_aggregates_and_resumes(tmp_path, cap
     args = ["baselines", "--task", "fixate", "--agents", "ppo", "cem", "--seeds", "0", "1", "--out", str(out),
             "--quick", "--image-size", "48", "--episodes", "3", "--eval-seed", "2"]
     assert main(args) == 0
-    table = capsys.readouterr().out
+    first = capsys.readouterr()
+    table = first.out
     assert table.startswith("| agent |") and "PPO" in table and "CEM" in table and "heuristic" in table
+    # no silent training: each CEM iteration and each PPO evaluation says where the run is (stderr)
+    assert "cem fixate: iteration 1/" in first.err and "ppo fixate: " in first.err
     held = {(a, s): json.loads((out / f"{a}_s{s}" / "heldout.json").read_text()) for a in ("ppo", "cem") for s in (0, 1)}
     assert all(h["env_steps"] > 0 for h in held.values()) and "stochastic" in held[("ppo", 0)]
     assert "stochastic" not in held[("cem", 0)]

@@ -95,6 +95,7 @@ def _train_one(
             seed=seed,
             env_kwargs={"image_size": image_size},
             progress=False,
+            log=log,
         )
         last = meta["curve"][-1]
         return {

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -84,12 +85,14 @@ def train_cem(
     seed: int = 0,
     env_kwargs: dict | None = None,
     progress: bool = True,
+    log: Callable[[str], None] | None = None,
 ) -> tuple[LinearCellPolicy, dict]:
     """Train a linear cell policy on ``task``, or resume the run in ``out``; writes ``train.json``
     (the settings), ``baselines.json``, ``training_log.csv`` (a row per iteration), ``checkpoint.npz``
     after every iteration (the Gaussian, the generator's state and the curve: one file, replaced
     atomically) and, last, ``policy.npz`` + ``policy.json``. A resumed run ends with the same weights
-    as one never stopped. Returns the policy and a summary dict (curve, baselines)."""
+    as one never stopped. ``log`` (e.g. ``baselines``' stderr) gets a line per iteration, as the SB3 runs'
+    evaluations do. Returns the policy and a summary dict (curve, baselines)."""
     from tqdm import tqdm
 
     cfg = config or CEMConfig()
@@ -204,6 +207,11 @@ def train_cem(
                 },
             )
             bar.set_postfix(success=f"{ev.success_rate:.2f}", reward=f"{ev.mean_reward:.3f}")
+            if log is not None:
+                log(
+                    f"cem {task}: iteration {it + 1}/{cfg.iterations}, {steps} env steps, {row['elapsed_s']:.0f} s: "
+                    f"validation success {ev.success_rate:.2f}, return {ev.mean_reward:+.3f}"
+                )
         policy.save(out)
         ck.unlink(missing_ok=True)
         return policy, meta
