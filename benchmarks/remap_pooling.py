@@ -58,7 +58,7 @@ def prediction_cost(models: tuple[str, ...], repeats: int = 300) -> dict[bool, f
     v = e.vision
     kinds, params = v.map_params(models, plan.efference_copy_eye)
     frame = e.seen
-    best = {}
+    best: dict = {}
     for pooled in (False, True):
         v.plan.evaluate_prechecked(frame.coeffs, frame.fovea, kinds, params, pooled)  # compile / warm up
     for pooled in (False, True, False, True):

@@ -75,7 +75,8 @@ class TorchFrame:
     @property
     def batch_shape(self) -> tuple[int, int]:
         """(B, E)."""
-        return tuple(self.samples.shape[:2])
+        b, e = self.samples.shape[:2]
+        return (b, e)
 
 
 class TorchVision:

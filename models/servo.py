@@ -145,7 +145,7 @@ class EyeServo:
         self.qadr, self.vadr, self.ctrl = qadr, vadr, ctrl
         self.plant = plant  # the command's (inertia, stiffness, damping) of the orbital plant; None: the servo
         self._M = np.zeros((model.nv, model.nv))
-        self._table = None
+        self._table: dict | None = None
 
     def hold_controls(self, angles: np.ndarray) -> np.ndarray:
         """The 18 eye controls holding ``angles`` (2, 3): the servo's position set-points, or the

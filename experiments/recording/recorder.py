@@ -131,7 +131,7 @@ class Recorder:
         if self._streaming:
             if spawn:
                 rr.spawn(connect=False, recording=self.rec)
-            sinks = [rr.GrpcSink(connect) if connect is not None else rr.GrpcSink()]
+            sinks: list = [rr.GrpcSink(connect) if connect is not None else rr.GrpcSink()]
             if self.path is not None:
                 sinks.append(rr.FileSink(self.path))
             self.rec.set_sinks(*sinks, default_blueprint=bp)
