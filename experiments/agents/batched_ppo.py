@@ -45,7 +45,7 @@ from torch import nn
 from ..folders import append_csv_row, write_csv, write_json
 from .batched_folder import FORMAT, is_batched_folder
 from .extractors import CorticalEncoder
-from .rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, Evaluation, episode_seeds
+from .rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, OBS_KEYS, VALIDATION_STREAM, Evaluation, episode_seeds
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
 from .saved import check_weights_sha256, file_sha256, pack, read_unit, unpack, write_unit
 
@@ -63,8 +63,6 @@ __all__ = [
     "train_batched",
 ]
 
-OBS_KEYS = ("cortical", "fovea", "eyes")
-VALIDATION_STREAM = 2  # as the SB3 trainer's validation episodes: neither the training nor the held-out ones
 CHUNK_STREAM = 3  # the world seeds of each training chunk's env reset
 HELDOUT_SEED, HELDOUT_EPISODES = 0, 100  # evaluate's defaults (--seed 0 --episodes 100); fewer only in tests
 CURVE_COLUMNS = (

@@ -21,13 +21,12 @@ import numpy as np
 
 from ..folders import append_csv_row, write_csv, write_json
 from .policies import BrightestCellPolicy, LinearCellPolicy, RandomPolicy, feature_names, load_policy
-from .rollout import DEFAULT_ENV_KWARGS, TRAIN_STREAM, episode_seeds, evaluate, make_env
+from .rollout import DEFAULT_ENV_KWARGS, TRAIN_STREAM, VALIDATION_STREAM, episode_seeds, evaluate, make_env
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
 from .saved import read_unit, write_unit
 
 __all__ = ["CEMConfig", "LOG_COLUMNS", "VALIDATION_STREAM", "train_cem"]
 
-VALIDATION_STREAM = 2
 LOG_COLUMNS = (
     "iteration",
     "elite_return",

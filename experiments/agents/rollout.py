@@ -13,6 +13,8 @@ __all__ = [
     "DEFAULT_ENV_KWARGS",
     "EVAL_STREAM",
     "TRAIN_STREAM",
+    "VALIDATION_STREAM",
+    "OBS_KEYS",
     "Evaluation",
     "episode_seeds",
     "evaluate",
@@ -30,6 +32,10 @@ DEFAULT_ENV_KWARGS: dict[str, Any] = {
     "grayscale": False,
 }
 EVAL_STREAM, TRAIN_STREAM = 0, 1
+#: The validation episodes of every trainer (CEM, SB3, batched PPO): neither the training nor the held-out ones.
+VALIDATION_STREAM = 2
+#: The observations the cortical policies read (SB3's and the batched PPO's).
+OBS_KEYS = ("cortical", "fovea", "eyes")
 
 
 def make_env(task: str = "fixate", **overrides: Any):

@@ -35,7 +35,7 @@ from torch import nn
 
 from ..folders import append_csv_row, write_csv, write_json
 from .extractors import CorticalEncoder, SoftArgmaxSaccade, cell_saccade_vectors
-from .rollout import episode_seeds, evaluate, make_env
+from .rollout import OBS_KEYS, VALIDATION_STREAM, episode_seeds, evaluate, make_env
 from .runfolder import CHECKPOINT, SETTINGS, check_settings
 from .saved import (
     check_weights_sha256,
@@ -69,7 +69,6 @@ __all__ = [
     "train_sb3",
 ]
 
-VALIDATION_STREAM = 2  # the CEM trainer's validation episodes: neither the training nor the held-out ones
 CURVE_COLUMNS = (
     "env_steps",
     "elapsed_s",
@@ -80,7 +79,6 @@ CURVE_COLUMNS = (
     "train_success_rate",
     "train_return",
 )
-OBS_KEYS = ("cortical", "fovea", "eyes")
 ALGOS = ("ppo", "sac")
 POLICIES = ("cortical-cell", "cortical-dense", "mlp", "cortical-sac")
 
