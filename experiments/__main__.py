@@ -1,9 +1,9 @@
 """``python -m experiments COMMAND``: the project's commands.
 
-``COMMANDS`` names each command, the module that defines it and its one-line help. Only the chosen
-command's module is imported (it builds its subparser with ``add_subcommand(subparsers)`` or
-``add_subcommands``, setting ``func`` to the function that runs it); the others are listed by
-name and help. So ``--help``, a mistyped command and a usage error answer without importing
+``COMMANDS`` names each command, the module that defines it (``experiments.cli.<command>``) and its
+one-line help. Only the chosen command's module is imported (it builds its subparser with
+``add_subcommand(subparsers)``, setting ``func`` to the function that runs it); the others are
+listed by name and help. So ``--help``, a mistyped command and a usage error answer without importing
 numba, MuJoCo, torch or Rerun. ``build_parser()`` builds every command's subparser (for tests and
 documentation).
 """
@@ -16,55 +16,17 @@ import logging
 import sys
 
 from .cli import HintingParser
+from .cli.commands import HELP, module_of
 
-#: command -> (module that registers it, one-line help), in the order ``--help`` lists them. A
-#: module that registers several commands lists them here consecutively, in its own order.
-COMMANDS: dict[str, tuple[str, str]] = {
-    "run": (
-        "experiments.psychophysics.study.cli",
-        "perisaccadic flash-localization study (table, figures, summary, Rerun recording)",
-    ),
-    "saccades": (
-        "experiments.oculomotor.saccades",
-        "saccade kinematics vs the published main sequence (figure, table)",
-    ),
-    "phenomena": (
-        "experiments.psychophysics.phenomena",
-        "which published perisaccadic phenomena each theory predicts (table with CIs, calibrated/predicted, figures)",
-    ),
-    "fit": ("experiments.modelfit.cli", "fit a perception model to localization data (maximum likelihood)"),
-    "compare": ("experiments.modelfit.cli", "fit several models to the same data and rank them (AIC, BIC, LRT)"),
-    "simulate": ("experiments.modelfit.cli", "simulate a localization data set from a model (for recovery checks)"),
-    "recovery": (
-        "experiments.modelfit.recovery",
-        "model recovery: simulate from each theory, fit every theory, confusion matrix of delta AIC",
-    ),
-    "crossval": (
-        "experiments.modelfit.crossval",
-        "cross-validation: fit each theory on some conditions, predict held-out ones (dark, marker, "
-        "the 2-D shape): which theory generalises",
-    ),
-    "visualize": (
-        "experiments.recording",
-        "record a run of the environment in Rerun (--out FILE.rrd, --serve or --spawn)",
-    ),
-    "view": ("experiments.recording", "open .rrd recordings in Rerun's web viewer on 127.0.0.1 (no display needed)"),
-    "train": ("experiments.agents.cli", "train a saccade agent: CEM linear cell policy (default), PPO or SAC"),
-    "evaluate": ("experiments.agents.cli", "evaluate a saved, random or heuristic policy; prints one JSON line"),
-    "baselines": (
-        "experiments.agents.cli",
-        "train and evaluate agents x seeds on a task: IQM table with bootstrap CIs and curves",
-    ),
-}
+#: command -> (module that defines it, one-line help), in the order ``--help`` lists them.
+COMMANDS: dict[str, tuple[str, str]] = {name: (module_of(name), text) for name, text in HELP.items()}
 
 #: command modules, in the order shown by --help
-COMMAND_MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))
+COMMAND_MODULES = tuple(module for module, _ in COMMANDS.values())
 
 
 def _register(module_name: str, subparsers) -> None:
-    module = importlib.import_module(module_name)
-    register = getattr(module, "add_subcommands", None) or module.add_subcommand
-    register(subparsers)
+    importlib.import_module(module_name).add_subcommand(subparsers)
 
 
 def build_parser(command: str | None = None, *, every: bool | None = None) -> argparse.ArgumentParser:
@@ -78,13 +40,11 @@ def build_parser(command: str | None = None, *, every: bool | None = None) -> ar
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     chosen = COMMANDS.get(command or "", ("", ""))[0]
-    for module_name in COMMAND_MODULES:
+    for name, (module_name, help_text) in COMMANDS.items():
         if every or module_name == chosen:
             _register(module_name, sub)
         else:
-            for name, (owner, help_text) in COMMANDS.items():
-                if owner == module_name:
-                    sub.add_parser(name, help=help_text, add_help=False)
+            sub.add_parser(name, help=help_text, add_help=False)
     return parser
 
 

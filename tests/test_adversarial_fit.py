@@ -365,7 +365,7 @@ def test_simulate_out_json_never_overwrites_data(tmp_path, capsys):
 def test_bundled_data_resolves_by_name(tmp_path, monkeypatch):
     """`--data example_localization.csv` (as --help says) resolves to the bundled file from any
     folder, and so from an installed wheel."""
-    from experiments.modelfit.cli import bundled_data
+    from experiments.cli.options import bundled_data
 
     monkeypatch.chdir(tmp_path)
     p = bundled_data("example_localization.csv")

@@ -95,7 +95,7 @@ def test_a_usage_error_of_a_command_names_the_fix_and_imports_only_that_command(
     error = [line for line in r["err"].splitlines() if "error:" in line]
     assert len(error) == 1 and error[0].startswith("python -m experiments run: error: "), r["err"]
     assert hint in error[0]
-    assert _command_modules(r["modules"]) == ["experiments.psychophysics.study.cli"]
+    assert _command_modules(r["modules"]) == ["experiments.cli.run"]
     assert not {"numba", "mujoco", "torch", "rerun"} & set(_heavy(r["modules"]))
 
 

@@ -290,7 +290,7 @@ def test_interrupted_command_stops_its_workers_and_says_how_to_resume(tmp_path, 
 
 def test_resume_command_round_trips_every_option():
     from experiments.__main__ import build_parser
-    from experiments.psychophysics.study.cli import _command
+    from experiments.cli.run import _command
 
     import shlex
 

@@ -27,7 +27,7 @@ PAIRS = [
 
 def _build(argv):
     from experiments.__main__ import build_parser
-    from experiments.psychophysics.study.cli import _build
+    from experiments.cli.run import _build
 
     args = build_parser().parse_args(["run", "--quick", "--out", "unused", *argv])
     return _build(args)

@@ -1,6 +1,6 @@
 """Fitting the perception models to a lab's localization data, comparing them, and simulating data.
 
-``python -m experiments fit`` / ``compare`` / ``simulate`` (``experiments.modelfit.cli``),
+``python -m experiments fit`` / ``compare`` / ``simulate`` (command line: ``experiments.cli``),
 ``recovery`` (``modelfit.recovery``), ``crossval`` (``modelfit.crossval``); the published data
 sets and their provenance (``modelfit.published``, ``experiments/data/published/``).
 """

@@ -26,7 +26,6 @@ usage error; 130 / 143 interrupted (run the same command again to resume)."""
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import hashlib
 import json
@@ -39,7 +38,6 @@ import numpy as np
 from ..folders import save_figure
 
 __all__ = [
-    "add_subcommand",
     "crossvalidate",
     "CrossvalFolderError",
     "THEORIES",
@@ -133,6 +131,7 @@ def settings(
     max_evals: int | None = None,
 ) -> dict:
     """The configuration of a cross-validation (what the folder's key is made of), defaults filled in."""
+    from ..psychophysics.bounds import LIMITS
     from .likelihood import FIT_MODELS
 
     theories = list(theories)
@@ -146,8 +145,9 @@ def settings(
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"{what}: {dup[0]} is listed twice; list each once")
-    if not (isinstance(noise_deg, (int, float)) and math.isfinite(noise_deg) and 0.05 <= noise_deg <= 20):
-        raise ValueError(f"noise_deg must be a number in [0.05, 20]; got {noise_deg!r}")
+    lim = LIMITS["noise_deg"]
+    if not (isinstance(noise_deg, (int, float)) and lim.contains(noise_deg)):
+        raise ValueError(f"noise_deg must be a number in {lim.text()}; got {noise_deg!r}")
     return {
         "format": FORMAT,
         "quick": bool(quick),
@@ -709,136 +709,3 @@ def _plot(rows: list[dict], cfg: dict, path: Path) -> None:
     fig.suptitle("cross-validation: which theory generalises (higher is better; 95 % bootstrap CI)")
     fig.tight_layout(rect=(0, 0.12, 1, 1))
     save_figure(fig, path, dpi=100)
-
-
-# ---------------------------------------------------------------------------------------------- CLI
-def _names(text: str) -> list[str]:
-    from .likelihood import FIT_MODELS
-
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    bad = [n for n in names if n not in FIT_MODELS]
-    if bad or not names:
-        raise argparse.ArgumentTypeError(f"expected theory names from {', '.join(FIT_MODELS)}; got {text!r}")
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise argparse.ArgumentTypeError(f"{dup[0]} is listed twice in {text!r}; list each once")
-    return names
-
-
-def _noise(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number in [0.05, 20]; got {text!r}") from None
-    if not (math.isfinite(v) and 0.05 <= v <= 20):
-        raise argparse.ArgumentTypeError(f"expected a number in [0.05, 20]; got {text!r}")
-    return v
-
-
-def run(args: argparse.Namespace) -> int:
-    from ..cli import guarded
-    from ..cli.options import check_backend_options
-    from ..folders import LockBusyError
-    from ..psychophysics.runner import FolderBusyError, OutputFolderError, prepare_output_folder
-    from .fitting import FitError, FitFolderError
-
-    parser = args._parser
-    check_backend_options(args, parser)
-    try:
-        out = prepare_output_folder(args.out)
-    except (OutputFolderError, TypeError) as e:
-        parser.error(f"argument --out: {e}")
-
-    def work() -> int:
-        rows = crossvalidate(
-            out,
-            quick=args.quick,
-            seed=args.seed,
-            theories=args.theories,
-            data_from=args.data_from,
-            reports=args.reports,
-            noise_deg=args.noise_deg,
-            image_size=args.image_size,
-            max_evals=args.max_evals,
-            backend=args.backend,
-            workers=args.workers,
-            ray_address=args.ray_address,
-            progress=not args.no_progress,
-        )
-        print((out / "summary.txt").read_text(), end="")
-        print(f"wrote {out / 'crossval.csv'} ({len(rows)} rows), crossval_pairs.csv, crossval.png, summary.txt")
-        return 0
-
-    return guarded(
-        "python -m experiments crossval",
-        work,
-        resume_hint=f"what was computed is kept in {out}: run the same command again to resume",
-        usage=(CrossvalFolderError, FitFolderError, OutputFolderError),
-        parser=parser,
-        errors={FolderBusyError: 1, LockBusyError: 1, FitError: 1},
-    )
-
-
-def add_subcommand(subparsers) -> None:
-    from ..cli import int_in, out_dir
-    from ..cli.options import add_backend_options, add_workers_option, image_size_type, seed_type
-
-    p = subparsers.add_parser(
-        "crossval",
-        help="cross-validation: fit each theory on some conditions, predict "
-        "held-out ones (dark, marker, the 2-D shape): which theory generalises",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument("--out", type=out_dir, required=True, help="output folder (created; the same command resumes)")
-    p.add_argument(
-        "--quick",
-        action="store_true",
-        help="a small check: 4 flashes x 4 times, data from observer and paper, 64 px, 15 evaluations "
-        "per fit (about a minute on 2 cores)",
-    )
-    p.add_argument(
-        "--seed", type=seed_type(), default=0, help="seed of the motor noise, the report noise and the bootstrap"
-    )
-    p.add_argument(
-        "--theories",
-        type=_names,
-        default=list(THEORIES),
-        metavar="A,B,...",
-        help=f"theories fitted (default {','.join(THEORIES)})",
-    )
-    p.add_argument(
-        "--data-from",
-        type=_names,
-        default=None,
-        metavar="A,B,...",
-        help="theories whose simulated observers give the data (default: --theories; with --quick observer,paper)",
-    )
-    p.add_argument(
-        "--reports", type=int_in(1, 20), default=None, metavar="N", help="reports per trial (1-20; default 2)"
-    )
-    p.add_argument(
-        "--noise-deg",
-        type=_noise,
-        default=1.5,
-        metavar="DEG",
-        help="report noise s.d. of the simulated observers (deg, 0.05-20; default 1.5)",
-    )
-    p.add_argument(
-        "--image-size",
-        type=image_size_type(),
-        default=None,
-        metavar="PX",
-        help="eye image side (32-1024; default 128, --quick 64)",
-    )
-    p.add_argument(
-        "--max-evals",
-        type=int_in(10, 10_000),
-        default=None,
-        metavar="N",
-        help="likelihood evaluations per fit (10-10000; default 120, --quick 15)",
-    )
-    add_backend_options(p)
-    add_workers_option(p, default=1, what="observing processes / Ray actors")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.set_defaults(func=run, _parser=p)

@@ -18,7 +18,6 @@ no-op when finished).
 
 from __future__ import annotations
 
-import argparse
 import warnings
 from pathlib import Path
 
@@ -26,7 +25,7 @@ import numpy as np
 
 from ..folders import save_figure
 
-__all__ = ["add_subcommand", "recover", "GENERATING"]
+__all__ = ["recover", "GENERATING"]
 
 #: The models that generate data and are fitted.
 GENERATING = ("observer", "population", "paper")
@@ -161,83 +160,3 @@ def _plot(rows: list[dict], models: list[str], path: Path) -> None:
     fig.colorbar(im, ax=ax, label="log10(1 + delta AIC)")
     fig.tight_layout()
     save_figure(fig, path, dpi=100)
-
-
-def run(args: argparse.Namespace) -> int:
-    from ..cli import guarded
-    from ..cli.options import check_backend_options
-    from ..folders import path_lock
-    from ..psychophysics.runner import FolderBusyError, prepare_output_folder
-
-    check_backend_options(args, args._parser)
-    out = prepare_output_folder(args.out)
-
-    def work() -> int:
-        with path_lock(out / ".recovery.lock"):
-            rows = recover(
-                out,
-                size=args.size,
-                reports=args.reports,
-                noise_deg=args.noise_deg,
-                image_size=args.image_size,
-                max_evals=args.max_evals,
-                workers=args.workers,
-                progress=not args.no_progress,
-                backend=args.backend,
-                ray_address=args.ray_address,
-            )
-        for gen in GENERATING:
-            mine = [r for r in rows if r["generating"] == gen]
-            order = ", ".join(f"{r['fitted']} {r['delta_aic']:+.1f}" for r in sorted(mine, key=lambda r: r["aic"]))
-            print(f"data from {gen:10s}: {order}  ({'recovered' if mine[0]['recovered'] else 'NOT recovered'})")
-        print(f"wrote {out / 'recovery.csv'} and {out / 'recovery.png'}")
-        return 0
-
-    from ..folders import LockBusyError
-
-    return guarded(
-        "python -m experiments recovery",
-        work,
-        resume_hint=f"finished data sets and fits are kept in {out}: run the same command again to resume",
-        errors={FolderBusyError: 1, LockBusyError: 1, ValueError: 2},
-    )
-
-
-def add_subcommand(subparsers) -> None:
-    from ..cli import int_in, out_dir
-    from ..cli.options import add_backend_options, add_workers_option, image_size_type
-
-    p = subparsers.add_parser(
-        "recovery",
-        help="model recovery: simulate from each theory, fit every theory, confusion matrix of delta AIC",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument("--out", type=out_dir, default="results/recovery", help="output folder (created; resumed)")
-    p.add_argument(
-        "--size",
-        choices=("default", "small"),
-        default="default",
-        help="default: 8 flashes x 8 times x 2 conditions x --reports reports (256 rows at 2); small: "
-        "4 x 3 x 2 (a quick check)",
-    )
-    p.add_argument("--reports", type=int_in(1, 20), default=2, metavar="N", help="noisy reports per trial (1-20)")
-    p.add_argument(
-        "--noise-deg",
-        type=float,
-        default=1.5,
-        metavar="DEG",
-        help="report noise s.d. of the simulated observers (deg; default 1.5)",
-    )
-    p.add_argument("--image-size", type=image_size_type(), default=128, metavar="PX", help="eye image side (32-1024)")
-    p.add_argument(
-        "--max-evals",
-        type=int_in(10, 10_000),
-        default=120,
-        metavar="N",
-        help="likelihood evaluations per fit (10-10000)",
-    )
-    add_workers_option(p, default=1, what="processes / Ray actors observing the trials")
-    add_backend_options(p)
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.set_defaults(func=run, _parser=p)

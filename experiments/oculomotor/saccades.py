@@ -38,10 +38,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cli import Progress, out_dir, stage
-from ..folders import LockBusyError, path_lock, save_figure, write_csv
+from ..cli import Progress, stage
+from ..folders import path_lock, save_figure, write_csv
 
-__all__ = ["add_subcommand", "measure", "main_sequence_rows", "plot"]
+__all__ = ["measure", "main_sequence_rows", "plot", "run_models", "run_recording"]
 
 AMPLITUDES_DEG = (2, 5, 10, 15, 20, 25, 30, 40, 50)
 PROFILE_AMPLITUDES_DEG = (5, 10, 20, 40)
@@ -193,25 +193,6 @@ def _screen(values: list[str]):
     try:
         return Screen(*(int(v) if v is not None else None for v in nums[:2]), *nums[2:])
     except RecordingError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-
-
-def _fit_parameters(text: str) -> tuple[str, ...]:
-    from .generator_fit import FITTABLE
-
-    names = tuple(v.strip() for v in text.split(",") if v.strip())
-    bad = [n for n in names if n not in FITTABLE]
-    if not names or bad or len(set(names)) != len(names):
-        raise argparse.ArgumentTypeError(f"expected distinct names among {', '.join(FITTABLE)}; got {text!r}")
-    return names
-
-
-def _columns(text: str):
-    from .tables import TableError, parse_columns
-
-    try:
-        return parse_columns(text)
-    except TableError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
@@ -404,28 +385,8 @@ def _write_recording_results(args, path: Path, rec, rows: list[dict], bad: list[
     return 0
 
 
-def run(args: argparse.Namespace) -> int:
-    """``saccades``: the model's kinematics, or a person's with ``--recording``; one writer per ``--out``
-    folder, every file written atomically, SIGINT/SIGTERM ending it with one line."""
-    from ..cli import guarded
-
-    def work() -> int:
-        if getattr(args, "recording", None) is not None:
-            return run_recording(args, getattr(args, "parser", None))
-        out: Path = args.out
-        out.mkdir(parents=True, exist_ok=True)
-        with path_lock(out / ".lock", f"the folder {out}"):
-            return _run_models(args, out)
-
-    return guarded(
-        "python -m experiments saccades",
-        work,
-        resume_hint="files already written are complete; run the command again for the rest",
-        errors={LockBusyError: 1},
-    )
-
-
-def _run_models(args: argparse.Namespace, out: Path) -> int:
+def run_models(args: argparse.Namespace, out: Path) -> int:
+    """``saccades`` without ``--recording``: the trajectory models' kinematics into ``out`` (table, figure)."""
     if (out / "recording.json").exists():  # a recording's results: replaced whole, never mixed with the model's
         print(f"{out}: replaced the results of a recording with the model's")
         for f in RECORDING_FILES[::-1]:
@@ -448,106 +409,3 @@ def _run_models(args: argparse.Namespace, out: Path) -> int:
             )
     print(f"wrote {out / 'main_sequence.csv'}" + (f" and {out / 'saccades.png'}" if "burst" in results else ""))
     return 0
-
-
-def _bootstrap(text: str) -> int:
-    from ..cli import whole_number
-
-    n = whole_number(text)
-    if n != 0 and not 20 <= n <= 10_000:
-        raise argparse.ArgumentTypeError(f"must be 0 (asymptotic CIs) or 20-10000 resamples; got {n}")
-    return n
-
-
-def add_subcommand(subparsers) -> None:
-    """Register ``saccades`` on the ``experiments`` command line."""
-    p = subparsers.add_parser(
-        "saccades",
-        help="saccade kinematics vs the published main sequence (figure, table)",
-        description=__doc__,
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-    )
-    p.add_argument("--out", type=out_dir, default="results/saccades", help="output folder (created)")
-    p.add_argument(
-        "--model",
-        choices=("burst", "legacy", "both"),
-        default="both",
-        help="trajectory model(s) to measure (the figure needs burst)",
-    )
-    p.add_argument("--no-progress", action="store_true", help="no progress bars (they go to stderr)")
-    g = p.add_argument_group("a person's recording (experiments.oculomotor.eyetracking)")
-    g.add_argument(
-        "--recording",
-        metavar="FILE",
-        default=None,
-        help="EyeLink ASC file or CSV/TSV of samples (time_ms and x_deg,y_deg or x_px,y_px); writes "
-        "main_sequence.csv, generator.json and main_sequence.png instead of the model's kinematics",
-    )
-    g.add_argument("--format", choices=("asc", "csv"), default=None, help="recording format (default: from the suffix)")
-    g.add_argument(
-        "--screen",
-        nargs="+",
-        metavar="N",
-        default=None,
-        help="screen geometry for gaze in pixels: WIDTH_CM HEIGHT_CM DISTANCE_CM (ASC: resolution from "
-        "GAZE_COORDS or DISPLAY_COORDS) or WIDTH_PX HEIGHT_PX WIDTH_CM HEIGHT_CM DISTANCE_CM",
-    )
-    g.add_argument(
-        "--eye",
-        choices=("left", "right", "both"),
-        default=None,
-        help="eye to measure (default: the only one recorded, or in a binocular file the one with fewer "
-        "lost samples, said in the output); both: each eye into DIR/left and DIR/right",
-    )
-    g.add_argument(
-        "--columns",
-        type=_columns,
-        default=None,
-        metavar="time=NAME,x=NAME,y=NAME[,eye=NAME]",
-        help="CSV/TSV: the columns of time and gaze (eye: a column saying L/R per row)",
-    )
-    g.add_argument(
-        "--preset",
-        choices=sorted(__import__("experiments.oculomotor.tables", fromlist=["PRESETS"]).PRESETS),
-        default=None,
-        help="CSV/TSV: a documented export layout (default: the one the header matches)",
-    )
-    g.add_argument(
-        "--time-unit",
-        choices=("ms", "us", "s"),
-        default=None,
-        help="CSV/TSV: unit of the time column (default: from the preset or the column name, else ms)",
-    )
-    g.add_argument(
-        "--units",
-        choices=("px", "deg"),
-        default=None,
-        help="CSV/TSV: unit of the gaze columns (default: from the preset or the column name)",
-    )
-    g.add_argument(
-        "--detect",
-        choices=("auto", "file", "engbert"),
-        default="auto",
-        help="saccades: the file's own ESACC events (file), Engbert & Kliegl 2003 detection (engbert), "
-        "or the events where the file has them (auto)",
-    )
-    g.add_argument(
-        "--fit-parameters",
-        type=_fit_parameters,
-        default=("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms"),
-        metavar="NAMES",
-        help="comma-separated burst-generator parameters to fit (the others keep their defaults)",
-    )
-    g.add_argument(
-        "--bootstrap",
-        type=_bootstrap,
-        default=100,
-        metavar="N",
-        help="resamples of the saccades behind the 95%% CIs (20-10000, default 100; 0: asymptotic CIs "
-        "from the Jacobian only)",
-    )
-    p.set_defaults(func=run, parser=p)
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(run(argparse.Namespace(out=Path("results/saccades"), model="both")))

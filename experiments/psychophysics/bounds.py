@@ -78,6 +78,12 @@ LIMITS: dict[str, Limit] = {
     "target_off_ms": Limit(-1000, 1000, integer=True, unit="ms"),
     # execution
     "workers": Limit(1, 64, integer=True),
+    # fitting and simulated observers (fit, compare, simulate, recovery, crossval)
+    "max_evals": Limit(10, 100_000, integer=True),
+    "reports": Limit(1, 100, integer=True),
+    "noise_deg": Limit(0.05, 20.0, unit="deg"),
+    # agents (train, baselines)
+    "timesteps": Limit(1, 10**6, integer=True),
 }
 
 #: The largest design (trials) a study may have (the default study has 1248).

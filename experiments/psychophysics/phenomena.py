@@ -31,18 +31,15 @@ read-outs' and bootstrap's time.
 
 from __future__ import annotations
 
-import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from ..cli import GENERATOR_HELP, bounded, generator_file, int_in, out_dir, stage
-from ..cli.options import add_backend_options, add_workers_option, check_backend_options
+from ..cli.progress import stage
 from .scoring import SCORE_COLUMNS
 
 __all__ = [
-    "add_subcommand",
+    "write_results",
     "ROWS",
     "THEORIES",
     "COLUMNS",
@@ -699,7 +696,9 @@ def _save(fig, path: Path) -> Path:
     return save_figure(fig, path, dpi=100)
 
 
-def _write(out: Path, tables: dict, n_boot: int = BOOT, progress: bool = False) -> tuple[str, list]:
+def write_results(out: Path, tables: dict, n_boot: int = BOOT, progress: bool = False) -> tuple[str, list]:
+    """Score ``tables`` and write ``phenomena.csv``, ``.txt``, ``.md`` and the figures into ``out``;
+    return the text table and the figures' paths."""
     from ..folders import atomic_write_text, write_csv
     from .scoring import counts
 
@@ -721,103 +720,3 @@ def _write(out: Path, tables: dict, n_boot: int = BOOT, progress: bool = False) 
     atomic_write_text(out / "phenomena.txt", text)
     atomic_write_text(out / "phenomena.md", markdown_table(rows))
     return text, plot(tables, out)
-
-
-def run(args: argparse.Namespace) -> int:
-    """The command: one process per folder (a lock), interruptible and resumable, one-line errors."""
-    from ..cli import guarded
-    from .runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
-
-    parser = getattr(args, "_parser", None)
-    if parser is not None:
-        check_backend_options(args, parser)
-    try:
-        out = prepare_output_folder(args.out)
-    except (OutputFolderError, TypeError) as e:
-        if parser is None:
-            raise
-        parser.error(f"argument --out: {e}")
-
-    def work() -> int:
-        with folder_lock(out):
-            tables = measure(
-                out,
-                workers=args.workers,
-                progress=not args.no_progress,
-                image_size=getattr(args, "image_size", IMAGE_SIZE),
-                quick=getattr(args, "quick", False),
-                generator=getattr(args, "generator", None),
-                backend=getattr(args, "backend", "local"),
-                ray_address=getattr(args, "ray_address", None),
-            )
-            stage(
-                "phenomena: scoring each theory (bootstrap CIs), writing the table and figures",
-                enabled=not args.no_progress,
-            )
-            text, figures = _write(out, tables, getattr(args, "bootstrap", BOOT), progress=not args.no_progress)
-        print(text, end="")
-        print(f"wrote {out / 'phenomena.csv'}, {out / 'phenomena.txt'} and {len(figures)} figures in {out}")
-        return 0
-
-    return guarded(
-        "python -m experiments phenomena",
-        work,
-        resume_hint=f"the finished trials are kept in {out}/tables: run the same command again to resume",
-        # ValueError: e.g. a tables/ folder holding another configuration
-        errors={FolderBusyError: 1, ValueError: 2},
-    )
-
-
-def add_subcommand(subparsers) -> None:
-    """Register ``phenomena`` on the ``experiments`` command line."""
-    p = subparsers.add_parser(
-        "phenomena",
-        help="which published perisaccadic phenomena each theory predicts "
-        "(table with CIs, calibrated/predicted, figures)",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument(
-        "--out", type=out_dir, default="results/phenomena", help="output folder (created; its tables/ are resumed)"
-    )
-    add_workers_option(p)
-    add_backend_options(p)
-    p.add_argument(
-        "--image-size",
-        type=bounded("image_size"),
-        default=IMAGE_SIZE,
-        metavar="PX",
-        help=f"eye image side (default {IMAGE_SIZE}; smaller is faster and adds the retina's sampling error)",
-    )
-    p.add_argument(
-        "--bootstrap",
-        type=int_in(100, 100_000),
-        default=BOOT,
-        metavar="N",
-        help=f"bootstrap resamples per confidence interval (100-100000, default {BOOT})",
-    )
-    p.add_argument(
-        "--quick",
-        action="store_true",
-        help="8 flash positions instead of 24, 2 repetitions instead of 4, 7 displacement steps x 6 reports "
-        "instead of 13 x 30: a fast look "
-        "with wider CIs (a folder holds one of the two)",
-    )
-    p.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.set_defaults(func=run, _parser=p)
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(
-        run(
-            argparse.Namespace(
-                out="results/phenomena",
-                workers=2,
-                no_progress=False,
-                image_size=IMAGE_SIZE,
-                bootstrap=BOOT,
-                quick=False,
-            )
-        )
-    )

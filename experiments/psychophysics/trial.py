@@ -40,7 +40,7 @@ import envs
 import models
 
 from .bounds import check_int, check_real
-from .decode import DEFAULT_THRESHOLD, activity_centroid
+from .decode import activity_centroid
 from .design import Trial
 from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS
 from .observer import ObserverParams
@@ -49,6 +49,8 @@ from .snapshots import scene_state
 from .targetmap import TargetCentredMap
 from .theories import theory
 from .timecourse import RemapTimeCourse
+from .trial_fields import TRIAL_CHOICES
+from .trial_fields import TRIAL_DEFAULTS as _D
 
 __all__ = [
     "TrialConfig",
@@ -187,35 +189,35 @@ class TrialConfig:
     Wrong types raise TypeError, values out of bounds ValueError.
     """
 
-    image_size: int = 256
-    fovy_deg: float = 90.0
-    fovea_deg: float = 2.0
+    image_size: int = _D["image_size"]
+    fovy_deg: float = _D["fovy_deg"]
+    fovea_deg: float = _D["fovea_deg"]
     timecourse: RemapTimeCourse = RemapTimeCourse()
-    threshold: float = DEFAULT_THRESHOLD
-    endpoint_noise: float = 0.0
-    oversample: int = 3
-    flash_radius_deg: float = 1.0
-    saccade_model: str = "burst"
+    threshold: float = _D["threshold"]
+    endpoint_noise: float = _D["endpoint_noise"]
+    oversample: int = _D["oversample"]
+    flash_radius_deg: float = _D["flash_radius_deg"]
+    saccade_model: str = _D["saccade_model"]
     generator: models.BurstGenerator | None = None
-    eye_drive: str = "plant"
-    eye_position: str = "signal"
-    visual_latency_ms: float = models.VISUAL_LATENCY_MS
-    model: str = "mechanistic"
-    condition: str = "references"
-    paradigm: str = "localization"
-    feedback_gain: float = 4.5
-    reference_weight: float = 1.0
-    reference_unit: float = 8.4e-3
-    disabled: tuple = ()
-    stability_tolerance: float = 0.1
-    report_noise_deg: float = 0.5
-    eps_sigma_ms: float = 50.0
-    eps_delay_ms: float = 50.0
-    reference_contrast: float = 1.0
-    reference_ms: int = 1000
-    target_off_ms: int = 1000
-    markers: tuple = ()
-    ruler: bool = True
+    eye_drive: str = _D["eye_drive"]
+    eye_position: str = _D["eye_position"]
+    visual_latency_ms: float = _D["visual_latency_ms"]
+    model: str = _D["model"]
+    condition: str = _D["condition"]
+    paradigm: str = _D["paradigm"]
+    feedback_gain: float = _D["feedback_gain"]
+    reference_weight: float = _D["reference_weight"]
+    reference_unit: float = _D["reference_unit"]
+    disabled: tuple = _D["disabled"]
+    stability_tolerance: float = _D["stability_tolerance"]
+    report_noise_deg: float = _D["report_noise_deg"]
+    eps_sigma_ms: float = _D["eps_sigma_ms"]
+    eps_delay_ms: float = _D["eps_delay_ms"]
+    reference_contrast: float = _D["reference_contrast"]
+    reference_ms: int = _D["reference_ms"]
+    target_off_ms: int = _D["target_off_ms"]
+    markers: tuple = _D["markers"]
+    ruler: bool = _D["ruler"]
     observer: ObserverParams = ObserverParams()
     population: PopulationParams = PopulationParams()
 
@@ -260,7 +262,7 @@ class TrialConfig:
         for name, options in (
             ("saccade_model", models.SACCADE_MODELS),
             ("eye_drive", models.EYE_DRIVES),
-            ("eye_position", ("signal", "true")),
+            ("eye_position", TRIAL_CHOICES["eye_position"]),
             ("model", MODELS),
             ("condition", CONDITIONS),
             ("paradigm", PARADIGMS),

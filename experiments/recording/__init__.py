@@ -14,13 +14,12 @@ The timelines and the entity tree (what is logged where) are in the docs (``docs
 Modules: ``recorder`` (:class:`Recorder`, ``TIMELINE``, ``TIMELINES``, ``STUDY_APP_ID``), ``scene_geometry`` (the
 MuJoCo scene as ``world/scene/...``), ``colour`` (colour scales), ``images`` (image helpers), ``display``
 (whether a native viewer can open),
-``web_viewer`` (:class:`WebViewer`), ``env_run`` (:func:`record_env_run`) and ``cli`` (the
-``visualize`` and ``view`` commands); their public names are re-exported here.
+``web_viewer`` (:class:`WebViewer`) and ``env_run`` (:func:`record_env_run`); their public names are
+re-exported here. The ``visualize`` and ``view`` commands are ``experiments.cli.visualize`` and ``.view``.
 """
 
 from __future__ import annotations
 
-from .cli import OPTION_BOUNDS, add_subcommand
 from .colour import PANEL_SCALES, colormap_lut, contrast, gain_scaled, log_scaled, symmetric_scaled
 from .display import display_available
 from .env_run import record_env_run
@@ -40,7 +39,6 @@ __all__ = [
     "SceneGeometry",
     "WebViewer",
     "record_env_run",
-    "add_subcommand",
     "display_available",
     "EYE_NAMES",
     "AXIS_NAMES",
@@ -60,5 +58,4 @@ __all__ = [
     "PLANE_HALF_THICKNESS",
     "INFINITE_PLANE_HALF_EXTENT",
     "POSE_TOLERANCE",
-    "OPTION_BOUNDS",
 ]

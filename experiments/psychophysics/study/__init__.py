@@ -1,5 +1,5 @@
-"""The ``run`` command's study: its command line (:mod:`.cli`), the run (:mod:`.run`), its summary
-files (:mod:`.summary`) and its Rerun recording (:mod:`.recorder`)."""
+"""The ``run`` command's study (its command line is ``experiments.cli.run``): the run (:mod:`.run`),
+its summary files (:mod:`.summary`) and its Rerun recording (:mod:`.recorder`)."""
 
 from .recorder import record_study
 from .run import NonFiniteResultError, run_study

@@ -19,20 +19,28 @@ another run; 2 a bad option, or a folder holding another configuration; 130 / 14
 from __future__ import annotations
 
 import argparse
-import math
 import shlex
 import signal
 import sys
 from pathlib import Path
 
-from ...cli import GENERATOR_HELP, amplitude_list, bounded, check_path_text, generator_file
-from ...cli.options import add_backend_options, add_workers_option, check_backend_options
-from ...folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
-from ...folders import interruptible as _interruptible
-from ..bounds import LIMITS, MAX_TRIALS
-from .run import NonFiniteResultError, run_study
+from ..folders import Interrupted as _Interrupted  # noqa: F401  (SIGINT/SIGTERM in the main thread)
+from ..folders import interruptible as _interruptible
+from ..psychophysics.bounds import LIMITS, MAX_TRIALS
+from .commands import HELP
+from .options import (
+    add_backend_options,
+    add_generator_option,
+    add_no_progress_option,
+    add_quick_option,
+    add_seed_option,
+    add_workers_option,
+    check_backend_options,
+)
+from .parsing import amplitude_list, bounded, check_path_text
+from .trialconfig import add_trial_options, field_default, trial_values
 
-__all__ = ["add_subcommand"]
+__all__ = ["add_subcommand", "run"]
 
 PROG = "python -m experiments run"
 
@@ -82,11 +90,68 @@ def _out(text: str) -> str:
     return text
 
 
+#: run's options of ``TrialConfig``'s fields, by group: field -> help (``{range}``: the field's
+#: range from ``LIMITS``, else appended); defaults, ranges and choices come from the fields.
+PERCEPTION_FIELDS = {
+    "model": "observer: optimal (Bayesian) combination of retina, an uncertain eye-position signal and "
+    "post-saccadic references (experiments/psychophysics/observer.py); population: a gain field "
+    "on the cortical map driven by the saccadic burst, read out by a population code "
+    "(population.py); mechanistic: remapping driven by the oculomotor command, read out through "
+    "the eye-position signal and post-saccadic references; paper: the log-radius shift with the "
+    "set time course below (mechanisms.py)",
+    "condition": "references: the target stays lit and a ruler appears after the saccade; dark: black "
+    "screen, the target goes off at saccade onset",
+    "paradigm": "localization: one flash per trial; separation: two simultaneous flashes 4 deg apart "
+    "along the saccade, each localized (perceived separation vs localization); displacement: "
+    "the target steps by -4..4 deg during the saccade, with --flash-times as blank durations "
+    "(default 0,250 ms); psychometric functions and thresholds",
+    "reference_contrast": "contrast (opacity) of the post-saccadic references: the target after onset, the ruler, "
+    "the markers",
+    "reference_ms": "how long the post-saccadic references stay on after saccade offset",
+    "target_off_ms": "the target goes off this long after saccade onset (negative: before it, a memory-guided saccade)",
+}
+MECHANISTIC_FIELDS = {
+    "feedback_gain": "mechanistic: remapping gain per deg/ms of eye-position-signal speed",
+    "reference_weight": "mechanistic: weight of the reference-anchored read-out when a reference is seen",
+    "stability_tolerance": "displacement: a target seen at landing this close (x amplitude) is taken as stable",
+    "report_noise_deg": "displacement: s.d. of the report noise",
+}
+TIMECOURSE_FIELDS = {
+    "peak_time_ms": "time of peak compression re saccade onset",
+    "rise_ms": "s.d. of the rising flank (before the peak)",
+    "decay_ms": "s.d. of the decaying flank (after the peak)",
+    "peak_gain": "peak log-radius shift, natural-log units, {range} (ln 2 = 50%% compression; 0 = no remapping)",
+}
+MODEL_FIELDS = {
+    "image_size": "eye image side",
+    "fovy_deg": "each eye's vertical field of view",
+    "fovea_deg": "foveal radius of the retina, {range} (under a quarter of --fovy-deg)",
+    "oversample": "density factor of the target-centred read-out grid",
+    "threshold": "read-out: ignore activity below this fraction of the peak",
+    "flash_radius_deg": "radius of the flashed dot",
+    "endpoint_noise": "saccade endpoint noise, s.d. as a fraction of the amplitude, {range} (seeded per trial)",
+    "saccade_model": "saccade trajectories: the brainstem burst generator or the legacy main-sequence planner",
+}
+DRIVE_FIELDS = {
+    "eye_drive": "how the eyes move: torques through the orbital plant (default) or the exact-pointing servo",
+    "eye_position": "read-out from retina to head: the extraretinal eye-position signal (slow, from the "
+    "efference copy) or the true eye orientation (an oracle, for comparison)",
+    "visual_latency_ms": "delay from a flash to its cortical response, {range}: the flash is "
+    "read with the eye-position signal this much later",
+}
+#: ``TrialConfig``'s fields run sets from options of their own form (not generated).
+OWN_FORM = {"markers": "--markers", "ruler": "--no-ruler", "disabled": "--disable", "generator": "--generator"}
+#: ``TrialConfig``'s fields run leaves at their defaults.
+NOT_OPTIONS = ("reference_unit", "eps_sigma_ms", "eps_delay_ms", "observer", "population")
+#: Every field run reads from a generated option.
+RUN_FIELDS = (*PERCEPTION_FIELDS, *MECHANISTIC_FIELDS, *TIMECOURSE_FIELDS, *MODEL_FIELDS, *DRIVE_FIELDS)
+
+
 def add_subcommand(subparsers) -> None:
     """Register ``run`` (the flash-localization study) on the ``experiments`` command line."""
     p = subparsers.add_parser(
         "run",
-        help="perisaccadic flash-localization study (table, figures, summary, Rerun recording)",
+        help=HELP["run"],
         description=__doc__,
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
@@ -94,10 +159,8 @@ def add_subcommand(subparsers) -> None:
     p.add_argument(
         "--out", type=_out, default="results", help="output folder (created; a run there is resumed; one run at a time)"
     )
-    p.add_argument(
-        "--quick",
-        action="store_true",
-        help="reduced design: one 20 deg saccade, 8 flash positions, 7 flash times (about 11 s on 2 idle cores)",
+    add_quick_option(
+        p, "reduced design: one 20 deg saccade, 8 flash positions, 7 flash times (about 11 s on 2 idle cores)"
     )
     d = p.add_argument_group("design")
     d.add_argument(
@@ -130,59 +193,13 @@ def add_subcommand(subparsers) -> None:
         help=f"repetitions of every condition, {b['repetitions']} (at most {MAX_TRIALS} trials in all; "
         "default 1, 10 for --paradigm displacement)",
     )
-    d.add_argument("--seed", type=_num_type("seed"), default=0, help=f"base seed (trial i uses seed + i), {b['seed']}")
+    add_seed_option(d, f"base seed (trial i uses seed + i), {b['seed']}")
     pm = p.add_argument_group("perception model and condition")
-    pm.add_argument(
-        "--model",
-        choices=("mechanistic", "paper", "population", "observer"),
-        default="mechanistic",
-        help="observer: optimal (Bayesian) combination of retina, an uncertain eye-position signal and "
-        "post-saccadic references (experiments/psychophysics/observer.py); population: a gain field "
-        "on the cortical map driven by the saccadic burst, read out by a population code "
-        "(population.py); mechanistic: remapping driven by the oculomotor command, read out through "
-        "the eye-position signal and post-saccadic references; paper: the log-radius shift with the "
-        "set time course below (mechanisms.py)",
-    )
-    pm.add_argument(
-        "--condition",
-        choices=("references", "dark"),
-        default="references",
-        help="references: the target stays lit and a ruler appears after the saccade; dark: black "
-        "screen, the target goes off at saccade onset",
-    )
-    pm.add_argument(
-        "--paradigm",
-        choices=("localization", "separation", "displacement"),
-        default="localization",
-        help="localization: one flash per trial; separation: two simultaneous flashes 4 deg apart "
-        "along the saccade, each localized (perceived separation vs localization); displacement: "
-        "the target steps by -4..4 deg during the saccade, with --flash-times as blank durations "
-        "(default 0,250 ms); psychometric functions and thresholds",
-    )
-    pm.add_argument(
-        "--reference-contrast",
-        type=_num_type("reference_contrast"),
-        default=1.0,
-        help=f"contrast (opacity) of the post-saccadic references: the target after onset, the ruler, "
-        f"the markers, {b['reference_contrast']}",
-    )
-    pm.add_argument(
-        "--reference-ms",
-        type=_num_type("reference_ms"),
-        default=1000,
-        help=f"how long the post-saccadic references stay on after saccade offset, {b['reference_ms']}",
-    )
-    pm.add_argument(
-        "--target-off-ms",
-        type=_num_type("target_off_ms"),
-        default=1000,
-        help=f"the target goes off this long after saccade onset (negative: before it, a memory-guided "
-        f"saccade), {b['target_off_ms']}",
-    )
+    add_trial_options(pm, PERCEPTION_FIELDS)
     pm.add_argument(
         "--markers",
         type=_markers_arg,
-        default=(),
+        default=field_default("markers"),
         metavar="DX,DY;...",
         help="up to 4 extra post-saccadic references, deg from the target, e.g. '-10,0;0,-6'",
     )
@@ -191,131 +208,22 @@ def add_subcommand(subparsers) -> None:
         action="store_true",
         help="references condition without the ruler (the target and markers are the references)",
     )
-    pm.add_argument(
-        "--feedback-gain",
-        type=_num_type("feedback_gain"),
-        default=4.5,
-        help=f"mechanistic: remapping gain per deg/ms of eye-position-signal speed, {b['feedback_gain']}",
-    )
-    pm.add_argument(
-        "--reference-weight",
-        type=_num_type("reference_weight"),
-        default=1.0,
-        help=f"mechanistic: weight of the reference-anchored read-out when a reference is seen, "
-        f"{b['reference_weight']}",
-    )
-    pm.add_argument(
-        "--stability-tolerance",
-        type=_num_type("stability_tolerance"),
-        default=0.1,
-        help=f"displacement: a target seen at landing this close (x amplitude) is taken as stable, "
-        f"{b['stability_tolerance']}",
-    )
-    pm.add_argument(
-        "--report-noise-deg",
-        type=_num_type("report_noise_deg"),
-        default=0.5,
-        help=f"displacement: s.d. of the report noise, {b['report_noise_deg']}",
-    )
+    add_trial_options(pm, MECHANISTIC_FIELDS)
     pm.add_argument(
         "--disable",
         type=_mechanisms,
-        default=(),
+        default=field_default("disabled"),
         metavar="NAME,...",
         help="mechanistic: switch ingredients off: smear, latency, eye_position_signal, command_remap, references",
     )
     t = p.add_argument_group(
         "remapping gain time course g(t) of --model paper: distances from the target shrink by exp(-g)"
     )
-    t.add_argument(
-        "--peak-time-ms",
-        type=_num_type("peak_time_ms"),
-        default=-10.0,
-        help=f"time of peak compression re saccade onset, {b['peak_time_ms']}",
-    )
-    t.add_argument(
-        "--rise-ms",
-        type=_num_type("rise_ms"),
-        default=25.0,
-        help=f"s.d. of the rising flank (before the peak), {b['rise_ms']}",
-    )
-    t.add_argument(
-        "--decay-ms",
-        type=_num_type("decay_ms"),
-        default=30.0,
-        help=f"s.d. of the decaying flank (after the peak), {b['decay_ms']}",
-    )
-    t.add_argument(
-        "--peak-gain",
-        type=_num_type("peak_gain"),
-        default=math.log(2.0),
-        help=f"peak log-radius shift, natural-log units, {b['peak_gain']} (ln 2 = 50%% compression; 0 = no remapping)",
-    )
+    add_trial_options(t, TIMECOURSE_FIELDS)
     m = p.add_argument_group("model")
-    m.add_argument("--image-size", type=_num_type("image_size"), default=256, help=f"eye image side, {b['image_size']}")
-    m.add_argument(
-        "--fovy-deg",
-        type=_num_type("fovy_deg"),
-        default=90.0,
-        help=f"each eye's vertical field of view, {b['fovy_deg']}",
-    )
-    m.add_argument(
-        "--fovea-deg",
-        type=_num_type("fovea_deg"),
-        default=2.0,
-        help=f"foveal radius of the retina, {b['fovea_deg']} (under a quarter of --fovy-deg)",
-    )
-    m.add_argument(
-        "--oversample",
-        type=_num_type("oversample"),
-        default=3,
-        help=f"density factor of the target-centred read-out grid, {b['oversample']}",
-    )
-    m.add_argument(
-        "--threshold",
-        type=_num_type("threshold"),
-        default=0.2,
-        help=f"read-out: ignore activity below this fraction of the peak, {b['threshold']}",
-    )
-    m.add_argument(
-        "--flash-radius-deg",
-        type=_num_type("flash_radius_deg"),
-        default=1.0,
-        help=f"radius of the flashed dot, {b['flash_radius_deg']}",
-    )
-    m.add_argument(
-        "--endpoint-noise",
-        type=_num_type("endpoint_noise"),
-        default=0.0,
-        help=f"saccade endpoint noise, s.d. as a fraction of the amplitude, {b['endpoint_noise']} (seeded per trial)",
-    )
-    m.add_argument(
-        "--saccade-model",
-        choices=("burst", "legacy"),
-        default="burst",
-        help="saccade trajectories: the brainstem burst generator or the legacy main-sequence planner",
-    )
-    m.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
-    m.add_argument(
-        "--eye-drive",
-        choices=("plant", "servo"),
-        default="plant",
-        help="how the eyes move: torques through the orbital plant (default) or the exact-pointing servo",
-    )
-    m.add_argument(
-        "--eye-position",
-        choices=("signal", "true"),
-        default="signal",
-        help="read-out from retina to head: the extraretinal eye-position signal (slow, from the "
-        "efference copy) or the true eye orientation (an oracle, for comparison)",
-    )
-    m.add_argument(
-        "--visual-latency-ms",
-        type=_num_type("visual_latency_ms"),
-        default=70.0,
-        help=f"delay from a flash to its cortical response, {b['visual_latency_ms']}: the flash is "
-        "read with the eye-position signal this much later",
-    )
+    add_trial_options(m, MODEL_FIELDS)
+    add_generator_option(m)
+    add_trial_options(m, DRIVE_FIELDS)
     r = p.add_argument_group("execution and output")
     add_workers_option(r)
     add_backend_options(r)
@@ -323,8 +231,8 @@ def add_subcommand(subparsers) -> None:
         "--formats", type=_formats, default="png,svg", help="figure formats, comma-separated (png, svg, pdf)"
     )
     r.add_argument("--no-recording", action="store_true", help="do not write study.rrd")
-    r.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(func=_handler, _parser=p)
+    add_no_progress_option(r, "no progress bar")
+    p.set_defaults(func=run, _parser=p)
 
 
 #: The displacement paradigm's target steps (deg along the saccade) and blank durations (ms).
@@ -347,7 +255,7 @@ def _markers_arg(text: str) -> tuple[tuple[float, float], ...]:
 
 
 def _mechanisms(text: str) -> tuple[str, ...]:
-    from ..mechanisms import MECHANISMS
+    from ..psychophysics.mechanisms import MECHANISMS
 
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     bad = [n for n in names if n not in MECHANISMS]
@@ -402,7 +310,7 @@ def _refuse_pointless(args: argparse.Namespace, parser: argparse.ArgumentParser)
 
 def _build(args: argparse.Namespace):
     """The design and configuration of the command line; ``argparse`` usage errors name the option."""
-    from .. import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, RemapTimeCourse, TrialConfig
+    from ..psychophysics import FIG11_OFFSETS_DEG, MORRONE_OFFSETS_DEG, Design, RemapTimeCourse, TrialConfig
 
     parser = args._parser
     base = (
@@ -447,34 +355,15 @@ def _build(args: argparse.Namespace):
             seed=args.seed,
             name="quick" if args.quick else "default",
         )
-        tc = RemapTimeCourse(args.peak_time_ms, args.rise_ms, args.decay_ms, args.peak_gain)
+        values = trial_values(args, RUN_FIELDS)
+        tc = RemapTimeCourse(**{k: values.pop(k) for k in TIMECOURSE_FIELDS})
         config = TrialConfig(
-            image_size=args.image_size,
-            fovy_deg=args.fovy_deg,
-            fovea_deg=args.fovea_deg,
+            **values,
             timecourse=tc,
-            threshold=args.threshold,
-            endpoint_noise=args.endpoint_noise,
-            oversample=args.oversample,
-            flash_radius_deg=args.flash_radius_deg,
-            saccade_model=args.saccade_model,
             generator=args.generator,
-            eye_drive=args.eye_drive,
-            eye_position=args.eye_position,
-            visual_latency_ms=args.visual_latency_ms,
-            model=args.model,
-            condition=args.condition,
-            paradigm=args.paradigm,
-            feedback_gain=args.feedback_gain,
-            reference_weight=args.reference_weight,
             disabled=args.disable,
-            stability_tolerance=args.stability_tolerance,
-            report_noise_deg=args.report_noise_deg,
-            reference_contrast=getattr(args, "reference_contrast", 1.0),
-            reference_ms=getattr(args, "reference_ms", 1000),
-            target_off_ms=getattr(args, "target_off_ms", 1000),
-            markers=getattr(args, "markers", ()),
-            ruler=not getattr(args, "no_ruler", False),
+            markers=args.markers,
+            ruler=not args.no_ruler,
         )
     except (ValueError, TypeError) as e:
         parser.error(str(e))
@@ -513,7 +402,7 @@ def _command(args: argparse.Namespace) -> str:
 def _saved(csv_path: Path) -> int:
     import warnings
 
-    from .. import read_table
+    from ..psychophysics import read_table
 
     try:
         with warnings.catch_warnings():
@@ -523,9 +412,12 @@ def _saved(csv_path: Path) -> int:
         return 0
 
 
-def _handler(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
+    """``run``: the study of the options into ``--out`` (``psychophysics.study.run_study``)."""
+    from ..psychophysics.runner import FolderBusyError, OutputFolderError, prepare_output_folder
+    from ..psychophysics.study.run import NonFiniteResultError, run_study
+
     parser = args._parser
-    from ..runner import FolderBusyError, OutputFolderError, prepare_output_folder
 
     check_backend_options(args, parser)
     design, config, formats = _build(args)
