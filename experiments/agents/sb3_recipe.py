@@ -35,7 +35,12 @@ from typing import Any
 
 from experiments.agents.rollout import DEFAULT_ENV_KWARGS, EVAL_STREAM, episode_seeds, make_env
 from experiments.cli import int_in, out_dir
-from experiments.cli.options import TASKS, seed_type
+from experiments.cli.options import (
+    add_no_progress_option,
+    add_seed_option,
+    add_task_option,
+    add_timesteps_option,
+)
 from experiments.folders import LockBusyError
 
 __all__ = ["PPO_META", "evaluate_ppo", "export_sb3_zip", "load_sb3_policy", "main", "make_vec", "train_ppo"]
@@ -241,8 +246,8 @@ def main(argv: list[str] | None = None) -> int:
         "saves the model and prints one JSON line of evaluation results.",
     )
     p.add_argument("--out", required=True, type=out_dir, help="output directory")
-    p.add_argument("--task", choices=TASKS, default="fixate", help="env task (default fixate)")
-    p.add_argument("--timesteps", type=int_in(1, 10**8), default=4096, help="total env steps (saccades) (default 4096)")
+    add_task_option(p)
+    add_timesteps_option(p, "total env steps (saccades) (default 4096)", default=4096)
     p.add_argument("--n-envs", type=int_in(1, 64), default=2, help="parallel envs (default 2)")
     p.add_argument("--n-steps", type=int_in(2, 10**6), default=256, help="PPO rollout length per env (default 256)")
     p.add_argument(
@@ -251,11 +256,11 @@ def main(argv: list[str] | None = None) -> int:
         default="subproc",
         help="SubprocVecEnv with spawn (default) or DummyVecEnv",
     )
-    p.add_argument("--seed", type=seed_type(), default=0, help="seed (default 0)")
+    add_seed_option(p, "seed (default 0)")
     p.add_argument(
         "--eval-episodes", type=int_in(1, 10**6), default=50, help="evaluation episodes after training (default 50)"
     )
-    p.add_argument("--no-progress", action="store_true", help="no progress line per rollout")
+    add_no_progress_option(p, "no progress line per rollout")
     args = p.parse_args(argv)
     try:
         path = train_ppo(

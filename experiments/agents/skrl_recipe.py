@@ -41,7 +41,12 @@ from typing import Any
 import numpy as np
 
 from experiments.cli import int_in, out_dir
-from experiments.cli.options import TASKS, image_size_type, seed_type
+from experiments.cli.options import (
+    add_image_size_option,
+    add_seed_option,
+    add_task_option,
+    add_timesteps_option,
+)
 
 from ..folders import save_figure, write_json
 
@@ -415,12 +420,12 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=out_dir, required=True, help="folder for the curve, the checkpoint and ppo.json")
     ap.add_argument("--device", default=None, help="cuda, cuda:<i> or cpu (default: cuda when available)")
     ap.add_argument("--num-envs", type=int_in(1, 65536), default=8)
-    ap.add_argument("--task", choices=TASKS, default="fixate")
-    ap.add_argument("--timesteps", type=int_in(1, 10**7), default=48, help="batched steps (each num-envs env steps)")
-    ap.add_argument("--image-size", type=image_size_type(), default=64)
+    add_task_option(ap)
+    add_timesteps_option(ap, "batched steps (each num-envs env steps)", default=48)
+    add_image_size_option(ap, "pixels per side of each eye's image", default=64)
     ap.add_argument("--rollouts", type=int_in(1, 4096), default=8, help="batched steps per PPO update")
     ap.add_argument("--hidden", type=int_in(8, 4096), default=256)
-    ap.add_argument("--seed", type=seed_type(), default=0)
+    add_seed_option(ap, "seed")
     ap.add_argument(
         "--policy",
         choices=("mlp", "cortical"),

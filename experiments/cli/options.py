@@ -194,9 +194,9 @@ def add_noise_deg_option(p, default: float = 1.5) -> None:
     )
 
 
-def add_timesteps_option(p, help: str) -> None:
-    """``--timesteps N``: env steps of a PPO/SAC run, in ``LIMITS["timesteps"]``."""
-    p.add_argument("--timesteps", type=bounded("timesteps"), help=help)
+def add_timesteps_option(p, help: str, default: int | None = None) -> None:
+    """``--timesteps N``: the steps of a PPO/SAC run, in ``LIMITS["timesteps"]``."""
+    p.add_argument("--timesteps", type=bounded("timesteps"), default=default, help=help)
 
 
 def bundled_data(text: str) -> Path:

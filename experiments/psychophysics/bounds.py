@@ -83,7 +83,7 @@ LIMITS: dict[str, Limit] = {
     "reports": Limit(1, 100, integer=True),
     "noise_deg": Limit(0.05, 20.0, unit="deg"),
     # agents (train, baselines)
-    "timesteps": Limit(1, 10**6, integer=True),
+    "timesteps": Limit(1, 10**8, integer=True),
 }
 
 #: The largest design (trials) a study may have (the default study has 1248).
