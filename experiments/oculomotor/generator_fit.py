@@ -266,8 +266,11 @@ def fit_generator(
     x0 = np.clip(to_x([getattr(base, f) for f in fit]), lo + 1e-6, hi - 1e-6)
     amp_lo, amp_hi = float(A.min()), float(A.max())
 
-    def gen_of(x):
-        return dataclasses.replace(base, **{f: float(v) for f, v in zip(fit, from_x(x))})
+    vlo = np.array([PARAMETER_BOUNDS[f][0] for f in fit])
+    vhi = np.array([PARAMETER_BOUNDS[f][1] for f in fit])
+
+    def gen_of(x):  # exp(log(bound)) can round past the bound: clip back onto the accepted range
+        return dataclasses.replace(base, **{f: float(v) for f, v in zip(fit, np.clip(from_x(x), vlo, vhi))})
 
     w = np.ones(2)
     bias = [np.zeros(1), np.zeros(1), np.zeros(1)]  # measured amplitude, log pv, log duration corrections
