@@ -21,7 +21,7 @@ def test_docs_tables_are_the_csvs():
     ``--docs`` after changing them)."""
     assert R.update_docs(ROOT / "docs" / "eyetracker.md", check=True) == []
     text = (ROOT / "docs" / "eyetracker.md").read_text()
-    for name in ("recordings.csv", "bins.csv"):
+    for name in ("recordings.csv", "bins.csv", "saturated.csv"):
         assert f"<!-- recordings table: {name} -->" in text
 
 
@@ -37,6 +37,14 @@ def test_every_row_is_a_documented_file():
         assert stem.split("_")[0] in readme or stem in readme, r["recording"]
         if r["saccades"] not in ("", "0") and r["exit"] == "0":
             assert not r["at_bounds"]  # a written generator.json has nothing on a bound
+    with open(DATA / "saturated.csv", newline="") as f:
+        saturated = list(csv.DictReader(f))
+    assert {r["recording"] for r in saturated} <= {r["recording"] for r in rows}
+    for r in saturated:  # an identified fit has nothing on a bound; one on a bound is not identified
+        if r["at_bounds"]:
+            assert r["result"].startswith("not identified"), r
+        if r["result"] == "identified":
+            assert not r["at_bounds"] and r["burst_max_deg_s"] and r["burst_lag_ms"], r
     for asc in DATA.rglob("*.asc"):
         assert (asc.parent / "LICENSE.txt").is_file(), asc
         assert asc.name in readme
@@ -62,6 +70,11 @@ def test_screen_from_res_gives_the_files_pixels_per_degree():
     px_deg_y = math.degrees(math.atan(h_cm / 1024 / d_cm))
     assert px_deg_x == pytest.approx(1 / 37.17, rel=2e-3)
     assert px_deg_y == pytest.approx(1 / 37.75, rel=2e-3)
+
+
+def test_saturated_fit_needs_a_run_of_the_command(tmp_path):
+    """Without the folder ``saccades --recording`` writes there is nothing to fit: None, no error."""
+    assert R.saturated_fit(DATA / "pymovements" / "eyelink_binocular_example.asc", tmp_path) is None
 
 
 def test_a_file_without_a_res_line_is_named():

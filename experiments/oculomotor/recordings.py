@@ -8,8 +8,9 @@ events (EyeLink's ``ESACC`` peak velocity, the tracker's own estimate).
     python -m experiments.oculomotor.recordings --docs docs/eyetracker.md --check
 
 The CSVs live in ``experiments/data/recordings/`` (``recordings.csv``: one row per file; ``bins.csv``:
-one row per file and amplitude bin); the README there names every file, its source and licence, and
-which files are bundled. A file without a screen geometry in its header gets one from its ``RES``
+one row per file and amplitude bin; ``saturated.csv``: the saturated-burst fit of each file's saccades,
+``generator_fit.SATURATED_FIT``, through the Python API); the README there names every file, its
+source and licence, and which files are bundled. A file without a screen geometry in its header gets one from its ``RES``
 line (EyeLink's pixels per degree at the screen's centre) at an assumed 60 cm: near the centre only
 the pixels per degree matter.
 """
@@ -30,6 +31,8 @@ __all__ = [
     "BINS_DEG",
     "RECORDING_FIELDS",
     "BIN_FIELDS",
+    "SATURATED_FIELDS",
+    "saturated_fit",
     "file_events",
     "screen_from_res",
     "run_recording",
@@ -58,6 +61,18 @@ RECORDING_FIELDS = (
     "note",
 )
 BIN_FIELDS = ("recording", "bin_deg", "n_measured", "median_pv_measured", "n_file", "median_pv_file")
+SATURATED_FIELDS = (
+    "recording",
+    "saccades",
+    "noise_deg",
+    "burst_max_deg_s",
+    "burst_max_ci",
+    "burst_lag_ms",
+    "burst_lag_ci",
+    "at_bounds",
+    "peak_20_deg_s",
+    "result",
+)
 ASSUMED_DISTANCE_CM = 60.0
 _DATA = Path(__file__).resolve().parents[1] / "data" / "recordings"
 _FIT_LINE = re.compile(r"^\s+(\w+)\s+(\S+)\s+95% CI \[(\S+), (\S+)\](\s+ON A BOUND)?$")
@@ -176,6 +191,57 @@ def run_recording(path: str | Path, out: str | Path, bootstrap: int = 40) -> tup
     return row, _bins(path.name, measured, events)
 
 
+def saturated_fit(path: str | Path, out: str | Path, bootstrap: int = 40) -> dict | None:
+    """The saturated-burst fit (``generator_fit.SATURATED_FIT``, ``burst_scale_deg`` held at
+    ``SATURATED_SCALE_DEG``) of the saccades that ``saccades --recording path --out out`` measured
+    (``out/main_sequence.csv``), with the recording's tracker noise: a row of ``SATURATED_FIELDS``, or
+    None where the command measured no saccades."""
+    import json
+
+    import numpy as np
+
+    import models
+
+    from . import eyetracking as et
+    from . import generator_fit as gf
+
+    path, out = Path(path), Path(out)
+    if not (out / "main_sequence.csv").is_file() or not (out / "recording.json").is_file():
+        return None
+    info = json.loads((out / "recording.json").read_text())
+    with open(out / "main_sequence.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    try:
+        w, h, d = screen_from_res(path)
+        screen = et.Screen(None, None, w, h, d)
+    except ValueError:
+        screen = None
+    rec = et.read_recording(path, screen=screen, eye=info["eye"])
+    row: dict[str, Any] = {k: "" for k in SATURATED_FIELDS}
+    row.update(recording=path.name, saccades=len(rows), noise_deg=f"{rec.noise_deg:.4f}")
+    try:
+        fit = gf.fit_generator(
+            rows,
+            fit=gf.SATURATED_FIT,
+            rate_hz=rec.rate_hz,
+            noise_deg=rec.noise_deg,
+            bootstrap=bootstrap,
+            start=models.BurstGenerator(burst_scale_deg=gf.SATURATED_SCALE_DEG),
+        )
+    except ValueError as exc:
+        row["result"] = f"not fitted: {exc}"
+        return row
+    for name, key in (("burst_max_deg_s", "burst_max"), ("burst_lag_ms", "burst_lag")):
+        lo, hi = fit.ci95[name]
+        row[name] = f"{fit.estimates[name]:.3f}"
+        row[f"{key}_ci"] = f"[{lo:.4g}, {hi:.4g}]"
+    row["at_bounds"] = " ".join(fit.at_bounds)
+    peak = gf.predict(fit.generator, np.array([20.0]), rec.rate_hz)["peak_velocity_deg_s"][0]
+    row["peak_20_deg_s"] = f"{peak:.0f}" if np.isfinite(peak) else ""
+    row["result"] = "identified" if not fit.problems else f"not identified: {'; '.join(fit.problems)}"
+    return row
+
+
 def _recorded_eye(path: Path) -> str:
     """The eye of a file's first ``SAMPLES`` line (``left`` for a binocular file)."""
     with open(path, encoding="latin-1") as f:
@@ -220,6 +286,17 @@ _HEADINGS = {
         ("burst_lag_ms", "burst_lag (ms)"),
         ("burst_lag_ci", "95 % CI"),
         ("note", "result"),
+    ),
+    "saturated.csv": (
+        ("recording", "file"),
+        ("saccades", "saccades"),
+        ("noise_deg", "noise (deg)"),
+        ("burst_max_deg_s", "burst_max (deg/s)"),
+        ("burst_max_ci", "95 % CI"),
+        ("burst_lag_ms", "burst_lag (ms)"),
+        ("burst_lag_ci", "95 % CI"),
+        ("peak_20_deg_s", "peak at 20° (deg/s)"),
+        ("result", "result"),
     ),
     "bins.csv": (
         ("recording", "file"),
@@ -289,7 +366,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.files:
         from ..folders import write_csv
 
-        rows, bins = [], []
+        rows, bins, saturated = [], [], []
         for f in args.files:
             if not f.is_file():
                 parser.error(f"{f} is not a file")
@@ -297,8 +374,13 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{f.name}: {r['saccades'] or 0} saccades; {r['note']}")
             rows.append(r)
             bins += b
+            s = saturated_fit(f, args.work / f.stem, args.bootstrap) if r["exit"] in (0, 3) else None
+            if s is not None:
+                print(f"{f.name}: saturated fit: {s['result']}")
+                saturated.append(s)
         write_csv(args.data / "recordings.csv", list(RECORDING_FIELDS), rows)
         write_csv(args.data / "bins.csv", list(BIN_FIELDS), bins)
+        write_csv(args.data / "saturated.csv", list(SATURATED_FIELDS), saturated)
     if args.docs:
         stale = update_docs(args.docs, check=args.check, data=args.data)
         if stale and args.check:
