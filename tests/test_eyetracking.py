@@ -228,3 +228,48 @@ def test_saccades_refuses_a_folder_another_run_holds(tmp_path, capsys):
     with path_lock(out / ".lock"):
         assert main(["saccades", "--out", str(out), "--model", "legacy", "--no-progress"]) == 1
     assert "in use by another run" in capsys.readouterr().err and not (out / "main_sequence.csv").exists()
+
+
+def test_hold_option_usage_errors(tmp_path, capsys):
+    """``--hold NAME=VALUE``: a bad pair, a parameter both held and fitted, or a value outside the
+    family's range is a usage error naming the option, before the file is read."""
+    from experiments.__main__ import main
+
+    p = _tiny_asc(tmp_path)
+    cases = (
+        (["--hold", "burst_scale=0.01"], "distinct names among"),
+        (["--hold", "burst_scale_deg=abc"], "finite values"),
+        (["--hold", "burst_scale_deg=nan"], "finite values"),
+        (["--hold", "burst_scale_deg=0.01"], "both held and fitted"),
+        (["--fit-parameters", "burst_max_deg_s,burst_lag_ms", "--hold", "burst_scale_deg=0.001"], "burst_scale_deg"),
+    )
+    for extra, msg in cases:
+        with pytest.raises(SystemExit) as e:
+            main(["saccades", "--recording", str(p), "--out", str(tmp_path / "o"), *extra])
+        err = capsys.readouterr().err
+        assert e.value.code == 2 and "--hold" in err and msg in err, (extra, err)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_cli_saturated_fit_holds_the_scale(tmp_path):
+    """The saturated fit from the command line (``--hold``): a session simulated by a saturated burst
+    (scale 0.01 deg, Bahill, Clark & Stark 1975) gives back its ceiling, and the held scale is written
+    as held, not fitted."""
+    import models
+    from experiments.__main__ import main
+    from experiments.oculomotor import generator_fit as gf
+
+    truth = models.BurstGenerator(burst_max_deg_s=550.0, burst_scale_deg=gf.SATURATED_SCALE_DEG, burst_lag_ms=5.0)
+    s = et.synthetic_session(truth, n_saccades=40, rate_hz=500, noise_deg=0.02, n_blinks=0, seed=3)
+    p = _write(tmp_path, s, 500, "csv", units="deg")
+    out = tmp_path / "sat"
+    argv = ["saccades", "--recording", str(p), "--out", str(out), "--no-progress", "--bootstrap", "0",
+            "--fit-parameters", ",".join(gf.SATURATED_FIT), "--hold", f"burst_scale_deg={gf.SATURATED_SCALE_DEG}"]
+    assert main(argv) == 0
+    doc = json.loads((out / "generator.json").read_text())
+    assert doc["fitted"] == list(gf.SATURATED_FIT)
+    assert doc["parameters"]["burst_scale_deg"] == gf.SATURATED_SCALE_DEG
+    assert json.loads((out / "recording.json").read_text())["held_parameters"] == {
+        "burst_scale_deg": gf.SATURATED_SCALE_DEG}
+    assert doc["parameters"]["burst_max_deg_s"] == pytest.approx(550.0, rel=0.05)

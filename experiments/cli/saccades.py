@@ -24,6 +24,30 @@ def _fit_parameters(text: str) -> tuple[str, ...]:
     return names
 
 
+def _hold(text: str) -> dict[str, float]:
+    """``NAME=VALUE[,NAME=VALUE]``: generator parameters held at a value instead of their defaults."""
+    import math
+
+    from ..oculomotor.generator_fit import FITTABLE
+
+    held: dict[str, float] = {}
+    for item in (v.strip() for v in text.split(",") if v.strip()):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        try:
+            number = float(value) if sep else math.nan
+        except ValueError:
+            number = math.nan
+        if name not in FITTABLE or name in held or not math.isfinite(number):
+            raise argparse.ArgumentTypeError(
+                f"expected NAME=VALUE pairs, distinct names among {', '.join(FITTABLE)} and finite values; got {item!r}"
+            )
+        held[name] = number
+    if not held:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE pairs; got {text!r}")
+    return held
+
+
 def _columns(text: str):
     from ..oculomotor.tables import TableError, parse_columns
 
@@ -120,7 +144,15 @@ def add_subcommand(subparsers) -> None:
         type=_fit_parameters,
         default=("burst_max_deg_s", "burst_scale_deg", "burst_lag_ms"),
         metavar="NAMES",
-        help="comma-separated burst-generator parameters to fit (the others keep their defaults)",
+        help="comma-separated burst-generator parameters to fit (the others keep their defaults, or --hold's values)",
+    )
+    g.add_argument(
+        "--hold",
+        type=_hold,
+        default=None,
+        metavar="NAME=VALUE,...",
+        help="burst-generator parameters held at these values, not fitted (within the family's ranges); e.g. "
+        "the saturated fit: --fit-parameters burst_max_deg_s,burst_lag_ms --hold burst_scale_deg=0.01",
     )
     g.add_argument(
         "--bootstrap",

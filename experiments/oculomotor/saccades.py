@@ -210,6 +210,19 @@ def run_recording(args: argparse.Namespace, parser: argparse.ArgumentParser | No
             raise ValueError(message)
         parser.error(message)
 
+    held = getattr(args, "hold", None) or {}
+    both = sorted(set(held) & set(args.fit_parameters))
+    if both:
+        usage(f"argument --hold: {', '.join(both)} cannot be both held and fitted (--fit-parameters)")
+    start = None
+    if held:
+        import models
+
+        try:
+            start = models.BurstGenerator(**held)
+        except ValueError as e:
+            usage(f"argument --hold: {e}")
+    args.start_generator = start
     screen = None
     if args.screen is not None:
         try:
@@ -277,6 +290,7 @@ def _source_identity(path: Path, rec, args) -> dict:
         "eye_reason": rec.eye_reason,
         "format": rec.fmt,
         "detection": args.detect,
+        "held_parameters": dict(getattr(args, "hold", None) or {}),
         "sampling_rate_hz": rec.rate_hz,
         "n_samples": int(len(rec.times_ms)),
         "n_blocks": rec.n_blocks,
@@ -356,6 +370,7 @@ def _write_recording_results(args, path: Path, rec, rows: list[dict], bad: list[
     fit = gf.fit_generator(
         rows,
         fit=args.fit_parameters,
+        start=getattr(args, "start_generator", None),
         rate_hz=rec.rate_hz,
         noise_deg=noise,
         bootstrap=getattr(args, "bootstrap", gf.DEFAULT_BOOTSTRAP),
