@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
+import math
 import sys
 from pathlib import Path
 
@@ -109,6 +110,16 @@ def _read_rows(folder: Path) -> tuple[list[dict], float]:
     return rows, rate
 
 
+def _tracker_noise(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number of degrees in [0, 1]; got {text!r}")
+    return value
+
+
 def main(argv: list[str] | None = None) -> int:
     import models
 
@@ -118,7 +129,13 @@ def main(argv: list[str] | None = None) -> int:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("folders", nargs="+", type=Path, help="folders written by `saccades --recording`")
-    parser.add_argument("--noise-deg", type=float, default=0.0, help="tracker noise per axis (deg; default 0)")
+    parser.add_argument(
+        "--tracker-noise-deg",
+        type=_tracker_noise,
+        default=0.0,
+        metavar="DEG",
+        help="the recording's tracker noise per axis, as `saccades --recording` prints it (deg, 0-1; default 0)",
+    )
     parser.add_argument(
         "--scales", default="0.01,0.1,0.3,0.6,1,2,2.82", help="burst_scale_deg values of the profile (comma-separated)"
     )
@@ -133,13 +150,13 @@ def main(argv: list[str] | None = None) -> int:
         except (OSError, KeyError, ValueError) as exc:
             parser.error(f"{folder}: not a folder written by `saccades --recording` ({exc})")
         print(f"{folder.name} ({rate:g} Hz, {len(rows)} saccades): data vs the default generator")
-        for r in bin_table(rows, models.BurstGenerator(), rate_hz=rate, noise_deg=args.noise_deg):
+        for r in bin_table(rows, models.BurstGenerator(), rate_hz=rate, noise_deg=args.tracker_noise_deg):
             print(
                 f"  {r['bin_deg']:>6} deg  n={r['n']:3d}  A={r['amplitude_deg']:5.1f}  peak {r['pv_data']:4.0f} vs "
                 f"{r['pv_model']:4.0f} deg/s  duration {r['du_data']:5.1f} vs {r['du_model']:5.1f} ms"
             )
         print("  burst_scale_deg held, burst_max_deg_s and burst_lag_ms refitted:")
-        for r in scale_profile(rows, scales, rate_hz=rate, noise_deg=args.noise_deg):
+        for r in scale_profile(rows, scales, rate_hz=rate, noise_deg=args.tracker_noise_deg):
             print(
                 f"  scale {r['burst_scale_deg']:5.2f} deg  cost {r['cost']:.4f}  burst_max {r['burst_max_deg_s']:6.1f} "
                 f"deg/s  burst_lag {r['burst_lag_ms']:5.2f} ms"
