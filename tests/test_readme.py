@@ -48,7 +48,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-
 import readme_outputs  # tests/readme_outputs.py
 
 ROOT = Path(__file__).resolve().parents[1]
