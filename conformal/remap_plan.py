@@ -2,48 +2,18 @@
 
 The same prediction as ``predict_many`` (the mirror series of eq. ``dppcc'`` at the mapped
 points, the foveal lattice for points landing in the old fovea), organised for a stream of
-frames on one grid:
+frames on one grid: what depends only on the grid (output points, ``dpft.mirror_map``, the foveal
+lattice indices) is built once; per frame, compiled passes map the points and tabulate the angular
+factors, one batched BLAS product sums over the angular frequencies and a compiled pass contracts
+the rings. The series is evaluated exactly in single precision (about 1e-6 relative). The point
+maps must be ``ProjectiveMap`` or ``MobiusMap``; use ``predict_many`` for arbitrary callables.
 
-* everything that depends only on the grid is built once: the output points, the linear map
-  from DPFT coefficients to the series' coefficients (``dpft.mirror_map``), the foveal lattice indices;
-* per frame, one compiled pass maps the points (``kernels.map_points``), one tabulates the
-  angular factors (``kernels.tabulate_angles``), one batched BLAS product sums over the
-  angular frequencies and one compiled pass over the rings (``kernels.contract_rings``).
+``pooled=True`` averages each new receptive field's footprint (its second moments carried through
+the map's Jacobian, less what the old fields' own averaging already holds) over the series, so
+detail the old fields never resolved is not restored; about 1.35x the point prediction's time.
 
-The series is evaluated exactly (no interpolation) in single precision: about 1e-6 relative,
-far below the retina's sampling error. The point maps must be ``ProjectiveMap`` or
-``MobiusMap`` (what ``homography_map``, ``mobius_map`` and ``target_shift_map`` return); use
-``predict_many`` for arbitrary callables.
-
-**Pooled predictions** (``pooled=True``). The retina's samples are receptive-field averages
-(``Retina``'s ``"pool"``: each peripheral cell, an annular sector, and each foveal square of side
-1/K averaged uniformly over its area), while the plain prediction is the series at each new
-field's centre. Where a new field covers several old ones (after a saccade, new peripheral fields
-land on finer old ones) the point sample aliases detail that the field averages out. The pooled
-prediction averages over the part of each new field's footprint that the old samples' own
-averaging does not already hold, by second moments:
-
-* the field's covariance about its centre (``field_moments``: exact for the sector and the square,
-  once per grid) is carried through the map's Jacobian at the centre to the old picture, and into
-  the old log-polar coordinates (u, theta) at the mapped point;
-* an old field's own variances in u and theta (the same in every ring: the grid is self-similar)
-  are subtracted, floored at 0 (Gaussian widths add in variance: the series of the old samples
-  is already the picture averaged over the old fields);
-* the series is averaged over the Gaussian of what remains: frequency m in u damped by
-  exp(-m^2 s_t / 2) and n in theta by exp(-n^2 s_y / 2) (the Gaussian average of cos(m t) is
-  cos(m t) exp(-m^2 s / 2)), each capped where the damping reaches e^-40. The u-theta covariance
-  is dropped (zero for conformal maps on the nearly square log-polar fields), so the sum stays
-  separable: the point prediction's passes with the damping folded into the two factor tables
-  (``kernels.tabulate_angles_pooled``, ``kernels.contract_rings_pooled``, after
-  ``kernels.map_footprints``);
-* a field landing in the old fovea averages the bilinear interpolant of the lattice samples over
-  the same kind of Gaussian (in lattice cells, less an old foveal square's 1/12), normalised by
-  the average of the lattice's indicator.
-
-So a footprint no larger than the old fields gives the point prediction (the identity map does,
-exactly for the series), and detail the old fields never resolved is not restored: a saccade that
-brings the periphery to the fovea is predicted as blurred as the old samples were. The mask is
-the point prediction's (the field's centre). About 1.35x the point prediction's time.
+The passes, and how the pooled prediction is built: docs/math.md ("The math", section "Remapping a
+stream of frames: RemapPlan").
 """
 
 from __future__ import annotations

@@ -83,35 +83,24 @@ class BatchedBinocularSaccade(VectorEnv):
 
     Args:
         num_envs: the number of worlds, an integer in [1, 65536].
-        device: ``"cuda"`` (or ``"cuda:<i>"``), ``"cpu"`` (Warp's CPU backend and torch on the CPU:
-            slow, for tests and machines without a GPU) or None (CUDA when Warp finds it, else CPU).
+        device: ``"cuda"`` (or ``"cuda:<i>"``), ``"cpu"`` (Warp's CPU backend: slow, for tests) or None
+            (CUDA when Warp finds it, else CPU).
         output: ``"torch"`` (observations as torch tensors on the device) or ``"numpy"``.
         chunk_ms: physics steps per captured CUDA graph (see ``envs.batched_physics.WarpHeads``).
-        autoreset_mode: ``"next_step"`` (default, gymnasium's: the step after an episode ends resets that
-            world, its action ignored, reward 0) or ``"same_step"`` (what GPU RL libraries expect: the world
-            is reset within the step that ended it; that step's observation is the new episode's first,
-            and the ended episode's last observations (a batched dict, all worlds) and info are in
-            ``info["final_obs"]`` / ``info["final_info"]``, masked by ``info["_final_obs"]``; costs a
-            second render in steps where any world ends).
-        retina_rays: None (default: render a pinhole image per eye, then pool it on the retina as the
-            single env does) or s in [1, 8]: render the retina natively, s x s rays per receptive field
-            (``envs.retina_rays``): no pixels, so no picture boundary; the samples differ from the
-            pooled pinhole picture's by the pixels' own quantisation (``tests/test_retina_rays.py``).
-        max_episode_steps: None (default) or -1: episodes are truncated by the task's saccade budget
-            ``max_saccades`` alone, as the single env's are; K >= 1: after min(K, ``max_saccades``) steps, as a
-            ``TimeLimit(K)`` around the single env truncates them. ``gymnasium.make_vec`` passes the
-            registered limit (the task's default budget, 5 or 10) or its own ``max_episode_steps=K``.
-        settle_ms: physics milliseconds simulated after the last world's saccade ends (default 20). The
-            rest of the fixation is only a clock: the eyes hold still (the servo has settled to within
-            1e-6 deg of the endpoint after 20 ms, as after the full 250: ``tests/test_batched_env.py``),
-            so simulating it would cost ~10x the physics and change nothing observed.
-        **kwargs: the single env's arguments (``task``, ``scene``, ``image_size``, ``action_mode``,
-            ``remap_model``, ...; each checked as ``BinocularSaccadeEnv`` checks it). Not supported
-            here: ``render_mode``, ``pooled_remap=True`` and tasks other than the built-in
-            ``fixate``, ``search`` and ``free`` (a ValueError says so).
+        autoreset_mode: ``"next_step"`` (default, gymnasium's) or ``"same_step"`` (the world is reset
+            within the step that ended it; the ended episode's last observations and info are in
+            ``info["final_obs"]`` / ``info["final_info"]``, masked by ``info["_final_obs"]``).
+        retina_rays: None (default: a pinhole image per eye, pooled on the retina) or s in [1, 8]: render
+            the retina natively, s x s rays per receptive field (``envs.retina_rays``).
+        max_episode_steps: None or -1 (the task's saccade budget alone) or K >= 1: truncate after
+            min(K, ``max_saccades``) steps, as ``TimeLimit(K)`` around the single env does.
+        settle_ms: physics milliseconds simulated after the last world's saccade ends (default 20); the
+            rest of the fixation is only a clock.
+        **kwargs: the single env's arguments, each checked as ``BinocularSaccadeEnv`` checks it; not
+            ``render_mode``, ``pooled_remap=True`` or tasks other than ``fixate``, ``search``, ``free``.
 
-    The first step on a new machine compiles Warp's kernels (about 30 s on the CPU backend, a
-    minute on CUDA; cached in Warp's kernel cache afterwards).
+    The first step on a new machine compiles Warp's kernels (about 30 s on the CPU backend, a minute
+    on CUDA). Each argument in full: docs/batched.md ("Batched env", section "Inside the batched env").
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}

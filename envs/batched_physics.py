@@ -4,28 +4,17 @@ rendered by MJWarp's batch renderer (the physics and rendering half of
 
 One :class:`WarpHeads` holds ``mujoco_warp`` Model/Data for N worlds of one compiled head model
 (``models.Head.model``) and a render context for the two eye cameras. Per env step the host
-uploads, for each world, the commanded eye angles of its saccade at every millisecond from now
-(``models.SaccadePlan.angles``, the same command the CPU head's eyes follow); the orbital plant's
-torques (``models.plant``: with the head's default ``eye_drive="plant"``) or the servo's position,
-velocity and inertial feed-forward set-points are computed from them on the device
-(``models.servo_setpoints``, the CPU head's law, on torch tensors) and a Warp kernel writes each world's row into its controls
-before every physics step, so a whole step is a fixed sequence of kernel launches: on CUDA it is
-captured once in a graph (``chunk_ms`` physics steps per graph) and replayed; on Warp's CPU backend
-the same launches run one by one.
+uploads each world's commanded eye angles at every millisecond (``models.SaccadePlan.angles``); the
+plant's torques or the servo's set-points are computed from them on the device
+(``models.servo_setpoints``, the CPU head's law, on torch tensors) and a Warp kernel writes them
+into the controls before every physics step: on CUDA a step is captured once in a graph
+(``chunk_ms`` physics steps per graph) and replayed. ``skip_solver=True`` (the default on Warp's CPU
+backend) steps without the constraint solver and re-runs with it when a joint reaches its range.
 
-The head has no contacts, so MuJoCo's constraint solver has nothing to solve unless a joint reaches
-its range (a joint-limit constraint): the physics can step without it (``skip_solver=True``, the
-default on Warp's CPU backend: ``qacc`` is the unconstrained ``qacc_smooth``, about a fifth fewer kernel
-launches per step) and a kernel flags any world whose limited joint reaches its range; then the whole run
-is stepped again from its start with the solver, as MuJoCo steps it (``tests/test_batched_physics.py``).
-Not the default on CUDA: with thousands of worlds some world reaches its range in nearly every run, and
-the re-run (every world, launch by launch, outside the captured graph) made the physics 2.3x slower on
-an H100 (``docs/batched.md``).
-
-Differences from the CPU head, by design: the physics steps at 1 ms throughout (the CPU head steps
-saccades at 0.25 ms), and the feed-forward torque uses one constant inertia per joint. Both
-only change how closely the servo tracks the command during the saccade; after the fixation the
-eyes rest on the same endpoint (``tests/test_batched_env.py`` measures the difference).
+By design the physics steps at 1 ms throughout (the CPU head steps saccades at 0.25 ms) and the
+feed-forward torque uses one constant inertia per joint; after the fixation the eyes rest on the
+same endpoint (``tests/test_batched_env.py`` measures the difference). The solver rule and these
+differences in full: docs/batched.md ("Batched env", section "The physics: WarpHeads").
 
 Requires the ``gpu`` extra (``pip install -e ".[gpu]"``: mujoco-warp, warp-lang, torch).
 """

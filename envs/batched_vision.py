@@ -2,34 +2,19 @@
 
 The batched env (``envs.batched_env``) renders every world's eyes on a device; this module takes
 those pictures through the same steps as ``Vision`` does for one world, all worlds and eyes in one
-set of tensor operations on the device ("cuda" or "cpu"):
+set of tensor operations on the device ("cuda" or "cpu"): ``see`` (receptive-field pooling,
+grayscale, the DPFT of the periphery, eqs. ``lpdft``/``dpft``), ``predict`` (every model's point
+prediction, the mirror series of eq. ``dppcc'`` through ``conformal.TorchRemapPlan``), ``errors``
+(their normalized RMS errors) and ``cortical`` (the env's observation, with
+``conformal.binocular_cortex``'s hemifield routing).
 
-* ``see``: receptive-field pooling (``conformal.Retina``'s sparse operator applied as a gather and a
-  segment sum, deterministic on CUDA; ``Retina.sample_prechecked`` / ``kernels.pool_picture``),
-  grayscale, the DPFT of the periphery (``conformal.dpft.dpft_prechecked``, eqs. ``lpdft``/``dpft``):
-  ``Vision._see_frame`` / ``Vision._frame``;
-* ``predict``: the efference-copy remapping's point prediction of every model
-  (``Vision._predict_frame`` -> ``RemapPlan._evaluate`` with ``pooled=False``: ``kernels.map_points``,
-  the mirror series of eq. ``dppcc'`` via ``dpft.mirror_map``, ``kernels.tabulate_angles``,
-  ``kernels.contract_rings``), with the models' parameters from the rotations (``Vision.map_params``);
-* ``errors``: the normalized RMS errors of the predictions (``Vision._frame_errors`` ->
-  ``kernels.normalized_errors``);
-* ``cortical``: the env's ``cortical`` observation (``BinocularSaccadeEnv._cortical``, with
-  ``conformal.binocular_cortex``'s hemifield routing).
+What depends only on the grid is built once in float64 from the CPU ``Vision`` and kept on the
+device in float32; the per-frame work runs in float32, so the numbers are the CPU path's up to
+float32 rounding (``tests/test_batched_vision.py`` measures the differences). ``predict`` processes
+the worlds in chunks whose tables stay under ``chunk_bytes``.
 
-The DPFT and the series evaluation are conformal's torch variant (``conformal.TorchRemapPlan``, beside
-the compiled kernels); this module adds the pooling, the checks, the models' parameters, the errors and
-the cortex. Everything that depends only on the grid (the pooling operator, the DPFT weights and phases,
-the mirror-series map, the angular and ring frequencies, the foveal lattice look-up) is built once in
-float64 numpy from the CPU ``Vision`` and kept on the device in float32 (complex64); the per-frame
-work runs in float32. So the numbers are the CPU path's up to float32 rounding (the CPU samples and
-transforms in float64 and evaluates the series with float32 tables): ``tests/test_batched_vision.py``
-measures the differences.
-
-Memory: the series evaluation holds a few float32 tables of (E K P) x (N + 2 + M C) per world (E eyes,
-K models, P retina points, M rings, N sectors, C channels); ``predict`` processes the worlds in
-chunks whose tables stay under ``chunk_bytes`` (a Python loop over chunks of many worlds, never over
-single worlds).
+Each step's CPU counterpart, the precision and the memory in full: docs/batched.md ("Batched env",
+section "The vision: TorchVision").
 """
 
 from __future__ import annotations

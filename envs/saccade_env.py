@@ -22,99 +22,28 @@ __all__ = ["BinocularSaccadeEnv"]
 class BinocularSaccadeEnv(gym.Env):
     """A binocular head whose eyes are conformal cameras, making one saccade per step.
 
-    **One step = one saccade and the fixation that follows it.** The agent picks the next
-    saccade; the env plans it on the main sequence, computes the predicted post-saccadic
-    retina of each eye from the *pre*-saccadic DPFT coefficients and the efference copy
-    (before the eyes move), runs the physics through the saccade and ``fixation_ms`` of
-    fixation, renders both eyes, samples them on the exp-polar retina and takes the DPFT.
+    **One step = one saccade and the fixation that follows it.** The agent picks the next saccade;
+    the env plans it, predicts each eye's post-saccadic retina from the *pre*-saccadic DPFT
+    coefficients and the efference copy (before the eyes move), runs the physics through the saccade
+    and ``fixation_ms`` of fixation, renders both eyes, samples them on the exp-polar retina and takes
+    the DPFT.
 
-    **Action space.**
-    ``action_mode="vector"`` (default): ``Box(-1, 1, (2,))``, the saccade (horizontal > 0
-    right, vertical > 0 up) as Fick-angle increments relative to the current gaze, scaled by
-    ``max_amplitude_deg``; with ``vergence=True`` a third component in [-1, 1] changes the
-    fixation distance by a factor 2**a. ``action_mode="cell"``: ``Discrete(M * N)``, a
-    peripheral retina cell ``k * N + l`` (a superior-colliculus-like motor map): saccade to
-    the direction of that cell's centre. Saccades that would leave the oculomotor range are
-    shortened to its edge (``info["clipped"]``). NaN, infinite or out-of-space actions raise
-    ``ValueError``; actions of the wrong type (complex, bool, strings; a float in cell mode) raise
-    ``TypeError`` (``conformal.checks.InputTypeError``, also a ``ValueError``).
+    - **Actions**: ``action_mode="vector"`` (default), ``Box(-1, 1, (2,))``: the saccade as Fick-angle
+      increments x ``max_amplitude_deg`` (a third component with ``vergence=True``);
+      ``action_mode="cell"``, ``Discrete(M * N)``: saccade to a peripheral retina cell's direction.
+    - **Observations** (``spaces.Dict``, float32 in [0, 1]): ``cortical`` ``(2, M, N, C)`` (or the
+      ``cortex="hemispheres"`` map), ``fovea`` ``(2, N_f, C)``, ``remapped`` (the prediction, shaped as
+      ``cortical``), ``eyes`` ``(2, 3)`` (the eye-position signal, not the true eye), ``coeffs`` (optional).
+    - **Reward**: the task's, the sum of the ``reward_*`` components of ``info``.
+    - **Episode end**: terminated when the task succeeds, truncated after its saccade budget
+      ``max_saccades`` (the registered ``max_episode_steps``: one truncation, not two).
+    - **info**: ``remap_error`` per model, the saccade's kinematics and errors, ``efference_copy``,
+      ``executed_rotation``, ``eye_angles`` (ground truth), ``success``, ``clipped``, ``reward_*``.
+    - Not picklable or copyable (a ``TypeError`` says to make a new env and replay the seed and actions).
 
-    **Observation space** (``spaces.Dict``, float32; M rings, N sectors, N_f foveal samples,
-    C = 3, or 1 with ``grayscale=True``; values are intensities in [0, 1]):
-
-    - ``cortical``: both eyes' peripheral log-polar samples, ``(2, M, N, C)`` [eye, ring, sector];
-      with ``cortex="hemispheres"`` the binocular cortical map ``(2, 2, M, N/2, C)``
-      [hemisphere (left, right), eye (left, right), ring, sector-in-hemifield].
-    - ``fovea``: both eyes' foveal samples, ``(2, N_f, C)``.
-    - ``remapped``: the predicted post-saccadic cortical samples of ``remap_model``, computed
-      from the pre-saccadic coefficients and the efference copy; same shape as ``cortical``
-      (cells whose source is unknown, e.g. beyond the old picture, are 0; values clipped to [0, 1]).
-      At reset it equals ``cortical``.
-    - ``eyes``: the eye-position signal: the agent's (extraretinal) estimate of both eyes' Fick
-      angles ``(2, 3)`` [eye, (horizontal, vertical, torsion)], radians, from the efference copy
-      (``models.Head.eye_position_signal``); not the true orientation, which ``info["eye_angles"]``
-      reports as ground truth. With ``endpoint_noise`` the two differ by the motor error.
-    - ``coeffs`` (``include_coeffs=True``): the DPFT coefficients ``(2, M, N, C, 2)`` (real, imag).
-
-    **Reward**: from the task, the sum of the components that ``info`` reports as ``reward_*``
-    (``task.reward_keys``, as Gymnasium's MuJoCo envs report ``reward_ctrl``...). ``fixate``:
-    ``reward_target`` = exp(-(e/tol)^2/2), e the mean gaze error to the target, plus
-    ``reward_saccade`` = -``saccade_cost`` (-0.05) per saccade. ``search``: ``reward_target`` = 1 for
-    foveating the target (else 0) plus ``reward_saccade`` = -0.05. ``free``: free viewing of any
-    scene, reward 0 and no ``reward_*`` keys.
-
-    **Episode end**: terminated when the task succeeds (``fixate``, ``search``: the target foveated,
-    both eyes within ``tolerance_deg``; ``free`` never); truncated after the task's saccade budget
-    ``max_saccades`` (steps: one saccade each): 5 for ``fixate``, 10 for ``search``, 20 for ``free``
-    (``task_kwargs={"max_saccades": n}`` changes it). The registered ids carry the same limit as
-    ``max_episode_steps`` (``BinocularSaccade-v0``: 5, ``BinocularSaccadeSearch-v0``: 10), so
-    ``gymnasium.make(id).spec.max_episode_steps`` is set and Gymnasium's ``TimeLimit`` truncates at the
-    step the env itself does: one truncation (both flags are the same ``truncated``), not two.
-    ``gymnasium.make(id, max_episode_steps=K)`` truncates after min(K, ``max_saccades``) steps: for
-    longer episodes raise the budget too (``task_kwargs={"max_saccades": K}``); with another task or
-    budget pass the matching ``max_episode_steps``, or ``max_episode_steps=-1`` to leave truncation
-    to the env's budget alone.
-
-    **info**: ``sim_time_ms``; ``remap_error`` {model: normalized RMS error of its prediction
-    against the actual post-saccadic samples, mean of both eyes} for every model in
-    ``remap_models``; ``saccade_amplitude_deg``, ``saccade_duration_ms``,
-    ``peak_velocity_deg_s``, ``landing_error_deg`` (gaze vs the intended endpoint),
-    ``endpoint_error_deg`` (2,) (each eye's executed vs intended endpoint direction, from the motor
-    noise), ``efference_copy`` (2, 3, 3) (the intended rotation of each eye, head frame),
-    ``executed_rotation`` (2, 3, 3) (the rotation made), ``eye_angles`` (2, 3) (the true Fick angles),
-    ``target_error_deg`` (tasks with a target), ``success``, ``clipped``, and the reward's
-    components ``reward_*`` (above).
-
-    **Copies**: the env holds a compiled MuJoCo model and an OpenGL context, so ``pickle`` and
-    ``copy`` (deep or shallow) refuse it with a ``TypeError`` saying what to do instead: make a new
-    env with the same arguments (``gymnasium.make(env.spec.id, **env.spec.kwargs)``) and, for the
-    same state, reset it with the same seed and replay the actions (the env is deterministic under a seed).
-
-    **Arguments**: ``scene`` (default: the task's), ``task`` (``"fixate"``, ``"search"``, ``"free"`` or a
-    ``Task``), ``action_mode``, ``image_size`` (pixels per side of each eye's image, an integer in
-    [16, 1024]), ``render_mode`` (``"rgb_array"``), ``fixation_ms`` (250; whole ms in [0, 10000]),
-    ``max_amplitude_deg`` (30; in (0, 60]),
-    ``vergence``, ``remap_model`` (``"homography"``, ``"mobius"``, ``"shift"``),
-    ``remap_models`` (models whose error ``info`` reports; default all three), ``shift_rings``
-    (the shift model's log-radius compression), ``pooled_remap`` (False: each prediction is the
-    series at the receptive field's centre; True: averaged over the field as the pooled retina
-    averages the picture (``conformal.RemapPlan``'s ``pooled``), closer to the samples (bar scene,
-    20 deg saccades from straight ahead: homography error 0.19 -> 0.13) at about 0.1 ms more per
-    step; see ``envs.vision.POOLED_REMAP_DEFAULT``; it changes ``remapped`` and ``remap_error``,
-    nothing else), ``grayscale``, ``cortex`` (``"eyes"`` or
-    ``"hemispheres"``), ``include_coeffs``, ``fovea_deg`` (3), ``n_sectors``, ``sampling``
-    (``"pool"``), ``fovy_deg`` (70), ``endpoint_noise`` (0) or ``motor_noise`` (a ``models.MotorNoise``), ``saccade_model`` (``"burst"`` or
-    ``"legacy"``, see ``models.Head``), ``generator`` (a ``models.BurstGenerator``, e.g. one fitted to a
-    person's recording: ``models.BurstGenerator.from_file``), ``eye_drive`` (``"plant"``: torques through
-    the orbital plant, or ``"servo"``: exact pointing; see ``models.Head``), ``quality`` (``"fast"``),
-    ``task_kwargs``. Flags (``vergence``, ``grayscale``, ``include_coeffs``, ``pooled_remap``) must be bools; every
-    argument is checked at construction (``ValueError``/``TypeError`` naming it).
-
-    **Version history**: v0 — initial version; later, without changing the default episodes,
-    rewards or observations: registered with ``max_episode_steps`` (the task's default budget; a
-    ``gymnasium.make`` that changes the task or its budget now passes the matching limit too, see
-    above), ``info`` reports the reward's ``reward_*`` components, and pickling or copying raises a
-    clear ``TypeError``.
+    Every argument is checked at construction (``ValueError``/``TypeError`` naming it). The spaces,
+    rewards, episode ends, ``info`` keys, every argument and the version history in full: docs/env.md
+    ("The environment", section "BinocularSaccadeEnv in full").
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}

@@ -1,37 +1,19 @@
 """The oculomotor plant in MuJoCo: each eye joint moved by a torque through the orbit's elastic and
 viscous forces and the globe's inertia, driven by the brainstem's pulse-step command.
 
-The plant (Robinson 1964, J Physiol 174:245; Robinson 1981, Annu Rev Neurosci 4:463) is the
-second-order system ``I q'' + B q' + K q = tau`` with two real time constants: ``T1`` (the slow,
-elastic one, ~150-250 ms) and ``T2`` (the fast one, a few ms). In MuJoCo each eye joint gets the
-stiffness ``K`` (spring to primary position, ``jnt_stiffness``) and damping ``B`` (``dof_damping``)
-that give its inertia ``I`` (the globe's plus the joint's armature, the mass matrix's diagonal at
-primary position) exactly these roots: ``K = I / (T1 T2)``, ``B = K (T1 + T2)``. The position and
-velocity servos of :mod:`models.servo` are switched off (gains 0); the only drive is the torque motor.
+The plant (Robinson 1964, J Physiol 174:245; Robinson 1981, Annu Rev Neurosci 4:463) is
+``I q'' + B q' + K q = tau`` with the time constants ``T1`` (elastic, 150 ms: Robinson 1964) and
+``T2`` (a few ms; default the burst generator's ``BurstGenerator.plant_t2_ms``): each eye joint's
+stiffness and damping are ``K = I / (T1 T2)``, ``B = K (T1 + T2)`` for its inertia ``I``. The
+servos of :mod:`models.servo` are off; the only drive is a torque motor fed the pulse-step
+``K (N + T1 N')`` (Robinson 1975), written on the commanded trajectory as ``K q + B q' + I q''``
+(:func:`models.servo_setpoints`, the same code for both engines). ``pulse_gain`` scales the pulse
+against the step (1 = matched): a mismatch gives post-saccadic drift (Bahill, Clark & Stark 1975,
+Math Biosci 26:303; Kapoula, Robinson & Hain 1986, Vision Res 26:735). Nothing closes a loop on
+the measured eye.
 
-The neural command is the pulse-step (Robinson 1975): the motoneurons fire ``K (N + T1 N')`` for a
-position command ``N`` (the step, the neural integrator's output) and its rate (the pulse, the
-burst), so that with a matched pulse the eye is ``N`` low-passed by ``T2``. Written on the
-commanded eye trajectory ``q`` (the generator's output, ``q = N`` low-passed by ``T2``) this is the
-torque ``K q + B q' + I q''`` -- :func:`models.servo_setpoints` with the plant's stiffness and damping,
-the same code for both engines. The abducting/adducting plants of the burst generator differ in
-``T2``; here the plant of every joint is the nominal one and the difference lies in the command
-(a pulse-slide-step: the lead-lag ``(1 + s T2) / (1 + s T2_eye)`` on that eye's step).
-
-The brain's model of the plant can be wrong: ``pulse_gain`` scales the pulse against the step
-(1 = matched). A pulse too large overshoots and the eye drifts back with ``T1``; too small
-undershoots and drifts on (post-saccadic drift, glissades: Bahill, Clark & Stark 1975, Math Biosci
-26:303; Kapoula, Robinson & Hain 1986, Vision Res 26:735). Nothing closes a loop on the measured
-eye: a torque applied to the globe moves it, and only the orbit's elasticity brings it back.
-
-After the burst the eye approaches its step as ``exp(-t / T2)``: from the saccade's detected offset
-(the 30 deg/s crossing) it has ``v T2`` still to go, 30 deg/s x 7.4 ms = 0.22 deg (0.19-0.25 deg over
-amplitudes, both drives alike: it is the command's, not the drive's). That tail lies inside the plan,
-which ends (``end_ms``) once every component is within ``settle_deg`` (0.01 deg) of the endpoint; from
-there the step ``K q_end`` holds the eye, which moves less than ``settle_deg`` after it.
-
-``T1 = 150 ms`` is Robinson's (1964) long time constant; ``T2`` defaults to the burst generator's
-nominal plant (``BurstGenerator.plant_t2_ms``, fitted with it to the main sequence).
+The derivation, the abducting/adducting command, the post-offset tail (``v T2``, 0.22 deg from
+30 deg/s) and the settle rule: docs/head.md ("Head and oculomotor", section "The orbital plant").
 """
 
 from __future__ import annotations

@@ -131,46 +131,24 @@ class Head(SceneObjects, HeadRendering):
     Args:
         scene: one of ``models.SCENES`` (``"bar"``, ``"dots"``, ``"natural"``, ``"search"``).
         image_size: eye image size, ``int`` (square) or ``(height, width)``, each in [1, 4096].
-        fovy_deg: vertical field of view of each eye (default 70 deg: +-35 deg).
-        ipd: interpupillary distance, metres.
+        fovy_deg, ipd: each eye's vertical field of view (default 70 deg); interpupillary distance (m).
         quality: ``"fast"`` (default: no shadows/multisampling) or ``"default"`` (MuJoCo's).
         seed: seeds scene layouts (``search``) and saccade endpoint noise (an integer >= 0 or None).
-        endpoint_noise: s.d. of saccade endpoint error as a fraction of amplitude, applied to the
-            cyclopean direction, horizontal and vertical independently (signal-dependent noise:
-            scatter grows in proportion to amplitude; 0 = none; at most 1). Human scatter is about
-            5-10 % of the amplitude (Kowler & Blaser 1995, Vision Res 35:1741; van Beers 2007,
-            J Neurosci 27:8757). It acts downstream of the generator: the efference copy keeps the
-            intended endpoint.
-        motor_noise: the saccadic motor error as a :class:`models.MotorNoise` (scatter along and
-            across the saccade's direction, undershoot; ``models.HUMAN_MOTOR_NOISE`` for published
-            values), instead of ``endpoint_noise``; default none. Drawn from the seeded stream.
-        saccade_model: ``"burst"`` (default: the brainstem burst generator of
-            :mod:`models.saccade_generator`, with slower vergence) or ``"legacy"`` (the earlier
-            analytic main-sequence planner, for comparison).
+        endpoint_noise: s.d. of saccade endpoint error as a fraction of amplitude (0-1; human: 5-10 %,
+            Kowler & Blaser 1995, Vision Res 35:1741); downstream of the generator.
+        motor_noise: a :class:`models.MotorNoise` instead of ``endpoint_noise`` (default none).
+        saccade_model: ``"burst"`` (default: :mod:`models.saccade_generator`) or ``"legacy"``.
         main_sequence: kinematics of the legacy model (defaults: Van Wetter & Van Opstal 2008).
-        generator: parameters of the burst generator (default ``BurstGenerator()``).
-        vergence: vergence dynamics of the burst model (default ``VergenceDynamics()``).
-        eye_position: timing of the eye-position signal (default ``EyePositionSignal()``).
-        timestep_ms: physics timestep while no saccade is in flight (default 1 ms; must divide
-            1 ms, at least 0.01 ms). Finer costs proportionally more and changes nothing visible.
-        saccade_timestep_ms: physics timestep during saccades up to their offset (default
-            0.25 ms; must divide 1 ms, at least 0.01 ms); sets the resolution of recorded :class:`EyeTrace` s.
-        eye_drive: ``"plant"`` (default: torques move each eye through the orbital plant,
-            :mod:`models.plant`; perturbations and a mismatched pulse show in the traces) or
-            ``"servo"`` (a stiff position servo tracks the command: exact, noise-free pointing).
-        plant: the plant's time constants and the brain's pulse (default ``OrbitalPlant()``; ``"plant"`` only).
+        generator, vergence, eye_position: the burst generator's, vergence's and eye-position
+            signal's parameters (defaults ``BurstGenerator()``, ``VergenceDynamics()``, ``EyePositionSignal()``).
+        timestep_ms, saccade_timestep_ms: physics timesteps outside saccades (1 ms) and during them
+            (0.25 ms); each must divide 1 ms and be at least 0.01 ms.
+        eye_drive: ``"plant"`` (default: torques through the orbital plant, :mod:`models.plant`) or
+            ``"servo"`` (a stiff position servo: exact, noise-free pointing).
+        plant: the plant's time constants and the brain's pulse (default ``OrbitalPlant()``).
 
     Times given to its methods are whole milliseconds, at most ``MAX_STEP_MS`` (60,000) per call.
-
-    Usage::
-
-        with Head("dots", image_size=128, seed=0) as head:
-            head.reset()                                  # fixating the fixation point
-            plan = head.plan_saccade_to(head.object_position("target"), latency_ms=50)
-            plan.efference_copy                           # known before the eyes move
-            for t in head.run_saccade(plan, before_ms=50, after_ms=50):
-                if t == -20: head.flash("flash_07", duration_ms=8)
-                frame = head.render()                     # StereoFrame at t ms re onset
+    Each argument in full, and a head in use: docs/head.md ("Head and oculomotor").
     """
 
     def __init__(

@@ -1,50 +1,20 @@
 """Vergence dynamics: the disjunctive part of a binocular gaze shift, slower than the saccade.
 
-A gaze shift between targets at different distances has a conjugate (version) part, carried by
-the saccade, and a disjunctive (vergence) part. Disparity vergence alone is slow and late: it starts
-~160 ms after a disparity step and responses to steps of a few degrees take several hundred ms, with
-a smooth, roughly bell-shaped velocity profile (Rashbass & Westheimer 1961, J Physiol 159:339;
-Collewijn, Erkelens & Steinman 1995, Vision Res 35:3335). During a saccade vergence speeds up
-several-fold (saccade-vergence interaction: Enright 1984, J Physiol 350:9; Zee, FitzGibbon &
-Optican 1992, J Neurophysiol 68:1624), so much of a combined gaze shift's vergence happens
-inside the saccade and the rest follows slowly.
+A vergence generator, not a first-order lag: the fraction of the vergence change done is the
+critically damped response ``r = 1 - (1 + s) e^-s`` of an internal time ``s`` (velocity zero at the
+start, a skewed bell peaking at ``s = 1``). ``s`` runs at ``1 / tau_ms`` (``divergence_tau_ms`` for
+divergence, slower: Hung, Zhu & Ciuffreda 1997, Vision Res 37:1197; Alvarez, Semmlow & Pedrono 2005,
+Vision Res 45:1847), and ``saccade_speedup`` times faster from burst onset to the saccade's offset
+(Enright 1984, J Physiol 350:9; Zee, FitzGibbon & Optican 1992, J Neurophysiol 68:1624). Without a
+saccade it starts ``latency_ms`` after the command (Rashbass & Westheimer 1961, J Physiol 159:339);
+with one, with the burst. The command is the target's disparity (open-loop); outside saccades the
+peak velocity is ``change / (e tau)``, a linear main sequence.
 
-Model (a vergence generator, not a first-order lag): the fraction ``r`` of the vergence change done
-is the critically damped response ``r = 1 - (1 + s) e^-s`` of an internal time ``s``: velocity
-``s e^-s`` (per unit of ``s``) is zero at the start, peaks at ``s = 1`` and decays -- a skewed bell.
-``s`` runs at ``1 / tau_ms``; from burst onset to the saccade's offset it runs ``saccade_speedup``
-times faster (the saccadic burst facilitates the vergence generator: Zee et al. 1992's omnipause
-gating). Without a saccade (the version part below the 30 deg/s detection threshold) the response
-starts ``latency_ms`` after the command's onset: disparity vergence's own latency. With a saccade
-vergence starts with the burst (combined movements: Enright 1984).
-
-The vergence command is the target's disparity: the change of vergence angle the target demands
-from the current fixation (its horizontal binocular disparity, crossed = nearer = convergence), so
-the response is disparity-driven and open-loop, as the fast component of disparity vergence is
-(Hung, Zhu & Ciuffreda 1997).
-
-Vergence main sequence: outside saccades the peak velocity is ``change / (e tau)``, so it grows in
-proportion to the amplitude and the duration stays constant -- a linear main sequence, as main
-sequences of disparity vergence steps are reported (Hung, Zhu & Ciuffreda 1997; Lee, Chen & Alvarez
-2008, J Vis 8(12):5); the slopes below are not read from those papers.
-
-Convergence is faster than divergence (Hung, Zhu & Ciuffreda 1997, Vision Res 37:1197; Alvarez,
-Semmlow & Pedrono 2005, Vision Res 45:1847): divergence runs on its own, longer time scale
-``divergence_tau_ms``.
-
-Constants and their sources: ``latency_ms = 160`` (Rashbass & Westheimer 1961: ~160 ms);
-``tau_ms = 90`` (convergence), ``divergence_tau_ms = 135`` and ``saccade_speedup = 4`` are this
-project's choices within those reports (not fits; the 1.5 ratio of the time scales is not a
-number read from one paper): a 2 deg convergence step without a saccade peaks at 8.2 deg/s 90 ms
-after it starts (main-sequence slope 4.1 /s) and is 90 % done 350 ms after it starts; the same
-divergence peaks at 5.5 deg/s (2.7 /s); inside a 20 deg saccade (~66 ms) about 79 % of a
-convergence is done.
-
-Not modelled: accommodation and its coupling to vergence, the dependence of divergence on the
-initial vergence angle (Alvarez et al. 2005), vertical vergence dynamics (vertical components move
-with the saccade), and Listing's plane tilting with convergence (L2; Mok et al. 1992, Van Rijn &
-Van den Berg 1993): torsion obeys Listing's law for each eye's own gaze direction at every instant
-(L1), as in the rest of ``models.eye_kinematics``.
+Constants: ``latency_ms = 160`` (Rashbass & Westheimer 1961); ``tau_ms = 90``,
+``divergence_tau_ms = 135`` and ``saccade_speedup = 4`` are this project's choices within those
+reports, not fits. Their consequences, the sources in full and what is not modelled (accommodation,
+Listing's plane tilting with convergence, ...): docs/head.md ("Head and oculomotor", section
+"Vergence").
 """
 
 from __future__ import annotations

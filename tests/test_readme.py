@@ -29,6 +29,10 @@ counts as a block that runs.
 A page may show a block of the README with ``--8<-- "README.md:name"`` (pymdownx.snippets, between the
 README's ``[start:name]`` and ``[end:name]`` comments): that block runs once, as the README's. The
 README stays short (at most ``README_MAX_LINES``), and every page under docs/ is in the nav.
+
+Each block's outputs (the files it writes in the scratch folder) are compared with the digests of
+``tests/data/readme_outputs.json`` (``tests/readme_outputs.py`` says what is compared and how to
+regenerate the manifest when a change is intended).
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+import readme_outputs  # tests/readme_outputs.py
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
@@ -114,6 +119,19 @@ def nav_pages(mkdocs_yml: str) -> list[str]:
 SOURCES = ["README.md"] + [f"docs/{p}" for p in nav_pages(MKDOCS.read_text() if MKDOCS.is_file() else "")
                            if (DOCS / p).is_file()]  # a nav entry without its page fails the nav test
 BLOCKS = [b for src in SOURCES for b in readme_blocks((ROOT / src).read_text(), src) if b.lang in LANGS]
+
+
+def _example_names(blocks: list[Block]) -> dict[Block, str]:
+    """Each block's name in the outputs manifest: its file and first line, numbered when repeated."""
+    names, seen = {}, {}
+    for b in blocks:
+        name = readme_outputs.example_name(b.source, b.code)
+        seen[name] = seen.get(name, 0) + 1
+        names[b] = name if seen[name] == 1 else f"{name} (#{seen[name]})"
+    return names
+
+
+EXAMPLES = _example_names(BLOCKS)
 
 
 def test_readme_has_blocks_and_known_languages():
@@ -222,6 +240,10 @@ def test_pip_install_lines_never_run():
     assert without_installs("a && pip install -e .\n")[1].startswith("installs packages")
 
 
+#: with UPDATE_README_OUTPUTS=1: the examples that ran, and the digests of what they wrote
+_RECORDED: dict = {"ran": set(), "files": {}}
+
+
 @pytest.fixture(scope="module")
 def scratch(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("readme")
@@ -229,7 +251,50 @@ def scratch(tmp_path_factory) -> Path:
         if entry.name.startswith(".") or entry.name in ("results", "runs", "out", "build", "dist"):
             continue
         (d / entry.name).symlink_to(entry)
-    return d
+    yield d
+    if readme_outputs.updating() and _RECORDED["ran"]:  # keep the entries of the examples that did not run
+        manifest = readme_outputs.load()
+        manifest["files"] = {p: e for p, e in manifest["files"].items() if e["example"] not in _RECORDED["ran"]}
+        manifest["files"].update(_RECORDED["files"])
+        readme_outputs.save(manifest)
+
+
+def check_outputs(block: Block, written: list[str], scratch: Path) -> None:
+    """The files ``block`` wrote have the digests of the manifest (or are recorded into it)."""
+    manifest, example = readme_outputs.load(), EXAMPLES[block]
+    where = f"the example at {block.source} line {block.line} ({example!r})"
+    problems = []
+    for rel in written:
+        if readme_outputs.excluded_by(rel, manifest):
+            continue
+        if not rel.endswith(readme_outputs.COMPARED_SUFFIXES):
+            problems.append(f"{rel}: written by {where}, neither a compared output nor excluded in the manifest "
+                            "(add a pattern and its reason to its 'excluded')")
+            continue
+        got = readme_outputs.digest(scratch / rel, scratch, ROOT)
+        if readme_outputs.updating():
+            before = _RECORDED["files"].get(rel)
+            if before is not None and before["example"] != example and before["sha256"] != got:
+                problems.append(f"{rel}: written by {where} and, differently, by {before['example']!r}: "
+                                "the manifest holds one digest per path")
+            _RECORDED["files"][rel] = {"example": example, "sha256": got}
+            continue
+        entry = manifest["files"].get(rel)
+        if entry is None:
+            problems.append(f"{rel}: written by {where}, is not in the manifest")
+        elif entry["sha256"] != got:
+            problems.append(f"{rel}: written by {where}, has SHA-256 {got}, the manifest {entry['sha256']} "
+                            f"(recorded for {entry['example']!r})")
+    if readme_outputs.updating():
+        _RECORDED["ran"].add(example)
+    else:
+        gone = sorted(p for p, e in manifest["files"].items() if e["example"] == example and p not in written)
+        problems += [f"{p}: recorded for {where}, which no longer writes it" for p in gone]
+    note = readme_outputs.environment_note(manifest)
+    assert not problems, ("the example's outputs differ from tests/data/readme_outputs.json:\n  "
+                          + "\n  ".join(problems) + (f"\n{note}" if note else "")
+                          + "\nif the change is intended, regenerate the manifest "
+                          f"and commit it with the change: {readme_outputs.REGENERATE}")
 
 
 @pytest.mark.readme
@@ -259,7 +324,12 @@ def test_readme_block_runs(block: Block, scratch: Path):
         cmd = [sys.executable, script.name]
     else:
         cmd = ["bash", "-eo", "pipefail", "-c", code]
+    before = readme_outputs.snapshot(scratch)
     r = subprocess.run(cmd, cwd=scratch, env=env, capture_output=True, text=True, timeout=HANG_S,
                        stdin=subprocess.DEVNULL)
     assert r.returncode == 0, (f"{block.source} line {block.line} ({block.lang}) exited {r.returncode}:\n"
                                f"{block.code}\n--- stdout ---\n{r.stdout[-3000:]}\n--- stderr ---\n{r.stderr[-3000:]}")
+    written = readme_outputs.changed(before, readme_outputs.snapshot(scratch))
+    if LANGS[block.lang] == "python":  # the block's own script is not an output
+        written = [p for p in written if p != script.name]
+    check_outputs(block, written, scratch)

@@ -7,47 +7,22 @@ result read out through the eye-position signal.
 ``mechanistic`` (the default) has no time course of its own. Its ingredients, each of which can be
 switched off by name (``TrialConfig(disabled=(...))``, ``--disable``):
 
-``smear``
-    the flash's retinal image is the integral over its 8 ms on the moving retina
-    (``models.Head.render(exposure_ms=...)``); off: one render at the flash's onset.
-``latency``
-    the flash's cortical response arrives ``visual_latency_ms`` (70 ms) after it and meets the
-    oculomotor signals of that moment; off: they are read at the flash's own time.
-``eye_position_signal``
-    retinal positions become head positions through the extraretinal eye-position signal
-    (``models.SaccadePlan.eye_position_signal``), which leads the eye before the saccade and lags
-    it after (Honda 1991; Dassonville, Schlag & Schlag-Rey 1992); off: through the true eye.
-``command_remap``
-    the efference-copy remapping of §6.5 -- the DPFT log-radius shift of the target-centred map
-    towards the saccade target -- is driven by the oculomotor command itself: its gain is
-    ``g = feedback_gain * |dEPS/dt|``, the speed (deg/ms) at which the eye-position signal, the
-    smoothed efference copy, is changing when the flash's response arrives. This is the role of
-    the oculomotor feedback signal in Hamker, Zirnsak, Calow & Lappe (2008), PLoS Comput Biol
-    4:e31 (a saccade-locked, smoothly rising and decaying signal that shifts the gain of the
-    retinotopic map towards the saccade target), taken from the saccade generator rather than
-    drawn: its strength grows with amplitude (and weakly with velocity), its time course is the
-    signal's. ``feedback_gain`` (4.5 ms/deg) is the one calibrated constant: a 20 deg saccade's
-    peak compression is then ~50 %, the published peak (Morrone, Ross & Burr 1997; Kaiser & Lappe
-    2004). Off: g = 0.
-``references``
-    post-saccadic visual references anchor the read-out (Lappe, Awater & Krekelberg 2000; Awater &
-    Lappe 2006): when the post-saccadic retina sees a reference (the lit target, the ruler), the
-    flash is localized *relative to it* in the remapped, target-centred map -- the seen target's
-    head position (through the settled eye-position signal) plus the flash's compressed offset
-    from the target -- so the eye-position signal's error cancels and compression shows. Without
-    a reference (``condition="dark"``: the target goes off at saccade onset, the screen is black)
-    only the extraretinal route is left: the flash's unremapped retinal position through the
-    eye-position signal, which shifts but does not compress. The weight of the anchored route is
-    graded by how much reference the retina sees: ``reference_weight x min(1, A / reference_unit)``,
-    with A the retina's summed activity of every post-saccadic reference (target, ruler, markers;
-    their contrast and size as rendered) and ``reference_unit`` the activity of the default
-    references (target + ruler at full contrast, 256 px: the same measured unit as the observer's).
-    The anchor is the seen target, or, where the target is not seen, the centroid of the references
-    that are. Off: weight 0.
+- ``smear``: the flash's image integrated over its 8 ms on the moving retina;
+- ``latency``: the flash's cortical response meets the oculomotor signals ``visual_latency_ms``
+  (70 ms) later;
+- ``eye_position_signal``: retinal positions become head positions through the extraretinal
+  eye-position signal (Honda 1991; Dassonville, Schlag & Schlag-Rey 1992), not the true eye;
+- ``command_remap``: the §6.5 log-radius shift towards the saccade target with the gain
+  ``g = feedback_gain * |dEPS/dt|``, the oculomotor feedback of Hamker, Zirnsak, Calow & Lappe
+  (2008), PLoS Comput Biol 4:e31; ``feedback_gain`` (4.5 ms/deg) is calibrated to the ~50 % peak
+  compression of a 20 deg saccade (Morrone, Ross & Burr 1997; Kaiser & Lappe 2004);
+- ``references``: post-saccadic references anchor the read-out in the remapped, target-centred map
+  (Lappe, Awater & Krekelberg 2000; Awater & Lappe 2006), weighted
+  ``reference_weight x min(1, A / reference_unit)`` by the references' retinal activity A.
 
-What the mechanistic model does not contain (so does not claim): any fitted time course, a
-reference-dependent change of the remapping itself, a Bayesian weighting of the two routes by
-their reliabilities (the weight is set), or the perisaccadic suppression of sensitivity.
+No fitted time course, no reference-dependent remapping, no Bayesian weighting of the two routes,
+no perisaccadic suppression. Each ingredient in full: docs/psychophysics/run.md ("Flash
+localization", section "The perception models in full").
 """
 
 from __future__ import annotations

@@ -1,37 +1,18 @@
 """The ``population`` perception model: a gain-field population on the cortical map.
 
 The theory (Hamker, Zirnsak, Calow & Lappe 2008, PLoS Comput Biol 4:e31; the map's geometry as
-in Richard, Churan, Guitton & Pack 2009, J Neurosci 29:10160): visual space is represented by a
-retinotopic population whose units tile the cortical map uniformly; an oculomotor feedback
-signal, rising with the saccade command, multiplies the gain of the units around the saccade
-goal; the flash's position is read out by a population code. Compression is not imposed: the
-gain field makes the units near the goal respond more, and the population's estimate of every
-flash is pulled towards the goal by an amount set by the gain field's gradient where the
-flash's activity lies.
+in Richard, Churan, Guitton & Pack 2009, J Neurosci 29:10160): a retinotopic population tiles the
+cortical map ``w = log(|zeta| + a) + i arg(zeta)`` (Schwartz 1980; ``a = map_a_deg``, Horton &
+Hoyt 1991) uniformly; a flash evokes a Gaussian bump (s.d. ``rf_sd``) around its cortical position;
+an oculomotor feedback signal (the burst through two first-order stages, ``tau_ms``) multiplies
+the gain of the units around the saccade goal, ``g(w) = 1 + S exp(-|w - w_T|^2 / (2 field_sd^2))``
+with ``S = gain_per_deg * s_bar``; the population vector ``integral(w g R) / integral(g R)`` (closed
+form: ``population_estimate``) is read out through the eye-position signal. Compression is not
+imposed: the gain field's gradient pulls every flash towards the goal. It has no term for visual
+references (the same compression in the dark and with references).
 
-1. **The map.** A unit at retinal position zeta (deg, complex) sits at the cortical position
-   ``w = log(|zeta| + a) + i arg(zeta)`` -- the complex-log model of V1 (Schwartz 1980) in polar
-   form, with the foveal constant ``a = map_a_deg`` (Horton & Hoyt 1991: human V1 magnification
-   17.3 / (E + 0.75) mm/deg); units tile the map uniformly. Richard et al. (2009) found
-   perisaccadic mislocalization to be simple in these coordinates.
-2. **The population's response** to a flash is a Gaussian bump on the map around the flash's
-   cortical position ``w_f`` (the retina's activity centroid of the flash, mapped), s.d. ``rf_sd``:
-   the large receptive fields of the read-out layer (Hamker et al. 2008's second layer).
-3. **The oculomotor feedback signal** is the saccadic burst (the efference copy's speed, deg/ms)
-   passed through two first-order stages (time constants ``tau_ms``; Hamker et al. 2008 found a
-   burst-like feedback time course fits best): ``tau s1' = b - s1``, ``tau s' = s1 - s``. It
-   starts with the burst, outlasts it, and its integral is the saccade's amplitude.
-4. **The gain field**: ``g(w) = 1 + S exp(-|w - w_T|^2 / (2 field_sd^2))``, ``S = gain_per_deg *
-   s_bar``, centred on the goal's cortical position ``w_T`` (the efference copy's prediction of the
-   target's retinal position at the flash), where ``s_bar`` is the feedback signal averaged over
-   the flash's visual response (``latency_ms`` after it, lasting ``response_ms``).
-5. **The read-out**: the population vector ``w_hat = integral(w g R) / integral(g R)`` over the map
-   (closed form for Gaussians: ``population_estimate``), mapped back to the retina and turned
-   into a head-centred direction through the eye-position signal (``models.EyePositionSignal``,
-   one for every condition) at the response's arrival.
-
-It has no term for visual references: the theory predicts the same compression in the dark
-and with references, and with memory-guided saccades (the goal is in the motor plan).
+The five steps in full: docs/psychophysics/theories.md ("Rival theories", section "The population
+model in full").
 """
 
 from __future__ import annotations

@@ -143,50 +143,26 @@ MAX_MARKERS = models.scenes.N_MARKERS
 class TrialConfig:
     """Everything but the trial that fixes the result: head, retina, time course, read-out.
 
-    image_size : eye image side (pixels). fovy_deg : each eye's vertical field of view.
-    fovea_deg : foveal radius of the retina (and of the target-centred map).
-    timecourse : the remapping gain time course. threshold : centroid threshold (fraction of peak).
+    image_size, fovy_deg, fovea_deg : eye image side (px), vertical field of view, foveal radius.
+    timecourse : the ``paper`` model's remapping gain time course. threshold : centroid threshold.
     endpoint_noise : saccade endpoint noise (fraction of amplitude; 0 = none), seeded per trial.
-    saccade_model : ``"burst"`` (the brainstem generator) or ``"legacy"`` (``models.Head``).
-    eye_drive : how the head's eyes move: ``"plant"`` (torques through the orbital plant, the default)
-        or ``"servo"`` (exact pointing); part of the configuration's fingerprint, so a resumed run
-        cannot mix the two (``models.Head``).
-    generator : the burst generator's parameters (a ``models.BurstGenerator``, e.g. fitted to a person's
-        recording by ``python -m experiments saccades --recording``; None: the defaults). Burst model only.
-    eye_position : ``"signal"`` (the extraretinal eye-position signal, default) or ``"true"``
-        (the true eye orientation: an oracle, for comparison) for the retinal-to-head read-out.
-    visual_latency_ms : delay from the flash to its cortical response (0-300 ms): the read-out
-        pairs the flash with the eye-position signal this much later.
-    eps_sigma_ms, eps_delay_ms : the eye-position signal's smoothing and delay
-        (``models.EyePositionSignal``; 50, 50 ms).
-    oversample : density factor of the target-centred read-out grid. flash_radius_deg : flash dot radius.
-    model : ``"mechanistic"`` (default) or ``"paper"`` (``mechanisms``); ``timecourse`` is the paper
-        model's, ``feedback_gain`` (ms/deg), ``reference_weight``, ``reference_unit`` and ``disabled``
-        (a tuple of ``mechanisms.MECHANISMS``) the mechanistic model's: the anchored route's weight is
-        ``reference_weight x min(1, A / reference_unit)``, A the retina's activity of the post-saccadic
-        references (``mechanisms``).
-    condition : ``"references"`` (the target stays lit and a ruler appears at saccade offset) or
-        ``"dark"`` (black screen; the target goes off at saccade onset).
-    paradigm : ``"localization"`` (one flash per trial), ``"separation"`` (two simultaneous
-        flashes ``SEPARATION_DEG`` apart, each localized: perceived separation vs localization) or
-        ``"displacement"`` (no flash: the target steps by the trial's ``flash_dx_deg`` during the
-        saccade, blanked for the trial's ``flash_time_ms`` >= 0; the model reports the step's
-        direction; ``stability_tolerance`` and ``report_noise_deg`` are its parameters).
-    reference_contrast : opacity (0-1) of the post-saccadic references (the target after saccade
-        onset, the ruler, the markers): their contrast against the screen.
-    reference_ms : how long (ms) the post-saccadic references stay on after saccade offset (0: never
-        shown; the target goes off then too).
-    target_off_ms : the target goes off this long after saccade onset and stays off (negative:
-        before onset, a memory-guided saccade; the default 1000 keeps it on).
-    markers : up to ``MAX_MARKERS`` extra references, (dx, dy) deg from the target, shown with the
-        ruler after saccade offset.
-    ruler : whether the ruler appears after saccade offset (``references`` condition only).
-    observer, population : the ``observer`` and ``population`` models' constants
-        (``observer.ObserverParams``, ``population.PopulationParams``).
+    saccade_model, eye_drive, generator : the head's saccade model (``"burst"``/``"legacy"``), eye
+        drive (``"plant"``/``"servo"``, part of the fingerprint) and burst generator (``models.Head``).
+    eye_position : ``"signal"`` (default) or ``"true"`` (an oracle, for comparison) for the read-out.
+    visual_latency_ms, eps_sigma_ms, eps_delay_ms : the flash's cortical delay (0-300 ms) and the
+        eye-position signal's smoothing and delay (``models.EyePositionSignal``; 50, 50 ms).
+    oversample, flash_radius_deg : read-out grid density; flash dot radius.
+    model : ``"mechanistic"`` (default; ``feedback_gain``, ``reference_weight``, ``reference_unit``,
+        ``disabled``) or ``"paper"`` (``timecourse``): ``mechanisms``.
+    condition : ``"references"`` or ``"dark"``. paradigm : ``"localization"``, ``"separation"`` or
+        ``"displacement"`` (``stability_tolerance``, ``report_noise_deg``).
+    reference_contrast, reference_ms, target_off_ms, markers, ruler : the post-saccadic references.
+    observer, population : those models' constants (``ObserverParams``, ``PopulationParams``).
 
     Bounds (``bounds.LIMITS``): image 32-1024 px, fovy 20-120 deg, fovea 0.25-10 deg (and under a
     quarter of fovy), threshold [0, 1), oversample 1-8, flash radius 0.1-5 deg, endpoint noise 0-0.5.
-    Wrong types raise TypeError, values out of bounds ValueError.
+    Wrong types raise TypeError, values out of bounds ValueError. Each field in full:
+    docs/psychophysics/run.md ("Flash localization", section "TrialConfig's fields").
     """
 
     image_size: int = _D["image_size"]
