@@ -61,12 +61,27 @@ VOLATILE_MD_COLUMNS = frozenset({"wall s"})
 NUMERIC_PACKAGES = ("numpy", "scipy", "numba", "mujoco", "torch", "warp-lang", "mujoco-warp")
 
 
+#: the CPU features that change floating-point results (fused multiply-add, vector widths: numba's
+#: and llvmpipe's JIT code and BLAS kernels are chosen by them)
+CPU_FLAGS = ("avx", "avx2", "avx512f", "fma")
+
+
+def _cpu_flags() -> str:
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return "unknown"
+    line = next((x for x in text.splitlines() if x.startswith("flags")), "")
+    have = set(line.partition(":")[2].split())
+    return " ".join(f for f in CPU_FLAGS if f in have) or "none"
+
+
 def environment() -> dict[str, str]:
     """Where the digests are computed: the Python, the machine and the numeric packages' versions."""
     import importlib.metadata
     import platform
 
-    env = {"python": platform.python_version(), "machine": platform.machine()}
+    env = {"python": platform.python_version(), "machine": platform.machine(), "cpu_flags": _cpu_flags()}
     for name in NUMERIC_PACKAGES:
         try:
             env[name] = importlib.metadata.version(name)

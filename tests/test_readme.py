@@ -263,7 +263,8 @@ def check_outputs(block: Block, written: list[str], scratch: Path) -> None:
     """The files ``block`` wrote have the digests of the manifest (or are recorded into it)."""
     manifest, example = readme_outputs.load(), EXAMPLES[block]
     where = f"the example at {block.source} line {block.line} ({example!r})"
-    problems = []
+    problems: list[str] = []  # what no platform explains: unknown, unexpected or vanished files
+    differing: list[str] = []  # other bytes: a regression where the manifest was recorded
     for rel in written:
         if readme_outputs.excluded_by(rel, manifest):
             continue
@@ -283,7 +284,7 @@ def check_outputs(block: Block, written: list[str], scratch: Path) -> None:
         if entry is None:
             problems.append(f"{rel}: written by {where}, is not in the manifest")
         elif entry["sha256"] != got:
-            problems.append(f"{rel}: written by {where}, has SHA-256 {got}, the manifest {entry['sha256']} "
+            differing.append(f"{rel}: written by {where}, has SHA-256 {got}, the manifest {entry['sha256']} "
                             f"(recorded for {entry['example']!r})")
     if readme_outputs.updating():
         _RECORDED["ran"].add(example)
@@ -291,6 +292,12 @@ def check_outputs(block: Block, written: list[str], scratch: Path) -> None:
         gone = sorted(p for p, e in manifest["files"].items() if e["example"] == example and p not in written)
         problems += [f"{p}: recorded for {where}, which no longer writes it" for p in gone]
     note = readme_outputs.environment_note(manifest)
+    if differing and note and not problems:
+        # other floating-point results are expected on another CPU or other numeric packages: the
+        # bytes are compared only where the manifest was recorded (the structure is checked anywhere)
+        pytest.skip(f"{len(differing)} output(s) of {where} differ from the manifest, but {note}: "
+                    f"bytes are compared only there; regenerate here with {readme_outputs.REGENERATE}")
+    problems += differing
     assert not problems, ("the example's outputs differ from tests/data/readme_outputs.json:\n  "
                           + "\n  ".join(problems) + (f"\n{note}" if note else "")
                           + "\nif the change is intended, regenerate the manifest "
