@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 
@@ -99,7 +100,10 @@ class EyeTrace:
                 f"the pieces disagree on which fields they hold ({', '.join(mixed)}): "
                 "concatenate traces of one simulation"
             )
-        return cls(**{n: np.concatenate([getattr(t, n) for t in traces]) if have[n][0] else None for n in names})
+        joined: dict[str, Any] = {
+            n: np.concatenate([getattr(t, n) for t in traces]) if have[n][0] else None for n in names
+        }
+        return cls(**joined)
 
 
 def _world_points(points) -> np.ndarray:
@@ -256,6 +260,7 @@ class Head(SceneObjects, HeadRendering):
             quality=quality,
             offscreen_size=(self.image_shape[1], self.image_shape[0]),
         )
+        assert info is not None, "build_spec gives the SceneInfo of a named scene"
         self.scene: SceneInfo = info
         self.spec.option.timestep = 1e-3 / self._k_fix
         self.model: mujoco.MjModel = self.spec.compile()
@@ -647,7 +652,7 @@ class Head(SceneObjects, HeadRendering):
         n = _ms("n", n)
         record = checks.flag("record", record)
         m, d = self.model, self.data
-        rec = [] if record else None
+        rec: list[tuple] | None = [] if record else None
         stop = self.time_ms + n
         while self.time_ms < stop:
             plan = self._plan
@@ -676,8 +681,8 @@ class Head(SceneObjects, HeadRendering):
         if not rec:
             z = np.zeros((0, 2, 3))
             return EyeTrace(np.zeros(0), z, z, z, z, z)
-        ts, qs, vs, ps = zip(*rec)
-        ts = np.array(ts)
+        t_list, qs, vs, ps = zip(*rec)
+        ts = np.array(t_list)
         sp = self._signal_plan
         if sp is None:
             intended = np.broadcast_to(self._hold, ts.shape + (2, 3)).copy()
@@ -694,8 +699,11 @@ class Head(SceneObjects, HeadRendering):
         )
 
     def _finish_saccade(self) -> None:
-        self._hold = self._plan.end_angles.copy()
-        self._signal_hold = self._plan.intended_end_angles.copy()
+        plan = self._plan
+        assert plan is not None, "a saccade in flight to finish"
+        assert plan.intended_end_angles is not None, "SaccadePlan.__post_init__ fills intended_end_angles"
+        self._hold = plan.end_angles.copy()
+        self._signal_hold = plan.intended_end_angles.copy()
         self._plan = None
 
     def _signal_hold_at(self, t_ms: float) -> np.ndarray:
