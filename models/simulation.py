@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 
@@ -639,6 +639,14 @@ class Head(SceneObjects, HeadRendering):
             return np.broadcast_to(self._hold, t_ms.shape + (2, 3)).copy()
         return self._plan.angles(t_ms)
 
+    @overload
+    def step_ms(self, n: int = 1, record: Literal[False] = False) -> None: ...
+    @overload
+    def step_ms(self, n: int = 1, *, record: Literal[True]) -> EyeTrace: ...
+    @overload
+    def step_ms(self, n: int, record: Literal[True]) -> EyeTrace: ...
+    @overload
+    def step_ms(self, n: int = 1, record: bool = False) -> EyeTrace | None: ...
     def step_ms(self, n: int = 1, record: bool = False) -> EyeTrace | None:
         """Advance the simulation by ``n`` whole milliseconds; flashes due to end by then are hidden.
 
