@@ -25,6 +25,7 @@ import contextlib
 import multiprocessing as mp
 import os
 import time
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,7 @@ def env_loop(env, actions) -> float:
 
 
 def solo(args, actions) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    configs = [
+    configs: list[tuple[str, dict[str, Any]]] = [
         ("env: all 3 remapping models (default)", {}),
         ("env: homography only", {"remap_models": ("homography",)}),
         ("env: homography only, grayscale", {"remap_models": ("homography",), "grayscale": True}),
@@ -164,6 +165,7 @@ def main() -> None:
         if lifted is None:
             kept_limited = kept
         print(f"{label:32s} {alone:8.0f}/s {pair[0]:8.0f} {pair[1]:7.0f}/s {kept[0]:7.0%} {kept[1]:5.0%}")
+    assert kept_limited is not None, "LIMITS has the row of the env as it runs (lifted None)"
     ok = min(kept_limited) >= 0.8
     print(
         f"target: each of two envs at once keeps >= 80% of its solo speed: {min(kept_limited):.0%} -> "

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from unittest import mock
 
 import numpy as np
 
@@ -33,12 +34,11 @@ def record(n: int, device: str, steps: int, seed: int = 0) -> tuple[envs.Batched
         runs.append({"state": state, "commands": np.array(commands), "lengths": np.array(lengths), "n_ms": n_ms})
         return run(commands, lengths, n_ms, wait=wait)
 
-    ph.run = recording
-    env.reset(seed=seed)
-    rng = np.random.default_rng(seed)
-    for _ in range(steps):
-        env.step(rng.uniform(-0.4, 0.4, size=(n, 2)).astype(np.float32))
-    ph.run = run
+    with mock.patch.object(ph, "run", recording):
+        env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        for _ in range(steps):
+            env.step(rng.uniform(-0.4, 0.4, size=(n, 2)).astype(np.float32))
     return env, runs
 
 

@@ -59,10 +59,12 @@ def _varint(b: bytes, i: int) -> tuple[int, int]:
 
 def _fields(b: bytes) -> list[tuple[int, int | bytes]]:
     """Top-level (field number, value) pairs of a protobuf message (varints as ints, the rest bytes)."""
-    out, i = [], 0
+    out: list[tuple[int, int | bytes]] = []
+    i = 0
     while i < len(b):
         key, i = _varint(b, i)
         f, wt = key >> 3, key & 7
+        v: int | bytes
         if wt == 0:
             v, i = _varint(b, i)
         elif wt == 1:
@@ -79,13 +81,16 @@ def _fields(b: bytes) -> list[tuple[int, int | bytes]]:
 
 
 def _get(b: bytes, *path: int):
-    """The first value at a path of field numbers, or None."""
-    for _k, f in enumerate(path):
-        vals = [v for n, v in _fields(b) if n == f]
+    """The first value at a path of field numbers, or None (also where the path runs through a varint)."""
+    val: int | bytes = b
+    for f in path:
+        if not isinstance(val, bytes):
+            return None
+        vals = [v for n, v in _fields(val) if n == f]
         if not vals:
             return None
-        b = vals[0]
-    return b
+        val = vals[0]
+    return val
 
 
 def cursor(state: bytes, timeline: str) -> tuple[int, int] | None:

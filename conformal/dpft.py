@@ -22,10 +22,11 @@ from __future__ import annotations
 
 import math
 from functools import cached_property, lru_cache
+from typing import cast
 
 import numpy as np
 import scipy.fft
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 
 from . import checks
 from .geometry import act, inverse
@@ -105,10 +106,11 @@ def _phase(grid: RetinaGrid) -> NDArray[np.complex128]:
     return dpft_tables(grid)[0]
 
 
-def pft_frequencies(grid: RetinaGrid) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+def pft_frequencies(grid: RetinaGrid) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """The PFT arguments (s_m, n) that F_{m,n} approximates: s_m = 2 pi m / T, m = 0..M-1."""
     _check_grid(grid)
-    return 2 * math.pi * np.arange(grid.M) / grid.T, np.arange(grid.N)
+    s_m = cast(NDArray[np.float64], 2 * math.pi * np.arange(grid.M) / grid.T)  # numpy's stubs: floating[Any]
+    return s_m, np.arange(grid.N)
 
 
 def dpft(samples: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
@@ -168,7 +170,7 @@ def idpft_direct(coeffs: ArrayLike, grid: RetinaGrid) -> NDArray[np.complex128]:
         (1j * 2 * math.pi * m[None, :, None] / grid.T - 1) * np.log(r)[:, None, None]
     )
     out = np.tensordot(kern, F.reshape(grid.M, grid.N, -1), axes=([1, 2], [0, 1])) / (grid.M * grid.N)
-    return (out / dpft_weight(grid)).reshape(F.shape)
+    return cast(NDArray[np.complex128], (out / dpft_weight(grid)).reshape(F.shape))  # stubs: tensordot -> 0-d
 
 
 # ---------------------------------------------------------------------- off-grid evaluation
@@ -250,12 +252,12 @@ class OffGridEvaluator:
         eps: float = 1e-9,
         method: str = "auto",
         extension: str = "mirror",
-        dtype: type = np.float64,
+        dtype: DTypeLike = np.float64,
     ) -> None:
         _check_grid(grid)
         checks.choice("method", method, ("auto", "nufft", "matrix"))
-        dtype = _check_float_dtype(dtype)
-        self.dtype = dtype
+        dt = _check_float_dtype(dtype)
+        self.dtype = dt
         _check_extension(extension)
         eps = checks.real("eps", eps, 1e-15, 1e-2)
         zp = _check_points(points)
@@ -274,12 +276,13 @@ class OffGridEvaluator:
         if method == "auto":  # small problems: dense factor matrices beat NUFFT's fixed cost
             per_point = grid.M * (grid.N // 2 + 1) if extension == "mirror" else self._rows * grid.N
             # single-precision tables are ~10x cheaper to build (vectorised cosines)
-            limit = 1_500_000 if (dtype == np.float32 and extension == "mirror") else 150_000
+            limit = 1_500_000 if (dt == np.float32 and extension == "mirror") else 150_000
             method = "matrix" if zf.size * per_point <= limit else "nufft"
         self.method = method
-        self._em = self._en = None
+        self._em: NDArray[np.complex128] | None = None
+        self._en: NDArray[np.complex128] | None = None
         if method == "matrix" and extension == "mirror":
-            self._cu, self._cs = _mirror_tables(grid, u, y, dtype)
+            self._cu, self._cs = _mirror_tables(grid, u, y, dt)
 
     @cached_property
     def _x(self) -> NDArray[np.float64]:
@@ -316,7 +319,7 @@ class OffGridEvaluator:
         c = int(np.prod(chans)) if chans else 1
         rows, n = self._rows, self.grid.N
         if self.method == "matrix":
-            if self._em is None:  # separable exact sum: e^{i m x} and e^{i n y}, signed m, n
+            if self._em is None or self._en is None:  # separable exact sum: e^{i m x} and e^{i n y}, signed m, n
                 self._em, self._en = _exp_ramp(self._x, rows), _exp_ramp(self._y, n)
             t = (self._en @ B.reshape(rows, n, c).transpose(1, 0, 2).reshape(n, rows * c)).reshape(-1, rows, c)
             vals = (t * self._em[:, :, None]).sum(axis=1).T

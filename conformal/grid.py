@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -224,7 +225,8 @@ class RetinaGrid:
         h = self.fovea_spacing
         n = int(math.ceil(math.sqrt(self.n_fovea / math.pi))) + 3
         idx = np.arange(-n, n) + 0.5
-        z = (idx[None, :] + 1j * idx[::-1, None]).ravel() * h
+        # cast: numpy's stubs type float + 1j * float as a float array
+        z = cast(NDArray[np.complex128], (idx[None, :] + 1j * idx[::-1, None]).ravel() * h)
         ang = np.mod(np.angle(z), 2 * np.pi)
         order = np.lexsort((ang, np.round(np.abs(z) / h, 9)))
         return z[order[: self.n_fovea]]

@@ -24,7 +24,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 
 from . import checks
 from .dpft import OffGridEvaluator, _check_float_dtype, _check_grid, _check_samples
@@ -293,7 +293,7 @@ def predict_many(
     point_maps: list[PointMap],
     *,
     on: RetinaGrid | None = None,
-    dtype: type = np.float64,
+    dtype: DTypeLike = np.float64,
 ) -> list[RetinaSamples]:
     """``predict`` for several point maps at once, sharing one evaluation of the series.
 
@@ -307,7 +307,7 @@ def predict_many(
             f"got {fov.shape}"
         )
     out_grid = grid if on is None else _check_grid(on, "on")
-    dtype = _check_float_dtype(dtype)
+    dt = _check_float_dtype(dtype)
     if isinstance(point_maps, (str, bytes)) or not hasattr(point_maps, "__len__") or len(point_maps) == 0:
         raise checks.InputTypeError(f"point_maps must be a non-empty list of point maps; got {point_maps!r}")
     for pm in point_maps:
@@ -322,7 +322,7 @@ def predict_many(
     chans = F.shape[2:]
     out = np.zeros((len(w),) + chans)
     if np.any(in_periph):
-        out[in_periph] = OffGridEvaluator(grid, w[in_periph], dtype=dtype)(F)
+        out[in_periph] = OffGridEvaluator(grid, w[in_periph], dtype=dt)(F)
     if np.any(in_fovea):
         out[in_fovea] = _fovea_lookup(fov, grid, w[in_fovea])
     valid = in_fovea | in_periph

@@ -317,7 +317,8 @@ class RemapPlan:
         if key not in self._scratch:
             cols = n_maps * self.n_points
             self._scratch[key] = (np.empty((n_eyes, cols)), np.empty((n_eyes, cols)))
-        return self._scratch[key]
+        rho_t, rho_y = self._scratch[key]
+        return rho_t, rho_y
 
     def _cos_t_scratch(self, shape: tuple[int, ...]) -> NDArray[np.float64]:
         if shape not in self._cos_t:

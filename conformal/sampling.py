@@ -241,17 +241,19 @@ class Retina:
             r0 = np.clip(np.floor(row).astype(int), 0, h - 2)
             fc = np.clip(col - c0, 0, 1)
             fr = np.clip(row - r0, 0, 1)
-            rows, cols, vals = [], [], []
+            row_parts: list[NDArray[np.intp]] = []
+            col_parts: list[NDArray[np.intp]] = []
+            val_parts: list[NDArray[np.float64]] = []
             for dr, dc, wt in (
                 (0, 0, (1 - fr) * (1 - fc)),
                 (0, 1, (1 - fr) * fc),
                 (1, 0, fr * (1 - fc)),
                 (1, 1, fr * fc),
             ):
-                rows.append(idx[inside])
-                cols.append(((r0 + dr) * w + c0 + dc)[inside])
-                vals.append(wt[inside])
-            rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+                row_parts.append(idx[inside])
+                col_parts.append(((r0 + dr) * w + c0 + dc)[inside])
+                val_parts.append(wt[inside])
+            rows, cols, vals = np.concatenate(row_parts), np.concatenate(col_parts), np.concatenate(val_parts)
         op = sp.csr_matrix((vals, (rows, cols)), shape=(len(pts), h * w))
         return op, inside.astype(float)
 
@@ -361,7 +363,8 @@ class Retina:
 
     def _make_render_index(self) -> NDArray[np.intp]:
         g = self.grid
-        z = pixel_points(self.image_shape[:2], self.pixels_per_unit).ravel()
+        h, w = self.image_shape[:2]
+        z = pixel_points((h, w), self.pixels_per_unit).ravel()
         k, l = g.locate(z)
         idx = np.full(z.shape, g.n_fovea + g.M * g.N, dtype=np.intp)
         per = (k >= 0) & (k < g.M)

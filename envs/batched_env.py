@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium.utils import seeding
@@ -45,6 +45,11 @@ from . import core
 from .actions import decode_actions
 from .saccade_env import BinocularSaccadeEnv
 from .tasks import FixateTask, FreeViewingTask, SearchTask, Task, gaze_errors
+
+if TYPE_CHECKING:
+    from torch import Tensor
+
+    from .batched_vision import TorchFrame
 
 __all__ = ["BatchedBinocularSaccade", "MAX_NUM_ENVS"]
 
@@ -190,8 +195,8 @@ class BatchedBinocularSaccade(VectorEnv):
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._saccades = np.zeros(self.num_envs, np.int64)
         self._autoreset = np.zeros(self.num_envs, bool)
-        self._frame = None
-        self._remapped = None
+        self._frame: TorchFrame | None = None
+        self._remapped: Tensor | None = None  # the remapped cortical observation (after reset)
         #: Set to a dict to accumulate each part's wall time per step (seconds, device synchronised
         #: around each part: slower; for benchmarks/batched.py); None (default) to time nothing.
         self.timings: dict[str, float] | None = None
@@ -401,16 +406,18 @@ class BatchedBinocularSaccade(VectorEnv):
             pictures = self.physics.render() if self.retina_rays is None else self.physics.render_retina()
         with self._part("retina"):
             if self.retina_rays is None:
-                self._frame = self.vision.see(pictures, check_range=False)  # the renderer's floats lie in [0, 1]
+                frame = self.vision.see(pictures, check_range=False)  # the renderer's floats lie in [0, 1]
             else:
-                self._frame = self.vision.see_samples(pictures)
+                frame = self.vision.see_samples(pictures)
+            self._frame = frame
         if self.timings is not None:  # the DPFT's share of that, timed once more on its own
             before = self.timings.get("dpft", 0.0)
             with self._part("dpft"):
-                self.vision._frame(self._frame.samples)
+                self.vision._frame(frame.samples)
             self.timings["retina"] -= self.timings["dpft"] - before
 
     def _cortical_now(self):
+        assert self._frame is not None, "reset() sees the first frame"
         return self.vision.cortical(self._frame.periphery, self._template.cortex)
 
     @classmethod
@@ -426,11 +433,12 @@ class BatchedBinocularSaccade(VectorEnv):
 
     def _observation(self) -> dict:
         torch = self._torch
-        f = self._frame
+        f, remapped = self._frame, self._remapped
+        assert f is not None and remapped is not None, "reset() sees the first frame before any observation"
         obs = core.observation(
             self._cortical_now(),
             f.fovea.clamp(0.0, 1.0),
-            self._remapped.clone(),
+            remapped.clone(),
             torch.as_tensor(self.planner.eye_position_signal(), dtype=torch.float32, device=self.device),
             torch.view_as_real(f.coeffs).to(torch.float32) if self._template.include_coeffs else None,
         )
@@ -444,9 +452,11 @@ class BatchedBinocularSaccade(VectorEnv):
         if isinstance(actions, self._torch.Tensor):
             actions = actions.detach().cpu().numpy()
         env = self._template
+        shape = self.action_space.shape
+        assert shape is not None, "the env's action spaces (Box, MultiDiscrete) have a shape"
         return decode_actions(
             actions,
-            self.action_space.shape,
+            shape,
             cells=env._cells,
             max_amplitude=env.max_amplitude,
             vergence=env.vergence,

@@ -55,7 +55,7 @@ def _solver_skippable(mjm, limited: np.ndarray) -> bool:
     import mujoco
 
     contacts_off = bool(mjm.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    return (
+    return bool(
         mjm.opt.integrator in (mujoco.mjtIntegrator.mjINT_IMPLICITFAST, mujoco.mjtIntegrator.mjINT_IMPLICIT)
         and contacts_off
         and mjm.neq == 0

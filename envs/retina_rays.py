@@ -42,8 +42,8 @@ def field_ray_directions(grid: RetinaGrid, subsamples: int = 2) -> NDArray[np.fl
     if not isinstance(grid, RetinaGrid):
         raise checks.InputTypeError(f"grid must be a conformal.RetinaGrid; got {type(grid).__name__}")
     s = checks.integer("subsamples", subsamples, 1, MAX_SUBSAMPLES, hint="sub-rays per field side")
-    a, b = np.meshgrid(_strata(s), _strata(s), indexing="ij")
-    a, b = a.ravel(), b.ravel()  # (s^2,) stratum centres in [0, 1)^2
+    ga, gb = np.meshgrid(_strata(s), _strata(s), indexing="ij")
+    a, b = ga.ravel(), gb.ravel()  # (s^2,) stratum centres in [0, 1)^2
     h = grid.fovea_spacing
     zf = grid.fovea_points[None, :] + h * ((a - 0.5)[:, None] + 1j * (b - 0.5)[:, None])
     r1, r2 = grid.ring_edges[:-1], grid.ring_edges[1:]

@@ -14,7 +14,7 @@ from conformal import checks
 from . import core
 from .actions import cell_angles, decode_actions
 from .tasks import Task, _gaze_errors_deg, make_task
-from .vision import POOLED_REMAP_DEFAULT, REMAP_MODELS, EyeView, Vision
+from .vision import POOLED_REMAP_DEFAULT, REMAP_MODELS, EyeView, Vision, _Frame
 
 __all__ = ["BinocularSaccadeEnv"]
 
@@ -161,10 +161,10 @@ class BinocularSaccadeEnv(gym.Env):
         self.observation_space = core.observation_space(g, self.vision.channels, cortex, include_coeffs)
         self.action_space = core.action_space(action_mode, vergence, g)
         self._cells = None if action_mode == "vector" else cell_angles(g.points)  # saccade to each cell
-        self._views: tuple[EyeView, EyeView] | None = None
-        self._seen = None  # the last frame's views and arrays (vision._Frame)
+        self._views: tuple[EyeView, ...] | None = None
+        self._seen: _Frame | None = None  # the last frame's views and arrays
         self._remapped: np.ndarray | None = None
-        self._frame = None
+        self._frame: models.StereoFrame | None = None
         self._saccades = 0
 
     # ------------------------------------------------------------------ gym API
@@ -175,8 +175,8 @@ class BinocularSaccadeEnv(gym.Env):
         self.head.reset(seed=core.head_seed(self.np_random))
         self.task.initialize_episode(self.head, self.np_random)
         self._saccades = 0
-        self._see()
-        self._remapped = self._cortical(self._seen.periphery)
+        seen = self._see()
+        self._remapped = self._cortical(seen.periphery)
         return self._observation(), core.reset_info(self.head.time_ms, {m: 0.0 for m in self.remap_models})
 
     def step(self, action):
@@ -226,10 +226,12 @@ class BinocularSaccadeEnv(gym.Env):
         raise core.no_copy(type(self).__name__)
 
     # ------------------------------------------------------------------ helpers
-    def _see(self) -> None:
-        self._frame = self.head.render()
-        self._seen = self.vision._see_frame((self._frame.left.image, self._frame.right.image))
-        self._views = self._seen.views
+    def _see(self) -> _Frame:
+        """Render both eyes and see the frame (kept as ``_frame``, ``_seen``, ``_views``); returns ``_seen``."""
+        frame = self.head.render()
+        seen = self.vision._see_frame((frame.left.image, frame.right.image))
+        self._frame, self._seen, self._views = frame, seen, seen.views
+        return seen
 
     def _cortical(self, per_eye: np.ndarray) -> np.ndarray:
         """Both eyes' peripheral samples (2, M, N, C) as the ``cortical`` observation (float32 in [0, 1])."""
@@ -241,22 +243,26 @@ class BinocularSaccadeEnv(gym.Env):
         return np.clip(out, 0.0, 1.0).astype(np.float32, copy=False)
 
     def _observation(self) -> dict[str, np.ndarray]:
+        seen, remapped = self._seen, self._remapped
+        assert seen is not None and remapped is not None, "reset() sees the first frame before any observation"
         coeffs = None
         if self.include_coeffs:
-            cf = np.stack([v.coeffs for v in self._views])
+            cf = np.stack([v.coeffs for v in seen.views])
             coeffs = np.stack([cf.real, cf.imag], axis=-1).astype(np.float32)
         return core.observation(
-            self._cortical(self._seen.periphery),
-            np.clip(self._seen.fovea, 0.0, 1.0).astype(np.float32),
-            self._remapped.copy(),
+            self._cortical(seen.periphery),
+            np.clip(seen.fovea, 0.0, 1.0).astype(np.float32),
+            remapped.copy(),
             self.head.eye_position_signal().astype(np.float32),
             coeffs,
         )
 
     def _decode(self, action) -> tuple[float, float, float]:
         """Action -> (horizontal, vertical) Fick increments (rad) and a fixation-distance factor."""
+        shape = self.action_space.shape
+        assert shape is not None, "the env's action spaces (Box, Discrete) have a shape"
         hv, factor = decode_actions(
-            action, self.action_space.shape, cells=self._cells, max_amplitude=self.max_amplitude, vergence=self.vergence
+            action, shape, cells=self._cells, max_amplitude=self.max_amplitude, vergence=self.vergence
         )
         return float(hv[0, 0]), float(hv[0, 1]), float(factor[0])
 

@@ -21,13 +21,27 @@ when they turn it on (``experiments/hyperparams/``).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Protocol, cast
+
 import gymnasium as gym
 
 from conformal import checks
 
 from .tasks import _gaze_errors_deg
 
+if TYPE_CHECKING:
+    import models
+
+    from .tasks import Task
+
 __all__ = ["PotentialShaping"]
+
+
+class _TargetEnv(Protocol):
+    """What the shaping reads of the unwrapped env (a ``BinocularSaccadeEnv``): its head and task."""
+
+    head: models.Head
+    task: Task
 
 
 class PotentialShaping(gym.Wrapper):
@@ -52,7 +66,7 @@ class PotentialShaping(gym.Wrapper):
 
     def potential(self) -> float:
         """Phi of the current state: -(mean gaze error to the target, deg) / ``scale_deg``."""
-        base = self.env.unwrapped
+        base = cast(_TargetEnv, self.env.unwrapped)  # checked in __init__: it has head and task
         err = _gaze_errors_deg(base.head, base.task.target_position(base.head))
         return -float(err.mean()) / self.scale_deg
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, cast
 
 import numba as nb
 import numpy as np
@@ -167,7 +167,7 @@ class Task:
     @staticmethod
     def _total(parts: dict[str, np.ndarray]) -> np.ndarray:
         """The reward: the sum of its components (in their order, so the sum is the same float)."""
-        return sum(parts.values())
+        return cast(np.ndarray, sum(parts.values()))  # a sum of arrays (typeshed's sum allows the int 0)
 
 
 @dataclass
@@ -259,7 +259,7 @@ class FreeViewingTask(Task):
         return np.zeros(n), np.zeros(n, bool), {}
 
 
-TASKS = {"fixate": FixateTask, "search": SearchTask, "free": FreeViewingTask}
+TASKS: dict[str, type[Task]] = {"fixate": FixateTask, "search": SearchTask, "free": FreeViewingTask}
 
 
 def make_task(task: str | Task, **kwargs) -> Task:

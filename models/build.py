@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal, overload
 
 from conformal import checks
 
@@ -39,6 +40,10 @@ class ModelFileError(OSError):
     """An MJCF file that cannot be read or compiled."""
 
 
+@overload
+def _path(name: str, value, *, allow_none: Literal[False] = False) -> Path: ...
+@overload
+def _path(name: str, value, *, allow_none: bool) -> Path | None: ...
 def _path(name: str, value, *, allow_none: bool = False) -> Path | None:
     """``value`` as a non-empty ``Path`` (``str`` or ``os.PathLike``)."""
     if value is None and allow_none:
@@ -55,7 +60,8 @@ def _offscreen_size(size) -> tuple[int, int]:
         raise checks.InputTypeError(f"offscreen_size must be a (width, height) pair; got {size!r}")
     if len(size) != 2:
         raise ValueError(f"offscreen_size must be a (width, height) pair; got {tuple(size)!r}")
-    return tuple(checks.integer(f"offscreen_size[{i}]", v, 1, MAX_OFFSCREEN_SIDE) for i, v in enumerate(size))
+    w, h = (checks.integer(f"offscreen_size[{i}]", v, 1, MAX_OFFSCREEN_SIDE) for i, v in enumerate(size))
+    return w, h
 
 
 def build_spec(

@@ -4,6 +4,7 @@ model's MJCF export (``HeadRendering``, a part of ``models.Head``)."""
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +20,20 @@ __all__ = ["HeadRendering"]
 class HeadRendering:
     """The rendering of a ``models.Head`` (which provides ``model``, ``data``, ``spec``, ``image_shape``,
     ``time_ms``, the eye joints' ``_qadr``, the eye cameras' ``_cam_ids`` and ``_command_at``)."""
+
+    # the host's attributes this part uses (declarations for the type checker; ``Head`` sets them)
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    spec: mujoco.MjSpec
+    image_shape: tuple[int, int]
+    time_ms: int
+    _renderer: EyeRenderer | None
+    _qadr: np.ndarray
+    _cam_ids: list[int]
+
+    if TYPE_CHECKING:
+
+        def _command_at(self, t_ms: np.ndarray) -> np.ndarray: ...
 
     @property
     def renderer(self) -> EyeRenderer:
@@ -72,6 +87,7 @@ class HeadRendering:
         finally:
             d.qpos[:], d.qvel[:], d.act[:] = qpos, qvel, act
             mujoco.mj_forward(m, d)
+        assert acc is not None and frame is not None, "n >= 1 renders were taken"
         img = np.rint(acc / n).astype(np.uint8)
         eyes = [
             dataclasses.replace(e, image=img[i], camera_position=poses[i][0], camera_xmat=poses[i][1])

@@ -171,6 +171,9 @@ class BatchedPlanner:
         endpoint noise come from the world's generator)."""
         head = self.head
         last = self._last[i]
+        rng = self.rngs[i]
+        if rng is None:
+            raise RuntimeError(f"world {i} has no generator yet: reset it (take_reset) before planning")
         st = head.get_state()
         head.set_state(
             OculomotorState(
@@ -178,7 +181,7 @@ class BatchedPlanner:
                 hold=self.hold[i].copy(),
                 signal_hold=self.signal_hold[i].copy(),
                 fixation_head=self.fix_head[i].copy(),
-                rng=self.rngs[i],
+                rng=rng,
                 seed=st.seed,
                 signal_plan=None if last is None else SaccadePlan.from_batch(*last),
                 flashes=st.flashes,
@@ -223,7 +226,8 @@ class BatchedPlanner:
                 redo = out[keep]  # their targets, from the shortened increments
                 for arr, new in zip(targets, self._targets(worlds[redo], hv2[redo], factor2[redo])):
                     arr[row[redo]] = new
-        batches, order = [], []
+        batches: list[SaccadePlans] = []
+        order_parts: list[np.ndarray] = []
         f_idx = np.flatnonzero(fast)
         if len(f_idx) or m == 0:
             known = None if targets is None else tuple(a[row[f_idx]] for a in targets)
@@ -231,16 +235,16 @@ class BatchedPlanner:
             if not ok.all():  # pragma: no cover - the bisection keeps only reachable attempts
                 raise RuntimeError("a clipped saccade left the oculomotor range")
             batches.append(b)
-            order.append(f_idx)
+            order_parts.append(f_idx)
         slow = np.flatnonzero(~fast)
         if len(slow):
-            plans = []
+            slow_plans = []
             for k in slow:
                 p, clipped[k] = plan_clipped(self._sync_head(worlds[k]), hv[k, 0], hv[k, 1], factor[k])
-                plans.append(p)
-            batches.append(SaccadePlans.concatenate([p._batch for p in plans]))
-            order.append(slow)
-        order = np.concatenate(order)
+                slow_plans.append(p)
+            batches.append(SaccadePlans.concatenate([p._batch for p in slow_plans]))
+            order_parts.append(slow)
+        order = np.concatenate(order_parts)
         inverse = np.empty(m, np.intp)
         inverse[order] = np.arange(m)
         plans = (

@@ -92,7 +92,7 @@ class Profiles:
         #: per saccade: (lo, hi, weight) of the interpolation in amplitude, amplitude, settle time
         self.prof = np.zeros((n, 5))
         self.prof[:, 3] = amp
-        if self.legacy:
+        if isinstance(generator, MainSequence):  # self.legacy
             ms = generator
             self.tab = self.rtab = _NO_TABLE
             self.duration_ms = np.array([ms.duration_ms(a) for a in amp])
@@ -281,8 +281,8 @@ class SaccadePlans:
         return (
             row,
             verg_on,
-            vd.saccade_speedup if verg_on else 1.0,
-            vd.latency_ms if verg_on else 0.0,
+            vd.saccade_speedup if vd is not None else 1.0,
+            vd.latency_ms if vd is not None else 0.0,
             plants,
             self.start,
             self.end if which == "executed" else self.intended_end,

@@ -10,6 +10,7 @@ change an object's alpha until ``Head.reset`` (or ``Head.set_state``) restores t
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +19,9 @@ from conformal import checks
 from ._gl import mujoco
 from .eye_kinematics.ranges import check_point
 from .servo import _ms
+
+if TYPE_CHECKING:
+    from .scenes import SceneInfo
 
 __all__ = ["SceneObjects"]
 
@@ -28,6 +32,14 @@ _MAX_RADIUS = 100.0
 class SceneObjects:
     """Scene objects, flashes and visibility of a ``models.Head`` (which provides ``model``, ``data``,
     ``scene``, ``time_ms`` and the flash/visibility bookkeeping ``_flash_off``, ``_alpha0``)."""
+
+    # the host's attributes this part uses (declarations for the type checker; ``Head`` sets them)
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    scene: SceneInfo
+    time_ms: int
+    _flash_off: dict[int, int]  #: geom id -> the time (ms) its flash ends
+    _alpha0: dict[int, float]  #: geom id -> the scene's own alpha of an object set_visible/set_opacity changed
 
     def _name(self, what: str, name, kind: str = "an object") -> str:
         if not isinstance(name, str):

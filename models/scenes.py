@@ -153,15 +153,15 @@ def _dots(spec) -> SceneInfo:
     dot = dict(type=_G.mjGEOM_SPHERE, size=[DOT_RADIUS, 0, 0])
     _mocap(spec, "fixation", screen_point(0, 0, DOTS_DISTANCE), rgba=[1, 0.1, 0.1, 1], **dot)
     _mocap(spec, "target", screen_point(np.deg2rad(DOTS_TARGET_DEG), 0, DOTS_DISTANCE), rgba=[1, 0.9, 0.1, 1], **dot)
-    flashes = []
+    flash_names: list[str] = []
     for _r, el in enumerate(FLASH_ELEVATIONS_DEG):
         for _c, az in enumerate(FLASH_AZIMUTHS_DEG):
-            name = f"flash_{len(flashes):02d}"
+            name = f"flash_{len(flash_names):02d}"
             _mocap(
                 spec, name, screen_point(np.deg2rad(az), np.deg2rad(el), DOTS_DISTANCE), rgba=[0.3, 1, 0.3, 0], **dot
             )
-            flashes.append(name)
-    flashes = tuple(flashes)
+            flash_names.append(name)
+    flashes = tuple(flash_names)
     # a visual reference (Lappe, Awater & Krekelberg 2000): a horizontal ruler 10 deg below the
     # target, hidden until shown (``Head.set_visible("ruler", True)``); movable like the target
     el = np.deg2rad(RULER_ELEVATION_DEG)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, fields
+from typing import Any, Literal, overload
 
 import numpy as np
 
@@ -99,7 +100,10 @@ class EyeTrace:
                 f"the pieces disagree on which fields they hold ({', '.join(mixed)}): "
                 "concatenate traces of one simulation"
             )
-        return cls(**{n: np.concatenate([getattr(t, n) for t in traces]) if have[n][0] else None for n in names})
+        joined: dict[str, Any] = {
+            n: np.concatenate([getattr(t, n) for t in traces]) if have[n][0] else None for n in names
+        }
+        return cls(**joined)
 
 
 def _world_points(points) -> np.ndarray:
@@ -234,6 +238,7 @@ class Head(SceneObjects, HeadRendering):
             quality=quality,
             offscreen_size=(self.image_shape[1], self.image_shape[0]),
         )
+        assert info is not None, "build_spec gives the SceneInfo of a named scene"
         self.scene: SceneInfo = info
         self.spec.option.timestep = 1e-3 / self._k_fix
         self.model: mujoco.MjModel = self.spec.compile()
@@ -612,6 +617,14 @@ class Head(SceneObjects, HeadRendering):
             return np.broadcast_to(self._hold, t_ms.shape + (2, 3)).copy()
         return self._plan.angles(t_ms)
 
+    @overload
+    def step_ms(self, n: int = 1, record: Literal[False] = False) -> None: ...
+    @overload
+    def step_ms(self, n: int = 1, *, record: Literal[True]) -> EyeTrace: ...
+    @overload
+    def step_ms(self, n: int, record: Literal[True]) -> EyeTrace: ...
+    @overload
+    def step_ms(self, n: int = 1, record: bool = False) -> EyeTrace | None: ...
     def step_ms(self, n: int = 1, record: bool = False) -> EyeTrace | None:
         """Advance the simulation by ``n`` whole milliseconds; flashes due to end by then are hidden.
 
@@ -625,7 +638,7 @@ class Head(SceneObjects, HeadRendering):
         n = _ms("n", n)
         record = checks.flag("record", record)
         m, d = self.model, self.data
-        rec = [] if record else None
+        rec: list[tuple] | None = [] if record else None
         stop = self.time_ms + n
         while self.time_ms < stop:
             plan = self._plan
@@ -654,8 +667,8 @@ class Head(SceneObjects, HeadRendering):
         if not rec:
             z = np.zeros((0, 2, 3))
             return EyeTrace(np.zeros(0), z, z, z, z, z)
-        ts, qs, vs, ps = zip(*rec)
-        ts = np.array(ts)
+        t_list, qs, vs, ps = zip(*rec)
+        ts = np.array(t_list)
         sp = self._signal_plan
         if sp is None:
             intended = np.broadcast_to(self._hold, ts.shape + (2, 3)).copy()
@@ -672,8 +685,11 @@ class Head(SceneObjects, HeadRendering):
         )
 
     def _finish_saccade(self) -> None:
-        self._hold = self._plan.end_angles.copy()
-        self._signal_hold = self._plan.intended_end_angles.copy()
+        plan = self._plan
+        assert plan is not None, "a saccade in flight to finish"
+        assert plan.intended_end_angles is not None, "SaccadePlan.__post_init__ fills intended_end_angles"
+        self._hold = plan.end_angles.copy()
+        self._signal_hold = plan.intended_end_angles.copy()
         self._plan = None
 
     def _signal_hold_at(self, t_ms: float) -> np.ndarray:

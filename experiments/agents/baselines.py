@@ -105,6 +105,7 @@ def _train_one(
         }
     from .sb3 import train_sb3
 
+    assert hp is not None, "the SB3 agents' hyper-parameters are loaded (load_hyperparams)"
     meta = train_sb3(run, agent, task, hp, seed=seed, timesteps=timesteps, log=log)
     return {"wall_s": meta["wall_s"], "env_steps": int(meta["total_timesteps"])}
 
@@ -185,7 +186,7 @@ def run_baselines(
         held_seeds = episode_seeds(eval_seed, episodes, EVAL_STREAM)  # = evaluate --episodes N --seed S
         reference = _reference(out / "reference.json", task, size, held_seeds, eval_seed, log)
         finished: dict[tuple[str, int], dict] = {}
-        todo = []
+        todo: list[_Job] = []
         for a in agents:
             for s in seeds:
                 run = _run_dir(out, a, s)
@@ -212,6 +213,11 @@ def run_baselines(
                 results[a].append(done)
         rows = _table(out, task, results, reference)
     return rows
+
+
+#: one run's arguments to :func:`_train_and_evaluate` (run folder, agent, task, seed, hyper-parameters,
+#: timesteps, quick, image size, held-out seeds, evaluation seed)
+_Job = tuple[Path, str, str, int, dict | None, int | None, bool, int, np.ndarray, int]
 
 
 def _train_and_evaluate(
@@ -244,7 +250,7 @@ def _train_and_evaluate(
     return done
 
 
-def _job(job: tuple) -> dict:
+def _job(job: _Job) -> dict:
     """A worker's run (in a spawned process or a Ray actor): its log lines go to stderr."""
     import sys
 
@@ -255,7 +261,7 @@ def _no_setup() -> None:
     pass
 
 
-def _train_all(todo: list[tuple], workers: int, backend: str, ray_address: str | None, log) -> list[dict]:
+def _train_all(todo: list[_Job], workers: int, backend: str, ray_address: str | None, log) -> list[dict]:
     """The runs of ``todo``, in its order: in this process (``workers`` 1, local), on spawned
     processes, or on Ray actors (``psychophysics.backends``). Each run is seeded, so where it runs
     changes no number (its wall time aside)."""
@@ -414,7 +420,7 @@ def _table(out: Path, task: str, results: dict[str, list[dict]], reference: dict
         }
     for k, v in reference.items():
         lines[f"{NAMES[k]}, held-out"] = {"success_rate": v["success_rate"], "mean_return": v["mean_reward"]}
-    keys = ("success_rate", "mean_return", "train_success_rate")
+    keys: tuple[str, ...] = ("success_rate", "mean_return", "train_success_rate")
     if not curves and "cem" in results:  # CEM alone: its validation curve (training_log.csv, a row per iteration)
         logs = [read_training_log(_run_dir(out, "cem", r["seed"]) / "training_log.csv") for r in results["cem"]]
         curves = {_name("cem", results["cem"]): [{**log, "mean_return": log["mean_reward"]} for log in logs]}

@@ -62,6 +62,8 @@ class SoftArgmaxSaccade(nn.Module):
     """Cell logits ``(B, M * N)`` -> the expected saccade vector under softmax(logits): ``(B, 2)``.
     ``atanh=True`` returns atanh of it (clipped to +-0.995) for policies that squash with tanh (SAC)."""
 
+    vectors: torch.Tensor  #: (n_cells, 2), a registered buffer
+
     def __init__(self, vectors: np.ndarray, atanh: bool = False) -> None:
         super().__init__()
         v = torch.as_tensor(np.asarray(vectors, np.float32))

@@ -75,7 +75,9 @@ def write_unit(path: str | Path, arrays: dict[str, np.ndarray], meta: dict[str, 
     bad = [k for k, v in plain.items() if v.dtype == object]
     if bad:
         raise ValueError(f"arrays {bad[:3]} hold Python objects; only numeric arrays are saved")
-    np.savez(buf, **plain, **{META_KEY: np.frombuffer(text.encode("utf-8"), np.uint8)})
+    # Any: numpy's stubs match the ** entries against savez's allow_pickle: bool as well
+    entries: dict[str, Any] = {**plain, META_KEY: np.frombuffer(text.encode("utf-8"), np.uint8)}
+    np.savez(buf, **entries)
     atomic_write_bytes(path, buf.getvalue())
     return Path(path)
 

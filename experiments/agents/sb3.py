@@ -113,13 +113,24 @@ def saccade_vectors(env) -> list[list[float]]:
     return cell_saccade_vectors(base.vision.grid.points, base.max_amplitude).tolist()
 
 
+def _shape(entries: dict[str, spaces.Space], key: str) -> tuple[int, ...]:
+    """The shape of observation entry ``key`` (a ``Box``: the env's entries all have one)."""
+    shape = entries[key].shape
+    if shape is None:
+        raise ValueError(f"the observation's {key!r} entry must be a Box with a shape; got {entries[key]}")
+    return shape
+
+
 def _sb3():
     from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
     return BaseFeaturesExtractor
 
 
-class CorticalFeatures(_sb3()):
+_FeaturesBase: Any = _sb3()  # SB3's bases are Any here (a call is no static base), as are those below
+
+
+class CorticalFeatures(_FeaturesBase):
     """SB3 features extractor: ``[per-cell logits (M*N), global features]`` of a
     :class:`~experiments.agents.extractors.CorticalEncoder` over ``cortical`` (and ``fovea``,
     ``eyes`` when the observation has them). With ``saccade_vectors`` the global part starts with
@@ -138,9 +149,9 @@ class CorticalFeatures(_sb3()):
             raise ValueError("CorticalFeatures needs a Dict observation with a 'cortical' (2, M, N, C) entry")
         sp = observation_space.spaces
         enc = CorticalEncoder(
-            sp["cortical"].shape,
-            sp["fovea"].shape if "fovea" in sp else None,
-            int(np.prod(sp["eyes"].shape)) if "eyes" in sp else 0,
+            _shape(sp, "cortical"),
+            _shape(sp, "fovea") if "fovea" in sp else None,
+            int(np.prod(_shape(sp, "eyes"))) if "eyes" in sp else 0,
             tuple(channels),
             logit_gain=logit_gain,
         )
@@ -191,7 +202,10 @@ def _actor_critic():
     return ActorCriticPolicy
 
 
-class CorticalActorCritic(_actor_critic()):
+_ActorCriticBase: Any = _actor_critic()
+
+
+class CorticalActorCritic(_ActorCriticBase):
     """PPO policy over :class:`CorticalFeatures`. ``head="cell"``: actions from the per-cell logit
     map (categorical for ``Discrete`` cells; for ``Box``, a Gaussian whose mean is the soft-argmax of
     ``saccade_vectors``, required then); ``head="dense"``: SB3's MLP heads on all features."""
@@ -252,7 +266,10 @@ def _sac_policy():
     return SACPolicy
 
 
-class CorticalSAC(_sac_policy()):
+_SACPolicyBase: Any = _sac_policy()
+
+
+class CorticalSAC(_SACPolicyBase):
     """SAC policy over :class:`CorticalFeatures`: the actor's mean is atanh of the soft-argmax
     saccade of the logit map (SAC squashes with tanh), its log-std a linear map of the global
     features starting at ``log_std_init``; the critics are MLPs (``net_arch['qf']``) of the features
@@ -341,7 +358,10 @@ def _sac_actor():
     return Actor
 
 
-class _DetachedCellActor(_sac_actor()):
+_SACActorBase: Any = _sac_actor()
+
+
+class _DetachedCellActor(_SACActorBase):
     """SAC's actor on an encoder it does not train (:class:`CorticalSAC` with ``critic_encoder``):
     its own 1 x 1 convolution of the encoder's *detached* feature map gives the cell-logit map
     (times the encoder's ``logit_gain``), whose soft-argmax saccade (through atanh) is the mean; a
@@ -370,7 +390,10 @@ class _DetachedCellActor(_sac_actor()):
         return mean, torch.clamp(self.log_std(g), LOG_STD_MIN, LOG_STD_MAX), {}
 
 
-class ShiftReplayBuffer(_dict_buffer()):
+_DictReplayBufferBase: Any = _dict_buffer()
+
+
+class ShiftReplayBuffer(_DictReplayBufferBase):
     """SB3's ``DictReplayBuffer`` whose samples' ``cortical`` maps (observation and next observation,
     independently) are shifted by :func:`~experiments.agents.augment.random_shifts` of up to ``pad``
     cells (DrQ's augmentation, K = M = 1; the stored data stay as collected)."""
@@ -545,7 +568,7 @@ def _callback():
         """The training episodes' task return and success (the env is reset at each chunk's start)."""
 
         def _on_training_start(self) -> None:
-            self.ret = None
+            self.ret: np.ndarray | None = None
             if not hasattr(self, "train"):
                 self.train: list[tuple[float, bool]] = []
 
@@ -628,6 +651,7 @@ def _make_model(plan: dict[str, Any], venv):
 
     vectors = saccade_vectors(venv.envs[0])
     policy, pk = plan["policy"], dict(plan["policy_kwargs"])
+    policy_cls: str | type
     if policy == "mlp":
         policy_cls = "MultiInputPolicy"
     elif plan["algo"] == "sac":

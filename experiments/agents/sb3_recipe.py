@@ -93,7 +93,10 @@ def _progress_callback(total: int, stream=None):
 
     class Progress(BaseCallback):
         def _on_training_start(self) -> None:
-            self.t0, self.succ, self.rets, self.ret = time.perf_counter(), [], [], None
+            self.t0 = time.perf_counter()
+            self.succ: list[bool] = []
+            self.rets: list[float] = []
+            self.ret: list[float] | None = None
 
         def _on_step(self) -> bool:
             rewards, dones = self.locals["rewards"], self.locals["dones"]

@@ -11,6 +11,7 @@ import sys
 import tempfile
 import time
 import urllib.parse
+from typing import IO
 
 import numpy as np
 
@@ -159,8 +160,8 @@ class WebViewer:
                     f"recording {f!r} does not exist (write one with 'python -m experiments "
                     f"run' or 'visualize --out FILE.rrd')"
                 )
-        self.proc = None
-        self._log = None
+        self.proc: subprocess.Popen[bytes] | None = None
+        self._log: IO[bytes] | None = None
         tries = 5 if 0 in (web_port, grpc_port) else 1
         for attempt in range(tries):
             grpc = int(grpc_port) or _free_port(self.HOST, (int(web_port),))
@@ -179,7 +180,7 @@ class WebViewer:
         """Start the server on these ports; return once *this* child listens on both (never on the word
         of another process's server that holds a port); :class:`_PortTaken` if one was taken."""
         self.web_port, self.grpc_port = web, grpc
-        self._log = tempfile.TemporaryFile()
+        self._log = log_file = tempfile.TemporaryFile()
         cmd = [
             _rerun_executable(),
             "--serve-web",
@@ -195,18 +196,18 @@ class WebViewer:
         ]
         if sys.platform.startswith("linux"):
             cmd = [sys.executable, "-c", _EXEC_WITH_PARENT, str(os.getpid()), *cmd]
-        self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=self._log, stderr=subprocess.STDOUT)
+        self.proc = proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=log_file, stderr=subprocess.STDOUT)
         deadline = time.monotonic() + timeout_s
         names = {web: "web_port", grpc: "grpc_port"}
         while True:
-            owned = [_owns_port(self.proc.pid, p) for p in (grpc, web)]
+            owned = [_owns_port(proc.pid, p) for p in (grpc, web)]
             if all(o is True for o in owned):
                 return
             if None in owned and all(_port_open(p, self.HOST) for p in (grpc, web)):
                 time.sleep(0.5)  # no /proc: a child that could not bind exits at once
-                if self.proc.poll() is None:
+                if proc.poll() is None:
                     return
-            if self.proc.poll() is not None or time.monotonic() > deadline:
+            if proc.poll() is not None or time.monotonic() > deadline:
                 log = self.output()
                 taken = [p for p in (grpc, web) if _port_open(p, self.HOST) and owned[(grpc, web).index(p)] is not True]
                 self.close()
@@ -233,6 +234,7 @@ class WebViewer:
 
     @property
     def running(self) -> bool:
+        assert self.proc is not None, "the constructor starts the server"
         return self.proc.poll() is None
 
     def output(self) -> str:
@@ -249,6 +251,7 @@ class WebViewer:
         deadline = math.inf if seconds is None else time.monotonic() + float(seconds)
         while time.monotonic() < deadline:
             if not self.running:
+                assert self.proc is not None, "the constructor starts the server"
                 raise RuntimeError(
                     f"the Rerun web viewer stopped (exit {self.proc.returncode}); "
                     f"its output ends: {self.output()[-500:]!r}"
@@ -257,15 +260,16 @@ class WebViewer:
 
     def close(self) -> None:
         """Stop the server (idempotent)."""
-        if getattr(self, "proc", None) is not None and self.proc.poll() is None:
-            self.proc.terminate()
+        proc, log = getattr(self, "proc", None), getattr(self, "_log", None)
+        if proc is not None and proc.poll() is None:
+            proc.terminate()
             try:
-                self.proc.wait(timeout=5)
+                proc.wait(timeout=5)
             except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        if getattr(self, "_log", None) is not None and not self._log.closed:
-            self._log.close()
+                proc.kill()
+                proc.wait()
+        if log is not None and not log.closed:
+            log.close()
 
     def __enter__(self) -> WebViewer:
         return self
