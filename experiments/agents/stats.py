@@ -13,7 +13,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy import stats
 
 __all__ = ["bootstrap_ci", "iqm", "summarize_runs"]
 
@@ -27,6 +26,8 @@ def _scores(scores) -> np.ndarray:
 
 def iqm(scores) -> float:
     """Interquartile mean: the mean after discarding the lowest and highest 25 % of the scores."""
+    from scipy import stats  # on use: `train --help` answers without importing scipy
+
     return float(stats.trim_mean(_scores(scores), 0.25))
 
 
