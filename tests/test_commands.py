@@ -99,6 +99,17 @@ def test_a_usage_error_of_a_command_names_the_fix_and_imports_only_that_command(
     assert not {"numba", "mujoco", "torch", "rerun"} & set(_heavy(r["modules"]))
 
 
+@pytest.mark.slow
+def test_every_command_help_imports_nothing_heavy():
+    """Issue 37, "the first hour": ``COMMAND --help`` answers without numba, MuJoCo, torch, Rerun, scipy
+    or matplotlib, and imports only its own command module (13 fresh processes)."""
+    for name in COMMANDS:
+        r = _probe(name, "--help")
+        assert r["code"] == 0 and f"usage: python -m experiments {name}" in r["out"], name
+        assert _heavy(r["modules"]) == [], (name, _heavy(r["modules"]))
+        assert _command_modules(r["modules"]) == [f"experiments.cli.{name}"], name
+
+
 def test_the_lazy_parser_parses_as_the_full_one():
     argv = ["run", "--quick", "--out", "somewhere", "--seed", "3"]
     lazy, full = build_parser("run").parse_args(argv), build_parser().parse_args(argv)
