@@ -1,13 +1,5 @@
 """Brainstem saccade generator: a local feedback loop with a saturating burst, driving the eye plant.
 
-Why this mechanism. The issue's alternatives were a brainstem burst generator or the
-minimum-variance trajectory under signal-dependent noise (Harris & Wolpert 1998, 2006). The
-burst generator is chosen because its internal signals are what the rest of the project needs as
-*signals*, not only a trajectory: the burst itself (a saccade-locked command whose size and
-duration grow with amplitude and velocity, the drive of the perisaccadic remapping in the
-perception models) and the displacement integrator (the efference copy of the movement). The
-kinematics are not drawn: they emerge from the loop.
-
 The loop, in degrees and milliseconds, per saccade of desired displacement ``A``:
 
 * motor error ``e = A - D``, where ``D`` is the resettable displacement integrator fed back from
@@ -29,30 +21,12 @@ The loop, in degrees and milliseconds, per saccade of desired displacement ``A``
   second-order plant ``1 / ((1 + s T1)(1 + s T2))`` (Robinson 1964, J Physiol 174:245) reduces to
   ``E = N`` low-passed by ``T2``: T1 drops out.
 
-Binocular coordination follows Hering's law (one burst, both eyes) with eye-specific plants: the
-abducting eye's plant is faster (``abducting_t2_ms``) than the adducting eye's, so abducting
-saccades are faster and shorter, and the eyes diverge transiently during horizontal saccades -- the asymmetry of Collewijn, Erkelens & Steinman (1988), J Physiol 404:157. Oblique
-saccades share one vector burst (component stretching), so both components start and end
-together.
-
-Defaults were fitted (least squares, once) to: peak velocity saturating near 502 deg/s for
-saccades >= 40 deg and skewness falling from ~0.45 (<= 10 deg) to ~0.20 (>= 50 deg) (Collewijn et
-al. 1988, abstract, scleral coils); duration about 2.2 ms/deg + 21 ms (Carpenter 1988, Movements of
-the Eyes). Durations are measured as a lab would: the time between the 30 deg/s threshold
-crossings of eye speed (a usual saccade-detection threshold, e.g. EyeLink's default).
-
-What the model does not do: Collewijn et al.'s abducting saccades are also larger (transiently)
-and more skewed. Here the faster plant makes the abducting eye faster and shorter, with the eyes
-diverging by up to ~1.5 deg mid-saccade; the abducting eye is more skewed (earlier relative
-peak) only from ~25 deg on (0.35 vs 0.38 at 25 deg), and less skewed below 20 deg (0.46 vs 0.39
-at 5 deg), because a faster plant shortens acceleration and deceleration alike. Nor is there a
-systematic undershoot (Collewijn's ~0.5 deg; the loop lands on the command), glissades or post-saccadic drift (the plants differ only in T2), a dependence on orbital start position
-(centripetal vs centrifugal saccades), or a vertical/horizontal main-sequence difference.
-
-Speed: the loop is simulated once per process for a grid of amplitudes (0-90 deg every 0.25 deg,
-0.05 ms steps, vectorised over amplitudes, ~0.2 s) and a saccade's normalised profiles are
-interpolated from that table (linear in amplitude; error below 0.005 deg against a direct
-simulation of the amplitude, checked in the tests).
+Binocular coordination: Hering's law (one burst, both eyes) with eye-specific plants (abducting
+faster, Collewijn, Erkelens & Steinman 1988); oblique saccades share one vector burst. Defaults
+fitted once to Collewijn et al. 1988 and Carpenter 1988; profiles interpolated from a table
+simulated once per process. Why this mechanism, the defaults' fit, the binocular asymmetry, what
+the model does not do and the table's accuracy: docs/head.md ("Model notes", "The saccade
+generator").
 """
 
 from __future__ import annotations
