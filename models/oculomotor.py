@@ -165,7 +165,10 @@ class SaccadePlan:
     @property
     def main_sequence(self) -> MainSequence | None:
         """The legacy kinematics, when this plan uses them (else None)."""
-        return self.generator if self.legacy else None
+        if not self.legacy:
+            return None
+        assert isinstance(self.generator, MainSequence), "a legacy plan's generator is a MainSequence"
+        return self.generator
 
     duration_ms = _one(
         "duration_ms",
@@ -191,6 +194,7 @@ class SaccadePlan:
         """The burst of the saccade generator: (absolute times ms, rate deg/ms); None for legacy."""
         if self.legacy:
             return None
+        assert isinstance(self.generator, BurstGenerator), "a burst plan's generator is a BurstGenerator"
         prof = self.generator.profile(self._int_deg)
         return self.onset_ms + np.arange(len(prof.burst)) * prof.dt_ms, prof.burst.copy()
 

@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import functools
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -83,6 +84,10 @@ class SaccadeProfile:
     positions: np.ndarray  #: (3, K) normalised positions, rows in ``PLANTS`` order
     burst: np.ndarray  #: (K,) burst rate, deg/ms
     settle_deg: float
+
+    if TYPE_CHECKING:  # set in __post_init__ (object.__setattr__), not fields of the dataclass
+        _marks: tuple[float, ...] = field(init=False)
+        _tables: tuple[np.ndarray, np.ndarray, np.ndarray] = field(init=False)
 
     def __post_init__(self):
         from . import _plan_kernels as K

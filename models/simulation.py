@@ -272,7 +272,9 @@ class Head(SceneObjects, HeadRendering):
         self.reset(seed=seed)
 
     # ------------------------------------------------------------------ lifecycle
-    def reset(self, seed: int | None = None, fixate: str | Sequence[float] | None = None, settle_ms: int = 10) -> None:
+    def reset(
+        self, seed: int | None = None, fixate: str | Sequence[float] | np.ndarray | None = None, settle_ms: int = 10
+    ) -> None:
         """Reset physics and time to 0, hide flashes, re-draw the scene layout and fixate ``fixate`` (an
         object name or world point; default: the scene's fixation).
 

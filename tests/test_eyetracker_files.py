@@ -422,6 +422,30 @@ def test_columns_option_errors(tmp_path):
         et.read_recording(p, columns=parse_columns("time=T,x=X,y=Y"))
 
 
+def test_gaze_as_a_fraction_of_the_screen_is_never_read_as_degrees(tmp_path):
+    """Gazepoint's POG is a share of the screen, read through its pixels: with --units deg it was
+    multiplied by the resolution and taken for degrees (without --screen: an AttributeError); it is
+    refused. Read as it is, the centre pixel's half-pixel offset is atan(0.5 px / (57 cm * 32 px/cm))."""
+    rows = [[f"{i / 500:.4f}", "0.5", "0.5"] for i in range(40)]
+    p = _export(tmp_path / "gp.csv", ["TIME", "LPOGX", "LPOGY"], rows, ",")
+    for screen in (None, SCREEN):
+        with pytest.raises(et.RecordingError, match="a fraction of the screen.*cannot be in degrees"):
+            et.read_recording(p, preset="gazepoint", units="deg", screen=screen)
+    rec = et.read_recording(p, preset="gazepoint", screen=SCREEN)
+    half_px = math.degrees(math.atan2(0.5, 57.0 * 1920 / 60.0))  # 32 px/cm on both axes (1080 / 33.75)
+    np.testing.assert_allclose(rec.x_deg, half_px, rtol=1e-12)
+    np.testing.assert_allclose(rec.y_deg, -half_px, rtol=1e-12)  # y up
+
+
+def test_a_screen_without_its_resolution_says_so():
+    """``Screen(None, None, ...)`` takes its pixels from an ASC file; used for pixels before that, it
+    says what is missing (it was a TypeError on None)."""
+    for use in (lambda: CM_ONLY.px2deg(0.0, 0.0), lambda: CM_ONLY.deg2px(0.0, 0.0), CM_ONLY.px_per_cm):
+        with pytest.raises(et.RecordingError, match="no resolution yet"):
+            use()
+    assert CM_ONLY.with_resolution(1920, 1080).px_per_cm() == (32.0, 1080 / 33.75)
+
+
 def test_a_unit_in_brackets_after_a_preset_name_sets_the_time_unit():
     """Newer Tobii Pro Lab exports write the unit into the name (``Recording timestamp [ms]``): the
     preset still matches, and the bracket's unit wins over the preset's default (µs)."""

@@ -16,6 +16,7 @@ import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import cast
 
 __all__ = [
     "DefaultsHelpFormatter",
@@ -39,7 +40,8 @@ class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         text = action.help or ""
         if "default" in text.lower() or action.default is None or action.default is False:
             return text
-        return super()._get_help_string(action)
+        # typeshed: str | None; argparse (3.11+) returns the help text, "" when there is none
+        return cast(str, super()._get_help_string(action))
 
 
 class HintingParser(argparse.ArgumentParser):
@@ -303,6 +305,7 @@ def guarded(
         assert parser is not None, "usage errors need the parser"
         parser.error(f"argument --out: {e}")
     except tuple(errors or {}) as e:
+        assert errors is not None, "only the kinds of a given errors mapping are caught here"
         print(f"{prog}: error: {e}", file=sys.stderr)
         return next(code for kind, code in errors.items() if isinstance(e, kind))
     except OSError as e:

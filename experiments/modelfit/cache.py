@@ -29,6 +29,7 @@ import io
 import json
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ def _pack(observations: list) -> dict[str, np.ndarray]:
             "ref_on_ms",
         )
     }
-    per_flash = {
+    per_flash: dict[str, list] = {
         f"flash{f}_{k}": []
         for f in range(n_flash)
         for k in ("head", "true_deg", "z_t", "periphery", "fovea", "mask", "fovea_mask")
@@ -141,7 +142,9 @@ def save(path: Path, observations: list, key: str) -> None:
         "sha256": _checksum(arrays),
     }
     buf = io.BytesIO()
-    np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
+    # Any: numpy's stubs match the ** entries against savez's allow_pickle: bool as well
+    entries: dict[str, Any] = arrays
+    np.savez(buf, meta=np.array(json.dumps(meta)), **entries)
     atomic_write_bytes(path, buf.getvalue())
 
 

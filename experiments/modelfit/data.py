@@ -503,7 +503,7 @@ def read_data(path) -> LocalizationData:
             ),
         )
     r = len(t)
-    parsed = dict(v)
+    parsed: dict[str, np.ndarray | list] = dict(v)
     if "condition" in cols:
         cond = np.asarray(["" if x is None else str(x).strip().lower() for x in cols["condition"]], dtype=object)
         _check(

@@ -174,10 +174,10 @@ def _quadratic_hessian(f, x: np.ndarray, steps: np.ndarray) -> np.ndarray:
             for a in (-1, 1):
                 for b in (-1, 1):
                     pts.append(np.eye(k)[i] * a + np.eye(k)[j] * b)
-    pts = np.array(pts)
-    vals = np.array([f(x + p * steps) for p in pts])
+    pts_a = np.array(pts)
+    vals = np.array([f(x + p * steps) for p in pts_a])
     iu = np.triu_indices(k)
-    A = np.column_stack([np.ones(len(pts)), pts, np.array([np.outer(p, p)[iu] for p in pts])])
+    A = np.column_stack([np.ones(len(pts_a)), pts_a, np.array([np.outer(p, p)[iu] for p in pts_a])])
     coef = np.linalg.lstsq(A, vals, rcond=None)[0]
     Q = np.zeros((k, k))
     Q[iu] = coef[1 + k :]
@@ -620,7 +620,8 @@ def compare(
         raise ValueError(f"models listed twice: {', '.join(dup)}")
     fwd = forward or forward_model(data, observing)
     options = dict(backend=backend, workers=workers, ray_address=ray_address, progress=progress)
-    fits, prepared = {}, []
+    fits: dict[str, dict] = {}
+    prepared: list = []
     with folder_lock(out) as out:
         for m in ms:
             sub = out / m.name.replace("/", "_")

@@ -24,8 +24,12 @@ import dataclasses
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..psychophysics import TrialConfig
 
 __all__ = ["ForwardModel", "forward_model", "config_from_fingerprint", "ForwardModelError", "OBSERVING_OPTIONS"]
 
@@ -44,7 +48,7 @@ class ForwardModel:
     """What the fit re-runs: ``config`` (a ``TrialConfig``; its condition is set per row) and per
     row its designed flash offset ``offset_deg`` (R, 2) and trial ``seed`` (R,)."""
 
-    config: object
+    config: TrialConfig
     offset_deg: np.ndarray
     seed: np.ndarray
     source: str
@@ -69,7 +73,7 @@ def config_from_fingerprint(cfg: dict):
     unknown = sorted(set(cfg) - fields - set(tc_names))
     if unknown:
         raise ForwardModelError(f"unknown configuration field(s) {', '.join(unknown)}")
-    kw = {k: (tuple(v) if k == "disabled" else v) for k, v in cfg.items() if k in fields}
+    kw: dict[str, Any] = {k: (tuple(v) if k == "disabled" else v) for k, v in cfg.items() if k in fields}
     if "markers" in kw and isinstance(kw["markers"], list):
         kw["markers"] = tuple(tuple(m) if isinstance(m, list) else m for m in kw["markers"])
     import models

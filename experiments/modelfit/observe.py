@@ -70,6 +70,7 @@ def _init(config, parent_pid: int | None = None) -> None:
 
 
 def _observe_batch(trials) -> list:
+    assert _RUNNER is not None, "the worker's runner is made by _init before any batch"
     return [_strip(_RUNNER.observe(t)) for t in trials]
 
 
@@ -179,6 +180,7 @@ def observe_trials(
         )
     if path is None:
         return obs
+    assert key is not None, "the cache key is made with the cache path"
     cache.save(path, obs, key)
     back, why = cache.load(path, key, trials, runner)
     if back is None:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 
@@ -86,7 +87,6 @@ def _spread_times(t: np.ndarray, rate_hz: float, n_line: int) -> np.ndarray:
     if len(t) < 2:
         return t
     period = 1000.0 / rate_hz
-    rep = np.zeros(len(t))
     same = np.concatenate([[False], t[1:] == t[:-1]])
     if not same.any():
         return t
@@ -140,15 +140,25 @@ def _sample_values(lines: list[str], rows: list[int], need: int, eyes, name: str
     raise AscError(f"{name}: cannot read the samples of the block starting on line {block_line}")  # pragma: no cover
 
 
+class _Block(TypedDict):
+    """A START/END block while it is read: its first line, eyes, rate, remote flag, sample line indices."""
+
+    line: int
+    eyes: tuple[str, ...]
+    rate: float | None
+    remote: bool
+    rows: list[int]
+
+
 def parse_asc(text: str, name: str = "the file") -> AscData:
     """Parse the text of an ASC file (see the module docstring). :class:`AscError` for what cannot
     be read: no sampling rate, a sample line with too few fields, time going backwards, a block
     without END."""
     lines = text.splitlines()
-    blocks = []  # dicts: eyes, rate, remote, start line, sample rows (list of split fields)
+    blocks: list[_Block] = []  # the blocks read, in order
     gaze_res = display_res = None
     events: list = []
-    cur = None
+    cur: _Block | None = None
     rate_reccfg = None
     for n, ln in enumerate(lines, 1):
         c = ln[:1]
@@ -219,8 +229,11 @@ def parse_asc(text: str, name: str = "the file") -> AscData:
         )
     if not blocks:
         raise AscError(f"{name}: no START/END block: not a recording of an EyeLink ASC file")
-    times, block_ix, xs, ys = [], [], {e: [] for e in EYES}, {e: [] for e in EYES}
-    rates = set()
+    times: list[np.ndarray] = []
+    block_ix: list[np.ndarray] = []
+    xs: dict[str, list[np.ndarray]] = {e: [] for e in EYES}
+    ys: dict[str, list[np.ndarray]] = {e: [] for e in EYES}
+    rates: set[float] = set()
     remote = False
     for b, blk in enumerate(blocks):
         if not blk["rows"]:

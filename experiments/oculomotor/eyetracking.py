@@ -115,21 +115,34 @@ class Screen:
     def with_resolution(self, width_px: int, height_px: int) -> Screen:
         return Screen(int(width_px), int(height_px), self.width_cm, self.height_cm, self.distance_cm)
 
+    def _size_px(self) -> tuple[int, int]:
+        """The resolution (width, height) in pixels; :class:`RecordingError` while it is still to come
+        from a recording (``width_px``/``height_px`` None)."""
+        if self.width_px is None or self.height_px is None:
+            raise RecordingError(
+                "this screen has no resolution yet (width_px, height_px None: from the recording); "
+                "give it, or take the file's with Screen.with_resolution(width_px, height_px)"
+            )
+        return self.width_px, self.height_px
+
     def px_per_cm(self) -> tuple[float, float]:
-        return self.width_px / self.width_cm, self.height_px / self.height_cm
+        w, h = self._size_px()
+        return w / self.width_cm, h / self.height_cm
 
     def px2deg(self, x_px, y_px) -> tuple[np.ndarray, np.ndarray]:
         """Pixels (origin upper left, y down) to degrees (y up), per axis, as pymovements' ``pix2deg``."""
         kx, ky = self.px_per_cm()
-        x = np.degrees(np.arctan2(np.asarray(x_px, float) - (self.width_px - 1) / 2, self.distance_cm * kx))
-        y = -np.degrees(np.arctan2(np.asarray(y_px, float) - (self.height_px - 1) / 2, self.distance_cm * ky))
+        w, h = self._size_px()
+        x = np.degrees(np.arctan2(np.asarray(x_px, float) - (w - 1) / 2, self.distance_cm * kx))
+        y = -np.degrees(np.arctan2(np.asarray(y_px, float) - (h - 1) / 2, self.distance_cm * ky))
         return x, y
 
     def deg2px(self, x_deg, y_deg) -> tuple[np.ndarray, np.ndarray]:
         """Inverse of :meth:`px2deg`."""
         kx, ky = self.px_per_cm()
-        x = (self.width_px - 1) / 2 + np.tan(np.radians(x_deg)) * self.distance_cm * kx
-        y = (self.height_px - 1) / 2 - np.tan(np.radians(y_deg)) * self.distance_cm * ky
+        w, h = self._size_px()
+        x = (w - 1) / 2 + np.tan(np.radians(x_deg)) * self.distance_cm * kx
+        y = (h - 1) / 2 - np.tan(np.radians(y_deg)) * self.distance_cm * ky
         return x, y
 
     def extent_deg(self) -> tuple[float, float]:
@@ -258,8 +271,8 @@ def _asc_recordings(path: Path, text: str, screen: Screen | None, eye: str | Non
         raise RecordingError(f"{path} looks truncated: its last line is incomplete")
     try:
         data = parse_asc(text, str(path))
-    except AscError as e:
-        msg = str(e)
+    except AscError as err:
+        msg = str(err)
         raise RecordingError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
     res = data.resolution
     if screen is None:
@@ -331,8 +344,8 @@ def _table_recordings(
 ) -> list[Recording]:
     try:
         tab = read_table(text, str(path), columns, preset)
-    except TableError as e:
-        msg = str(e)
+    except TableError as err:
+        msg = str(err)
         raise RecordingError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
     tu = time_unit or tab.time_unit
     un = units or tab.units
@@ -347,6 +360,11 @@ def _table_recordings(
         )
     if un not in ("px", "deg"):
         raise RecordingError(f"unknown gaze unit {un!r}; choose px or deg")
+    if col.fraction and un != "px":
+        raise RecordingError(
+            f"{path}: the gaze ({col.x}, {col.y}) is a fraction of the screen, read through its pixels: "
+            "it cannot be in degrees; leave --units out (or give --units px) and give --screen"
+        )
     if un == "px" and (screen is None or screen.width_px is None):
         raise RecordingError(
             f"{path}: the gaze is in pixels ({col.x}, {col.y}) but no screen geometry was given; give "
@@ -394,9 +412,11 @@ def _table_recordings(
                 f"{path}: the median sample interval is {period:g} ms ({rate:.3g} Hz) with the time in "
                 f"{tu}: no eye tracker samples at that rate{hint}"
             )
-        if col.fraction:
-            x, y = x * screen.width_px, y * screen.height_px
         if un == "px":
+            assert screen is not None, "gaze in pixels was refused above without a screen"
+            if col.fraction:
+                w, h = screen._size_px()
+                x, y = x * w, y * h
             x, y = screen.px2deg(x, y)
         block = np.concatenate([[0], np.cumsum(d > PAUSE_PERIODS * period)])
         rec = Recording(
@@ -524,7 +544,8 @@ def main_sequence_rows(rec: Recording, saccades: list[tuple[int, int]] | None = 
     ok = rec.ok_steps
     s = speed_deg_s(x, y, dt, ok)
     stretch = np.concatenate([[0], np.cumsum(~ok)])  # unbroken stretch of each sample
-    rows, peaks = [], set()
+    rows: list[dict] = []
+    peaks: set[int] = set()
     bounds = [(t[a], t[b]) for a, b in saccades]
     for k, (i0, i1) in enumerate(saccades):
         pad = int(math.ceil(10.0 / dt)) + 2
@@ -702,7 +723,7 @@ def write_recording(
                 )
             )
     events.sort(key=lambda ev: (ev[0], ev[1]))
-    w, h = screen.width_px, screen.height_px
+    w, h = screen._size_px()
     t0 = t[0]
     eye_words = "\t".join(e.upper() for e in which)
     head = [

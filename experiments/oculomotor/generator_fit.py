@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from models.saccade_generator import PARAMETER_BOUNDS
+from models.saccade_generator import PARAMETER_BOUNDS, BurstGenerator
 
 from ..folders import save_figure
 
@@ -88,7 +88,7 @@ class FitResult:
     recording's sampling rate, the relative residual scatter of each measure, and the optimiser's
     status."""
 
-    generator: object
+    generator: BurstGenerator
     fitted: tuple
     estimates: dict
     ci95: dict
@@ -234,7 +234,7 @@ def fit_generator(
     start=None,
     bootstrap: int = DEFAULT_BOOTSTRAP,
     seed: int = 0,
-    ci_scale: float = None,
+    ci_scale: float | None = None,
 ) -> FitResult:
     """Least-squares fit of the generator parameters ``fit`` to the main sequence ``rows`` of a
     recording sampled at ``rate_hz`` with tracker noise ``noise_deg`` (``Recording.noise_deg``;
@@ -361,10 +361,10 @@ def fit_generator(
         rng = np.random.default_rng(seed)
         xs = []
         for _ in range(bootstrap):
-            i = rng.integers(0, n, n)
-            if len(np.unique(A[i])) < need:
+            pick = rng.integers(0, n, n)
+            if len(np.unique(A[pick])) < need:
                 continue
-            xs.append(least_squares(resid, res.x, args=((A[i], pv[i], du[i]),), **kw).x)
+            xs.append(least_squares(resid, res.x, args=((A[pick], pv[pick], du[pick]),), **kw).x)
         boot_x = np.array(xs)
         if len(boot_x) >= 20:
             q_lo, q_hi = np.percentile(boot_x, [2.5, 97.5], axis=0)
@@ -444,7 +444,7 @@ def coverage(
     noise_deg: float = 0.02,
     bootstrap: int = 40,
     seed: int = 0,
-    ci_scale: float = None,
+    ci_scale: float | None = None,
     progress=None,
     fit=None,
 ) -> dict:
@@ -462,8 +462,8 @@ def coverage(
     gen = models.BurstGenerator(**truth)
     fit_names = tuple(fit) if fit is not None else tuple(k for k in truth if k in FITTABLE)
     start = dataclasses.replace(models.BurstGenerator(), **{k: v for k, v in truth.items() if k not in fit_names})
-    est = {k: [] for k in fit_names}
-    cis = {k: [] for k in fit_names}
+    est: dict[str, list] = {k: [] for k in fit_names}
+    cis: dict[str, list] = {k: [] for k in fit_names}
     for i in range(n_sessions):
         s = et.synthetic_session(gen, n_saccades=n_saccades, rate_hz=rate_hz, noise_deg=noise_deg, seed=seed + i)
         rec = et.Recording(et.Path(f"session{i}"), "csv", s["times_ms"], s["x_deg"], s["y_deg"], rate_hz)

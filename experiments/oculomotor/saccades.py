@@ -35,6 +35,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -132,7 +133,10 @@ def plot(results: dict[str, dict], path: Path) -> None:
     ax[1].plot(A, 525 * (1 - np.exp(-A / 7)), color="0.5", lw=1, label="Van Wetter & Van Opstal 2008")
     ax[1].fill_between([40, 52], 502 - 32, 502 + 32, color="0.85", label="Collewijn et al. 1988: 502±32")
     ax[2].plot(A, 2.2 * A + 21, color="0.5", lw=1, label="Carpenter 1988: 2.2A + 21")
-    styles = {"burst": dict(marker="o", color="C3"), "legacy": dict(marker="s", color="C0", alpha=0.6)}
+    styles: dict[str, dict[str, Any]] = {
+        "burst": dict(marker="o", color="C3"),
+        "legacy": dict(marker="s", color="C0", alpha=0.6),
+    }
     for model, res in results.items():
         amps = sorted(res)
         for k, col in ((0, 1), (1, 2)):
@@ -185,13 +189,15 @@ def _screen(values: list[str]):
     except ValueError:
         raise argparse.ArgumentTypeError(f"--screen takes numbers; got {' '.join(values)!r}") from None
     if len(nums) == 3:
-        nums = [None, None] + nums  # resolution from the ASC file (a CSV in pixels needs all five)
+        px: list[int | None] = [None, None]  # resolution from the ASC file (a CSV in pixels needs all five)
     elif any(v != int(v) for v in nums[:2]):
         raise argparse.ArgumentTypeError(
             f"--screen WIDTH_PX HEIGHT_PX must be whole numbers; got {values[0]} {values[1]}"
         )
+    else:
+        px = [int(v) for v in nums[:2]]
     try:
-        return Screen(*(int(v) if v is not None else None for v in nums[:2]), *nums[2:])
+        return Screen(px[0], px[1], nums[-3], nums[-2], nums[-1])
     except RecordingError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
 

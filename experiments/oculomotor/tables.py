@@ -153,6 +153,7 @@ def parse_columns(spec: str) -> Columns:
 
 def _unit_from_name(name: str, kind: str) -> str | None:
     n = name.lower().replace("µ", "u").replace("μ", "u")
+    pats: tuple[str, ...]
     if kind == "time":
         for unit, pats in (
             ("us", ("[us]", "(us)", "_us", " us")),
@@ -194,7 +195,7 @@ def _bare(name: str) -> str:
 def _resolve(columns: Columns, header: list[str]) -> Columns:
     """``columns`` with its names as the header spells them: exact, else the same name with a unit in
     brackets after it (whose time unit then overrides the preset's)."""
-    bare = {}
+    bare: dict[str, str] = {}
     for h in header:
         bare.setdefault(_bare(h), h)
 
@@ -251,7 +252,7 @@ def read_table(text: str, name: str, columns: Columns | None = None, preset: str
         raise TableError(f"{name} has no header line (only comments or blank lines)")
     n0, first = rows[0]
     counts = {s: first.count(s) for s in ("\t", ",", ";")}
-    sep = "\t" if counts["\t"] else max(counts, key=counts.get)
+    sep = "\t" if counts["\t"] else max(counts, key=counts.__getitem__)
     if not counts[sep]:
         raise TableError(
             f"{name}: its header {first[:80]!r} has no tab, comma or semicolon: not a table of samples "

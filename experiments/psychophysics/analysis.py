@@ -140,9 +140,9 @@ def displacement_psychometrics(
             for _ in range(n_boot):
                 idx = np.concatenate([rng.choice(g, size=g.size, replace=True) for g in groups])
                 boots.append(_probit_fit(x[idx], y[idx], (pse, sd)))
-            boots = np.array(boots)
-            r["pse_ci"] = tuple(np.percentile(boots[:, 0], [2.5, 97.5]))
-            r["threshold_ci"] = tuple(np.percentile(boots[:, 1], [2.5, 97.5]))
+            boot = np.array(boots)
+            r["pse_ci"] = tuple(np.percentile(boot[:, 0], [2.5, 97.5]))
+            r["threshold_ci"] = tuple(np.percentile(boot[:, 1], [2.5, 97.5]))
         out[int(b)] = r
     return out
 

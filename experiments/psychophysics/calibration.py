@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import re
 from pathlib import Path
+from typing import Any
 
 __all__ = [
     "CALIBRATION_CSV",
@@ -100,6 +101,7 @@ def constant_value(path: str, config=None, participant=None) -> float:
     from .trial import TrialConfig
 
     head, _, rest = path.partition(".")
+    obj: Any  # the participant or configuration, then each attribute along the path
     if head == "participant":
         obj, parts = PARTICIPANT if participant is None else participant, rest.split(".")
     else:

@@ -103,13 +103,13 @@ class Design:
         # bounds: ``bounds.LIMITS`` and ``bounds.MAX_TRIALS`` (TypeError for wrong types, ValueError otherwise)
         amps = tuple(check_real("amplitudes_deg", a) for a in _sequence("amplitudes_deg", self.amplitudes_deg))
         pairs = _sequence("flash_offsets_deg", self.flash_offsets_deg)
-        offs = []
+        offs_list: list[tuple[float, ...]] = []
         for p in pairs:
             p = _sequence("flash_offsets_deg", p, "(dx, dy) pairs")
             if len(p) != 2:
                 raise ValueError(f"flash_offsets_deg must hold (dx, dy) pairs; got {p!r}")
-            offs.append(tuple(check_real("flash_offsets_deg", v, _OFFSET_LIMIT) for v in p))
-        offs = tuple(offs)
+            offs_list.append(tuple(check_real("flash_offsets_deg", v, _OFFSET_LIMIT) for v in p))
+        offs = tuple(offs_list)
         times = tuple(check_int("flash_times_ms", t) for t in _sequence("flash_times_ms", self.flash_times_ms))
         reps = check_int("repetitions", self.repetitions)
         seed = check_int("seed", self.seed)

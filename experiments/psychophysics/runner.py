@@ -322,14 +322,15 @@ def _parse_line(line: str) -> tuple[dict | None, str]:
     if len(fields) != len(TABLE_COLUMNS) - 1:
         return None, f"{len(fields) + 1} fields instead of {len(TABLE_COLUMNS)}"
     try:
-        vals = {c: float(v) for c, v in zip(ROW_COLUMNS, fields)}
+        nums = {c: float(v) for c, v in zip(ROW_COLUMNS, fields)}
     except ValueError:
         return None, "a value is not a number"
     texts = fields[len(ROW_COLUMNS) : len(ROW_COLUMNS) + len(TEXT_COLUMNS)]
     if not all(re.fullmatch(r"[a-z_]+", t) for t in texts):
         return None, "a text column is not a name"
+    vals: dict[str, float | str] = dict(nums)
     vals.update(zip(TEXT_COLUMNS, texts))
-    if not all(vals[c].is_integer() for c in _INT_COLUMNS):
+    if not all(nums[c].is_integer() for c in _INT_COLUMNS):  # _INT_COLUMNS are numeric (ROW_COLUMNS)
         return None, "a whole-number column holds a fraction"
     vals["config_hash"] = fields[-1]
     return vals, ""

@@ -32,6 +32,7 @@ from __future__ import annotations
 import os
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -166,7 +167,9 @@ def write_snapshot(out: str | os.PathLike, snap: dict[str, np.ndarray]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     with open(tmp, "wb") as fh:
-        np.savez_compressed(fh, **snap)
+        # Any: numpy's stubs match the ** entries against savez_compressed's allow_pickle: bool as well
+        entries: dict[str, Any] = snap
+        np.savez_compressed(fh, **entries)
         fh.flush()
         os.fsync(fh.fileno())
     os.replace(tmp, path)

@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 
@@ -46,7 +47,7 @@ from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS
 from .observer import ObserverParams
 from .population import PopulationParams
 from .snapshots import scene_state
-from .targetmap import TargetCentredMap
+from .targetmap import CentredSamples, TargetCentredMap
 from .theories import theory
 from .timecourse import RemapTimeCourse
 from .trial_fields import TRIAL_CHOICES
@@ -323,12 +324,12 @@ class Observation:
     eye_h: np.ndarray
     seen_z: list
     t_post: int
-    ref_z: list = None  #: each eye's retinal centroid (image plane) of the post-saccadic references' activity
-    ref_activity: np.ndarray = None  #: (2,) each eye's summed activity of them (image-plane area x intensity)
+    ref_z: list | None = None  #: each eye's retinal centroid (image plane) of the post-saccadic references' activity
+    ref_activity: np.ndarray | None = None  #: (2,) each eye's summed activity of them (image-plane area x intensity)
     ref_on_ms: float = 0.0  #: how long they were on after saccade offset
     frame: object = None
     reference: object = None
-    scene: dict = None  #: the MuJoCo scene with the (first) flash shown, and its world position (recordings)
+    scene: dict | None = None  #: the MuJoCo scene with the (first) flash shown, and its world position (recordings)
 
 
 def head_angles_deg(head: models.Head, points_world) -> np.ndarray:
@@ -371,7 +372,7 @@ class TrialRunner:
         # flash and target dots of the flash's size (the scene's default is ~0.46 deg: sub-pixel at 128 px)
         for name in (_FLASH, _FLASH2, "target"):
             self.head.set_sphere_radius(name, SCREEN_DISTANCE * math.tan(math.radians(config.flash_radius_deg)))
-        self.last = None  # the last trial's frames and maps (for recordings)
+        self.last: dict | None = None  # the last trial's frames and maps (for recordings)
 
     def close(self) -> None:
         self.head.close()
@@ -438,7 +439,22 @@ class TrialRunner:
             act.append(float((per * areas).sum() + fov.sum() * self.retina_grid.fovea_spacing**2))
         return zs, np.array(act)
 
-    def _centroid(self, view, grid, centred=None, shift_rings: float = 0.0, threshold: float | None = None) -> complex:
+    @overload
+    def _centroid(
+        self, view, grid, centred: None = None, shift_rings: float = 0.0, threshold: float | None = None
+    ) -> complex: ...
+    @overload
+    def _centroid(
+        self, view, grid, centred: CentredSamples, shift_rings: float = 0.0, threshold: float | None = None
+    ) -> tuple[complex, np.ndarray]: ...
+    def _centroid(
+        self,
+        view,
+        grid,
+        centred: CentredSamples | None = None,
+        shift_rings: float = 0.0,
+        threshold: float | None = None,
+    ) -> complex | tuple[complex, np.ndarray]:
         """Activity centroid of a view (retina grid) or of a target-centred map shifted by ``shift_rings``."""
         thr = self.config.threshold if threshold is None else threshold
         if centred is None:
