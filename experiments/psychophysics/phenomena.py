@@ -510,12 +510,12 @@ def bootstrap(tab: dict, n: int = BOOT, seed: int = 0) -> dict[str, tuple[float,
             for k, v in statistics(sub, start).items():
                 samples[k].append(v)
     out = {}
-    for k, v in samples.items():
-        v = np.asarray(v, float)
-        if not np.all(np.isfinite(v)):  # an undefined replicate: the CI is undefined, not narrower
+    for k, values in samples.items():
+        reps = np.asarray(values, float)
+        if not np.all(np.isfinite(reps)):  # an undefined replicate: the CI is undefined, not narrower
             out[k] = (float("nan"), float("nan"))
         else:
-            out[k] = (float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5)))
+            out[k] = (float(np.percentile(reps, 2.5)), float(np.percentile(reps, 97.5)))
     return out
 
 

@@ -117,10 +117,10 @@ def check_scoreboard(rows: list[dict], calibration: list[dict] | None = None) ->
         expected = finalize(rows, table)
     except ValueError as e:
         return [str(e)]
-    for i, (r, e) in enumerate(zip(rows, expected)):
+    for i, (r, want) in enumerate(zip(rows, expected)):
         for col in ("role", "reproduced", "diagnostic"):
-            if str(r[col]) != e[col]:
+            if str(r[col]) != want[col]:
                 problems.append(
-                    f"row {i} ({r['phenomenon']}, {r['model']}): {col} is {r[col]!r}, the rules give {e[col]!r}"
+                    f"row {i} ({r['phenomenon']}, {r['model']}): {col} is {r[col]!r}, the rules give {want[col]!r}"
                 )
     return problems

@@ -82,7 +82,7 @@ class Observer(ConstantsTheory):
         pos = [runner._ray_to_screen_deg(origins[e], axes[e], z) for e, z in enumerate(zs) if np.isfinite(z.real)]
         if not pos:
             return np.full(2, np.nan), float("nan")
-        ecc = np.nanmean([math.degrees(math.atan(abs(z))) for z in zs if np.isfinite(z.real)])
+        ecc = float(np.nanmean([math.degrees(math.atan(abs(z))) for z in zs if np.isfinite(z.real)]))
         sd = float(sensory_sd_deg(ecc, p, suppression_log10(plan, t_ms, p)))
         return np.mean(pos, axis=0), sd**2 + float(e_cov[0, 0])
 
