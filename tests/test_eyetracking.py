@@ -210,7 +210,9 @@ def test_cli_bad_file_is_usage_error(tmp_path, capsys):
 
     (tmp_path / "r.xyz").write_text("hello\n")
     for argv, msg in (([str(tmp_path / "nope.asc")], "no such file"), ([str(tmp_path / "r.xyz")], "cannot tell the format"),
-                      ([str(tmp_path / "r.xyz"), "--screen", "1", "2"], "3 numbers")):
+                      ([str(tmp_path / "r.xyz"), "--screen", "1", "2"], "3 numbers"),
+                      ([str(tmp_path / "r.xyz"), "--screen", "inf", "1080", "60", "33.75", "57"], "finite numbers"),
+                      ([str(tmp_path / "r.xyz"), "--screen", "60", "nan", "57"], "finite numbers")):
         with pytest.raises(SystemExit) as e:
             main(["saccades", "--recording", *argv, "--out", str(tmp_path / "o")])
         assert e.value.code == 2

@@ -188,6 +188,8 @@ def _screen(values: list[str]):
         nums = [float(v) for v in values]
     except ValueError:
         raise argparse.ArgumentTypeError(f"--screen takes numbers; got {' '.join(values)!r}") from None
+    if not all(math.isfinite(v) for v in nums):
+        raise argparse.ArgumentTypeError(f"--screen takes finite numbers; got {' '.join(values)!r}")
     if len(nums) == 3:
         px: list[int | None] = [None, None]  # resolution from the ASC file (a CSV in pixels needs all five)
     elif any(v != int(v) for v in nums[:2]):
