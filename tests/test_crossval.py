@@ -247,3 +247,21 @@ def test_folders_it_cannot_use(capsys, tmp_path):
         assert main(["crossval", "--out", str(busy), "--quick", "--no-progress"]) == 1
     err = capsys.readouterr().err
     assert "in use by another run" in err and "Traceback" not in err
+
+
+def test_docs_table_is_rendered_from_the_committed_csv():
+    """The docs' held-out table is ``markdown_table`` of ``experiments/data/crossval.csv`` (one source
+    for each number), and that run's summary claims hold in the CSVs: the generating theory best in
+    every held-out case, and ``crossval_pairs.csv`` agreeing with the table on who is best."""
+    import csv
+
+    from experiments.modelfit.crossval import markdown_table, winners
+
+    root = Path(__file__).resolve().parents[1]
+    rows = list(csv.DictReader(open(root / "experiments/data/crossval.csv")))
+    pairs = list(csv.DictReader(open(root / "experiments/data/crossval_pairs.csv")))
+    assert markdown_table(rows) in (root / "docs/psychophysics/crossval.md").read_text()
+    wins = winners(rows)
+    assert len(wins) == 12 and all(w["best"] == w["data"].split(":", 1)[1] for w in wins)
+    assert {(p["data"], p["condition"], p["best"]) for p in pairs} == {
+        (w["data"], w["condition"], w["best"]) for w in wins}

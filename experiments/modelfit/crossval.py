@@ -39,6 +39,7 @@ from ..folders import save_figure
 
 __all__ = [
     "crossvalidate",
+    "markdown_table",
     "CrossvalFolderError",
     "THEORIES",
     "HELDOUT",
@@ -588,6 +589,25 @@ def winners(rows: list[dict], metric: str = "loglik_per_report") -> list[dict]:
             }
         )
     return out
+
+
+def markdown_table(rows: list[dict], theories: tuple[str, ...] = THEORIES) -> str:
+    """The held-out log-likelihood per report as a Markdown table (one row per data set and held-out
+    condition, one column per fitted theory, the best in bold): the docs' table, rendered from a
+    ``crossval.csv`` (the committed one is ``experiments/data/crossval.csv``)."""
+    lines = [
+        "| data simulated by | fit on → held out | " + " | ".join(theories) + " |",
+        "|---|---|" + "---|" * len(theories),
+    ]
+    for w in winners(rows):
+        values = dict(w["ranking"])
+        cells = [
+            "" if t not in values else (f"**{values[t]:.2f}**" if t == w["best"] else f"{values[t]:.2f}")
+            for t in theories
+        ]
+        gen = w["data"].split(":", 1)[1]
+        lines.append(f"| {gen} | {w['fit_set']} → {w['condition']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def _pairs(rows: list[dict], per_trial: dict, seed: int) -> list[dict]:
