@@ -346,7 +346,9 @@ class BatchedPlanner:
         until the next call (copy them to keep them)."""
         size = plans.n * (int((plans.end_ms - plans.onset_ms).max()) + 1 if plans.n else 1) * 6
         if self._table is None or self._table.size < size:
-            self._table = np.empty(max(size, int(1.25 * (0 if self._table is None else self._table.size))))
+            # twice the size: the longest table grows over an env's first steps, and each new buffer's
+            # pages are given by the system as they are first written (unused headroom costs nothing)
+            self._table = np.empty(2 * size)
         return plans.command_table(self._table)
 
     def start(self, worlds: np.ndarray, plans: SaccadePlans, advance_ms: np.ndarray) -> None:

@@ -158,6 +158,27 @@ def profiles(generator: BurstGenerator | MainSequence, amp_deg) -> Profiles:
     return Profiles(generator, amp_deg)
 
 
+def _cdf_grid(t: np.ndarray, count: np.ndarray, sigma_ms: float) -> tuple[np.ndarray, float]:
+    """The Gaussian CDF the eye-position signal weighs its knots' increments with, tabulated once per
+    call (``models._plan_kernels.signal_cdf_table``) where the times ``t`` (n, m) (less the delay) lie on
+    the knots' midpoints' grid (every ``KNOT_MS / 2``: whole ms after onset with a whole-ms delay, as the
+    batched env asks): their differences then take a few thousand values where the kernel would call
+    ``erfc`` at every knot of every plan. Returns (table, its first grid point), or an empty table."""
+    step = KNOT_MS / 2
+    if not t.size or not np.isfinite(t).all() or not np.array_equal(np.floor(t / step) * step, t):
+        return _NO_CDF, 0.0
+    lo = float(np.floor((t.min() - (int(count.max()) - 1) * KNOT_MS) / step) * step)
+    size = int((float(t.max()) - lo) / step) + 1
+    if size > t.size * float(count.mean()) / 4:  # few plans or times: the table would cost more than it saves
+        return _NO_CDF, 0.0
+    cdf = np.empty(size)
+    K.signal_cdf_table(lo, step, sigma_ms, cdf)
+    return cdf, lo
+
+
+_NO_CDF = np.zeros(0)
+
+
 # ------------------------------------------------------------------------------------------- plans
 class SaccadePlans:
     """n binocular saccade plans as arrays (``models.SaccadePlan`` is n = 1 of it).
@@ -317,7 +338,6 @@ class SaccadePlans:
         on each call (about half of the table's time at 4096 worlds on 2 cores)."""
         count = self.end_ms - self.onset_ms + 1
         T = int(count.max()) if self.n else 1
-        t_rel = np.minimum(np.arange(T, dtype=float)[None, :], (count - 1)[:, None].astype(float))
         size = self.n * T * 6
         if buffer is None:
             out = np.empty((self.n, T, 2, 3))
@@ -328,7 +348,7 @@ class SaccadePlans:
             )
         else:
             out = buffer[:size].reshape(self.n, T, 2, 3)
-        K.angles(*self.executed_profiles.args(), *self._args("executed"), t_rel, out)
+        K.command_rows(*self.executed_profiles.args(), *self._args("executed"), count, out)
         return out.reshape(self.n, T, 6), count
 
     def eye_position_signal(self, t_ms, eye_position: EyePositionSignal | None = None) -> np.ndarray:
@@ -340,7 +360,8 @@ class SaccadePlans:
         t = self._rel(t_ms) - eps.delay_ms
         count = np.ceil((self.settle_ms + KNOT_MS) / KNOT_MS).astype(np.int64)  # len(np.arange(0, settle + 0.5, 0.5))
         smooth = np.empty(t.shape + (4,))
-        K.signals(*self.profiles.args(), *self._args("intended"), KNOT_MS, count, t, eps.sigma_ms, smooth)
+        cdf, lo = _cdf_grid(t, count, eps.sigma_ms)
+        K.signals(*self.profiles.args(), *self._args("intended"), KNOT_MS, count, t, eps.sigma_ms, cdf, lo, smooth)
         start = self.signal_start[:, None, :, :2]
         hv = start + (self.intended_end[:, None, :, :2] - start) * smooth.reshape(t.shape + (2, 2))
         return with_listing(hv)
