@@ -148,17 +148,26 @@ class BatchedPlanner:
         self.qpos[w], self.qvel[w], self.ctrl[w] = data["qpos"], data["qvel"], data["ctrl"]
         self.mocap_pos[w], self.mocap_quat[w] = settled._mocap
         layout = self.head.scene.layout
-        for k, i in enumerate(w):
-            rng = np.random.default_rng(int(seeds[k]))
-            if layout is not None:
-                for name, pos in layout(rng).items():
-                    self.mocap_pos[i, settled._mocap_id[name]] = pos
-            if placements is not None:
-                for name, pos in placements[k].items():
+        rngs = [np.random.default_rng(int(s)) for s in seeds]
+        if layout is not None and len(w):
+            drawn = [layout(rng) for rng in rngs]  # each world's own draws, in the single env's order
+            names = tuple(drawn[0])
+            if all(tuple(d) == names for d in drawn):  # one assignment for all worlds and objects
+                rows = np.array([settled._mocap_id[name] for name in names], np.intp)
+                pts = np.array([list(d.values()) for d in drawn], float).reshape(len(w), len(names), 3)
+                self.mocap_pos[w[:, None], rows[None, :]] = pts
+            else:  # (a layout whose objects vary from draw to draw)
+                for i, d in zip(w, drawn):
+                    for name, pos in d.items():
+                        self.mocap_pos[i, settled._mocap_id[name]] = pos
+        if placements is not None:
+            for i, placed in zip(w, placements):
+                for name, pos in placed.items():
                     pos = np.asarray(pos, float).reshape(3)
                     if not np.isfinite(pos).all():
                         raise ValueError(f"the position of {name!r} must be finite; got {pos}")
                     self.mocap_pos[i, settled.mocap_index(name)] = pos
+        for i, rng in zip(w.tolist(), rngs):
             self.rngs[i] = rng
             self._last[i] = None
 

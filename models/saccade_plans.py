@@ -179,6 +179,14 @@ def _cdf_grid(t: np.ndarray, count: np.ndarray, sigma_ms: float) -> tuple[np.nda
 _NO_CDF = np.zeros(0)
 
 
+def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two float64 arrays hold the same numbers to the bit (-0.0 is not 0.0; NaN is itself):
+    then what is computed from them elementwise is the same, and is computed once."""
+    return a.shape == b.shape and np.array_equal(
+        np.ascontiguousarray(a, np.float64).view(np.uint64), np.ascontiguousarray(b, np.float64).view(np.uint64)
+    )
+
+
 # ------------------------------------------------------------------------------------------- plans
 class SaccadePlans:
     """n binocular saccade plans as arrays (``models.SaccadePlan`` is n = 1 of it).
@@ -244,7 +252,14 @@ class SaccadePlans:
         same = np.array_equal(self._amp_deg, self._int_deg)
         self.executed_profiles = prof = self.profiles if same else Profiles(generator, self._amp_deg)
         self._prof = {"executed": prof, "intended": self.profiles}
-        R0, R1, Ri = (fick_matrix(a[..., 0], a[..., 1], a[..., 2]) for a in (self.start, self.end, self.intended_end))
+        # (without motor noise the executed endpoint is the intended one: its rotation is computed once)
+        exact = _same_bits(self.end, self.intended_end)
+        R0, R1 = (fick_matrix(a[..., 0], a[..., 1], a[..., 2]) for a in (self.start, self.end))
+        Ri = (
+            R1
+            if exact
+            else fick_matrix(self.intended_end[..., 0], self.intended_end[..., 1], self.intended_end[..., 2])
+        )
         R0T = np.swapaxes(R0, -1, -2)
         self.executed_rotation = R1 @ R0T
         self.efference_copy = Ri @ R0T
@@ -256,12 +271,16 @@ class SaccadePlans:
         }
         settle = np.maximum(prof.settle_ms, self.profiles.settle_ms)
         if self.vergence is not None:
+            done = None
             for which in ("executed", "intended"):  # each eye's share of the signed convergence
                 row = self._parts[which][1]
                 share = np.where(row[:, 5] - row[:, 6] >= 0, 1.0, -1.0) * np.abs(row[:, 5:7]).max(axis=1)
+                if done is not None and _same_bits(share, done):  # the same settle times (no motor noise)
+                    continue
                 settle = np.maximum(
                     settle, self.vergence.settle_ms(np.rad2deg(share), prof.offset_ms, generator.settle_deg)
                 )
+                done = share
         self.settle_ms = np.asarray(settle, float)
         for which in ("executed", "intended"):
             self._parts[which][1][:, 0] = self.settle_ms
@@ -271,7 +290,7 @@ class SaccadePlans:
         self.movement_onset_ms = self.onset_ms + prof.onset_ms
         self.peak_velocity = np.deg2rad(prof.peak_velocity_deg_s)
         g1 = gaze_direction(self.end[:, :, 0], self.end[:, :, 1])
-        g0 = gaze_direction(self.intended_end[:, :, 0], self.intended_end[:, :, 1])
+        g0 = g1 if exact else gaze_direction(self.intended_end[:, :, 0], self.intended_end[:, :, 1])
         self.endpoint_error_deg = np.degrees(np.arccos(np.clip((g0 * g1).sum(axis=-1), -1.0, 1.0)))
 
     def _decompose(self, end: np.ndarray, prof: Profiles) -> tuple[np.ndarray, np.ndarray]:
