@@ -150,11 +150,19 @@ class BatchedPlanner:
         layout = self.head.scene.layout
         rngs = [np.random.default_rng(int(s)) for s in seeds]
         if layout is not None and len(w):
-            drawn = [layout(rng) for rng in rngs]  # each world's own draws, in the single env's order
-            names = tuple(drawn[0])
-            if all(tuple(d) == names for d in drawn):  # one assignment for all worlds and objects
+            # each world's own draws, in the single env's order; a layout with a ``many`` method (the
+            # search display's) computes the positions of all worlds at once
+            many = getattr(layout, "many", None)
+            if many is not None:
+                names, pts = many(rngs)
+            else:
+                drawn = [layout(rng) for rng in rngs]
+                names = tuple(drawn[0])
+                pts = None
+                if all(tuple(d) == names for d in drawn):
+                    pts = np.array([list(d.values()) for d in drawn], float).reshape(len(w), len(names), 3)
+            if pts is not None:  # one assignment for all worlds and objects
                 rows = np.array([settled._mocap_id[name] for name in names], np.intp)
-                pts = np.array([list(d.values()) for d in drawn], float).reshape(len(w), len(names), 3)
                 self.mocap_pos[w[:, None], rows[None, :]] = pts
             else:  # (a layout whose objects vary from draw to draw)
                 for i, d in zip(w, drawn):

@@ -346,3 +346,27 @@ def test_eye_position_signal_from_the_cdf_table_to_the_bit(case):
         np.testing.assert_array_equal(_bits(got), _bits(with_listing(hv)))
     assert _cdf_grid(plans._rel(grid) - eps.delay_ms, count, eps.sigma_ms)[0].size > 0  # the table was read
     assert _cdf_grid(plans._rel(grid + 0.1) - eps.delay_ms, count, eps.sigma_ms)[0].size == 0  # off the grid
+
+
+def test_layouts_of_many_worlds_are_each_worlds_own_draws(monkeypatch):
+    """The search display laid out for many worlds at once (``layout.many``, what ``take_settled`` uses) is,
+    to the bit, each world's layout drawn alone from its own generator; a layout without ``many`` (drawn
+    world by world and written at once) gives the same worlds."""
+    from models import SettledReset
+
+    layout = models.Head("search", 16, seed=0).scene.layout
+    seeds = list(range(0, 4000, 97))
+    names, pts = layout.many([np.random.default_rng(s) for s in seeds])
+    for k, s in enumerate(seeds):
+        alone = layout(np.random.default_rng(s))
+        assert tuple(alone) == names
+        np.testing.assert_array_equal(_bits(np.array(list(alone.values()))), _bits(pts[k]))
+    head = models.Head("search", 16, seed=0)
+    settled = SettledReset(head)
+    worlds = np.arange(len(seeds))[::-1]
+    fast, plain = BatchedPlanner(head, len(seeds)), BatchedPlanner(head, len(seeds))
+    fast.take_settled(worlds, settled, seeds)
+    monkeypatch.setattr(head.scene, "layout", lambda rng: layout(rng))  # no ``many``
+    plain.take_settled(worlds, settled, seeds)
+    np.testing.assert_array_equal(_bits(fast.mocap_pos), _bits(plain.mocap_pos))
+    assert len({tuple(p) for p in fast.mocap_pos[:, settled.mocap_index("target")]}) == len(seeds)
