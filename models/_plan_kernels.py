@@ -319,14 +319,15 @@ def angles(
 
 @_par
 def command_rows(
-    tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, count, out
+    tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, count, dest, out
 ):  # pragma: no cover - compiled
-    """:func:`angles` at ``t_rel[w, k] = min(k, count[w] - 1)`` (a command table: every whole ms from
-    onset, then held), out (n, T, 2, 3): each row in use computed once, the held rows copies of the
-    last one, as :func:`angles` copies a row whose time repeats the previous row's (bit-identical to
-    it, without the (n, T) array of times)."""
-    n, T = out.shape[0], out.shape[1]
+    """:func:`angles` of saccade w at ``t_rel[w, k] = min(k, count[w] - 1)`` (a command table: every whole
+    ms from onset, then held), written to ``out[dest[w]]`` (out: (N, T, 2, 3), dest: (n,) distinct rows):
+    each row in use computed once, the held rows copies of the last one, as :func:`angles` copies a row
+    whose time repeats the previous row's (bit-identical to it, without the (n, T) array of times)."""
+    n, T = dest.shape[0], out.shape[1]
     for w in nb.prange(n):
+        o = out[dest[w]]
         rows = min(count[w], T)
         # tan(v / 2) of Listing's torsion, kept while an eye's vertical angle repeats (the vergence tail)
         va = vb = math.nan
@@ -339,13 +340,13 @@ def command_rows(
                 va, ta = v0, math.tan(v0 / 2)
             if v1 != vb or math.copysign(1.0, v1) != math.copysign(1.0, vb):
                 vb, tb = v1, math.tan(v1 / 2)
-            out[w, k, 0, 0], out[w, k, 0, 1], out[w, k, 0, 2] = h0, v0, 2.0 * math.atan(math.tan(h0 / 2) * ta)
-            out[w, k, 1, 0], out[w, k, 1, 1], out[w, k, 1, 2] = h1, v1, 2.0 * math.atan(math.tan(h1 / 2) * tb)
+            o[k, 0, 0], o[k, 0, 1], o[k, 0, 2] = h0, v0, 2.0 * math.atan(math.tan(h0 / 2) * ta)
+            o[k, 1, 0], o[k, 1, 1], o[k, 1, 2] = h1, v1, 2.0 * math.atan(math.tan(h1 / 2) * tb)
         last = rows - 1
         for k in range(rows, T):
             for e in range(2):
                 for c in range(3):
-                    out[w, k, e, c] = out[w, last, e, c]
+                    o[k, e, c] = o[last, e, c]
 
 
 @_par

@@ -356,17 +356,30 @@ class BatchedPlanner:
         return plans, ok
 
     # ------------------------------------------------------------------ execution
-    def commands(self, plans: SaccadePlans) -> tuple[np.ndarray, np.ndarray]:
+    def commands(self, plans: SaccadePlans, worlds: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The command tables: each plan's executed angles (m, T, 6) at every whole ms from its onset to
         its ``end_ms`` (then held), and the rows in use per plan (m,) (``SaccadePlans.command_table``).
-        The tables are written into one buffer kept by the planner (grown as needed): they are valid
-        until the next call (copy them to keep them)."""
-        size = plans.n * (int((plans.end_ms - plans.onset_ms).max()) + 1 if plans.n else 1) * 6
+        With ``worlds`` (m,), the worlds of the plans: the table of every world (N, T, 6), plan k's at
+        world ``worlds[k]`` and each other world holding its eyes (``hold``, one row in use), and the rows
+        in use per world (N,) -- what the physics follows, built in place. The tables are written into
+        one buffer kept by the planner (grown as needed): they are valid until the next call (copy them
+        to keep them)."""
+        T = int((plans.end_ms - plans.onset_ms).max()) + 1 if plans.n else 1
+        size = (plans.n if worlds is None else self.num_worlds) * T * 6
         if self._table is None or self._table.size < size:
             # twice the size: the longest table grows over an env's first steps, and each new buffer's
             # pages are given by the system as they are first written (unused headroom costs nothing)
             self._table = np.empty(2 * size)
-        return plans.command_table(self._table)
+        if worlds is None:
+            return plans.command_table(self._table)
+        worlds = np.asarray(worlds, np.intp)
+        table, count = plans.command_table(self._table, rows=worlds, num_rows=self.num_worlds)
+        idle = np.ones(self.num_worlds, bool)
+        idle[worlds] = False
+        table[idle] = self.hold[idle].reshape(-1, 1, 6)
+        lengths = np.ones(self.num_worlds, np.int64)
+        lengths[worlds] = count
+        return table, lengths
 
     def start(self, worlds: np.ndarray, plans: SaccadePlans, advance_ms: np.ndarray) -> None:
         """Make ``plans`` the worlds' saccades and advance their clocks by ``advance_ms`` (past each plan's

@@ -349,26 +349,43 @@ class SaccadePlans:
         K.rates(p.tab, p.rtab, _TABLE_DT_MS, p.prof, p.legacy, p.m0, p.vpk, *self._args("executed"), t, out)
         return out
 
-    def command_table(self, buffer: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def command_table(
+        self, buffer: np.ndarray | None = None, *, rows: np.ndarray | None = None, num_rows: int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The executed angles (n, T, 6) at every whole ms from each plan's onset to its ``end_ms`` (then
         held), and the rows in use (n,). ``buffer``: a flat float64 array of at least n T 6 numbers to
         write the table into (its first n T 6, returned as the table's view); None: a new array. A
         reused buffer spares the pages a new table of thousands of worlds must be given by the system
-        on each call (about half of the table's time at 4096 worlds on 2 cores)."""
+        on each call (about half of the table's time at 4096 worlds on 2 cores).
+
+        ``rows`` (n,) distinct integers below ``num_rows``: the table has ``num_rows`` rows (a batch of
+        worlds, some without a plan), plan k's at row ``rows[k]``; the other rows are left as they are
+        (unwritten in a new array or buffer: the caller fills them)."""
         count = self.end_ms - self.onset_ms + 1
         T = int(count.max()) if self.n else 1
-        size = self.n * T * 6
+        if rows is None:
+            dest, N = np.arange(self.n), self.n
+        else:
+            N = int(num_rows) if num_rows is not None else -1
+            dest = np.asarray(rows, np.intp).reshape(-1)
+            if len(dest) != self.n or N < 0 or (self.n and (dest.min() < 0 or dest.max() >= N)):
+                raise ValueError(
+                    f"rows must be {self.n} row indices below num_rows; got {len(dest)} rows, num_rows {num_rows}"
+                )
+            if len(np.unique(dest)) != self.n:
+                raise ValueError("rows must be distinct: one row of the table per plan")
+        size = N * T * 6
         if buffer is None:
-            out = np.empty((self.n, T, 2, 3))
+            out = np.empty((N, T, 2, 3))
         elif buffer.dtype != np.float64 or buffer.ndim != 1 or not buffer.flags.c_contiguous or buffer.size < size:
             raise ValueError(
                 f"buffer must be a contiguous flat float64 array of at least {size} numbers; got "
                 f"{buffer.dtype} {buffer.shape}"
             )
         else:
-            out = buffer[:size].reshape(self.n, T, 2, 3)
-        K.command_rows(*self.executed_profiles.args(), *self._args("executed"), count, out)
-        return out.reshape(self.n, T, 6), count
+            out = buffer[:size].reshape(N, T, 2, 3)
+        K.command_rows(*self.executed_profiles.args(), *self._args("executed"), count, dest, out)
+        return out.reshape(N, T, 6), count
 
     def eye_position_signal(self, t_ms, eye_position: EyePositionSignal | None = None) -> np.ndarray:
         """The eye-position signal (n, m, 2, 3) of each plan at absolute times ``t_ms`` (n, m): the

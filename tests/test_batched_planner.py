@@ -370,3 +370,30 @@ def test_layouts_of_many_worlds_are_each_worlds_own_draws(monkeypatch):
     plain.take_settled(worlds, settled, seeds)
     np.testing.assert_array_equal(_bits(fast.mocap_pos), _bits(plain.mocap_pos))
     assert len({tuple(p) for p in fast.mocap_pos[:, settled.mocap_index("target")]}) == len(seeds)
+
+
+def test_command_tables_of_every_world_built_in_place():
+    """``BatchedPlanner.commands(plans, worlds)``: the table of all N worlds, each planned world's rows its
+    plan's table and every other world holding its eyes -- to the bit what the batched env assembled
+    before (a new (N, T, 6) array of the holds, the plans' tables copied into their worlds' rows)."""
+    n = 7
+    planner = _planner(n, 5)
+    rng = np.random.default_rng(4)
+    for worlds in (np.array([5, 0, 3]), np.arange(n), np.array([6])):
+        plans, _ = planner.plan(worlds, rng.uniform(-0.3, 0.3, (len(worlds), 2)), np.ones(len(worlds)))
+        own, rows = plans.command_table()
+        before = np.empty((n, own.shape[1], 6))
+        before[:] = planner.hold.reshape(n, 1, 6)
+        before[worlds] = own
+        table, lengths = planner.commands(plans, worlds)
+        np.testing.assert_array_equal(_bits(table), _bits(before))
+        expected = np.ones(n, np.int64)
+        expected[worlds] = rows
+        np.testing.assert_array_equal(lengths, expected)
+        assert np.shares_memory(table, planner._table)
+        planner.start(worlds, plans, plans.end_ms - planner.time_ms[worlds] + 30)
+    plans, _ = planner.plan(np.array([1, 2]), rng.uniform(-0.3, 0.3, (2, 2)), np.ones(2))
+    with pytest.raises(ValueError, match="distinct"):
+        plans.command_table(rows=[1, 1], num_rows=n)
+    with pytest.raises(ValueError, match="below num_rows"):
+        plans.command_table(rows=[1, n], num_rows=n)
