@@ -156,7 +156,7 @@ def _time_paths(plans, now: np.ndarray, spent: dict, repeats: int) -> dict[str, 
 
     runs = {
         "tables, general": tables_general,
-        "tables, fast": lambda: K.command_rows(*ex, count, out["f"]),
+        "tables, fast": lambda: K.command_rows(*ex, count, np.arange(n), out["f"]),
         "signal, general": lambda: K.signals(*sig, _NO_CDF, 0.0, smooth["g"]),
         "signal, fast": signal_fast,
     }
