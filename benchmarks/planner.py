@@ -5,8 +5,10 @@ Per env step the host of ``envs.BatchedBinocularSaccade`` resets the worlds whos
 command tables the device's servo follows, and advances the worlds' clocks and eye-position
 signals. The baseline does the same with one ``models.Head`` and ``models.SaccadePlan`` per world
 (``Head.reset`` + the task, ``models.plan_clipped``, ``SaccadePlan.angles`` for the table,
-``SaccadePlan.eye_position_signal``), as the batched env did before the planner was vectorised. No GPU
-extra needed: this is numpy and numba on the host.
+``SaccadePlan.eye_position_signal``), as the batched env did before the planner was vectorised. A
+second table times the command tables and the eye-position signals by the general kernels and by the
+fast ones (``models._plan_kernels.command_rows``, the signal's tabulated Gaussian CDF) in the same
+process, and checks that every bit agrees. No GPU extra needed: this is numpy and numba on the host.
 
     python benchmarks/planner.py [--num-envs 64 1024 4096] [--steps 5] [--task search] [--resets 0.1]
 """
@@ -105,6 +107,72 @@ def batched(task, n: int, steps: int, resets: float, parts: dict | None = None) 
     return (time.perf_counter() - t0) / (n * steps)
 
 
+def paths(task, n: int, steps: int, repeats: int = 5) -> dict[str, tuple[float, float, bool]]:
+    """The command tables and the eye-position signals of ``steps`` steps' plans by the general kernels (the
+    tables as ``SaccadePlans.angles`` at an (n, T) array of times, the signal's Gaussian CDF computed at every
+    knot: the code before ``command_rows`` and the CDF table) and by the fast ones, in this process: per
+    part (seconds per world and call, general then fast, the median of ``repeats``, and whether every
+    bit agrees)."""
+    head = models.Head(task.scene, 32, seed=0)
+    settled, planner = SettledReset(head), BatchedPlanner(head, n)
+    planner.take_settled(
+        np.arange(n), settled, list(range(n)), [task.placements(np.random.default_rng(i)) for i in range(n)]
+    )
+    rng = np.random.default_rng(0)
+    spent: dict[str, list[float]] = {}
+    same = {"tables": True, "signal": True}
+    for _ in range(steps):
+        plans, _ = planner.plan(np.arange(n), random_actions(rng, n), np.ones(n))
+        advance = plans.end_ms - plans.onset_ms + FIXATION_MS
+        for part, ok in _time_paths(plans, (planner.time_ms + advance)[:, None].astype(float), spent, repeats).items():
+            same[part] &= ok
+        planner.start(np.arange(n), plans, advance)
+    med = {k: float(np.median(v)) / n for k, v in spent.items()}
+    return {p: (med[f"{p}, general"], med[f"{p}, fast"], same[p]) for p in same}
+
+
+def _time_paths(plans, now: np.ndarray, spent: dict, repeats: int) -> dict[str, bool]:
+    """:func:`paths` for one step's ``plans``, the signal at times ``now`` (n, 1)."""
+    from models import _plan_kernels as K
+    from models.saccade_plans import _NO_CDF, KNOT_MS, _cdf_grid
+
+    n = plans.n
+    count = plans.end_ms - plans.onset_ms + 1
+    T = int(count.max())
+    ex = (*plans.executed_profiles.args(), *plans._args("executed"))
+    eps = plans.eye_position
+    t = plans._rel(now) - eps.delay_ms
+    knots = np.ceil((plans.settle_ms + KNOT_MS) / KNOT_MS).astype(np.int64)
+    sig = (*plans.profiles.args(), *plans._args("intended"), KNOT_MS, knots, t, eps.sigma_ms)
+    out = {k: np.empty((n, T, 2, 3)) for k in ("g", "f")}
+    smooth = {k: np.empty((n, 1, 4)) for k in ("g", "f")}
+
+    def tables_general():
+        times = np.minimum(np.arange(T, dtype=float)[None, :], (count - 1)[:, None].astype(float))
+        K.angles(*ex, times, out["g"])
+
+    def signal_fast():
+        K.signals(*sig, *_cdf_grid(t, knots, eps.sigma_ms), smooth["f"])
+
+    runs = {
+        "tables, general": tables_general,
+        "tables, fast": lambda: K.command_rows(*ex, count, np.arange(n), out["f"]),
+        "signal, general": lambda: K.signals(*sig, _NO_CDF, 0.0, smooth["g"]),
+        "signal, fast": signal_fast,
+    }
+    for f in runs.values():
+        f()  # the first touch of the arrays' pages
+    for _ in range(repeats):
+        for name, f in runs.items():
+            t0 = time.perf_counter()
+            f()
+            spent.setdefault(name, []).append(time.perf_counter() - t0)
+    return {
+        "tables": np.array_equal(out["g"].view(np.uint64), out["f"].view(np.uint64)),
+        "signal": np.array_equal(smooth["g"].view(np.uint64), smooth["f"].view(np.uint64)),
+    }
+
+
 #: the host's parts of a step: resets (layout, task, hand-over), plans (SaccadePlans: profiles, settle
 #: times, rotations), command tables (the executed angles every ms), start (clocks, eye-position signals)
 PARTS = ("resets", "plan", "commands", "start")
@@ -141,6 +209,17 @@ def main(argv=None) -> None:
             flush=True,
         )
     print("target: <= 5 us per world and step (issue 38); parts timed separately: they add up to the total")
+    print(
+        "\nThe command tables and eye-position signals by the general kernels and by the fast ones, in this "
+        "process (median of 5 calls per step's plans):\n\n| worlds | part | general us/world | fast us/world | "
+        "speed-up | every bit the same |\n|---|---|---|---|---|---|"
+    )
+    for n in args.num_envs:
+        for part, (g, f, same) in paths(task, n, args.steps).items():
+            print(
+                f"| {n} | {part} | {g * 1e6:.1f} | {f * 1e6:.1f} | {g / f:.2f}x | {'yes' if same else 'NO'} |",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

@@ -247,17 +247,13 @@ class BatchedBinocularSaccade(VectorEnv):
                 self._frame, torch.as_tensor(rot_eye, dtype=torch.float32, device=self.device), self.remap_models
             )
         with part("host"):
+            # the command tables: each world's commanded angles at every ms from now to its saccade's end,
+            # the worlds being reset holding their fixation (built in place in the planner's buffer)
             if plans is not None:
-                table, lengths[act] = self.planner.commands(plans)
+                commands, lengths = self.planner.commands(plans, act)
                 spans[act] = plans.end_ms - plans.onset_ms
-            # the command tables: each world's commanded angles at every ms from now to its saccade's end
-            if len(act) == n:  # every world saccades: the planner's tables as they are (no copy)
-                commands = table
             else:
-                commands = np.empty((n, table.shape[1] if plans is not None else 1, 6))
-                commands[:] = self.planner.hold.reshape(n, 1, 6)  # the worlds being reset hold their fixation
-                if plans is not None:
-                    commands[act] = table
+                commands = self.planner.hold.reshape(n, 1, 6).copy()
             advance = np.where(active, spans + self._template.fixation_ms, 0)
         with part("physics"):
             if resetting.any():

@@ -33,9 +33,11 @@ __all__ = [
     "kernel_threads",
     "limit_plan_threads",
     "angles",
+    "command_rows",
     "burst_loop",
     "rates",
     "signals",
+    "signal_cdf_table",
     "profile_marks",
     "profile_values",
     "listing_torsion",
@@ -316,6 +318,38 @@ def angles(
 
 
 @_par
+def command_rows(
+    tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, count, dest, out
+):  # pragma: no cover - compiled
+    """:func:`angles` of saccade w at ``t_rel[w, k] = min(k, count[w] - 1)`` (a command table: every whole
+    ms from onset, then held), written to ``out[dest[w]]`` (out: (N, T, 2, 3), dest: (n,) distinct rows):
+    each row in use computed once, the held rows copies of the last one, as :func:`angles` copies a row
+    whose time repeats the previous row's (bit-identical to it, without the (n, T) array of times)."""
+    n, T = dest.shape[0], out.shape[1]
+    for w in nb.prange(n):
+        o = out[dest[w]]
+        rows = min(count[w], T)
+        # tan(v / 2) of Listing's torsion, kept while an eye's vertical angle repeats (the vergence tail)
+        va = vb = math.nan
+        ta = tb = 0.0
+        for k in range(rows):
+            _, h0, v0, h1, v1 = _hv(
+                tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, w, float(k)
+            )
+            if v0 != va or math.copysign(1.0, v0) != math.copysign(1.0, va):  # (-0.0 == 0.0: the sign too)
+                va, ta = v0, math.tan(v0 / 2)
+            if v1 != vb or math.copysign(1.0, v1) != math.copysign(1.0, vb):
+                vb, tb = v1, math.tan(v1 / 2)
+            o[k, 0, 0], o[k, 0, 1], o[k, 0, 2] = h0, v0, 2.0 * math.atan(math.tan(h0 / 2) * ta)
+            o[k, 1, 0], o[k, 1, 1], o[k, 1, 2] = h1, v1, 2.0 * math.atan(math.tan(h1 / 2) * tb)
+        last = rows - 1
+        for k in range(rows, T):
+            for e in range(2):
+                for c in range(3):
+                    o[k, e, c] = o[last, e, c]
+
+
+@_par
 def rates(
     tab, rtab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, t_rel, out
 ):  # pragma: no cover - compiled
@@ -351,16 +385,63 @@ def _norm(x, s, e, s_nom):  # pragma: no cover - compiled
     return (x - s) / total if total != 0 else s_nom
 
 
+@_inline
+def _cdf(d, sigma):  # pragma: no cover - compiled
+    """The Gaussian's CDF (s.d. ``sigma``) at ``d``: the weight of an increment ``d`` ms before now."""
+    return 0.5 * math.erfc(-(d / sigma) * (1.0 / math.sqrt(2.0)))
+
+
+@nb.njit(cache=DISK_CACHE, nogil=True)
+def signal_cdf_table(lo, step, sigma, out):  # pragma: no cover - compiled
+    """``out[i]`` = the Gaussian's CDF at ``lo + i step`` (what :func:`signals` reads for the time
+    differences on that grid: the same function of the same numbers, so the same bits)."""
+    for i in range(out.shape[0]):
+        out[i] = _cdf(lo + i * step, sigma)
+
+
+@_inline
+def _weight(d, sigma, cdf, lo, step):  # pragma: no cover - compiled
+    """:func:`_cdf` of ``d``, read from ``cdf`` (:func:`signal_cdf_table` from ``lo`` by ``step``) where
+    ``d`` is exactly one of its grid's numbers, else computed."""
+    x = (d - lo) / step
+    if x >= 0.0 and x < cdf.shape[0]:
+        i = int(x)
+        if lo + i * step == d:
+            return cdf[i]
+    return _cdf(d, sigma)
+
+
 @_par
 def signals(
-    tab, dt, prof, legacy, m0, vpk, plan, verg_on, speedup, latency, plants, start, end, knot, count, t_rel, sigma, out
+    tab,
+    dt,
+    prof,
+    legacy,
+    m0,
+    vpk,
+    plan,
+    verg_on,
+    speedup,
+    latency,
+    plants,
+    start,
+    end,
+    knot,
+    count,
+    t_rel,
+    sigma,
+    cdf,
+    cdf_lo,
+    out,
 ):  # pragma: no cover - compiled
     """The eye-position signal's normalised time course (``models.EyePositionSignal``), out (n, m, 4)
     [(h, v) of the left eye, then the right], at ``t_rel`` (n, m) (already less the delay): the intended
     profile normalised per component at count[w] knots every ``knot`` ms, its increments spread by the
-    Gaussian's CDF (s.d. ``sigma``), plus the rest."""
+    Gaussian's CDF (s.d. ``sigma``), plus the rest. ``cdf``: the CDF on the grid ``cdf_lo + i knot / 2``
+    (:func:`signal_cdf_table`; the time differences of times on that grid from the knots' midpoints), or
+    empty: computed at every knot."""
     n, m = t_rel.shape
-    r2 = 1.0 / math.sqrt(2.0)
+    step = 0.5 * knot
     for w in nb.prange(n):
         for j in range(m):
             for c in range(4):
@@ -377,7 +458,7 @@ def signals(
             if k > 0:
                 mid = 0.5 * (k * knot + (k - 1) * knot)
                 for j in range(m):
-                    g = 0.5 * math.erfc(-((t_rel[w, j] - mid) / sigma) * r2)
+                    g = _weight(t_rel[w, j] - mid, sigma, cdf, cdf_lo, step)
                     out[w, j, 0] += g * (c0 - p0)
                     out[w, j, 1] += g * (c1 - p1)
                     out[w, j, 2] += g * (c2 - p2)
@@ -385,7 +466,7 @@ def signals(
             p0, p1, p2, p3 = c0, c1, c2, c3
         lk = (count[w] - 1) * knot
         for j in range(m):
-            g = 0.5 * math.erfc(-((t_rel[w, j] - lk) / sigma) * r2)
+            g = _weight(t_rel[w, j] - lk, sigma, cdf, cdf_lo, step)
             out[w, j, 0] += g * (1.0 - p0)
             out[w, j, 1] += g * (1.0 - p1)
             out[w, j, 2] += g * (1.0 - p2)

@@ -148,17 +148,34 @@ class BatchedPlanner:
         self.qpos[w], self.qvel[w], self.ctrl[w] = data["qpos"], data["qvel"], data["ctrl"]
         self.mocap_pos[w], self.mocap_quat[w] = settled._mocap
         layout = self.head.scene.layout
-        for k, i in enumerate(w):
-            rng = np.random.default_rng(int(seeds[k]))
-            if layout is not None:
-                for name, pos in layout(rng).items():
-                    self.mocap_pos[i, settled._mocap_id[name]] = pos
-            if placements is not None:
-                for name, pos in placements[k].items():
+        rngs = [np.random.default_rng(int(s)) for s in seeds]
+        if layout is not None and len(w):
+            # each world's own draws, in the single env's order; a layout with a ``many`` method (the
+            # search display's) computes the positions of all worlds at once
+            many = getattr(layout, "many", None)
+            if many is not None:
+                names, pts = many(rngs)
+            else:
+                drawn = [layout(rng) for rng in rngs]
+                names = tuple(drawn[0])
+                pts = None
+                if all(tuple(d) == names for d in drawn):
+                    pts = np.array([list(d.values()) for d in drawn], float).reshape(len(w), len(names), 3)
+            if pts is not None:  # one assignment for all worlds and objects
+                rows = np.array([settled._mocap_id[name] for name in names], np.intp)
+                self.mocap_pos[w[:, None], rows[None, :]] = pts
+            else:  # (a layout whose objects vary from draw to draw)
+                for i, d in zip(w, drawn):
+                    for name, pos in d.items():
+                        self.mocap_pos[i, settled._mocap_id[name]] = pos
+        if placements is not None:
+            for i, placed in zip(w, placements):
+                for name, pos in placed.items():
                     pos = np.asarray(pos, float).reshape(3)
                     if not np.isfinite(pos).all():
                         raise ValueError(f"the position of {name!r} must be finite; got {pos}")
                     self.mocap_pos[i, settled.mocap_index(name)] = pos
+        for i, rng in zip(w.tolist(), rngs):
             self.rngs[i] = rng
             self._last[i] = None
 
@@ -339,15 +356,30 @@ class BatchedPlanner:
         return plans, ok
 
     # ------------------------------------------------------------------ execution
-    def commands(self, plans: SaccadePlans) -> tuple[np.ndarray, np.ndarray]:
+    def commands(self, plans: SaccadePlans, worlds: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The command tables: each plan's executed angles (m, T, 6) at every whole ms from its onset to
         its ``end_ms`` (then held), and the rows in use per plan (m,) (``SaccadePlans.command_table``).
-        The tables are written into one buffer kept by the planner (grown as needed): they are valid
-        until the next call (copy them to keep them)."""
-        size = plans.n * (int((plans.end_ms - plans.onset_ms).max()) + 1 if plans.n else 1) * 6
+        With ``worlds`` (m,), the worlds of the plans: the table of every world (N, T, 6), plan k's at
+        world ``worlds[k]`` and each other world holding its eyes (``hold``, one row in use), and the rows
+        in use per world (N,) -- what the physics follows, built in place. The tables are written into
+        one buffer kept by the planner (grown as needed): they are valid until the next call (copy them
+        to keep them)."""
+        T = int((plans.end_ms - plans.onset_ms).max()) + 1 if plans.n else 1
+        size = (plans.n if worlds is None else self.num_worlds) * T * 6
         if self._table is None or self._table.size < size:
-            self._table = np.empty(max(size, int(1.25 * (0 if self._table is None else self._table.size))))
-        return plans.command_table(self._table)
+            # twice the size: the longest table grows over an env's first steps, and each new buffer's
+            # pages are given by the system as they are first written (unused headroom costs nothing)
+            self._table = np.empty(2 * size)
+        if worlds is None:
+            return plans.command_table(self._table)
+        worlds = np.asarray(worlds, np.intp)
+        table, count = plans.command_table(self._table, rows=worlds, num_rows=self.num_worlds)
+        idle = np.ones(self.num_worlds, bool)
+        idle[worlds] = False
+        table[idle] = self.hold[idle].reshape(-1, 1, 6)
+        lengths = np.ones(self.num_worlds, np.int64)
+        lengths[worlds] = count
+        return table, lengths
 
     def start(self, worlds: np.ndarray, plans: SaccadePlans, advance_ms: np.ndarray) -> None:
         """Make ``plans`` the worlds' saccades and advance their clocks by ``advance_ms`` (past each plan's

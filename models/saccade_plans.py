@@ -158,6 +158,35 @@ def profiles(generator: BurstGenerator | MainSequence, amp_deg) -> Profiles:
     return Profiles(generator, amp_deg)
 
 
+def _cdf_grid(t: np.ndarray, count: np.ndarray, sigma_ms: float) -> tuple[np.ndarray, float]:
+    """The Gaussian CDF the eye-position signal weighs its knots' increments with, tabulated once per
+    call (``models._plan_kernels.signal_cdf_table``) where the times ``t`` (n, m) (less the delay) lie on
+    the knots' midpoints' grid (every ``KNOT_MS / 2``: whole ms after onset with a whole-ms delay, as the
+    batched env asks): their differences then take a few thousand values where the kernel would call
+    ``erfc`` at every knot of every plan. Returns (table, its first grid point), or an empty table."""
+    step = KNOT_MS / 2
+    if not t.size or not np.isfinite(t).all() or not np.array_equal(np.floor(t / step) * step, t):
+        return _NO_CDF, 0.0
+    lo = float(np.floor((t.min() - (int(count.max()) - 1) * KNOT_MS) / step) * step)
+    size = int((float(t.max()) - lo) / step) + 1
+    if size > t.size * float(count.mean()) / 4:  # few plans or times: the table would cost more than it saves
+        return _NO_CDF, 0.0
+    cdf = np.empty(size)
+    K.signal_cdf_table(lo, step, sigma_ms, cdf)
+    return cdf, lo
+
+
+_NO_CDF = np.zeros(0)
+
+
+def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two float64 arrays hold the same numbers to the bit (-0.0 is not 0.0; NaN is itself):
+    then what is computed from them elementwise is the same, and is computed once."""
+    return a.shape == b.shape and np.array_equal(
+        np.ascontiguousarray(a, np.float64).view(np.uint64), np.ascontiguousarray(b, np.float64).view(np.uint64)
+    )
+
+
 # ------------------------------------------------------------------------------------------- plans
 class SaccadePlans:
     """n binocular saccade plans as arrays (``models.SaccadePlan`` is n = 1 of it).
@@ -223,7 +252,14 @@ class SaccadePlans:
         same = np.array_equal(self._amp_deg, self._int_deg)
         self.executed_profiles = prof = self.profiles if same else Profiles(generator, self._amp_deg)
         self._prof = {"executed": prof, "intended": self.profiles}
-        R0, R1, Ri = (fick_matrix(a[..., 0], a[..., 1], a[..., 2]) for a in (self.start, self.end, self.intended_end))
+        # (without motor noise the executed endpoint is the intended one: its rotation is computed once)
+        exact = _same_bits(self.end, self.intended_end)
+        R0, R1 = (fick_matrix(a[..., 0], a[..., 1], a[..., 2]) for a in (self.start, self.end))
+        Ri = (
+            R1
+            if exact
+            else fick_matrix(self.intended_end[..., 0], self.intended_end[..., 1], self.intended_end[..., 2])
+        )
         R0T = np.swapaxes(R0, -1, -2)
         self.executed_rotation = R1 @ R0T
         self.efference_copy = Ri @ R0T
@@ -235,12 +271,16 @@ class SaccadePlans:
         }
         settle = np.maximum(prof.settle_ms, self.profiles.settle_ms)
         if self.vergence is not None:
+            done = None
             for which in ("executed", "intended"):  # each eye's share of the signed convergence
                 row = self._parts[which][1]
                 share = np.where(row[:, 5] - row[:, 6] >= 0, 1.0, -1.0) * np.abs(row[:, 5:7]).max(axis=1)
+                if done is not None and _same_bits(share, done):  # the same settle times (no motor noise)
+                    continue
                 settle = np.maximum(
                     settle, self.vergence.settle_ms(np.rad2deg(share), prof.offset_ms, generator.settle_deg)
                 )
+                done = share
         self.settle_ms = np.asarray(settle, float)
         for which in ("executed", "intended"):
             self._parts[which][1][:, 0] = self.settle_ms
@@ -250,7 +290,7 @@ class SaccadePlans:
         self.movement_onset_ms = self.onset_ms + prof.onset_ms
         self.peak_velocity = np.deg2rad(prof.peak_velocity_deg_s)
         g1 = gaze_direction(self.end[:, :, 0], self.end[:, :, 1])
-        g0 = gaze_direction(self.intended_end[:, :, 0], self.intended_end[:, :, 1])
+        g0 = g1 if exact else gaze_direction(self.intended_end[:, :, 0], self.intended_end[:, :, 1])
         self.endpoint_error_deg = np.degrees(np.arccos(np.clip((g0 * g1).sum(axis=-1), -1.0, 1.0)))
 
     def _decompose(self, end: np.ndarray, prof: Profiles) -> tuple[np.ndarray, np.ndarray]:
@@ -309,27 +349,43 @@ class SaccadePlans:
         K.rates(p.tab, p.rtab, _TABLE_DT_MS, p.prof, p.legacy, p.m0, p.vpk, *self._args("executed"), t, out)
         return out
 
-    def command_table(self, buffer: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def command_table(
+        self, buffer: np.ndarray | None = None, *, rows: np.ndarray | None = None, num_rows: int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The executed angles (n, T, 6) at every whole ms from each plan's onset to its ``end_ms`` (then
         held), and the rows in use (n,). ``buffer``: a flat float64 array of at least n T 6 numbers to
         write the table into (its first n T 6, returned as the table's view); None: a new array. A
         reused buffer spares the pages a new table of thousands of worlds must be given by the system
-        on each call (about half of the table's time at 4096 worlds on 2 cores)."""
+        on each call (about half of the table's time at 4096 worlds on 2 cores).
+
+        ``rows`` (n,) distinct integers below ``num_rows``: the table has ``num_rows`` rows (a batch of
+        worlds, some without a plan), plan k's at row ``rows[k]``; the other rows are left as they are
+        (unwritten in a new array or buffer: the caller fills them)."""
         count = self.end_ms - self.onset_ms + 1
         T = int(count.max()) if self.n else 1
-        t_rel = np.minimum(np.arange(T, dtype=float)[None, :], (count - 1)[:, None].astype(float))
-        size = self.n * T * 6
+        if rows is None:
+            dest, N = np.arange(self.n), self.n
+        else:
+            N = int(num_rows) if num_rows is not None else -1
+            dest = np.asarray(rows, np.intp).reshape(-1)
+            if len(dest) != self.n or N < 0 or (self.n and (dest.min() < 0 or dest.max() >= N)):
+                raise ValueError(
+                    f"rows must be {self.n} row indices below num_rows; got {len(dest)} rows, num_rows {num_rows}"
+                )
+            if len(np.unique(dest)) != self.n:
+                raise ValueError("rows must be distinct: one row of the table per plan")
+        size = N * T * 6
         if buffer is None:
-            out = np.empty((self.n, T, 2, 3))
+            out = np.empty((N, T, 2, 3))
         elif buffer.dtype != np.float64 or buffer.ndim != 1 or not buffer.flags.c_contiguous or buffer.size < size:
             raise ValueError(
                 f"buffer must be a contiguous flat float64 array of at least {size} numbers; got "
                 f"{buffer.dtype} {buffer.shape}"
             )
         else:
-            out = buffer[:size].reshape(self.n, T, 2, 3)
-        K.angles(*self.executed_profiles.args(), *self._args("executed"), t_rel, out)
-        return out.reshape(self.n, T, 6), count
+            out = buffer[:size].reshape(N, T, 2, 3)
+        K.command_rows(*self.executed_profiles.args(), *self._args("executed"), count, dest, out)
+        return out.reshape(N, T, 6), count
 
     def eye_position_signal(self, t_ms, eye_position: EyePositionSignal | None = None) -> np.ndarray:
         """The eye-position signal (n, m, 2, 3) of each plan at absolute times ``t_ms`` (n, m): the
@@ -340,7 +396,8 @@ class SaccadePlans:
         t = self._rel(t_ms) - eps.delay_ms
         count = np.ceil((self.settle_ms + KNOT_MS) / KNOT_MS).astype(np.int64)  # len(np.arange(0, settle + 0.5, 0.5))
         smooth = np.empty(t.shape + (4,))
-        K.signals(*self.profiles.args(), *self._args("intended"), KNOT_MS, count, t, eps.sigma_ms, smooth)
+        cdf, lo = _cdf_grid(t, count, eps.sigma_ms)
+        K.signals(*self.profiles.args(), *self._args("intended"), KNOT_MS, count, t, eps.sigma_ms, cdf, lo, smooth)
         start = self.signal_start[:, None, :, :2]
         hv = start + (self.intended_end[:, None, :, :2] - start) * smooth.reshape(t.shape + (2, 2))
         return with_listing(hv)

@@ -262,14 +262,36 @@ _SEARCH_CELLS = np.array(
 _SEARCH_NAMES = ["target"] + [f"distractor_{i:02d}" for i in range(SEARCH_N_GREEN_SPHERES + SEARCH_N_RED_CUBES)]
 
 
-def _search_layout(rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Target and distractors in distinct cells of a 5 deg grid (not the centre), jittered by +-1 deg."""
-    n = len(_SEARCH_NAMES)
-    pick = _SEARCH_CELLS[rng.choice(len(_SEARCH_CELLS), size=n, replace=False)] + rng.uniform(-1.0, 1.0, size=(n, 2))
-    # screen_point for each (azimuth, elevation) in degrees, |angles| <= 21 deg: checked by construction
-    t = np.tan(np.deg2rad(pick))
-    pts = CYCLOPEAN_EYE + SEARCH_DISTANCE * np.stack([np.ones(n), -t[:, 0], t[:, 1]], axis=1)
-    return dict(zip(_SEARCH_NAMES, pts))
+class _SearchLayout:
+    """Target and distractors in distinct cells of a 5 deg grid (not the centre), jittered by +-1 deg:
+    called with a generator, name -> world position; :meth:`many` lays out many worlds at once."""
+
+    names = tuple(_SEARCH_NAMES)
+
+    def _pick(self, rng: np.random.Generator) -> np.ndarray:
+        n = len(self.names)
+        return _SEARCH_CELLS[rng.choice(len(_SEARCH_CELLS), size=n, replace=False)] + rng.uniform(
+            -1.0, 1.0, size=(n, 2)
+        )
+
+    @staticmethod
+    def _points(pick: np.ndarray) -> np.ndarray:
+        """``screen_point`` of each (azimuth, elevation) (..., 2) in degrees, |angles| <= 21 deg (checked
+        by construction): (..., 3), elementwise."""
+        t = np.tan(np.deg2rad(pick))
+        return CYCLOPEAN_EYE + SEARCH_DISTANCE * np.stack([np.ones(t.shape[:-1]), -t[..., 0], t[..., 1]], axis=-1)
+
+    def __call__(self, rng: np.random.Generator) -> dict[str, np.ndarray]:
+        return dict(zip(self.names, self._points(self._pick(rng))))
+
+    def many(self, rngs) -> tuple[tuple[str, ...], np.ndarray]:
+        """The layouts of many worlds, each drawn from its own generator as a call draws it: the objects'
+        names and their positions (len(rngs), objects, 3), the same numbers as calls one by one."""
+        picks = np.array([self._pick(rng) for rng in rngs]).reshape(len(rngs), len(self.names), 2)
+        return self.names, self._points(picks)
+
+
+_search_layout = _SearchLayout()
 
 
 def _search(spec) -> SceneInfo:

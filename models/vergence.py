@@ -100,7 +100,9 @@ class VergenceDynamics:
         offset = np.asarray(saccade_offset_ms, float)
         y = np.where(change > settle_deg, settle_deg / np.where(change > 0, change, 1.0), 1.0)
         # (1 + s) e^-s = y  <=>  s = -1 - W_-1(-y / e)
-        s = np.where(y < 1.0, -1.0 - lambertw(-np.minimum(y, 1.0) / np.e, -1).real, 0.0)
+        s = np.zeros(np.shape(y))
+        moving = y < 1.0  # (W only where a change is left: the batched planner asks for thousands at once)
+        s[moving] = -1.0 - lambertw(-y[moving] / np.e, -1).real
         need = tau * s  # internal time needed, in ms at the slow rate
         fast = np.maximum(offset, 0.0) * self.saccade_speedup
         out = np.where(need <= fast, need / self.saccade_speedup, np.maximum(offset, 0.0) + (need - fast))

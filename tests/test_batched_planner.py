@@ -279,3 +279,121 @@ def test_command_tables_in_the_reused_buffer_are_the_fresh_tables():
     assert sizes[1] > sizes[0] and sizes[2] < sizes[1]  # the buffer was grown and then reused
     with pytest.raises(ValueError, match="contiguous flat float64"):
         plans.command_table(np.empty(3))
+
+
+def _bits(a: np.ndarray) -> np.ndarray:
+    """The float64 numbers' bit patterns (telling -0.0 from 0.0, unlike ==)."""
+    return np.ascontiguousarray(a, np.float64).view(np.uint64)
+
+
+def _varied_plans(case: str) -> models.SaccadePlans:
+    """Plans of eight worlds of one case: random saccades and vergence, a zero saccade, and a world whose
+    vertical angles are 0.0 until the settle time and -0.0 from it (Listing's torsion keeps its sign)."""
+    from models.saccade_plans import _FIELDS
+
+    n = 8
+    planner = _planner(n, 21, **CASES[case])
+    rng = np.random.default_rng(2)
+    hv = rng.uniform(-0.35, 0.35, (n, 2))
+    hv[1] = 0.0
+    factor = 2.0 ** rng.uniform(-0.6, 0.6, n)
+    factor[:2] = 1.0
+    plans, _ = planner.plan(np.arange(n), hv, factor)
+    cols = {k: getattr(plans, k).copy() for k in _FIELDS}
+    for k in ("start", "signal_start"):
+        cols[k][0, :, 1] = 0.0
+    for k in ("end", "intended_end"):
+        cols[k][0, :, 1] = -0.0
+    return models.SaccadePlans(*cols.values(), generator=plans.generator, vergence=plans.vergence,
+                               eye_position=plans.eye_position)
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_command_tables_are_the_angles_at_every_ms_to_the_bit(case):
+    """``SaccadePlans.command_table`` (``_plan_kernels.command_rows``: the rows in use computed once, the
+    held rows copied, the tangent of each eye's vertical half-angle kept while it repeats) gives the
+    same bits as ``SaccadePlans.angles`` at the whole ms ``min(k, rows - 1)`` after each onset."""
+    plans = _varied_plans(case)
+    table, rows = plans.command_table()
+    T = table.shape[1]
+    t = np.minimum(np.arange(T, dtype=float)[None, :], (rows - 1)[:, None].astype(float))
+    ref = plans.angles(plans.onset_ms[:, None] + t).reshape(plans.n, T, 6)
+    np.testing.assert_array_equal(_bits(table), _bits(ref))
+    assert np.signbit(table[0, -1, [1, 4]]).all() and not np.signbit(table[0, 0, [1, 4]]).any()
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_eye_position_signal_from_the_cdf_table_to_the_bit(case):
+    """At times on the knots' half-ms grid (whole ms after onset, whole-ms delay: the batched env's) the
+    eye-position signal reads the Gaussian's CDF from one table per call; it gives the same bits as the
+    CDF computed at every knot, and times one ulp off the grid are computed."""
+    from models import _plan_kernels as K
+    from models.eye_kinematics import with_listing
+    from models.saccade_plans import KNOT_MS, _cdf_grid
+
+    plans = _varied_plans(case)
+    eps = plans.eye_position
+    grid = plans.onset_ms[:, None] + np.arange(-80.0, 600.0, 17.0)[None, :]  # before, during and after
+    for times in (grid, np.nextafter(grid, np.inf), grid + 0.25):
+        got = plans.eye_position_signal(times)
+        t = plans._rel(times) - eps.delay_ms
+        count = np.ceil((plans.settle_ms + KNOT_MS) / KNOT_MS).astype(np.int64)
+        smooth = np.empty(t.shape + (4,))
+        K.signals(*plans.profiles.args(), *plans._args("intended"), KNOT_MS, count, t, eps.sigma_ms,
+                  np.zeros(0), 0.0, smooth)
+        start = plans.signal_start[:, None, :, :2]
+        hv = start + (plans.intended_end[:, None, :, :2] - start) * smooth.reshape(t.shape + (2, 2))
+        np.testing.assert_array_equal(_bits(got), _bits(with_listing(hv)))
+    assert _cdf_grid(plans._rel(grid) - eps.delay_ms, count, eps.sigma_ms)[0].size > 0  # the table was read
+    assert _cdf_grid(plans._rel(grid + 0.1) - eps.delay_ms, count, eps.sigma_ms)[0].size == 0  # off the grid
+
+
+def test_layouts_of_many_worlds_are_each_worlds_own_draws(monkeypatch):
+    """The search display laid out for many worlds at once (``layout.many``, what ``take_settled`` uses) is,
+    to the bit, each world's layout drawn alone from its own generator; a layout without ``many`` (drawn
+    world by world and written at once) gives the same worlds."""
+    from models import SettledReset
+
+    layout = models.Head("search", 16, seed=0).scene.layout
+    seeds = list(range(0, 4000, 97))
+    names, pts = layout.many([np.random.default_rng(s) for s in seeds])
+    for k, s in enumerate(seeds):
+        alone = layout(np.random.default_rng(s))
+        assert tuple(alone) == names
+        np.testing.assert_array_equal(_bits(np.array(list(alone.values()))), _bits(pts[k]))
+    head = models.Head("search", 16, seed=0)
+    settled = SettledReset(head)
+    worlds = np.arange(len(seeds))[::-1]
+    fast, plain = BatchedPlanner(head, len(seeds)), BatchedPlanner(head, len(seeds))
+    fast.take_settled(worlds, settled, seeds)
+    monkeypatch.setattr(head.scene, "layout", lambda rng: layout(rng))  # no ``many``
+    plain.take_settled(worlds, settled, seeds)
+    np.testing.assert_array_equal(_bits(fast.mocap_pos), _bits(plain.mocap_pos))
+    assert len({tuple(p) for p in fast.mocap_pos[:, settled.mocap_index("target")]}) == len(seeds)
+
+
+def test_command_tables_of_every_world_built_in_place():
+    """``BatchedPlanner.commands(plans, worlds)``: the table of all N worlds, each planned world's rows its
+    plan's table and every other world holding its eyes -- to the bit what the batched env assembled
+    before (a new (N, T, 6) array of the holds, the plans' tables copied into their worlds' rows)."""
+    n = 7
+    planner = _planner(n, 5)
+    rng = np.random.default_rng(4)
+    for worlds in (np.array([5, 0, 3]), np.arange(n), np.array([6])):
+        plans, _ = planner.plan(worlds, rng.uniform(-0.3, 0.3, (len(worlds), 2)), np.ones(len(worlds)))
+        own, rows = plans.command_table()
+        before = np.empty((n, own.shape[1], 6))
+        before[:] = planner.hold.reshape(n, 1, 6)
+        before[worlds] = own
+        table, lengths = planner.commands(plans, worlds)
+        np.testing.assert_array_equal(_bits(table), _bits(before))
+        expected = np.ones(n, np.int64)
+        expected[worlds] = rows
+        np.testing.assert_array_equal(lengths, expected)
+        assert np.shares_memory(table, planner._table)
+        planner.start(worlds, plans, plans.end_ms - planner.time_ms[worlds] + 30)
+    plans, _ = planner.plan(np.array([1, 2]), rng.uniform(-0.3, 0.3, (2, 2)), np.ones(2))
+    with pytest.raises(ValueError, match="distinct"):
+        plans.command_table(rows=[1, 1], num_rows=n)
+    with pytest.raises(ValueError, match="below num_rows"):
+        plans.command_table(rows=[1, n], num_rows=n)

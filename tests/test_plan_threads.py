@@ -11,7 +11,7 @@ import envs
 import models
 from models import _plan_kernels as K
 
-PARALLEL = [K.angles, K.rates, K.signals, K.profile_marks, K.profile_values]
+PARALLEL = [K.angles, K.command_rows, K.rates, K.signals, K.profile_marks, K.profile_values]
 MULTI = numba.config.NUMBA_NUM_THREADS >= 2  # with one thread in all, no limit can be seen
 
 
@@ -74,13 +74,13 @@ def test_single_env_step_runs_every_parallel_loop_on_one_thread(monkeypatch):
 def test_many_worlds_use_every_thread(monkeypatch):
     full = numba.get_num_threads()
     seen = []
-    kernel = K.angles.kernel
+    kernel = K.command_rows.kernel  # the command tables' loop
 
     def record(*args):
         seen.append(numba.get_num_threads())
         return kernel(*args)
 
-    monkeypatch.setattr(K.angles, "kernel", record)
+    monkeypatch.setattr(K.command_rows, "kernel", record)
     head = models.Head("dots", 32, seed=0)
     planner, settled = models.BatchedPlanner(head, 256), models.SettledReset(head)
     for i in range(256):
