@@ -124,53 +124,13 @@ def paths(task, n: int, steps: int, repeats: int = 5) -> dict[str, tuple[float, 
     for _ in range(steps):
         plans, _ = planner.plan(np.arange(n), random_actions(rng, n), np.ones(n))
         advance = plans.end_ms - plans.onset_ms + FIXATION_MS
-        for part, ok in _time_paths(plans, (planner.time_ms + advance)[:, None].astype(float), spent, repeats).items():
+        for part, ok in models.time_kernel_paths(
+            plans, (planner.time_ms + advance)[:, None].astype(float), spent, repeats
+        ).items():
             same[part] &= ok
         planner.start(np.arange(n), plans, advance)
     med = {k: float(np.median(v)) / n for k, v in spent.items()}
     return {p: (med[f"{p}, general"], med[f"{p}, fast"], same[p]) for p in same}
-
-
-def _time_paths(plans, now: np.ndarray, spent: dict, repeats: int) -> dict[str, bool]:
-    """:func:`paths` for one step's ``plans``, the signal at times ``now`` (n, 1)."""
-    from models import _plan_kernels as K
-    from models.saccade_plans import _NO_CDF, KNOT_MS, _cdf_grid
-
-    n = plans.n
-    count = plans.end_ms - plans.onset_ms + 1
-    T = int(count.max())
-    ex = (*plans.executed_profiles.args(), *plans._args("executed"))
-    eps = plans.eye_position
-    t = plans._rel(now) - eps.delay_ms
-    knots = np.ceil((plans.settle_ms + KNOT_MS) / KNOT_MS).astype(np.int64)
-    sig = (*plans.profiles.args(), *plans._args("intended"), KNOT_MS, knots, t, eps.sigma_ms)
-    out = {k: np.empty((n, T, 2, 3)) for k in ("g", "f")}
-    smooth = {k: np.empty((n, 1, 4)) for k in ("g", "f")}
-
-    def tables_general():
-        times = np.minimum(np.arange(T, dtype=float)[None, :], (count - 1)[:, None].astype(float))
-        K.angles(*ex, times, out["g"])
-
-    def signal_fast():
-        K.signals(*sig, *_cdf_grid(t, knots, eps.sigma_ms), smooth["f"])
-
-    runs = {
-        "tables, general": tables_general,
-        "tables, fast": lambda: K.command_rows(*ex, count, np.arange(n), out["f"]),
-        "signal, general": lambda: K.signals(*sig, _NO_CDF, 0.0, smooth["g"]),
-        "signal, fast": signal_fast,
-    }
-    for f in runs.values():
-        f()  # the first touch of the arrays' pages
-    for _ in range(repeats):
-        for name, f in runs.items():
-            t0 = time.perf_counter()
-            f()
-            spent.setdefault(name, []).append(time.perf_counter() - t0)
-    return {
-        "tables": np.array_equal(out["g"].view(np.uint64), out["f"].view(np.uint64)),
-        "signal": np.array_equal(smooth["g"].view(np.uint64), smooth["f"].view(np.uint64)),
-    }
 
 
 #: the host's parts of a step: resets (layout, task, hand-over), plans (SaccadePlans: profiles, settle

@@ -65,6 +65,7 @@ _HOMES: dict[str, str] = {
     **dict.fromkeys(("BatchedPlanner", "SettledReset", "plan_clipped"), "planner"),
     **dict.fromkeys(("EYE_DRIVES", "OrbitalPlant"), "plant"),
     **dict.fromkeys(("limit_plan_threads",), "_plan_kernels"),
+    **dict.fromkeys(("time_kernel_paths",), "plan_kernel_timing"),
 }
 
 __all__ = list(_HOMES)
@@ -103,6 +104,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load
     from .eye_position_signal import VISUAL_LATENCY_MS, EyePositionSignal
     from .oculomotor import SACCADE_MODELS, SaccadePlan
     from .oculomotor_state import OculomotorState
+    from .plan_kernel_timing import time_kernel_paths
     from .planner import BatchedPlanner, SettledReset, plan_clipped
     from .plant import EYE_DRIVES, OrbitalPlant
     from .render import EYES, EyeImage, EyeRenderer, ForkedGLContextError, StereoFrame

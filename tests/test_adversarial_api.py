@@ -802,6 +802,7 @@ EXEMPT = {
     "models.SaccadePlans": "arrays of plans that BatchedPlanner.plan and SaccadePlan (validated) build",
     "models.Profiles": "the profiles SaccadePlans builds from validated amplitudes",
     "models.profiles": "as models.Profiles",
+    "models.time_kernel_paths": "benchmarks/planner.py's timing of a SaccadePlans batch (built by BatchedPlanner.plan, validated)",
     "models.SaccadePlan.from_batch": "a plan of a SaccadePlans batch (its fields already checked), rebuilt through SaccadePlan's checks",
     "models.fixation_batch": "array geometry of the planners (validated points); models.fixation_angles is its checked entry",
     "models.displaced": "array geometry of the planners (as fixation_batch)",
