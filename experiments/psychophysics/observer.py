@@ -4,72 +4,24 @@ The theory (Niemeier, Crawford & Tweed 2003, Nature 422:76; Teichert, Klingenhoe
 Bremmer 2010, J Vis 10(8):19; Binda, Cicchini, Burr & Morrone 2009, J Neurosci 29:13147): the
 perceived head-centred position of a flash is the posterior mean of its position given
 
-1. **the retinal evidence** -- the flash's retinal position ``r`` (the activity centroid of the
-   retina's response, unremapped), with Gaussian sensory noise of s.d.
+1. the retinal evidence ``r`` with sensory s.d. (eq. 0)
+   ``sigma_r = (floor_deg + weber * eccentricity) * 10^(acuity_contrast_exponent * S(t))``, ``S(t)``
+   the log10 loss of saccadic suppression (White, Levi & Aitsebaomo 1992; Diamond, Ross & Morrone
+   2000; Bradley & Skottun 1987);
+2. an eye-position signal (eqs. 1, 1b) from the efference copy ``c`` at an uncertain flash time
+   ``t' ~ N(t, temporal_sd_ms^2)``: ``e_hat = E[c(t')]``, ``Sigma_e = Cov[c(t')]`` (Gauss-Hermite),
+   plus the eye's motor scatter ``motor_weber^2 E[|c(t') - c_0|^2] I`` (Kowler & Blaser 1995);
+3. a prior (eq. 2) centred on the post-saccadic references ``rho`` of precision
+   ``lambda = A / (prior_sd_deg^2 * reference_unit) * min(on_ms, integration_ms) / integration_ms``
+   (``A``: the retina's activity of the references; Bloch's law);
+and for k simultaneous flashes, per axis (eq. 3): ``h = (Lambda + C^-1)^-1 (Lambda rho 1 + C^-1 m)``,
+   ``C = diag(sigma_r^2) + sigma_e^2 1 1^T``, ``Lambda = lambda I``.
 
-       sigma_r = (floor_deg + weber * eccentricity) * 10^(acuity_contrast_exponent * S(t))     (0)
-
-   (positional uncertainty grows with eccentricity: White, Levi & Aitsebaomo 1992, Vision Res
-   32:513; Levi, Klein & Aitsebaomo 1985). ``S(t)`` is saccadic suppression, the log10 loss of
-   contrast sensitivity at the flash's time ``t`` re the efference copy's saccade: 0 until
-   ``suppression_lead_ms`` before onset, rising linearly to ``suppression_log10`` at onset and
-   falling linearly to 0 ``suppression_lag_ms`` after the saccade's end (Diamond, Ross & Morrone
-   2000, J Neurosci 20:3449, abstract: a 10-fold loss, anticipating saccades by 50 ms, maximal at
-   onset, outlasting them by ~50 ms). A flash seen at a sensitivity reduced by ``10^S`` has the
-   positional precision of a flash of ``10^S`` times lower contrast: position thresholds scale as
-   contrast^-0.8 (Bradley & Skottun 1987, Vision Res 27:1817). The loss is the same on both axes,
-   so the prior (3) pulls across the saccade too, and it is 0 in fixation;
-2. **an eye-position signal with its own uncertainty** -- the brain knows the eye's trajectory from
-   the efference copy ``c(t)`` but not exactly when the flash happened relative to it: the flash's
-   time is known to s.d. ``temporal_sd_ms`` (Teichert et al. 2010), 21 ms from temporal-order
-   thresholds (~20 ms at 75 % correct for two events: Hirsh & Sherrick 1961). The eye
-   position the flash is paired with is therefore uncertain, with mean and covariance
-
-       e_hat(t) = E[c(t')],  Sigma_e(t) = Cov[c(t')],  t' ~ N(t, temporal_sd_ms^2)      (1)
-
-   (Gauss-Hermite quadrature). Both follow from the saccade's own trajectory: ``Sigma_e`` is ~0
-   during fixation and grows around the saccade, only along its direction, by an amount set by
-   its amplitude and duration. The flash's measured head position is ``m = r (+) e_hat`` (the ray
-   through the retinal point from the eyes at ``e_hat``), with likelihood covariance
-   ``Sigma_r + Sigma_e``, the eye-position error shared by every flash of a trial. The eye's own
-   motor scatter adds an isotropic (2-D) term: the eye lands with s.d. ``motor_weber`` times the
-   displacement made (Kowler & Blaser 1995; the simulated participant's endpoint noise, horizontal
-   and vertical), so
-
-       Sigma_e(t) += motor_weber^2 E[|c(t') - c_0|^2] I                                     (1b)
-
-   with ``c_0`` the efference copy before the saccade: 0 in fixation before it, the same on both
-   axes after it has begun;
-3. **the visual references present after the saccade** -- the post-saccadic scene offers
-   landmarks, and flashes are inferred to lie near them (a prior centred on the references'
-   seen position ``rho``; the "attraction to the saccade target" of Binda et al. 2009, centred on
-   what is actually seen there). Its precision grows with how much reference the retina saw:
-
-       lambda = A / (prior_sd_deg^2 * reference_unit) * min(on_ms, integration_ms) / integration_ms   (2)
-
-   with ``A`` the retina's activity of the post-saccadic references (their contrast and size, as
-   rendered) and the temporal factor Bloch's law of temporal integration. No references (the
-   dark, a memory-guided saccade with nothing else lit): ``lambda = 0``, a flat prior.
-
-The posterior mean of k simultaneous flashes' positions ``h`` (per axis, Gaussian, closed form):
-
-    h = (Lambda + C^-1)^-1 (Lambda rho 1 + C^-1 m),  C = diag(sigma_r^2) + sigma_e^2 1 1^T,  Lambda = lambda I   (3)
-
-Compression (the percept pulled towards ``rho``), its time course and its anisotropy follow from
-(0)-(1b): only when ``Sigma_e`` or ``sigma_r`` is large is the prior's weight large -- mostly
-along the saccade (timing, (1)), less across it (suppression (0) and motor scatter (1b)).
-The shift in the dark follows from ``e_hat`` lagging the eye at the saccade's end; 50 ms before
-onset (2.4 s.d. of the flash's time) it barely leads, so no forward shift there. Of two
-simultaneous flashes, (3) spares the separation from the shared eye-position error but not from
-suppression's noise, which is each flash's own: the prior pulls their separation in by
-``lambda sigma_r^2 / (1 + lambda sigma_r^2)``.
-Displacement detection (``displacement_report``) compares the target's position before and after
-the saccade; its noise is the model's own (1)+(sensory), so the threshold rises where
-``Sigma_e`` is large -- at landing, not after a blank.
-
-The model has one eye-position signal (1) for every condition and no branch on condition,
-paradigm or blank: references, blanks and markers act only through what the eyes see and when.
-"""
+One eye-position signal for every condition and no branch on condition, paradigm or blank:
+references, blanks and markers act only through what the eyes see and when. The equations in full,
+with their sources and what follows from them (compression's time course and anisotropy, the shift
+in the dark, two flashes' separation, displacement detection): docs/psychophysics/theories.md
+("The `observer` model in full")."""
 
 from __future__ import annotations
 
