@@ -277,10 +277,16 @@ def test_sb3_recipe_rejects_bad_options(option, value, tmp_path, capsys):
 @pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("stable_baselines3") is None,
                     reason="needs the optional 'rl' extra (stable-baselines3 + CPU torch)")
-def test_sb3_recipe_runs(tmp_path):
+def test_sb3_recipe_runs(tmp_path, monkeypatch):
+    import tempfile
+
     from experiments.agents import sb3_recipe
 
+    scratch = tmp_path / "tmpdir"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
     path = sb3_recipe.train_ppo(tmp_path, total_timesteps=64, n_envs=2, n_steps=32, vec="dummy", seed=0)
+    assert not list(scratch.glob("SB3-*"))  # no SB3 logger folder left behind
     assert path.exists() and (tmp_path / "ppo.json").exists()
     res = sb3_recipe.evaluate_ppo(path, episodes=2, seed=0)
     assert 0.0 <= res["success_rate"] <= 1.0 and res["episodes"] == 2
@@ -521,11 +527,18 @@ def test_cell_head_policy_is_the_cell_map():
 @pytest.mark.slow
 @_needs_sb3
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
-def test_train_recipe_runs_a_few_hundred_steps_and_evaluates(algo, tmp_path, capsys):
+def test_train_recipe_runs_a_few_hundred_steps_and_evaluates(algo, tmp_path, capsys, monkeypatch):
     """``train --algo ppo|sac --quick`` (256 env steps at 48 px) writes the model, the metadata and a log
     row per evaluation (appended as it goes); ``evaluate`` reloads it and gives the same numbers twice,
-    deterministic and (seeded) stochastic."""
+    deterministic and (seeded) stochastic. SB3 leaves no ``SB3-<date>`` logger folder in the temporary
+    directory (its default at ``verbose=0``, one per ``learn()``)."""
+    import tempfile
+
     from experiments.__main__ import main
+
+    scratch = tmp_path / "tmpdir"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
 
     out = tmp_path / algo
     assert main(["train", "--algo", algo, "--task", "fixate", "--out", str(out), "--quick", "--image-size", "48",
@@ -545,6 +558,7 @@ def test_train_recipe_runs_a_few_hundred_steps_and_evaluates(algo, tmp_path, cap
     assert res[0] == res[1] and res[2] == res[3]
     assert res[0]["deterministic"] is True and res[2]["deterministic"] is False
     assert 0.0 <= res[0]["success_rate"] <= 1.0 and res[0]["episodes"] == 3
+    assert not list(scratch.glob("SB3-*"))
 
 
 @pytest.mark.slow

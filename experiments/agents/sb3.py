@@ -664,7 +664,17 @@ def _make_model(plan: dict[str, Any], venv):
     kwargs = dict(plan["algo_kwargs"])
     if "augment" in plan:
         kwargs.update(replay_buffer_class=ShiftReplayBuffer, replay_buffer_kwargs={"pad": plan["augment"]["pad"]})
-    return cls(policy_cls, venv, seed=plan["seed"], device="cpu", verbose=0, policy_kwargs=pk or None, **kwargs)
+    model = cls(policy_cls, venv, seed=plan["seed"], device="cpu", verbose=0, policy_kwargs=pk or None, **kwargs)
+    model.set_logger(silent_logger())
+    return model
+
+
+def silent_logger():
+    """An SB3 logger with no output: SB3's default at ``verbose=0`` makes a ``/tmp/SB3-<date>`` folder
+    on every ``learn()`` call and leaves it behind; the training curve is this project's own CSV."""
+    from stable_baselines3.common.logger import Logger
+
+    return Logger(folder=None, output_formats=[])
 
 
 def _capture(model) -> tuple[dict[str, np.ndarray], dict[str, Any]]:

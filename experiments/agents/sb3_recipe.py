@@ -165,6 +165,9 @@ def train_ppo(
                 device="cpu",
                 verbose=0,
             )
+            from experiments.agents.sb3 import silent_logger  # torch: imported with SB3 anyway
+
+            model.set_logger(silent_logger())
             model.learn(
                 total_timesteps=total_timesteps,
                 progress_bar=False,
