@@ -18,7 +18,6 @@ from .options import (
     add_task_option,
     digits_in,
 )
-from .view import with_viewer
 
 if TYPE_CHECKING:
     from ..recording import WebViewer
@@ -105,6 +104,8 @@ def add_subcommand(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """``visualize``: check the options, then record (and serve) the run."""
+    from .view import with_viewer  # the web viewer's serving loop, shared with `view`
+
     _check(args)
     return with_viewer(args, "visualize", (), _visualize)
 
