@@ -28,6 +28,7 @@ __all__ = [
     "PopulationParams",
     "POPULATION_SOURCES",
     "feedback_signal",
+    "feedback_strength",
     "cortical_offset",
     "from_cortical_offset",
     "population_estimate",
@@ -103,6 +104,14 @@ def feedback_signal(plan, t_ms: np.ndarray, tau_ms: float, dt_ms: float = 0.5) -
     k = math.exp(-dt_ms / tau_ms)
     s = lfilter([1 - k], [1, -k], lfilter([1 - k], [1, -k], burst))
     return np.interp(t_ms, grid, s, left=0.0)
+
+
+def feedback_strength(plan, t_ms: float, p: PopulationParams) -> float:
+    """The gain field's strength ``S = gain_per_deg * s_bar`` for a stimulus that appears at
+    ``t_ms``: ``s_bar`` the feedback signal averaged over its visual response (``latency_ms``
+    after it, lasting ``response_ms``; 11 samples)."""
+    t_resp = t_ms + p.latency_ms + np.linspace(0.0, p.response_ms, 11)
+    return p.gain_per_deg * float(np.mean(feedback_signal(plan, t_resp, p.tau_ms)))
 
 
 def cortical_offset(zeta_deg, goal_deg: complex, a: float) -> np.ndarray:
