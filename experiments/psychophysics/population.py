@@ -9,7 +9,10 @@ the gain of the units around the saccade goal, ``g(w) = 1 + S exp(-|w - w_T|^2 /
 with ``S = gain_per_deg * s_bar``; the population vector ``integral(w g R) / integral(g R)`` (closed
 form: ``population_estimate``) is read out through the eye-position signal. Compression is not
 imposed: the gain field's gradient pulls every flash towards the goal. It has no term for visual
-references (the same compression in the dark and with references).
+references (the same compression in the dark and with references). After the saccade the same
+gain field, centred on the goal's remapped position with the feedback's decaying strength
+(``feedback_strength``), pulls a displaced target towards where it was expected (Ziesche & Hamker
+2014, Front Comput Neurosci 8:25): ``theories.population``'s displacement looks.
 
 The five steps in full: docs/psychophysics/theories.md ("Rival theories", section "The population
 model in full").
