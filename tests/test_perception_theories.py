@@ -538,7 +538,8 @@ def test_other_models_rows_that_count_against_published_values(model):
     if model in ("population", "paper"):
         # Lappe, Awater & Krekelberg 2000 (Nature 403:892, Fig. 2): no compression in the dark -- these have it
         assert ci("compression_needs_references")[1] < 0.2
-        # Deubel, Schneider & Bridgeman 1996 (Vision Res 36:985, Fig. 2): no blank effect without a theory of it
+        # Deubel, Schneider & Bridgeman 1996 (Vision Res 36:985, Fig. 2): no blank effect -- paper has no
+        # theory of it; population's gain-field pull at landing is weak near the fovea (docs: step 6)
         assert ci("displacement_blank_ratio")[1] < 2
     if model == "mechanistic":
         assert ci("compression_needs_references")[0] > 0.2  # by the anchored route
