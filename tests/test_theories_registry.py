@@ -67,10 +67,14 @@ def test_registry_read_outs_are_the_previous_ones():
     theories moved into the registry (``tests/data/theory_readouts_64px.json``). The observer's
     saccadic suppression and 2-D motor scatter came later, and its timing s.d. was then 40 ms (now
     21 ms, Hirsh & Sherrick 1961): with those three as before, its read-outs are the stored ones, so
-    those repairs changed nothing else."""
+    those repairs changed nothing else. Population's own displacement looks came later too: with
+    no feedback (``gain_per_deg`` 0) they are the runner's, so its stored displacement read-outs
+    hold (its localization read-outs keep their gain)."""
     from experiments.psychophysics.observer import ObserverParams
+    from experiments.psychophysics.population import PopulationParams
 
     old_observer = {"observer": ObserverParams(temporal_sd_ms=40.0, motor_weber=0.0, suppression_log10=0.0)}
+    no_feedback = PopulationParams(gain_per_deg=0.0)
     want = json.loads(FIXTURE.read_text())
     got = {}
     d = Design(amplitudes_deg=(20.0,), flash_offsets_deg=((8.0, 3.0), (-4.0, -6.0)), flash_times_ms=(-50, 0, 50),
@@ -92,7 +96,8 @@ def test_registry_read_outs_are_the_previous_ones():
                 name="disp")
     for m in MODELS:
         r = TrialRunner(TrialConfig(image_size=64, condition="dark", paradigm="displacement", model=m,
-                                    endpoint_noise=0.05, observer=old_observer.get(m, ObserverParams())))
+                                    endpoint_noise=0.05, observer=old_observer.get(m, ObserverParams()),
+                                    population=no_feedback))
         try:
             got[f"displacement/{m}"] = [[float(r.run(t)[c]) for c in COLS] for t in dd.trials()]
         finally:

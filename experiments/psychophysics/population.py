@@ -9,7 +9,10 @@ the gain of the units around the saccade goal, ``g(w) = 1 + S exp(-|w - w_T|^2 /
 with ``S = gain_per_deg * s_bar``; the population vector ``integral(w g R) / integral(g R)`` (closed
 form: ``population_estimate``) is read out through the eye-position signal. Compression is not
 imposed: the gain field's gradient pulls every flash towards the goal. It has no term for visual
-references (the same compression in the dark and with references).
+references (the same compression in the dark and with references). After the saccade the same
+gain field, centred on the goal's remapped position with the feedback's decaying strength
+(``feedback_strength``), pulls a displaced target towards where it was expected (Ziesche & Hamker
+2014, Front Comput Neurosci 8:25): ``theories.population``'s displacement looks.
 
 The five steps in full: docs/psychophysics/theories.md ("Rival theories", section "The population
 model in full").
@@ -28,6 +31,7 @@ __all__ = [
     "PopulationParams",
     "POPULATION_SOURCES",
     "feedback_signal",
+    "feedback_strength",
     "cortical_offset",
     "from_cortical_offset",
     "population_estimate",
@@ -103,6 +107,14 @@ def feedback_signal(plan, t_ms: np.ndarray, tau_ms: float, dt_ms: float = 0.5) -
     k = math.exp(-dt_ms / tau_ms)
     s = lfilter([1 - k], [1, -k], lfilter([1 - k], [1, -k], burst))
     return np.interp(t_ms, grid, s, left=0.0)
+
+
+def feedback_strength(plan, t_ms: float, p: PopulationParams) -> float:
+    """The gain field's strength ``S = gain_per_deg * s_bar`` for a stimulus that appears at
+    ``t_ms``: ``s_bar`` the feedback signal averaged over its visual response (``latency_ms``
+    after it, lasting ``response_ms``; 11 samples)."""
+    t_resp = t_ms + p.latency_ms + np.linspace(0.0, p.response_ms, 11)
+    return p.gain_per_deg * float(np.mean(feedback_signal(plan, t_resp, p.tau_ms)))
 
 
 def cortical_offset(zeta_deg, goal_deg: complex, a: float) -> np.ndarray:
