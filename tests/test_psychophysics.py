@@ -311,11 +311,12 @@ def test_displacement_report_noise_is_independent_of_landing_scatter():
     from ``default_rng(seed)``; a report drawn from that same stream correlated with the landing error at
     r = -0.97 and shrank every theory's displacement threshold. Over 2000 trial seeds the two streams'
     first normals must be uncorrelated (|r| < 0.1, about 4.5 standard errors)."""
-    from experiments.psychophysics.trial import REPORT_NOISE_STREAM
+    from experiments.psychophysics.trial import report_noise
 
     seeds = range(2000)
     head = np.array([np.random.default_rng(s).normal() for s in seeds])
-    report = np.array([np.random.default_rng([s, REPORT_NOISE_STREAM]).normal() for s in seeds])
+    report = np.array([report_noise(s, 1.0) for s in seeds])
+    assert report_noise(3, 0.0) == 0.0
     assert abs(np.corrcoef(head, report)[0, 1]) < 0.1
     src = Path(__file__).resolve().parents[1] / "experiments/psychophysics/trial.py"
     assert ".default_rng(trial.seed)" not in src.read_text()  # no draw shares the head's stream

@@ -61,7 +61,7 @@ def test_nothing_branches_on_a_theorys_name(path):
 
 
 @pytest.mark.slow
-def test_registry_read_outs_are_the_previous_ones():
+def test_registry_read_outs_are_the_previous_ones(monkeypatch):
     """Every model's read-outs of a small 64 px case (references, dark, separation, a marker without
     the target, mechanisms off; the displacement paradigm) equal those stored from the code before the
     theories moved into the registry (``tests/data/theory_readouts_64px.json``). The observer's
@@ -69,8 +69,13 @@ def test_registry_read_outs_are_the_previous_ones():
     21 ms, Hirsh & Sherrick 1961): with those three as before, its read-outs are the stored ones, so
     those repairs changed nothing else. Population's own displacement looks came later too: with
     no feedback (``gain_per_deg`` 0) they are the runner's, so its stored displacement read-outs
-    hold (its localization read-outs keep their gain)."""
+    hold (its localization read-outs keep their gain). The displacement report's noise was then drawn
+    from the head's own stream (``default_rng(seed)``), now from its own: the stored one is restored here."""
+    from experiments.psychophysics import trial as trial_module
     from experiments.psychophysics.observer import ObserverParams
+
+    monkeypatch.setattr(trial_module, "report_noise",
+                        lambda seed, sd: float(np.random.default_rng(seed).normal(0.0, sd)) if sd else 0.0)
     from experiments.psychophysics.population import PopulationParams
 
     old_observer = {"observer": ObserverParams(temporal_sd_ms=40.0, motor_weber=0.0, suppression_log10=0.0)}

@@ -67,6 +67,14 @@ __all__ = [
 #: from the head's (``default_rng(trial.seed)``: landing scatter), so report and motor errors are independent.
 REPORT_NOISE_STREAM = 1
 
+
+def report_noise(seed: int, sd: float) -> float:
+    """The displacement report's noise of the trial seeded ``seed``: N(0, sd^2) from its own stream
+    (the head's landing scatter draws from ``default_rng(seed)``; sharing it made report noise cancel
+    landing error, r = -0.97 on the scoreboard's tables); 0 when ``sd`` is 0."""
+    return float(np.random.default_rng([seed, REPORT_NOISE_STREAM]).normal(0.0, sd)) if sd else 0.0
+
+
 #: Eye-frame axes (x1 up, x2 optical axis, x3 right) in the head frame (x forward, y left, z up)
 #: at zero Fick angles (the README's eye frame; ``models.oculomotor``'s primary position).
 _PRIMARY_EYE_BASIS = np.column_stack([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -788,9 +796,7 @@ class TrialRunner:
             pre, post, sd = looks
         weight = model.stability_weight(cfg, mismatch, trial.amplitude_deg, on)
         step = (1.0 - weight) * float(post[0] - pre[0])
-        # the report's own stream: the head's landing scatter draws from default_rng(trial.seed), and the
-        # same stream here made report noise cancel landing error (r = -0.97 on the scoreboard's tables)
-        noise = np.random.default_rng([trial.seed, REPORT_NOISE_STREAM]).normal(0.0, sd) if sd else 0.0
+        noise = report_noise(trial.seed, sd)
         true = head_angles_deg(head, step_w)[0]
         target = head_angles_deg(head, tgt_w)[0]
         err = post - true
