@@ -478,7 +478,9 @@ def test_observer_predictions_in_the_scoreboard_against_published_values():
     # flash, so the prior pulls the two flashes of a pair towards each other too (a failure)
     assert ci("separation_over_localization")[0] > 0.5
     # Deubel, Schneider & Bridgeman 1996 (Vision Res 36:985, Fig. 2): a 250 ms blank lowers the threshold
-    assert ci("displacement_blank_ratio")[0] > 2
+    # several-fold (>= 2) -- the observer's blank helps (CI above 1) but less (a failure, since the
+    # report noise has its own stream: it used to cancel the landing scatter)
+    assert ci("displacement_blank_ratio")[0] > 1 and ci("displacement_blank_ratio")[0] < 2
     # Honda 1989 (Percept Psychophys 45:162, abstract): in the dark, backward at the saccade's end;
     # forward before onset -- not predicted: 50 ms is 2.4 s.d. of the flash's time (21 ms) away (a failure)
     assert ci("shift_dark_reversal_deg")[1] < -0.5
