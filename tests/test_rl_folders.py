@@ -253,11 +253,14 @@ def test_interrupted_train_says_one_line_and_removes_its_lock(sig, tmp_path):
     """SIGINT / SIGTERM during ``train``: one line saying how to resume, exit 130 / 143, no ``.lock``
     left; the same command then finishes the run."""
     out = tmp_path / "cem"
+    # 30 iterations (~3 s of training after train.json is written; 3 took ~0.5 s with warm caches, and
+    # the run could end before the signal arrived): the signal lands mid-run on a fast machine too
     argv = [sys.executable, "-m", "experiments", "train", "--quick", "--image-size", "32", "--no-progress",
-            *TINY_CEM, "--out", str(out)]
+            "--iterations", "30", *TINY_CEM[2:], "--out", str(out)]
     p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     while not (out / "train.json").exists() and p.poll() is None:
         time.sleep(0.01)
+    assert p.poll() is None, "the run ended before it could be interrupted"
     p.send_signal(sig)
     _, err = p.communicate(timeout=120)
     assert p.returncode == 128 + sig, err
