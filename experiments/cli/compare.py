@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from .commands import HELP
-from .fitting import DESCRIPTION, add_common_options, model_names, prepare, run_guarded
+from .fitting import DESCRIPTION, add_common_options, fit_options, model_names, prepare, run_guarded
 
 __all__ = ["add_subcommand", "run"]
 
@@ -38,12 +38,7 @@ def run(args: argparse.Namespace) -> int:
             data,
             args.models,
             args.out,
-            backend=args.backend,
-            workers=args.workers,
-            ray_address=args.ray_address,
-            max_evals=args.max_evals,
-            forward=forward,
-            progress=not args.no_progress,
+            **fit_options(args, forward),
         )
         print(f"{'model':32s} {'log L':>10s} {'AIC':>10s} {'BIC':>10s}  k  dAIC")
         for r in rows:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from .commands import HELP
+from .fitting import model_names
 from .options import (
     add_backend_options,
     add_image_size_option,
@@ -17,23 +18,11 @@ from .options import (
     add_seed_option,
     add_workers_option,
     check_backend_options,
+    prepare_out,
 )
 from .parsing import guarded, out_dir
 
 __all__ = ["add_subcommand", "run"]
-
-
-def _names(text: str) -> list[str]:
-    from ..modelfit.likelihood import FIT_MODELS
-
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    bad = [n for n in names if n not in FIT_MODELS]
-    if bad or not names:
-        raise argparse.ArgumentTypeError(f"expected theory names from {', '.join(FIT_MODELS)}; got {text!r}")
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise argparse.ArgumentTypeError(f"{dup[0]} is listed twice in {text!r}; list each once")
-    return names
 
 
 def run(args: argparse.Namespace) -> int:
@@ -41,14 +30,11 @@ def run(args: argparse.Namespace) -> int:
     from ..folders import LockBusyError
     from ..modelfit.crossval import CrossvalFolderError, crossvalidate
     from ..modelfit.fitting import FitError, FitFolderError
-    from ..psychophysics.runner import FolderBusyError, OutputFolderError, prepare_output_folder
+    from ..psychophysics.runner import FolderBusyError, OutputFolderError
 
     parser = args._parser
     check_backend_options(args, parser)
-    try:
-        out = prepare_output_folder(args.out)
-    except (OutputFolderError, TypeError) as e:
-        parser.error(f"argument --out: {e}")
+    out = prepare_out(args)
 
     def work() -> int:
         rows = crossvalidate(
@@ -100,14 +86,14 @@ def add_subcommand(subparsers) -> None:
     add_seed_option(p, "seed of the motor noise, the report noise and the bootstrap")
     p.add_argument(
         "--theories",
-        type=_names,
+        type=model_names,
         default=list(theories),
         metavar="A,B,...",
         help=f"theories fitted (default {','.join(theories)})",
     )
     p.add_argument(
         "--data-from",
-        type=_names,
+        type=model_names,
         default=None,
         metavar="A,B,...",
         help="theories whose simulated observers give the data (default: --theories; with --quick observer,paper)",

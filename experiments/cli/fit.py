@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from .commands import HELP
-from .fitting import DESCRIPTION, add_common_options, model_name, prepare, run_guarded
+from .fitting import DESCRIPTION, add_common_options, fit_options, model_name, prepare, run_guarded
 
 __all__ = ["add_subcommand", "run"]
 
@@ -37,12 +37,7 @@ def run(args: argparse.Namespace) -> int:
             data,
             args.model,
             args.out,
-            backend=args.backend,
-            workers=args.workers,
-            ray_address=args.ray_address,
-            max_evals=args.max_evals,
-            forward=forward,
-            progress=not args.no_progress,
+            **fit_options(args, forward),
         )
         if r["already_done"]:
             print(

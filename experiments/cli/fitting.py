@@ -13,10 +13,20 @@ from .options import (
     add_no_progress_option,
     add_workers_option,
     check_backend_options,
+    prepare_out,
 )
 from .parsing import guarded, out_dir
 
-__all__ = ["DESCRIPTION", "add_common_options", "model_name", "model_names", "observing", "prepare", "run_guarded"]
+__all__ = [
+    "DESCRIPTION",
+    "add_common_options",
+    "fit_options",
+    "model_name",
+    "model_names",
+    "observing",
+    "prepare",
+    "run_guarded",
+]
 
 #: The description of ``fit``, ``compare`` and ``simulate`` (their ``--help``).
 DESCRIPTION = """``python -m experiments fit`` / ``compare`` / ``simulate``: the model-fitting commands.
@@ -87,7 +97,6 @@ def prepare(args):
     errors, before work. Returns the data and its forward model."""
     from ..modelfit.data import DataFormatError, read_data
     from ..modelfit.forward import ForwardModelError, forward_model
-    from ..psychophysics.runner import OutputFolderError, prepare_output_folder
 
     parser = args._parser
     check_backend_options(args, parser)
@@ -99,11 +108,20 @@ def prepare(args):
         forward = forward_model(data, observing(args))
     except ForwardModelError as e:
         parser.error(f"argument --data: {e}")
-    try:
-        prepare_output_folder(args.out)
-    except (OutputFolderError, TypeError) as e:
-        parser.error(f"argument --out: {e}")
+    prepare_out(args)
     return data, forward
+
+
+def fit_options(args, forward) -> dict:
+    """The keyword arguments ``modelfit.fitting.fit`` and ``compare`` take from the shared options."""
+    return {
+        "backend": args.backend,
+        "workers": args.workers,
+        "ray_address": args.ray_address,
+        "max_evals": args.max_evals,
+        "forward": forward,
+        "progress": not args.no_progress,
+    }
 
 
 def run_guarded(args, work) -> int:

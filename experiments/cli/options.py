@@ -38,11 +38,12 @@ __all__ = [
     "add_server_options",
     "add_task_option",
     "add_timesteps_option",
-    "digits_in",
     "add_workers_option",
     "bundled_data",
     "check_backend_options",
+    "digits_in",
     "image_size_type",
+    "prepare_out",
     "seed_type",
 ]
 
@@ -154,6 +155,18 @@ def check_backend_options(args: argparse.Namespace, parser: argparse.ArgumentPar
             import ray  # noqa: F401  (imported only to check that it is installed)
         except ImportError:
             parser.error('argument --backend: ray is not installed: pip install -e ".[ray]"')
+
+
+def prepare_out(args: argparse.Namespace) -> Path:
+    """The ``--out`` folder of a command that writes a results folder, created and checked writable
+    (``psychophysics.runner.prepare_output_folder``): a usage error naming ``--out`` where it cannot be."""
+    from ..psychophysics.runner import OutputFolderError, prepare_output_folder
+
+    parser: argparse.ArgumentParser = args._parser
+    try:
+        return prepare_output_folder(args.out)
+    except (OutputFolderError, TypeError) as e:
+        parser.error(f"argument --out: {e}")
 
 
 def _range(name: str) -> str:

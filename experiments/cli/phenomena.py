@@ -14,6 +14,7 @@ from .options import (
     add_quick_option,
     add_workers_option,
     check_backend_options,
+    prepare_out,
 )
 from .parsing import guarded, int_in, out_dir
 from .progress import stage
@@ -63,14 +64,11 @@ def add_subcommand(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     """``phenomena``: one process per folder (a lock), interruptible and resumable, one-line errors."""
     from ..psychophysics.phenomena import measure, write_results
-    from ..psychophysics.runner import FolderBusyError, OutputFolderError, folder_lock, prepare_output_folder
+    from ..psychophysics.runner import FolderBusyError, folder_lock
 
     parser = args._parser
     check_backend_options(args, parser)
-    try:
-        out = prepare_output_folder(args.out)
-    except (OutputFolderError, TypeError) as e:
-        parser.error(f"argument --out: {e}")
+    out = prepare_out(args)
 
     def work() -> int:
         with folder_lock(out):

@@ -15,6 +15,7 @@ from .options import (
     add_reports_option,
     add_workers_option,
     check_backend_options,
+    prepare_out,
 )
 from .parsing import guarded, out_dir
 
@@ -53,10 +54,10 @@ def run(args: argparse.Namespace) -> int:
     """``recovery``: :func:`experiments.modelfit.recovery.recover` into ``--out``; prints who won."""
     from ..folders import path_lock
     from ..modelfit.recovery import GENERATING, recover
-    from ..psychophysics.runner import FolderBusyError, prepare_output_folder
+    from ..psychophysics.runner import FolderBusyError
 
     check_backend_options(args, args._parser)
-    out = prepare_output_folder(args.out)
+    out = prepare_out(args)
 
     def work() -> int:
         with path_lock(out / ".recovery.lock"):

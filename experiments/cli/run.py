@@ -36,6 +36,7 @@ from .options import (
     add_seed_option,
     add_workers_option,
     check_backend_options,
+    prepare_out,
 )
 from .parsing import amplitude_list, bounded, check_path_text
 from .trialconfig import add_trial_options, field_default, trial_values
@@ -414,17 +415,14 @@ def _saved(csv_path: Path) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """``run``: the study of the options into ``--out`` (``psychophysics.study.run_study``)."""
-    from ..psychophysics.runner import FolderBusyError, OutputFolderError, prepare_output_folder
+    from ..psychophysics.runner import FolderBusyError, OutputFolderError
     from ..psychophysics.study.run import NonFiniteResultError, run_study
 
     parser = args._parser
 
     check_backend_options(args, parser)
     design, config, formats = _build(args)
-    try:
-        out = prepare_output_folder(args.out)
-    except (OutputFolderError, TypeError) as e:
-        parser.error(f"argument --out: {e}")
+    out = prepare_out(args)
     csv_path = out / "trials.csv"
     try:
         with _interruptible():
