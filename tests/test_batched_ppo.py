@@ -148,7 +148,7 @@ def test_tiny_cpu_run_resumes_to_the_same_weights_and_evaluates(tmp_path):
     r = subprocess.run(argv + ["--out", str(whole)], capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr[-2000:]
     line = json.loads(r.stdout.strip().splitlines()[-1])
-    assert line["engine"] == "batched" and line["env_steps"] == 8 and line["heldout_episodes"] == 8
+    assert line["engine"] == "batched" and line["env_steps"] == 8 and line["heldout_episodes"] == 4
     _kill_after_checkpoint(argv, cut)
     assert not (cut / "ppo.json").exists() and (cut / "train.json").exists()
     r = subprocess.run(argv + ["--out", str(cut)], capture_output=True, text=True, env=ENV)
