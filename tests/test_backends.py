@@ -67,7 +67,7 @@ def test_baselines_on_two_processes_writes_the_in_process_table(tmp_path, capsys
     import json
 
     common = ["baselines", "--task", "fixate", "--agents", "cem", "--seeds", "0", "1", "--quick", "--image-size",
-              "48", "--episodes", "3"]
+              "32", "--episodes", "2"]
     assert main([*common, "--out", str(tmp_path / "one")]) == 0
     assert main([*common, "--out", str(tmp_path / "two"), "--workers", "2"]) == 0
     capsys.readouterr()

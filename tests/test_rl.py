@@ -474,6 +474,11 @@ def test_iqm_and_bootstrap_match_a_direct_computation():
             iqm(bad)
     with pytest.raises(ValueError, match="confidence"):
         bootstrap_ci(x, confidence=1.5)
+    # iqm's all-resamples-at-once path gives the bits of the resample-by-resample one (any other statistic's)
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 5, 8, 13, 40):
+        for v in (rng.random(n), rng.integers(0, 4, n) / 3.0):
+            assert bootstrap_ci(v, iqm, reps=300, seed=n) == bootstrap_ci(v, lambda r: iqm(r), reps=300, seed=n)
 
 
 def test_hyperparameter_files_hold_every_task():
