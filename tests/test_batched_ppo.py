@@ -73,7 +73,8 @@ def test_bad_hyperparameters_are_refused():
     assert plan["heldout"] == {"seed": 0, "episodes": 100, "stream": 0}  # evaluate's episodes
     for bad, msg in (({"n_stepz": 3}, "unknown"), ({"n_steps": 0}, "n_steps"), ({"gamma": 1.5}, "gamma"),
                      ({"learning_rate": float("nan")}, "learning_rate"), ({"env_kwargs": {"action_mode": "vector"}},
-                                                                          "image_size only")):
+                                                                          "image_size and task_kwargs only"),
+                     ({"env_kwargs": {"task_kwargs": [3]}}, "task_kwargs must be a mapping")):
         with pytest.raises(ValueError, match=msg):
             plan_batched("search", {**hp, **bad}, num_envs=8)
 

@@ -12,8 +12,8 @@ from typing import Any
 __all__ = ["QUICK", "batched_train_command"]
 
 #: ``--quick``: two PPO updates of 2 steps per world, a validation row after each on 2 episodes, 4 held-out
-#: episodes, 32 px eyes (a smoke test of the whole path; about a minute on Warp's CPU backend, most of it
-#: the physics' kernel launches: ~300 per saccade, each paid from Python).
+#: episodes of at most 3 saccades, 32 px eyes (a smoke test of the whole path; about half a minute on Warp's
+#: CPU backend, most of it the physics' kernel launches: ~300 per saccade, each paid from Python).
 QUICK: dict[str, Any] = {
     "n_steps": 2,
     "n_minibatches": 2,
@@ -21,7 +21,7 @@ QUICK: dict[str, Any] = {
     "eval_every": 1,
     "eval_episodes": 2,
     "heldout_episodes": 4,
-    "env_kwargs": {"image_size": 32},
+    "env_kwargs": {"image_size": 32, "task_kwargs": {"max_saccades": 3}},
 }
 
 

@@ -232,12 +232,17 @@ def plan_batched(
     total = int(timesteps if timesteps is not None else hp.get("n_timesteps", per_update))
     if total < 1:
         raise ValueError(f"timesteps must be >= 1; got {total}")
-    env_kwargs = {"image_size": int(dict(hp.get("env_kwargs") or {}).get("image_size", 96))}
-    extra = sorted(set(dict(hp.get("env_kwargs") or {})) - {"image_size"})
+    given = dict(hp.get("env_kwargs") or {})
+    env_kwargs: dict[str, Any] = {"image_size": int(given.get("image_size", 96))}
+    extra = sorted(set(given) - {"image_size", "task_kwargs"})
     if extra:
         raise ValueError(
-            f"batched-PPO env_kwargs take image_size only (the action is the cell); got {', '.join(extra)}"
+            f"batched-PPO env_kwargs take image_size and task_kwargs only (the action is the cell); got {', '.join(extra)}"
         )
+    if given.get("task_kwargs"):  # the task's own settings (e.g. max_saccades), checked by the task
+        if not isinstance(given["task_kwargs"], dict):
+            raise ValueError(f"env_kwargs' task_kwargs must be a mapping; got {given['task_kwargs']!r:.60}")
+        env_kwargs["task_kwargs"] = dict(given["task_kwargs"])
     shaping = {"enabled": False, "scale_deg": 10.0, **dict(hp.get("shaping") or {})}
     pk = {"channels": [16, 16], "logit_gain": 1.0, "vf_hidden": 64, **dict(hp.get("policy_kwargs") or {})}
     eval_every, eval_episodes = int(hp.get("eval_every", 8)), int(hp.get("eval_episodes", 100))
@@ -264,12 +269,15 @@ def plan_batched(
     }
 
 
-def make_batched_env(task: str, num_envs: int, device: str | None, image_size: int):
+def make_batched_env(task: str, num_envs: int, device: str | None, image_size: int, task_kwargs: dict | None = None):
     """The training env: ``envs.BatchedBinocularSaccade`` with the agents' env settings, cell actions,
-    same-step autoreset and torch observations; a device Warp cannot use is a ``ValueError``."""
+    same-step autoreset and torch observations (``task_kwargs``: the task's own settings, as the single
+    env takes them); a device Warp cannot use is a ``ValueError``."""
     import envs
 
     kwargs = {**DEFAULT_ENV_KWARGS, "image_size": int(image_size), "action_mode": "cell"}
+    if task_kwargs:
+        kwargs["task_kwargs"] = dict(task_kwargs)
     kwargs["remap_models"] = tuple(kwargs["remap_models"])
     try:
         return envs.BatchedBinocularSaccade(
@@ -596,7 +604,9 @@ def train_batched(
         log(f"ppo {task}: {out} holds this run, finished; nothing to train")
         return meta
     deterministic_torch(device)
-    env = make_batched_env(task, plan["num_envs"], device, plan["env_kwargs"]["image_size"])
+    env = make_batched_env(
+        task, plan["num_envs"], device, plan["env_kwargs"]["image_size"], plan["env_kwargs"].get("task_kwargs")
+    )
     try:
         sp = env.single_observation_space
         torch.manual_seed(seed)
