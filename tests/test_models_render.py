@@ -210,6 +210,29 @@ def test_missing_gl_backend_names_debian_packages():
 
 
 @pytest.mark.slow
+def test_llvmpipe_renders_in_the_calling_thread_by_default_with_the_same_pixels(tmp_path):
+    """``import models`` sets ``LP_NUM_THREADS=0`` where unset (Mesa's llvmpipe rasterizes in the calling
+    thread) and keeps a value the user set; the images are the same bytes with llvmpipe's threads."""
+    code = ("import os, sys, numpy as np, models\n"
+            "h = models.Head('dots', image_size=int(sys.argv[2]), seed=3); h.reset(seed=3); f = h.render()\n"
+            "np.save(sys.argv[1], np.stack([f.left.image, f.right.image]))\n"
+            "print(os.environ['LP_NUM_THREADS'])\n")
+    env = {k: v for k, v in os.environ.items() if k != "LP_NUM_THREADS"}
+    env["PYTHONPATH"] = str(ROOT)
+    for size in (64, 300):
+        outs = []
+        for threads in (None, "2"):
+            e = env if threads is None else {**env, "LP_NUM_THREADS": threads}
+            path = tmp_path / f"{size}_{threads}.npy"
+            res = subprocess.run([sys.executable, "-c", code, str(path), str(size)], env=e, capture_output=True,
+                                 text=True)
+            assert res.returncode == 0, res.stderr[-2000:]
+            assert res.stdout.split()[-1] == ("0" if threads is None else threads)
+            outs.append(np.load(path))
+        assert outs[0].std() > 0 and np.array_equal(outs[0], outs[1]), size
+
+
+@pytest.mark.slow
 def test_egl_is_the_default_backend_and_its_hint_names_the_packages():
     code = "import os, models; print(os.environ['MUJOCO_GL'], os.environ.get('PYOPENGL_PLATFORM'))"
     env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
