@@ -9,7 +9,8 @@ each means and which command leaves which out. A test over ~2 s on 2 cores carri
   at most 8; ``-n 0`` runs in one process) with ``--dist loadgroup``: the tests of a file that
   defines a module-scoped fixture (a trained policy, a study's table, the README's scratch folder
   whose blocks run in order) are sent to one worker together, so no fixture is built twice; the
-  others are spread one by one.
+  others are spread one by one. The longest work goes first (the groups, largest first, then the
+  ``slow`` tests), so that no long test is left for the end while the other worker idles.
 * **numba.** Before any worker starts, the compiled kernels an env episode runs are compiled once
   into numba's on-disk cache (or read back from it), so their compilation (about 30 s cold) is
   not charged to whichever test first touches a kernel, nor paid by every worker.
@@ -23,12 +24,12 @@ each means and which command leaves which out. A test over ~2 s on 2 cores carri
 from __future__ import annotations
 
 import hashlib
-import json
-import shutil
-import tempfile
 import importlib.util
+import json
 import os
+import shutil
 import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -36,7 +37,6 @@ from pathlib import Path
 import pytest
 
 import models  # noqa: F401  (first: it picks MuJoCo's off-screen GL backend before anything loads mujoco)
-
 
 MAX_WORKERS = 8  # -n auto: one worker per CPU, at most this many (each holds MuJoCo, numba and torch)
 
@@ -81,8 +81,9 @@ def pytest_collection_finish(session: pytest.Session) -> None:
     folder = getattr(session.config, "workerinput", {}).get("fixture_groups")
     if folder:
         groups = {i.nodeid: i.nodeid.split("::", 1)[0] for i in session.items if _shares_a_fixture(i)}
+        slow = [i.nodeid for i in session.items if i.get_closest_marker("slow") is not None]
         path = Path(folder) / f"{session.config.workerinput['workerid']}.json"
-        path.with_suffix(".tmp").write_text(json.dumps(groups))
+        path.with_suffix(".tmp").write_text(json.dumps({"groups": groups, "slow": slow}))
         path.with_suffix(".tmp").replace(path)
 
 
@@ -100,13 +101,32 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log):
 
     class SharedFixtureScheduling(LoadScopeScheduling):
         groups: dict[str, str] | None = None
+        slow: set[str] = set()
 
-        def _split_scope(self, nodeid: str) -> str:
+        def _read(self) -> None:
             if self.groups is None:  # every worker has collected (and written its file) by now
                 self.groups = {}
                 for f in folder.glob("*.json"):
-                    self.groups.update(json.loads(f.read_text()))
+                    written = json.loads(f.read_text())
+                    self.groups.update(written["groups"])
+                    self.slow = self.slow | set(written["slow"])
+
+        def _split_scope(self, nodeid: str) -> str:
+            self._read()
+            assert self.groups is not None
             return self.groups.get(nodeid, nodeid)
+
+        def schedule(self) -> None:
+            """The longest work first, so that no long test is left for the end while the other
+            workers idle: the groups (largest first, as ``LoadScopeScheduling`` orders them), then the
+            slow tests, then the rest, each in collection order (a group keeps its tests' order)."""
+            if self.collection is None and self.registered_collections:
+                self._read()
+                assert self.groups is not None
+                first = self.slow | set(self.groups)
+                for node, col in self.registered_collections.items():  # the same order on every worker
+                    self.registered_collections[node] = sorted(col, key=lambda nid: nid not in first)
+            super().schedule()
 
     return SharedFixtureScheduling(config, log)
 
