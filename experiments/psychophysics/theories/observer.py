@@ -67,7 +67,8 @@ class Observer(ConstantsTheory):
                 post_cf[:, e, ax] = posterior_mean(
                     cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg**2), e_cov[ax, ax], rho[ax], lam
                 )
-        # the left eye's mean sensory variance; none when it saw the flash in no map (the weight is then NaN)
+        # the flash's (map 0's) sensory variance, mean over the eyes that saw it; none when neither did (the
+        # row's perceived position is then NaN too: the flash was not seen)
         v0 = float(np.nanmean(var[0])) if not np.isnan(var[0]).all() else math.nan
         weight_x = lam / (lam + 1.0 / (v0 + e_cov[0, 0])) if lam > 0 else 0.0
         reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], maps[k]) for k in range(len(maps))]
