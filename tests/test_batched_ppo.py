@@ -74,7 +74,9 @@ def test_bad_hyperparameters_are_refused():
     for bad, msg in (({"n_stepz": 3}, "unknown"), ({"n_steps": 0}, "n_steps"), ({"gamma": 1.5}, "gamma"),
                      ({"learning_rate": float("nan")}, "learning_rate"), ({"env_kwargs": {"action_mode": "vector"}},
                                                                           "image_size and task_kwargs only"),
-                     ({"env_kwargs": {"task_kwargs": [3]}}, "task_kwargs must be a mapping")):
+                     ({"env_kwargs": {"task_kwargs": [3]}}, "task_kwargs must be a mapping"),
+                     ({"env_kwargs": {"task_kwargs": {"max_saccades": 0}}}, "task_kwargs: .*max_saccades"),
+                     ({"env_kwargs": {"task_kwargs": {"max_sacades": 3}}}, "task_kwargs: ")):
         with pytest.raises(ValueError, match=msg):
             plan_batched("search", {**hp, **bad}, num_envs=8)
 

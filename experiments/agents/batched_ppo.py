@@ -239,9 +239,15 @@ def plan_batched(
         raise ValueError(
             f"batched-PPO env_kwargs take image_size and task_kwargs only (the action is the cell); got {', '.join(extra)}"
         )
-    if given.get("task_kwargs"):  # the task's own settings (e.g. max_saccades), checked by the task
+    if given.get("task_kwargs"):  # the task's own settings (e.g. max_saccades), checked here by the task
         if not isinstance(given["task_kwargs"], dict):
             raise ValueError(f"env_kwargs' task_kwargs must be a mapping; got {given['task_kwargs']!r:.60}")
+        from envs.tasks import make_task
+
+        try:
+            make_task(task, **given["task_kwargs"])
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"env_kwargs' task_kwargs: {str(err).splitlines()[0]}") from None
         env_kwargs["task_kwargs"] = dict(given["task_kwargs"])
     shaping = {"enabled": False, "scale_deg": 10.0, **dict(hp.get("shaping") or {})}
     pk = {"channels": [16, 16], "logit_gain": 1.0, "vf_hidden": 64, **dict(hp.get("policy_kwargs") or {})}
