@@ -119,14 +119,16 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log):
         def schedule(self) -> None:
             """The longest work first, so that no long test is left for the end while the other
             workers idle: the groups (largest first, as ``LoadScopeScheduling`` orders them), then the
-            slow tests, then the rest, each in collection order (a group keeps its tests' order)."""
-            if self.collection is None and self.registered_collections:
-                self._read()
-                assert self.groups is not None
-                first = self.slow | set(self.groups)
-                for node, col in self.registered_collections.items():  # the same order on every worker
-                    self.registered_collections[node] = sorted(col, key=lambda nid: nid not in first)
+            slow tests, then the rest, each in collection order. Only the queue of work units is
+            reordered (a worker runs the tests it is sent by their index in its own collection)."""
+            first_time = self.collection is None
             super().schedule()
+            if first_time and self.workqueue:
+                def early(scope: str) -> bool:
+                    return len(self.workqueue[scope]) > 1 or scope in self.slow
+
+                order = [s for s in self.workqueue if early(s)] + [s for s in self.workqueue if not early(s)]
+                self.workqueue = type(self.workqueue)((s, self.workqueue[s]) for s in order)
 
     return SharedFixtureScheduling(config, log)
 

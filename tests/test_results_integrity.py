@@ -306,3 +306,13 @@ def test_resume_command_round_trips_every_option():
     assert {k: v for k, v in vars(again).items() if k != "func"} == {k: v for k, v in vars(args).items() if k != "func"}
     assert _command(parser.parse_args(["run"])) == "python -m experiments run --out results"
     assert np.isclose(again.endpoint_noise, 1e-5)
+
+
+def test_a_missing_table_is_an_error_not_an_empty_table(tmp_path):
+    """A finished table that is not there is a FileNotFoundError naming it (an empty table read from a wrong
+    path would make every statistic of it fail later, far from the cause); ``partial=True`` (a run still
+    starting) reads it as no rows yet."""
+    missing = tmp_path / "nowhere" / "trials.csv"
+    with pytest.raises(FileNotFoundError, match="no trials table there"):
+        read_table(missing)
+    assert len(read_table(missing, partial=True)["trial_id"]) == 0

@@ -378,6 +378,11 @@ def read_table(path: str | os.PathLike, *, partial: bool = False) -> dict[str, n
     that is still being written or was interrupted: such rows are skipped with a ``RuntimeWarning``.
     """
     path = Path(path)
+    if not partial and not path.is_file():
+        raise FileNotFoundError(
+            f"{path}: no trials table there; run the study first (python -m experiments run --out FOLDER), "
+            "or read a table still being written with partial=True"
+        )
     scan = _scan(path)
     if scan.bad or scan.duplicates or len({r["config_hash"] for r in scan.rows.values()}) > 1:
         what = []
