@@ -3,7 +3,7 @@ it needs warp-lang; no ``from __future__ import annotations`` here, Warp reads t
 
 import warp as wp
 
-__all__ = ["servo", "advance", "beyond_range"]
+__all__ = ["servo", "advance", "beyond_range", "affine_run"]
 
 
 @wp.kernel
@@ -46,3 +46,33 @@ def beyond_range(
     q = qpos[w, adr[j]]
     if q <= lo[j] or q >= hi[j]:
         left[0] = 1
+
+
+@wp.kernel
+def affine_run(
+    A: wp.array3d(dtype=wp.float64),
+    W: wp.array3d(dtype=wp.float64),
+    x: wp.array2d(dtype=wp.float64),
+    y: wp.array2d(dtype=wp.float64),
+    adr: wp.array(dtype=wp.int32),
+    lo: wp.array(dtype=wp.float64),
+    hi: wp.array(dtype=wp.float64),
+    left: wp.array(dtype=wp.int32),
+):
+    """World w's state ``x[w] <- A[w] x[w] + W[w, k]`` for k = 0, 1, ... (``models.linear_tail``'s map;
+    ``y`` scratch of x's shape); ``left[0] = 1`` where a limited coordinate ``x[w, adr[j]]`` reaches
+    ``[lo[j], hi[j]]``'s bounds on the way."""
+    w = wp.tid()
+    n = x.shape[1]
+    for k in range(W.shape[1]):
+        for i in range(n):
+            s = W[w, k, i]
+            for j in range(n):
+                s += A[w, i, j] * x[w, j]
+            y[w, i] = s
+        for i in range(n):
+            x[w, i] = y[w, i]
+        for j in range(adr.shape[0]):
+            q = x[w, adr[j]]
+            if q <= lo[j] or q >= hi[j]:
+                left[0] = 1

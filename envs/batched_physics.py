@@ -27,10 +27,18 @@ import math
 import numpy as np
 
 import models  # before mujoco_warp: models chooses MuJoCo's off-screen GL backend before mujoco loads
+from models import linear_tail as _tail
 from models import servo_setpoints
 from models.render import EYES, HIDDEN_GEOM_GROUPS
 
-__all__ = ["WarpHeads", "require_gpu_extra"]
+__all__ = ["WarpHeads", "require_gpu_extra", "TAIL_SETTLE_MS", "TAIL_CHUNK_MS"]
+
+#: Milliseconds stepped past the last fast row of any world's command before the slow stretch may be
+#: taken in closed form (the plant's short time constant and the eye's overshoot), and the stride of
+#: the check that every eye has slowed (``models.linear_tail``).
+TAIL_SETTLE_MS = 20
+#: Steps of the closed form on one linear map: it is made again (after one exact step) this often.
+TAIL_CHUNK_MS = 25
 
 
 def require_gpu_extra():
@@ -84,6 +92,9 @@ class WarpHeads:
         skip_solver: step without MuJoCo's constraint solver while no limited joint reaches its range,
             stepping a run again with the solver where one does (see the module docstring); False:
             MuJoCo Warp's ``step`` throughout; None (default): True on the CPU backend, False on CUDA.
+        linear_tail: take each run's slow stretch in closed form (``models.linear_tail``'s map of the
+            ``implicitfast`` step, on this device; see the module docstring); False steps every
+            millisecond.
     """
 
     def __init__(
@@ -95,6 +106,7 @@ class WarpHeads:
         chunk_ms: int = 25,
         retina_directions: np.ndarray | None = None,
         skip_solver: bool | None = None,
+        linear_tail: bool = True,
     ) -> None:
         wp, mjw, torch = require_gpu_extra()
         self._wp, self._mjw, self._torch = wp, mjw, torch
@@ -125,9 +137,10 @@ class WarpHeads:
         self._dt = float(mjm.opt.timestep)
         if abs(self._dt - 1e-3) > 1e-12:
             raise ValueError(f"the batched physics steps 1 ms; the model's timestep is {self._dt}")
-        from ._warp_kernels import advance, beyond_range, servo
+        from ._warp_kernels import advance, affine_run, beyond_range, servo
 
         self._servo, self._advance, self._beyond_range = servo, advance, beyond_range
+        self._affine_run = affine_run
         limited = np.flatnonzero(mjm.jnt_limited)
         if skip_solver is None:
             skip_solver = not self.device.is_cuda
@@ -185,6 +198,31 @@ class WarpHeads:
         self.geom_xpos = t(d.geom_xpos)
         self._eye_q = torch.as_tensor(np.asarray(self._qadr), device=self.torch_device)
         self._graph = None
+        # the slow stretch in closed form (models.linear_tail): the linear forces, the mass matrix's
+        # sparse layout (MuJoCo's lower-triangle rows, as MuJoCo Warp stores ``M``) and the eye joints
+        forces = _tail.linear_forces(mjm) if linear_tail else None
+        self.linear_tail = forces is not None
+        self._pending: tuple[int, int] | None = None
+        self._tail_ran = False
+        #: milliseconds of physics taken in closed form so far (the rest were stepped)
+        self.closed_form_ms = 0
+        if forces is not None:
+            dev64 = {"dtype": torch.float64, "device": self.torch_device}
+            self._forces = tuple(torch.as_tensor(a, **dev64) for a in forces)
+            rows = np.repeat(np.arange(mjm.nv), mjm.M_rownnz)
+            self._m_rows = torch.as_tensor(rows, device=self.torch_device)
+            self._m_cols = torch.as_tensor(mjm.M_colind.astype(np.int64), device=self.torch_device)
+            eye = np.zeros(mjm.nv, bool)
+            eye[np.asarray(self._vadr)] = True
+            self._eye_dof = torch.as_tensor(eye, device=self.torch_device)
+            with wp.ScopedDevice(self.device):
+                self._lim_adr_wp = wp.array(mjm.jnt_qposadr[limited].astype(np.int32), dtype=wp.int32)
+                self._lim_lo_wp = wp.array(mjm.jnt_range[limited, 0], dtype=wp.float64)
+                self._lim_hi_wp = wp.array(mjm.jnt_range[limited, 1], dtype=wp.float64)
+            self._ctrl_cols = torch.as_tensor(
+                np.concatenate([np.arange(a, a + 6) for a in (self._pos0, self._vel0, self._ff0)]),
+                device=self.torch_device,
+            )
 
     # ------------------------------------------------------------------ state
     def load(self, worlds: np.ndarray, qpos, qvel, ctrl, mocap_pos, mocap_quat) -> None:
@@ -271,6 +309,8 @@ class WarpHeads:
             self._left.zero_()
             for a, saved in self._saved:
                 wp.copy(saved, a)
+            total, n_ms = n_ms, self._stepped_prefix(T, n_ms)
+            self._pending = (n_ms, total) if total > n_ms else None
             stepped = 0
             if self.device.is_cuda and self._graph is not False:
                 chunks = max(1, math.ceil(n_ms / self.chunk_ms))
@@ -289,17 +329,130 @@ class WarpHeads:
             for _ in range(stepped, n_ms):  # the CPU backend; CUDA where no graph could be captured
                 self._physics_step()
             self._stepped = stepped = max(stepped, n_ms)
-            mjw.forward(self.model, self.data)
+            if self._pending is not None:
+                self._pending = (stepped, self._pending[1])
+                if stepped >= self._pending[1]:
+                    self._pending = None
+            if self._pending is None:
+                mjw.forward(self.model, self.data)
+        done = stepped if self._pending is None else total
         if wait:
             self.wait()
-        return stepped
+        return done
 
     def wait(self) -> None:
         """Wait for the physics launched by ``run(..., wait=False)`` before torch reads its state (and
         step the run again with the solver if a joint reached its range)."""
         self._handoff_to_torch()
-        if self.skip_solver and self._stepped and int(self._left.numpy()[0]):
+        if self._pending is not None:
+            self._run_tail(*self._pending)
+            self._pending = None
+        if self._stepped and int(self._left.numpy()[0]) and (self.skip_solver or self._tail_ran):
             self._rerun_with_solver()
+        self._tail_ran = False
+
+    # ------------------------------------------------------------------ the slow stretch in closed form
+    def _stepped_prefix(self, T: int, n_ms: int) -> int:
+        """How many of a run's ``n_ms`` milliseconds to step before its slow stretch may be taken in
+        closed form: to :data:`TAIL_SETTLE_MS` past the last row of any world's command table whose
+        commanded speed is :data:`models.linear_tail.LINEAR_SPEED_DEG_S` or more (the saccade and any
+        fast vergence); ``n_ms`` when too little would be left."""
+        if not self.linear_tail:
+            return n_ms
+        torch = self._torch
+        speed = self._torch_cmd()[:, :T, 6:12].abs().amax(dim=(0, 2))  # (T,) rad/s, fastest world
+        fast = torch.nonzero(speed >= math.radians(_tail.LINEAR_SPEED_DEG_S))
+        start = (int(fast[-1, 0]) + 1 if len(fast) else 0) + TAIL_SETTLE_MS
+        return n_ms if n_ms - start < _tail.MIN_STEPS else start
+
+    def _torch_cmd(self):
+        return self._wp.to_torch(self._cmd)
+
+    def _slow(self) -> bool:
+        """Whether every world's eyes are slower than ``LINEAR_SPEED_DEG_S`` and its neck at rest."""
+        v = self.qvel.abs()
+        eye = v[:, self._eye_dof].max() < math.radians(_tail.LINEAR_SPEED_DEG_S)
+        other = v[:, ~self._eye_dof]
+        rest = other.numel() == 0 or other.max() < math.radians(_tail.REST_SPEED_DEG_S)
+        return bool(eye and rest)
+
+    def _run_tail(self, t: int, total: int) -> None:
+        """Milliseconds ``t`` to ``total`` of the run: stepped until every world is slow, then in closed form."""
+        wp, mjw = self._wp, self._mjw
+        with wp.ScopedDevice(self.device):
+            self._handoff_to_torch()
+            while total - t >= _tail.MIN_STEPS and not self._slow():
+                for _ in range(min(TAIL_SETTLE_MS, total - t)):
+                    self._physics_step()
+                    t += 1
+                self._handoff_to_torch()
+            if total - t >= _tail.MIN_STEPS:
+                self._tail_ran = True
+                self._closed_form(t, total)
+                self.closed_form_ms += total - t
+            else:
+                for _ in range(total - t):
+                    self._physics_step()
+            self._stepped = total
+            mjw.forward(self.model, self.data)
+        self._handoff_to_torch()
+
+    def _closed_form(self, t: int, total: int) -> None:
+        """Every world from ms ``t`` to ``total`` by the ``implicitfast`` step's linear map
+        (``models.linear_tail.step_matrices`` with each world's mass matrix), made again every
+        :data:`TAIL_CHUNK_MS` after one exact step; flags ``_left`` where a limited joint would reach its
+        range (``wait`` then steps the run again with the solver)."""
+        torch, wp = self._torch, self._wp
+        n, nv, dt = self.num_worlds, self.qpos.shape[1], self._dt
+        K, D, G = self._forces
+        cols = self._ctrl_cols
+        table = self._torch_cmd()
+        last = wp.to_torch(self._ncmd).long()[:, None] - 1
+        worlds = torch.arange(n, device=self.torch_device)[:, None]
+        mflat = wp.to_torch(self.data.M)
+        time = wp.to_torch(self.data.time)
+        while t < total:
+            x0 = torch.cat([self.qpos, self.qvel], 1).double()
+            self._sync_torch_to_warp()
+            self._physics_step()  # the exact step t: x1, with the mass matrix at x0 in data.M
+            self._handoff_to_torch()
+            u0 = self.ctrl[:, cols].double()
+            x = torch.cat([self.qpos, self.qvel], 1).double()
+            t += 1
+            k = min(TAIL_CHUNK_MS, total - t)
+            if k == 0:
+                break
+            M = torch.zeros((n, nv, nv), dtype=torch.float64, device=self.torch_device)
+            M[:, self._m_rows, self._m_cols] = mflat.double()
+            M = M + M.transpose(1, 2) - torch.diag_embed(torch.diagonal(M, dim1=1, dim2=2))
+            A, B = _tail.step_matrices(M, K, D, G, dt)
+            rows = torch.minimum(torch.arange(t, t + k, device=self.torch_device)[None], last)  # (n, k)
+            U = table[worlds, rows].double()  # (n, k, 18): pos, vel, ff set-points = ctrl[cols]
+            # x_(j+1) = x1 + A (x_j - x0) + B (u_j - u0)
+            W = (U - u0[:, None]) @ B[:, :, cols].transpose(1, 2) + (x - (A @ x0[..., None])[..., 0])[:, None]
+            xw, yw = wp.from_torch(x.contiguous()), wp.empty((n, 2 * nv), dtype=wp.float64)
+            self._sync_torch_to_warp()
+            wp.launch(
+                self._affine_run,
+                dim=n,
+                inputs=[wp.from_torch(A.contiguous()), wp.from_torch(W.contiguous()), xw, yw]
+                + [self._lim_adr_wp, self._lim_lo_wp, self._lim_hi_wp],
+                outputs=[self._left],
+            )
+            self._handoff_to_torch()
+            x = wp.to_torch(xw)
+            self.qpos.copy_(x[:, :nv])
+            self.qvel.copy_(x[:, nv:])
+            self.ctrl[:, cols] = U[:, -1].to(self.ctrl.dtype)
+            time += k * dt
+            t += k
+            self._step.fill_(t)
+        self._sync_torch_to_warp()
+
+    def _sync_torch_to_warp(self) -> None:
+        """torch's writes (its stream) land before Warp's next kernels (Warp's stream); a no-op on the CPU."""
+        if self.device.is_cuda:
+            self._torch.cuda.synchronize(self.torch_device)
 
     def _rerun_with_solver(self) -> None:
         """Step the last run again from its start with MuJoCo Warp's full ``step`` (the constraint

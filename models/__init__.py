@@ -64,6 +64,7 @@ _HOMES: dict[str, str] = {
     **dict.fromkeys(("Profiles", "SaccadePlans", "profiles"), "saccade_plans"),
     **dict.fromkeys(("BatchedPlanner", "SettledReset", "plan_clipped"), "planner"),
     **dict.fromkeys(("EYE_DRIVES", "OrbitalPlant"), "plant"),
+    **dict.fromkeys(("LinearTail",), "linear_tail"),
     **dict.fromkeys(("limit_plan_threads",), "_plan_kernels"),
     **dict.fromkeys(("time_kernel_paths",), "plan_kernel_timing"),
 }
@@ -102,6 +103,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load
         rotation_vector,
     )
     from .eye_position_signal import VISUAL_LATENCY_MS, EyePositionSignal
+    from .linear_tail import LinearTail
     from .oculomotor import SACCADE_MODELS, SaccadePlan
     from .oculomotor_state import OculomotorState
     from .plan_kernel_timing import time_kernel_paths

@@ -141,6 +141,8 @@ class Head(SceneObjects, HeadRendering):
         endpoint_noise: s.d. of saccade endpoint error as a fraction of amplitude (0-1; human: 5-10 %,
             Kowler & Blaser 1995, Vision Res 35:1741); downstream of the generator.
         motor_noise: a :class:`models.MotorNoise` instead of ``endpoint_noise`` (default none).
+        linear_tail: take the eyes' slow stretches (settle tails, long holds) in closed form
+            (:mod:`models.linear_tail`, within 1e-4 deg of stepping); False steps every physics step.
         saccade_model: ``"burst"`` (default: :mod:`models.saccade_generator`) or ``"legacy"``.
         main_sequence: kinematics of the legacy model (defaults: Van Wetter & Van Opstal 2008).
         generator, vergence, eye_position: the burst generator's, vergence's and eye-position
@@ -175,6 +177,7 @@ class Head(SceneObjects, HeadRendering):
         eye_drive: str = "plant",
         plant: OrbitalPlant | None = None,
         motor_noise: MotorNoise | None = None,
+        linear_tail: bool = True,
     ):
         if not isinstance(scene, str):
             raise checks.InputTypeError(f"scene must be one of {', '.join(SCENES)}; got {scene!r}")
@@ -263,6 +266,8 @@ class Head(SceneObjects, HeadRendering):
         #: the command's model of the plant: (inertia, stiffness, damping), each (6, 6); None for the servo
         self.plant_command = command
         self._servo = EyeServo(m, self.data, self._k_fix, self._k_sac, self._qadr, self._vadr, self._eye_ctrl, command)
+        if not checks.flag("linear_tail", linear_tail):
+            self._servo.linear = None
         self._neck_act = np.array([m.actuator("neck_pan_pos").id, m.actuator("neck_tilt_pos").id])
         self._head_body = m.body("head").id
         self._eye_centres_head = np.array([m.body_pos[m.body(f"{s}_eyeball").id] for s in ("left", "right")])
