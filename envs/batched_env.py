@@ -92,6 +92,9 @@ class BatchedBinocularSaccade(VectorEnv):
             (CUDA when Warp finds it, else CPU).
         output: ``"torch"`` (observations as torch tensors on the device) or ``"numpy"``.
         chunk_ms: physics steps per captured CUDA graph (see ``envs.batched_physics.WarpHeads``).
+        linear_tail: take each step's slow stretch of physics in closed form (``models.linear_tail``,
+            within 1e-4 deg of stepping); None (default): on Warp's CPU backend, off on CUDA until it is
+            measured there (``envs.batched_physics.WarpHeads``).
         autoreset_mode: ``"next_step"`` (default, gymnasium's) or ``"same_step"`` (the world is reset
             within the step that ended it; the ended episode's last observations and info are in
             ``info["final_obs"]`` / ``info["final_info"]``, masked by ``info["_final_obs"]``).
@@ -121,6 +124,7 @@ class BatchedBinocularSaccade(VectorEnv):
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         retina_rays: int | None = None,
         max_episode_steps: int | None = None,
+        linear_tail: bool | None = None,
         **kwargs: Any,
     ) -> None:
         from .batched_physics import WarpHeads, require_gpu_extra
@@ -131,6 +135,8 @@ class BatchedBinocularSaccade(VectorEnv):
         self.num_envs = checks.integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
         self.output = checks.choice("output", output, ("torch", "numpy"))
         chunk_ms = checks.integer("chunk_ms", chunk_ms, 1, 1000)
+        if linear_tail is not None:
+            linear_tail = checks.flag("linear_tail", linear_tail)
         self.settle_ms = checks.integer("settle_ms", settle_ms, 0, core.MAX_FIXATION_MS)
         modes = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
         if isinstance(autoreset_mode, AutoresetMode):
@@ -184,7 +190,9 @@ class BatchedBinocularSaccade(VectorEnv):
             from .retina_rays import field_ray_directions
 
             directions = field_ray_directions(env.vision.grid, retina_rays)
-        self.physics = WarpHeads(env.head, self.num_envs, device, chunk_ms=chunk_ms, retina_directions=directions)
+        self.physics = WarpHeads(
+            env.head, self.num_envs, device, chunk_ms=chunk_ms, retina_directions=directions, linear_tail=linear_tail
+        )
         self.device = self.physics.torch_device
         self.vision = TorchVision(env.vision, self.physics.torch_device)
         self.grid = env.vision.grid

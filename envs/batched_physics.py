@@ -94,7 +94,8 @@ class WarpHeads:
             MuJoCo Warp's ``step`` throughout; None (default): True on the CPU backend, False on CUDA.
         linear_tail: take each run's slow stretch in closed form (``models.linear_tail``'s map of the
             ``implicitfast`` step, on this device; see the module docstring); False steps every
-            millisecond.
+            millisecond; None (default): True on the CPU backend, False on CUDA until it is measured
+            there.
     """
 
     def __init__(
@@ -106,7 +107,7 @@ class WarpHeads:
         chunk_ms: int = 25,
         retina_directions: np.ndarray | None = None,
         skip_solver: bool | None = None,
-        linear_tail: bool = True,
+        linear_tail: bool | None = None,
     ) -> None:
         wp, mjw, torch = require_gpu_extra()
         self._wp, self._mjw, self._torch = wp, mjw, torch
@@ -200,6 +201,10 @@ class WarpHeads:
         self._graph = None
         # the slow stretch in closed form (models.linear_tail): the linear forces, the mass matrix's
         # sparse layout (MuJoCo's lower-triangle rows, as MuJoCo Warp stores ``M``) and the eye joints
+        if linear_tail is None:
+            linear_tail = not self.device.is_cuda
+        elif not isinstance(linear_tail, (bool, np.bool_)):
+            raise TypeError(f"linear_tail must be True, False or None; got {linear_tail!r}")
         forces = _tail.linear_forces(mjm) if linear_tail else None
         self.linear_tail = forces is not None
         self._pending: tuple[int, int] | None = None

@@ -47,7 +47,8 @@ REST_SPEED_DEG_S = 1.0
 #: How far (deg) an eye joint may move on one linearisation before it is made again where the eye
 #: is: the gimbal's inertia changes with the eye's posture (a pulse 30 % too large drifts degrees).
 LINEAR_STRIDE_DEG = 0.5
-#: The shortest stretch (physics steps) taken in closed form: a map costs a few physics steps.
+#: The shortest stretch (physics steps) the batched engine takes in closed form (a map costs a few
+#: physics steps there).
 MIN_STEPS = 20
 
 
@@ -114,36 +115,59 @@ def step_matrices(M, K, D, G, dt: float):
 
 
 @nb.njit(cache=DISK_CACHE, nogil=True)
-def _affine_run(A, W, x, adr, lo, hi, moved, stride):  # pragma: no cover - compiled
-    """Iterate ``x <- A x + W[k]`` in place from k = 0 while every coordinate ``x[moved]`` stays within
-    ``stride`` of where it started; returns the steps taken, or -1 (x then undefined) as soon as a
-    limited coordinate ``x[adr]`` leaves ``[lo, hi]``."""
-    n = x.shape[0]
+def _affine_run(A, Bc, u0, c, x, U, start, moved, stride, adr, lo, hi, out):  # pragma: no cover - compiled
+    """Iterate ``x <- A x + Bc (U[k] - u0) + c`` in place for k = 0, 1, ... while every coordinate
+    ``x[moved]`` stays within ``stride`` of ``start`` and every limited coordinate ``x[adr]`` inside
+    ``(lo, hi)``; with ``out`` of U's length, ``out[k]`` is the state after step k. Returns the steps
+    taken and why it stopped: 0 all done, 1 the stride, 2 a joint's range (x is then the state before
+    the step that would reach it)."""
+    n, m = x.shape[0], U.shape[1]
     y = np.empty(n)
-    start = x.copy()
-    for k in range(W.shape[0]):
+    for k in range(U.shape[0]):
         for i in range(moved.shape[0]):
             if abs(x[moved[i]] - start[moved[i]]) > stride:
-                return k
+                return k, 1
         for i in range(n):
-            s = W[k, i]
+            s = c[i]
+            for j in range(m):
+                s += Bc[i, j] * (U[k, j] - u0[j])
             for j in range(n):
                 s += A[i, j] * x[j]
             y[i] = s
+        for i in range(adr.shape[0]):
+            q = y[adr[i]]
+            if not (lo[i] < q < hi[i]):
+                return k, 2
         for i in range(n):
             x[i] = y[i]
-        for i in range(adr.shape[0]):
-            q = x[adr[i]]
-            if not (lo[i] < q < hi[i]):
-                return -1
-    return W.shape[0]
+        if out.shape[0]:
+            for i in range(n):
+                out[k, i] = x[i]
+    return U.shape[0], 0
+
+
+class _Segment:
+    """One linear map in use: ``x' = A x + Bc (u - u0) + c`` from the exact step ``x1`` (``start``),
+    the state ``x`` it last wrote, ``n`` steps after its own start at ``time0``."""
+
+    __slots__ = ("A", "Bc", "u0", "c", "start", "x", "time0", "n", "dt", "others")
+
+    def __init__(self, A, Bc, u0, c, x, time0, dt, others) -> None:
+        self.A, self.Bc, self.u0, self.c = A, Bc, u0, c
+        self.start, self.x = x.copy(), x
+        self.time0, self.n, self.dt, self.others = time0, 1, dt, others
 
 
 class LinearTail:
     """Closed-form stretches of one head's physics (see the module docstring).
 
     ``model``, ``data``: the head's MuJoCo model and data; ``ctrl``: the eye controls' slice or
-    indices in ``data.ctrl``; ``vadr``: the eye joints' addresses in ``qvel``."""
+    indices in ``data.ctrl``; ``vadr``: the eye joints' addresses in ``qvel``.
+
+    A map, once made, is used until an eye has moved :data:`LINEAR_STRIDE_DEG` from where it was made
+    or a joint would reach its range, across calls as long as nothing else has touched the state
+    (``qpos``, ``qvel``, the other controls, the time, the timestep): so the states do not depend on
+    how a stretch is cut into calls, nor on whether it is recorded."""
 
     def __init__(self, model, data, ctrl, vadr: np.ndarray) -> None:
         self.model, self.data, self.ctrl = model, data, ctrl
@@ -152,6 +176,10 @@ class LinearTail:
         nv = model.nv
         self._eye = np.zeros(nv, bool)
         self._eye[np.asarray(vadr)] = True
+        self._moved = np.flatnonzero(self._eye)  # qpos = qvel addresses (nq == nv)
+        self._cols = np.arange(model.nu)[ctrl]
+        self._other_ctrl = np.ones(model.nu, bool)
+        self._other_ctrl[self._cols] = False
         self._M = np.zeros((nv, nv))
         limited = np.flatnonzero(model.jnt_limited)
         self._adr = model.jnt_qposadr[limited].astype(np.int64)
@@ -160,6 +188,12 @@ class LinearTail:
         self._eye_speed = math.radians(LINEAR_SPEED_DEG_S)
         self._rest_speed = math.radians(REST_SPEED_DEG_S)
         self._stride = math.radians(LINEAR_STRIDE_DEG)
+        self._seg: _Segment | None = None
+        self._none = np.zeros((0, 2 * nv))
+
+    def forget(self) -> None:
+        """Drop the map in use (a reset or a new state)."""
+        self._seg = None
 
     def ready(self) -> bool:
         """Whether the state is slow enough for the linear map: every eye joint below
@@ -169,35 +203,96 @@ class LinearTail:
         v = np.abs(self.data.qvel)
         return bool(v[self._eye].max() < self._eye_speed and (v[~self._eye].max(initial=0.0) < self._rest_speed))
 
-    def run(self, eye_controls: np.ndarray) -> int:
-        """Advance up to ``len(eye_controls)`` physics steps at the model's timestep, the eye controls of
-        step k being ``eye_controls[k]`` (the others held), relinearising every
-        :data:`LINEAR_STRIDE_DEG` of eye movement; returns the steps taken. Fewer where the eyes sped
-        up again or the map would reach a joint's range: the caller steps the physics from there."""
-        m, d, ctrl = self.model, self.data, self.ctrl
-        T, nv, done = len(eye_controls), m.nv, 0
-        cols = np.arange(m.nu)[ctrl]
-        moved = np.flatnonzero(self._eye)  # qpos = qvel addresses (nq == nv)
+    def _current(self) -> _Segment | None:
+        """The map in use, if the state is still the one it wrote."""
+        seg, d, m = self._seg, self.data, self.model
+        if seg is None:
+            return None
+        nv = m.nv
+        if not (
+            m.opt.timestep == seg.dt
+            and d.time == seg.time0 + seg.n * seg.dt
+            and np.array_equal(d.qpos, seg.x[:nv])
+            and np.array_equal(d.qvel, seg.x[nv:])
+            and np.array_equal(d.ctrl[self._other_ctrl], seg.others)
+        ):
+            self._seg = None
+        return self._seg
+
+    def _begin(self, u: np.ndarray) -> _Segment:
+        """A new map at the current state, and its first step taken exactly (control ``u``)."""
+        m, d = self.model, self.data
         forces = self._forces
-        while forces is not None and T - done >= MIN_STEPS and self.ready():
-            seg = eye_controls[done:]
-            x0 = np.concatenate([d.qpos, d.qvel])
-            time0, ctrl_before = d.time, d.ctrl.copy()
-            d.ctrl[ctrl] = seg[0]
-            mujoco.mj_step(m, d)  # the first step, exact: x1 (and the mass matrix at x0)
-            mujoco.mj_fullM(m, d, self._M)
-            A, B = step_matrices(self._M, *forces, m.opt.timestep)
-            x = np.concatenate([d.qpos, d.qvel])
-            # x_(k+1) = x1 + A (x_k - x0) + B (u_k - u0) = A x_k + W_k
-            W = (seg[1:] - seg[0]) @ B[:, cols].T + (x - A @ x0)
-            k = _affine_run(A, W, x, self._adr, self._lo, self._hi, moved, self._stride)
-            if k < 0:  # a joint would reach its range: back to x0 for the caller to step
-                d.qpos[:], d.qvel[:] = x0[:nv], x0[nv:]
-                d.ctrl[:] = ctrl_before
-                d.time = time0
+        assert forces is not None, "ready() checks the model's forces"
+        x0 = np.concatenate([d.qpos, d.qvel])
+        time0 = d.time
+        d.ctrl[self.ctrl] = u
+        mujoco.mj_step(m, d)  # the first step, exact: x1 (and the mass matrix at x0)
+        mujoco.mj_fullM(m, d, self._M)
+        A, B = step_matrices(self._M, *forces, m.opt.timestep)
+        x1 = np.concatenate([d.qpos, d.qvel])
+        # x_(k+1) = x1 + A (x_k - x0) + B (u_k - u0) = A x_k + B (u_k - u0) + (x1 - A x0)
+        seg = _Segment(
+            A,
+            B[:, self._cols].copy(),
+            u.copy(),
+            x1 - A @ x0,
+            x1,
+            time0,
+            m.opt.timestep,
+            d.ctrl[self._other_ctrl].copy(),
+        )
+        self._write(seg)
+        return seg
+
+    def _write(self, seg: _Segment) -> None:
+        d, nv = self.data, self.model.nv
+        d.qpos[:], d.qvel[:] = seg.x[:nv], seg.x[nv:]
+        d.time = seg.time0 + seg.n * seg.dt
+
+    def run(self, eye_controls: np.ndarray, record: bool = False) -> tuple[int, np.ndarray | None]:
+        """Advance up to ``len(eye_controls)`` physics steps at the model's timestep, the eye controls of
+        step k being ``eye_controls[k]`` (the others held); returns the steps taken and, with
+        ``record``, the states ``(qpos, qvel)`` after each (steps, 2 nv). Fewer steps (none) where the
+        eyes are not slow or the map would carry a joint to its range: the caller steps the physics
+        from there."""
+        d = self.data
+        T, done = len(eye_controls), 0
+        states = np.empty((T, 2 * self.model.nv)) if record else None
+        while done < T:
+            seg = self._current()
+            if seg is None:
+                if not self.ready():
+                    break
+                seg = self._seg = self._begin(eye_controls[done])
+                if states is not None:
+                    states[done] = seg.x
+                done += 1
+                continue
+            out = states[done:] if states is not None else self._none
+            k, why = _affine_run(
+                seg.A,
+                seg.Bc,
+                seg.u0,
+                seg.c,
+                seg.x,
+                eye_controls[done:],
+                seg.start,
+                self._moved,
+                self._stride,
+                self._adr,
+                self._lo,
+                self._hi,
+                out,
+            )
+            if k:
+                seg.n += k
+                self._write(seg)
+                d.ctrl[self.ctrl] = eye_controls[done + k - 1]
+                done += k
+            if why == 1:  # the eyes moved a stride: a new map where they are
+                self._seg = None
+            elif why == 2:  # a joint would reach its range: the caller steps (the solver acts there)
+                self._seg = None
                 break
-            d.qpos[:], d.qvel[:] = x[:nv], x[nv:]
-            d.ctrl[ctrl] = seg[k]
-            d.time = time0 + (k + 1) * m.opt.timestep
-            done += k + 1
-        return done
+        return done, (states[:done] if states is not None else None)

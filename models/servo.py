@@ -34,7 +34,7 @@ import numpy as np
 from conformal import checks
 
 from ._gl import mujoco
-from .linear_tail import MIN_STEPS, LinearTail
+from .linear_tail import LinearTail
 
 __all__ = ["EyeServo", "servo_setpoints", "DEFAULT_TIMESTEP_MS", "DEFAULT_SACCADE_TIMESTEP_MS"]
 
@@ -161,34 +161,50 @@ class EyeServo:
         return u
 
     def forget(self) -> None:
-        """Drop the tabulated saccade (a reset or a new state)."""
+        """Drop the tabulated saccade and the closed form's map (a reset or a new state)."""
         self._table = None
+        if self.linear is not None:
+            self.linear.forget()
 
     def rest(self) -> None:
         """Back to the fixation timestep (between calls)."""
         self.model.opt.timestep = self.dt_fix
 
     def hold(self, angles: np.ndarray, t0_ms: int, n_ms: int, rec: list | None) -> None:
-        """``n_ms`` milliseconds with constant set-points holding ``angles`` (2, 3), stepped in C;
-        with ``rec``, append (time, qpos, qvel, command) at every step."""
+        """``n_ms`` milliseconds with constant set-points holding ``angles`` (2, 3): in closed form while
+        the eyes are slow (:mod:`models.linear_tail`), else stepped in C a millisecond at a time; with
+        ``rec``, append (time, qpos, qvel, command) at every step."""
         if n_ms <= 0:
             return
         m, d, k = self.model, self.data, self.k_fix
         m.opt.timestep = self.dt_fix
         u = self.hold_controls(angles)
         d.ctrl[self.ctrl] = u
-        if rec is None:
-            n = n_ms * k
-            if n >= MIN_STEPS and self.linear is not None:  # slow stretches in closed form (models.linear_tail)
-                n -= self.linear.run(np.broadcast_to(u, (n, u.size)))
-                d.ctrl[self.ctrl] = u
-            if n:
-                mujoco.mj_step(m, d, nstep=n)
-            return
         hold = angles.ravel().copy()
-        for i in range(n_ms * k):
-            mujoco.mj_step(m, d)
-            rec.append((t0_ms + (i + 1) / k, d.qpos[self.qadr].copy(), d.qvel[self.vadr].copy(), hold))
+        n, i = n_ms * k, 0
+        while i < n:
+            if self.linear is not None:
+                done, states = self.linear.run(np.broadcast_to(u, (n - i, u.size)), rec is not None)
+                if rec is not None and done:
+                    self._record(rec, t0_ms + (i + 1 + np.arange(done)) / k, states, np.broadcast_to(hold, (done, 6)))
+                i += done
+                if i == n:
+                    break
+            step = n - i if self.linear is None else k  # a millisecond, then the closed form is tried again
+            if rec is None:
+                mujoco.mj_step(m, d, nstep=step)
+            else:
+                for j in range(step):
+                    mujoco.mj_step(m, d)
+                    rec.append((t0_ms + (i + j + 1) / k, d.qpos[self.qadr].copy(), d.qvel[self.vadr].copy(), hold))
+            i += step
+
+    def _record(self, rec: list, times, states: np.ndarray | None, planned) -> None:
+        """Append the closed form's states (steps, 2 nv) to a recorded trace's rows."""
+        assert states is not None, "LinearTail.run(record=True) returns the states"
+        nv = self.model.nv
+        q, v = states[:, self.qadr], states[:, nv + np.asarray(self.vadr)]
+        rec.extend(zip(times, q, v, np.array(planned, copy=True)))
 
     def table(self, plan) -> dict:
         """Per-physics-step set-points for the whole of ``plan``, computed once at its onset.
@@ -235,15 +251,17 @@ class EyeServo:
             return r * self.k_sac if r <= fine_ms else fine + (r - fine_ms) * self.k_fix
 
         j0, j1 = index(t0_ms), index(until_ms)
-        lin = self.linear if rec is None else None
+        lin = self.linear
         j = j0
         while j < j1:
             if j == j0 or j == fine:
                 m.opt.timestep = self.dt_sac if j < fine else self.dt_fix
-            # the settle tail, once the eyes are slow: in closed form (models.linear_tail), tried each ms
-            if lin is not None and j >= fine and (j - fine) % self.k_fix == 0 and j1 - j >= MIN_STEPS:
-                done = lin.run(u[j:j1])
+            # the settle tail, once the eyes are slow: in closed form (models.linear_tail)
+            if lin is not None and j >= fine:
+                done, states = lin.run(u[j:j1], rec is not None)
                 if done:
+                    if rec is not None:
+                        self._record(rec, tab["t"][j : j + done], states, tab["q"][j : j + done])
                     j += done
                     continue
             d.ctrl[ctrl] = u[j]
