@@ -150,12 +150,15 @@ class _Segment:
     """One linear map in use: ``x' = A x + Bc (u - u0) + c`` from the exact step ``x1`` (``start``),
     the state ``x`` it last wrote, ``n`` steps after its own start at ``time0``."""
 
-    __slots__ = ("A", "Bc", "u0", "c", "start", "x", "time0", "n", "dt", "others")
+    __slots__ = ("A", "Bc", "u0", "c", "start", "x", "time0", "n", "dt", "others", "qfrc", "xfrc")
 
-    def __init__(self, A, Bc, u0, c, x, time0, dt, others) -> None:
+    def __init__(self, A, Bc, u0, c, x, time0, dt, data, other_ctrl) -> None:
         self.A, self.Bc, self.u0, self.c = A, Bc, u0, c
         self.start, self.x = x.copy(), x
-        self.time0, self.n, self.dt, self.others = time0, 1, dt, others
+        self.time0, self.n, self.dt = time0, 1, dt
+        # what the affine offset c holds besides the state: the other controls and the applied forces
+        self.others = data.ctrl[other_ctrl].copy()
+        self.qfrc, self.xfrc = data.qfrc_applied.copy(), data.xfrc_applied.copy()
 
 
 class LinearTail:
@@ -166,7 +169,7 @@ class LinearTail:
 
     A map, once made, is used until an eye has moved :data:`LINEAR_STRIDE_DEG` from where it was made
     or a joint would reach its range, across calls as long as nothing else has touched the state
-    (``qpos``, ``qvel``, the other controls, the time, the timestep): so the states do not depend on
+    (``qpos``, ``qvel``, the other controls, the applied forces, the time, the timestep): so the states do not depend on
     how a stretch is cut into calls, nor on whether it is recorded."""
 
     def __init__(self, model, data, ctrl, vadr: np.ndarray) -> None:
@@ -215,6 +218,8 @@ class LinearTail:
             and np.array_equal(d.qpos, seg.x[:nv])
             and np.array_equal(d.qvel, seg.x[nv:])
             and np.array_equal(d.ctrl[self._other_ctrl], seg.others)
+            and np.array_equal(d.qfrc_applied, seg.qfrc)
+            and np.array_equal(d.xfrc_applied, seg.xfrc)
         ):
             self._seg = None
         return self._seg
@@ -240,7 +245,8 @@ class LinearTail:
             x1,
             time0,
             m.opt.timestep,
-            d.ctrl[self._other_ctrl].copy(),
+            d,
+            self._other_ctrl,
         )
         self._write(seg)
         return seg
