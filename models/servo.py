@@ -149,7 +149,8 @@ class EyeServo:
         self._M = np.zeros((model.nv, model.nv))
         self._table: dict | None = None
         #: the slow stretches (settle tail, holds) in closed form (``models.linear_tail``); None: stepped
-        self.linear: LinearTail | None = LinearTail(model, data, ctrl, vadr)
+        lin = LinearTail(model, data, ctrl, vadr)
+        self.linear: LinearTail | None = lin if lin.usable else None  # not of the linear form: stepped
 
     def hold_controls(self, angles: np.ndarray) -> np.ndarray:
         """The 18 eye controls holding ``angles`` (2, 3): the servo's position set-points, or the
