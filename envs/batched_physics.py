@@ -375,11 +375,7 @@ class WarpHeads:
 
     def _slow(self) -> bool:
         """Whether every world's eyes are slower than ``LINEAR_SPEED_DEG_S`` and its neck at rest."""
-        v = self.qvel.abs()
-        eye = v[:, self._eye_dof].max() < math.radians(_tail.LINEAR_SPEED_DEG_S)
-        other = v[:, ~self._eye_dof]
-        rest = other.numel() == 0 or other.max() < math.radians(_tail.REST_SPEED_DEG_S)
-        return bool(eye and rest)
+        return _tail.slow_enough(self.qvel, self._eye_dof)
 
     def _run_tail(self, t: int, total: int) -> None:
         """Milliseconds ``t`` to ``total`` of the run: stepped until every world is slow, then in closed form."""

@@ -37,7 +37,15 @@ from conformal.kernels import DISK_CACHE
 
 from ._gl import mujoco
 
-__all__ = ["LinearTail", "LINEAR_SPEED_DEG_S", "LINEAR_STRIDE_DEG", "MIN_STEPS", "linear_forces", "step_matrices"]
+__all__ = [
+    "LinearTail",
+    "LINEAR_SPEED_DEG_S",
+    "LINEAR_STRIDE_DEG",
+    "MIN_STEPS",
+    "linear_forces",
+    "slow_enough",
+    "step_matrices",
+]
 
 #: Eye speed (deg/s, every eye joint) below which a step is taken as linear: at 10-20 deg/s the
 #: velocity products give up to 1e-4 deg over a 600 ms tail, at 6 deg/s ~1e-5 deg (measured).
@@ -50,6 +58,18 @@ LINEAR_STRIDE_DEG = 0.5
 #: The shortest stretch (physics steps) the batched engine takes in closed form (a map costs a few
 #: physics steps there).
 MIN_STEPS = 20
+
+
+def slow_enough(qvel: Any, eye: Any) -> bool:
+    """Whether a state is slow enough for the linear map: every eye joint slower than
+    :data:`LINEAR_SPEED_DEG_S` and every other joint than :data:`REST_SPEED_DEG_S`. ``qvel``: joint
+    velocities (rad/s), ``(nv,)`` or ``(worlds, nv)``, numpy or torch; ``eye``: the eye joints' boolean
+    mask ``(nv,)`` in the same library. The one test of both engines."""
+    v = abs(qvel)
+    if not bool(v[..., eye].max() < math.radians(LINEAR_SPEED_DEG_S)):
+        return False
+    other = v[..., ~eye]
+    return other.shape[-1] == 0 or bool(other.max() < math.radians(REST_SPEED_DEG_S))
 
 
 def linear_forces(model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -188,8 +208,6 @@ class LinearTail:
         self._adr = model.jnt_qposadr[limited].astype(np.int64)
         self._lo = model.jnt_range[limited, 0].copy()
         self._hi = model.jnt_range[limited, 1].copy()
-        self._eye_speed = math.radians(LINEAR_SPEED_DEG_S)
-        self._rest_speed = math.radians(REST_SPEED_DEG_S)
         self._stride = math.radians(LINEAR_STRIDE_DEG)
         self._seg: _Segment | None = None
         self._none = np.zeros((0, 2 * nv))
@@ -203,8 +221,7 @@ class LinearTail:
         :data:`LINEAR_SPEED_DEG_S`, every other joint below :data:`REST_SPEED_DEG_S`."""
         if not self.usable:
             return False
-        v = np.abs(self.data.qvel)
-        return bool(v[self._eye].max() < self._eye_speed and (v[~self._eye].max(initial=0.0) < self._rest_speed))
+        return slow_enough(self.data.qvel, self._eye)
 
     def _current(self) -> _Segment | None:
         """The map in use, if the state is still the one it wrote."""

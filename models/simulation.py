@@ -299,6 +299,7 @@ class Head(SceneObjects, HeadRendering):
         self._servo.forget()
         self.last_plan: SaccadePlan | None = None
         self._signal_plan: SaccadePlan | None = None  # the plan the eye-position signal follows
+        self._signal_memo: tuple | None = None  # (plan, its EyePositionSignal, t_ms, signal): _signal_hold_at
         self._flash_off: dict[int, int] = {}
         for gid, alpha in getattr(self, "_alpha0", {}).items():  # undo set_visible
             self.model.geom_rgba[gid, 3] = alpha
@@ -701,9 +702,16 @@ class Head(SceneObjects, HeadRendering):
 
     def _signal_hold_at(self, t_ms: float) -> np.ndarray:
         """Where the eye-position signal will be at ``t_ms`` if no new saccade starts."""
-        if self._signal_plan is not None:
-            return self._signal_plan.eye_position_signal(float(t_ms))
-        return self._signal_hold.copy()
+        plan = self._signal_plan
+        if plan is None:
+            return self._signal_hold.copy()
+        t = float(t_ms)
+        # the env reads the signal for its observation, then plans the next saccade from it at the
+        # same time: one evaluation serves both (keyed by the plan, its signal timing and the time)
+        memo = self._signal_memo
+        if memo is None or memo[0] is not plan or memo[1] is not plan.eye_position or memo[2] != t:
+            memo = self._signal_memo = (plan, plan.eye_position, t, plan.eye_position_signal(t))
+        return memo[3].copy()
 
     def eye_position_signal(self, t_ms: float | None = None) -> np.ndarray:
         """The brain's estimate of both eyes' orientation (Fick angles (2, 3), rad) at sim time

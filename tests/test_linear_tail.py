@@ -106,6 +106,29 @@ def test_not_ready_while_fast_or_neck_moving():
     assert lin.run(np.zeros((100, 18))) == (0, None)
 
 
+@pytest.mark.parametrize("lib", ["numpy", "torch"])
+def test_slow_enough_is_one_test_for_numpy_and_torch(lib):
+    """The single head (numpy, one state) and the batched engine (torch, worlds x nv) ask the same
+    question of ``slow_enough``; here against the thresholds written out for 3 worlds."""
+    eye = np.array([False, True, True, True, True])
+    rng = np.random.default_rng(3)
+    qv = np.radians(rng.uniform(-1.0, 1.0, (200, 3, 5)) * np.array([1.2 * linear_tail.REST_SPEED_DEG_S] + 4 * [12.0]))
+    if lib == "torch":
+        torch = pytest.importorskip("torch")
+        conv = torch.as_tensor
+    else:
+        conv = np.asarray
+    for q in qv:
+        v = np.degrees(np.abs(q))
+        expect = bool(
+            (v[:, 1:] < linear_tail.LINEAR_SPEED_DEG_S).all() and (v[:, 0] < linear_tail.REST_SPEED_DEG_S).all()
+        )
+        assert linear_tail.slow_enough(conv(q), conv(eye)) == expect
+        expect0 = bool((v[0, 1:] < linear_tail.LINEAR_SPEED_DEG_S).all() and v[0, 0] < linear_tail.REST_SPEED_DEG_S)
+        assert linear_tail.slow_enough(conv(q[0]), conv(eye)) == expect0
+    assert linear_tail.slow_enough(conv(np.zeros((2, 4))), conv(np.ones(4, bool)))  # eyes only, at rest
+
+
 @pytest.mark.parametrize("drive", ["plant", "servo"])
 def test_step_matrices_match_mujocos_finite_differences(drive):
     """``step_matrices`` against ``mujoco.mjd_transitionFD`` (centred differences) at a posture away from
