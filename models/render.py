@@ -23,6 +23,7 @@ import numpy as np
 from conformal import checks
 
 from ._gl import GLBackendError, gl_install_hint, mujoco
+from .frame_memo import FrameMemo, scene_digest
 
 __all__ = ["EyeImage", "StereoFrame", "EyeRenderer", "EYES", "HIDDEN_GEOM_GROUPS", "ForkedGLContextError"]
 
@@ -156,6 +157,7 @@ class EyeRenderer:
     def __init__(self, model: mujoco.MjModel, height: int, width: int | None = None):
         global _GL_CONTEXT_PID
         self._renderer = None
+        self._memo: FrameMemo | None = None
         if not isinstance(model, mujoco.MjModel):
             raise checks.InputTypeError(f"model must be a mujoco.MjModel; got {type(model).__name__}")
         height = checks.integer("height", height, 1, MAX_IMAGE_SIDE)
@@ -201,14 +203,22 @@ class EyeRenderer:
         depth = checks.flag("depth", depth)
         time_ms = checks.integer("time_ms", time_ms)
         out = []
+        memo = self._memo
         for eye, cid in zip(EYES, self._cam_ids):
             self._renderer.update_scene(data, camera=cid, scene_option=self._option)
-            img = self._renderer.render().copy()
-            dep = None
-            if depth:
-                self._renderer.enable_depth_rendering()
-                dep = self._renderer.render().copy()
-                self._renderer.disable_depth_rendering()
+            key = None if memo is None else scene_digest(self._renderer.scene, bytes([cid % 256, depth]))
+            hit = None if memo is None else memo.get(key)
+            if hit is not None:
+                img, dep = hit
+            else:
+                img = self._renderer.render().copy()
+                dep = None
+                if depth:
+                    self._renderer.enable_depth_rendering()
+                    dep = self._renderer.render().copy()
+                    self._renderer.disable_depth_rendering()
+                if memo is not None:
+                    memo.put(key, img, dep)
             fovy = np.deg2rad(self.model.cam_fovy[cid])
             out.append(
                 EyeImage(
@@ -222,6 +232,24 @@ class EyeRenderer:
                 )
             )
         return StereoFrame(out[0], out[1], int(time_ms))
+
+    def remember_frames(self, megabytes: float = 64.0) -> None:
+        """Keep the frames rendered from now on (up to ``megabytes``, in [0, 4096]; 0 = off) and give a
+        frame whose scene was drawn before without drawing it again (``models.frame_memo``: keyed by
+        the digest of the MuJoCo scene, so the pixels are those a new render gives). Worth it where
+        states repeat (a study's noiseless trials); a cost of ~50 us per eye (the digest) where they do not."""
+        megabytes = checks.real("megabytes", megabytes, 0.0, 4096.0, hint="the memo's size; 0 turns it off")
+        self._memo = FrameMemo(megabytes) if megabytes > 0 else None
+
+    def forget_frames(self) -> None:
+        """Drop the remembered frames (after uploading new meshes or textures into this context)."""
+        if self._memo is not None:
+            self._memo.clear()
+
+    @property
+    def frame_memo(self) -> FrameMemo | None:
+        """The memo of ``remember_frames`` (its ``hits`` and ``misses``), or None."""
+        return self._memo
 
     def close(self) -> None:
         """Release the GL context (idempotent). In a process forked from the one that created it, the

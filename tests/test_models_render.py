@@ -242,3 +242,77 @@ def test_egl_is_the_default_backend_and_its_hint_names_the_packages():
     assert res.stdout.split() == ["egl", "egl"]
     assert models.gl_install_hint("egl") == "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri"
     assert "MUJOCO_GL=egl" in models.gl_install_hint("glfw")  # not off-screen: points to the ones that are
+
+
+def test_remembered_frames_are_the_frames_a_new_render_gives():
+    """``EyeRenderer.remember_frames``: a frame found by its scene's digest is byte-identical to a render
+    of the same state by a head that remembers nothing, through flashes, opacities, moved objects,
+    saccades, exposures and depth; a state seen before is not drawn again; a changed colour is."""
+    a, b = Head("dots", 64), Head("dots", 64)
+    b.renderer.remember_frames(1.0)
+    memo = b.renderer.frame_memo
+    assert a.renderer.frame_memo is None and memo is not None and len(memo) == 0
+
+    def same(**kw):
+        fa, fb = a.render(**kw), b.render(**kw)
+        for ea, eb in zip(fa, fb):
+            np.testing.assert_array_equal(ea.image, eb.image)
+            np.testing.assert_array_equal(ea.camera_xmat, eb.camera_xmat)
+            if kw.get("depth"):
+                np.testing.assert_array_equal(ea.depth, eb.depth)
+
+    counts = []
+    for seed in (0, 1, 0):  # the third pass repeats the first's states
+        for h in (a, b):
+            h.reset(seed=seed)
+        same()
+        same(depth=True)
+        for h in (a, b):
+            h.set_object_position("flash_03", models.screen_point(0.1 * (seed + 1), 0.05, 1.0))
+            h.flash("flash_03", 8)
+        same()
+        for h in (a, b):
+            h.set_opacity("target", 0.5)
+            plan = h.plan_saccade(np.radians(8.0), np.radians(-3.0))
+            h.start_saccade(plan)
+            h.step_ms(plan.onset_ms - h.time_ms + 10)
+        same(exposure_ms=4.0)
+        for h in (a, b):
+            h.step_ms(200)
+        same()
+        counts.append((memo.hits, memo.misses))
+    (h1, m1), (h2, m2), (h3, m3) = counts
+    assert m1 > 0 and m2 > m1  # the first passes draw (seed 1's saccade is another)
+    assert m3 == m2 and h3 - h2 == (h1 + m1)  # the repeated pass draws nothing: every frame found
+    hits = memo.hits
+    b.model.geom_rgba[b.model.geom("target").id, :3] = a.model.geom_rgba[a.model.geom("target").id, :3] = 0.3
+    same()
+    assert memo.hits == hits  # a new colour is a new scene
+    b.renderer.forget_frames()
+    assert len(memo) == 0
+
+
+def test_frame_memo_keeps_to_its_budget():
+    """``FrameMemo`` drops the least recently used frames to stay within its megabytes."""
+    from models.frame_memo import FrameMemo
+
+    memo = FrameMemo(3 * 64 * 64 * 3 / 2**20)  # three 64 px frames
+    frames = [np.full((64, 64, 3), k, np.uint8) for k in range(5)]
+    for k, f in enumerate(frames[:3]):
+        memo.put(bytes([k]), f, None)
+    assert memo.get(bytes([0])) is not None  # 0 is now the most recent
+    memo.put(bytes([3]), frames[3], None)
+    assert len(memo) == 3 and memo.get(bytes([1])) is None and memo.get(bytes([0]))[0][0, 0, 0] == 0
+    img, _ = memo.get(bytes([3]))
+    img[:] = 9  # a copy: the memo's frame is unchanged
+    assert memo.get(bytes([3]))[0][0, 0, 0] == 3
+    memo.put(None, frames[4], None)
+    assert len(memo) == 3
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("bad", [-1.0, float("nan"), float("inf"), 5000.0, "64", None])
+def test_remember_frames_refuses_a_bad_size(bad):
+    head = Head("dots", 32)
+    with pytest.raises((ValueError, TypeError), match="megabytes"):
+        head.renderer.remember_frames(bad)

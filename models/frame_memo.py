@@ -1,0 +1,95 @@
+"""Frames already rendered, found again by what was drawn: a memo of ``EyeRenderer``'s images keyed by
+a digest of the MuJoCo scene (``mjvScene``) that ``mjr_render`` draws.
+
+``mjr_render(viewport, scene, context)`` reads nothing but its arguments: the scene holds every drawn
+geom (type, size, pose, colour, material, texture), both GL cameras, the lights and the render flags;
+the context holds what was uploaded once (meshes, textures). For one renderer (one context, one
+viewport) equal scenes give equal pixels, so a frame whose scene digest was seen before is the image
+drawn then. A psychophysics study renders the same scene many times (the flash-free frames and the
+post-saccadic target of every flash position and time of a noiseless saccade): there it saves most
+renders (``EyeRenderer.remember_frames``; off by default, where states rarely repeat, as in an env).
+
+Scenes with flexes or skins (not used by the heads here) are never memoised. A caller that uploads new
+meshes or textures into the renderer's context must call ``EyeRenderer.forget_frames``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections import OrderedDict
+
+import numpy as np
+
+from ._gl import mujoco
+
+__all__ = ["FrameMemo", "scene_digest"]
+
+#: Scene-wide fields that change the drawing (beside geoms, cameras and lights).
+_SCENE_FIELDS = ("flags", "framewidth", "framergb", "enabletransform", "translate", "rotate", "scale", "stereo")
+_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _fields(obj) -> tuple[str, ...]:
+    """The public data fields of a MuJoCo struct wrapper (``MjvGeom``, ``MjvGLCamera``, ``MjvLight``)."""
+    kind = type(obj)
+    if kind not in _FIELDS:
+        _FIELDS[kind] = tuple(a for a in dir(obj) if not a.startswith("_") and not callable(getattr(obj, a)))
+    return _FIELDS[kind]
+
+
+def scene_digest(scene: mujoco.MjvScene, extra: bytes = b"") -> bytes | None:
+    """A 16-byte digest of everything ``mjr_render`` draws from ``scene`` (every field of each drawn
+    geom, of both GL cameras and of each light, and the scene's flags and transform), with ``extra``;
+    None for a scene with flexes or skins (not covered)."""
+    if scene.nflex or scene.nskin:
+        return None
+    h = hashlib.blake2b(extra, digest_size=16)
+    h.update(np.array([scene.ngeom, scene.nlight], np.int64).tobytes())
+    for group in (scene.geoms[: scene.ngeom], scene.camera, scene.lights[: scene.nlight]):
+        for obj in group:
+            for name in _fields(obj):
+                h.update(np.asarray(getattr(obj, name)).tobytes())
+    for name in _SCENE_FIELDS:
+        h.update(np.asarray(getattr(scene, name)).tobytes())
+    return h.digest()
+
+
+class FrameMemo:
+    """Least-recently-used images by scene digest, up to ``megabytes`` of pixels (and depth maps);
+    counts its ``hits`` and ``misses``."""
+
+    def __init__(self, megabytes: float) -> None:
+        self.budget = int(megabytes * 2**20)
+        self._items: OrderedDict[bytes, tuple[np.ndarray, np.ndarray | None]] = OrderedDict()
+        self._bytes = 0
+        self.hits = 0
+        self.misses = 0
+
+    def get(self, key: bytes | None) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """Copies of the image (and depth) stored under ``key``, or None."""
+        item = self._items.get(key) if key is not None else None
+        if key is None or item is None:
+            self.misses += 1
+            return None
+        self.hits += 1
+        self._items.move_to_end(key)
+        img, dep = item
+        return img.copy(), (None if dep is None else dep.copy())
+
+    def put(self, key: bytes | None, img: np.ndarray, dep: np.ndarray | None) -> None:
+        """Keep copies of ``img`` (and ``dep``) under ``key``, dropping the least recently used."""
+        size = img.nbytes + (0 if dep is None else dep.nbytes)
+        if key is None or size > self.budget or key in self._items:
+            return
+        self._items[key] = (img.copy(), None if dep is None else dep.copy())
+        self._bytes += size
+        while self._bytes > self.budget:
+            _, (i, d) = self._items.popitem(last=False)
+            self._bytes -= i.nbytes + (0 if d is None else d.nbytes)
+
+    def clear(self) -> None:
+        self._items.clear()
+        self._bytes = 0
+
+    def __len__(self) -> int:
+        return len(self._items)
