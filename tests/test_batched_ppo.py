@@ -138,15 +138,15 @@ def _kill_after_checkpoint(argv: list[str], out: Path) -> None:
 
 
 @pytest.mark.slow
-def test_tiny_cpu_run_resumes_to_the_same_weights_and_evaluates(tmp_path):
-    """``train --engine batched --device cpu --quick`` (2 worlds, 2 PPO updates): killed (SIGKILL) after its
+def test_tiny_cpu_run_resumes_to_the_same_weights_and_evaluates(tmp_path, capsys):
+    """``train --engine batched --device cpu --quick`` (2 worlds, 2 PPO updates, 1 validation episode): killed (SIGKILL) after its
     first checkpoint, the same command finishes with the weights and log of a run never stopped; the folder
     holds no pickle, and ``evaluate --policy DIR`` runs the agent on the single env's held-out episodes."""
     pytest.importorskip("torch")
     pytest.importorskip("warp")
     pytest.importorskip("mujoco_warp")
     argv = [sys.executable, "-m", "experiments", "train", "--algo", "ppo", "--engine", "batched", "--device", "cpu",
-            "--num-envs", "2", "--task", "search", "--quick", "--seed", "3", "--no-progress"]
+            "--num-envs", "2", "--task", "search", "--quick", "--eval-episodes", "1", "--seed", "3", "--no-progress"]
     whole, cut = tmp_path / "whole", tmp_path / "cut"
     r = subprocess.run(argv + ["--out", str(whole)], capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -168,12 +168,14 @@ def test_tiny_cpu_run_resumes_to_the_same_weights_and_evaluates(tmp_path):
     assert not any(p.suffix in (".zip", ".pt", ".pkl", ".pth") for p in whole.iterdir())
     meta = json.loads((whole / "ppo.json").read_text())
     assert meta["architecture"]["class"] == "CellActorCritic" and meta["shaping"]["enabled"]
-    # another run's settings are refused, naming what differs
-    r = subprocess.run([*argv[:-3], "--seed", "4", "--no-progress", "--out", str(whole)], capture_output=True,
-                       text=True, env=ENV)
-    assert r.returncode == 2 and "differs in: seed" in r.stderr.strip().splitlines()[-1], r.stderr[-2000:]
-    r = subprocess.run([sys.executable, "-m", "experiments", "evaluate", "--task", "search", "--policy", str(whole),
-                        "--episodes", "3", "--no-progress"], capture_output=True, text=True, env=ENV)
-    assert r.returncode == 0, r.stderr[-2000:]
-    ev = json.loads(r.stdout.strip().splitlines()[-1])
+    # another run's settings are refused, naming what differs (in this process: the same code as the command's)
+    capsys.readouterr()
+    rc, err = _main([*argv[3:-3], "--seed", "4", "--no-progress", "--out", str(whole)], capsys)
+    _one_line(rc, err, "differs in: seed")
+    from experiments.__main__ import main
+
+    rc = main(["evaluate", "--task", "search", "--policy", str(whole), "--episodes", "3", "--no-progress"])
+    res = capsys.readouterr()
+    assert rc == 0, res.err
+    ev = json.loads(res.out.strip().splitlines()[-1])
     assert ev["source"] == "folder (ppo)" and ev["episodes"] == 3 and 1 <= ev["mean_saccades"] <= 10
