@@ -1,10 +1,10 @@
 """Frames already rendered, found again by what was drawn: a memo of ``EyeRenderer``'s images keyed by
-a digest of the MuJoCo scene (``mjvScene``) that ``mjr_render`` draws.
+the MuJoCo scene (``mjvScene``) that ``mjr_render`` draws, field by field.
 
 ``mjr_render(viewport, scene, context)`` reads nothing but its arguments: the scene holds every drawn
 geom (type, size, pose, colour, material, texture), both GL cameras, the lights and the render flags;
 the context holds what was uploaded once (meshes, textures). For one renderer (one context, one
-viewport) equal scenes give equal pixels, so a frame whose scene digest was seen before is the image
+viewport) equal scenes give equal pixels, so a frame whose scene was seen before is the image
 drawn then. A psychophysics study renders the same scene many times (the flash-free frames and the
 post-saccadic target of every flash position and time of a noiseless saccade): there it saves most
 renders (``EyeRenderer.remember_frames``; off by default, where states rarely repeat, as in an env).
@@ -15,57 +15,73 @@ meshes or textures into the renderer's context must call ``EyeRenderer.forget_fr
 
 from __future__ import annotations
 
-import hashlib
 from collections import OrderedDict
+from collections.abc import Callable, Hashable
+from operator import attrgetter
+from typing import Any
 
 import numpy as np
 
 from ._gl import mujoco
 
-__all__ = ["FrameMemo", "scene_digest"]
+__all__ = ["FrameMemo", "scene_key"]
 
 #: Scene-wide fields that change the drawing (beside geoms, cameras and lights).
 _SCENE_FIELDS = ("flags", "framewidth", "framergb", "enabletransform", "translate", "rotate", "scale", "stereo")
-_FIELDS: dict[type, tuple[str, ...]] = {}
+_READERS: dict[type, tuple[Callable[[Any], tuple], tuple[int, ...]]] = {}
 
 
-def _fields(obj) -> tuple[str, ...]:
-    """The public data fields of a MuJoCo struct wrapper (``MjvGeom``, ``MjvGLCamera``, ``MjvLight``)."""
+def _reader(obj) -> tuple[Callable[[Any], tuple], tuple[int, ...]]:
+    """For a MuJoCo struct wrapper's type (``MjvGeom``, ``MjvGLCamera``, ``MjvLight``, ``MjvScene``): one
+    getter of all its public data fields and the positions of those that are arrays."""
     kind = type(obj)
-    if kind not in _FIELDS:
-        _FIELDS[kind] = tuple(a for a in dir(obj) if not a.startswith("_") and not callable(getattr(obj, a)))
-    return _FIELDS[kind]
+    if kind not in _READERS:
+        names = (
+            _SCENE_FIELDS
+            if isinstance(obj, mujoco.MjvScene)
+            else tuple(a for a in dir(obj) if not a.startswith("_") and not callable(getattr(obj, a)))
+        )
+        get = attrgetter(*names)
+        arrays = tuple(i for i, v in enumerate(get(obj)) if isinstance(v, np.ndarray))
+        _READERS[kind] = (get, arrays)
+    return _READERS[kind]
 
 
-def scene_digest(scene: mujoco.MjvScene, extra: bytes = b"") -> bytes | None:
-    """A 16-byte digest of everything ``mjr_render`` draws from ``scene`` (every field of each drawn
-    geom, of both GL cameras and of each light, and the scene's flags and transform), with ``extra``;
-    None for a scene with flexes or skins (not covered)."""
+def _values(obj) -> tuple:
+    get, arrays = _reader(obj)
+    vals = list(get(obj))
+    for i in arrays:
+        vals[i] = vals[i].tobytes()
+    return tuple(vals)
+
+
+def scene_key(scene: mujoco.MjvScene, extra: Hashable = None) -> tuple | None:
+    """Everything ``mjr_render`` draws from ``scene``, as one hashable tuple compared exactly: every
+    field of each drawn geom, of both GL cameras and of each light, and the scene's flags and
+    transform, with ``extra``; None for a scene with flexes or skins (not covered)."""
     if scene.nflex or scene.nskin:
         return None
-    h = hashlib.blake2b(extra, digest_size=16)
-    h.update(np.array([scene.ngeom, scene.nlight], np.int64).tobytes())
-    for group in (scene.geoms[: scene.ngeom], scene.camera, scene.lights[: scene.nlight]):
-        for obj in group:
-            for name in _fields(obj):
-                h.update(np.asarray(getattr(obj, name)).tobytes())
-    for name in _SCENE_FIELDS:
-        h.update(np.asarray(getattr(scene, name)).tobytes())
-    return h.digest()
+    return (
+        extra,
+        _values(scene),
+        tuple(_values(g) for g in scene.geoms[: scene.ngeom]),
+        tuple(_values(c) for c in scene.camera),
+        tuple(_values(li) for li in scene.lights[: scene.nlight]),
+    )
 
 
 class FrameMemo:
-    """Least-recently-used images by scene digest, up to ``megabytes`` of pixels (and depth maps);
+    """Least-recently-used images by scene key, up to ``megabytes`` of pixels (and depth maps);
     counts its ``hits`` and ``misses``."""
 
     def __init__(self, megabytes: float) -> None:
         self.budget = int(megabytes * 2**20)
-        self._items: OrderedDict[bytes, tuple[np.ndarray, np.ndarray | None]] = OrderedDict()
+        self._items: OrderedDict[Hashable, tuple[np.ndarray, np.ndarray | None]] = OrderedDict()
         self._bytes = 0
         self.hits = 0
         self.misses = 0
 
-    def get(self, key: bytes | None) -> tuple[np.ndarray, np.ndarray | None] | None:
+    def get(self, key: Hashable | None) -> tuple[np.ndarray, np.ndarray | None] | None:
         """Copies of the image (and depth) stored under ``key``, or None."""
         item = self._items.get(key) if key is not None else None
         if key is None or item is None:
@@ -76,7 +92,7 @@ class FrameMemo:
         img, dep = item
         return img.copy(), (None if dep is None else dep.copy())
 
-    def put(self, key: bytes | None, img: np.ndarray, dep: np.ndarray | None) -> None:
+    def put(self, key: Hashable | None, img: np.ndarray, dep: np.ndarray | None) -> None:
         """Keep copies of ``img`` (and ``dep``) under ``key``, dropping the least recently used."""
         size = img.nbytes + (0 if dep is None else dep.nbytes)
         if key is None or size > self.budget or key in self._items:

@@ -23,7 +23,7 @@ import numpy as np
 from conformal import checks
 
 from ._gl import GLBackendError, gl_install_hint, mujoco
-from .frame_memo import FrameMemo, scene_digest
+from .frame_memo import FrameMemo, scene_key
 
 __all__ = ["EyeImage", "StereoFrame", "EyeRenderer", "EYES", "HIDDEN_GEOM_GROUPS", "ForkedGLContextError"]
 
@@ -206,7 +206,7 @@ class EyeRenderer:
         memo = self._memo
         for eye, cid in zip(EYES, self._cam_ids):
             self._renderer.update_scene(data, camera=cid, scene_option=self._option)
-            key = None if memo is None else scene_digest(self._renderer.scene, bytes([cid % 256, depth]))
+            key = None if memo is None else scene_key(self._renderer.scene, (cid, depth))
             hit = None if memo is None else memo.get(key)
             if hit is not None:
                 img, dep = hit
@@ -236,8 +236,8 @@ class EyeRenderer:
     def remember_frames(self, megabytes: float = 64.0) -> None:
         """Keep the frames rendered from now on (up to ``megabytes``, in [0, 4096]; 0 = off) and give a
         frame whose scene was drawn before without drawing it again (``models.frame_memo``: keyed by
-        the digest of the MuJoCo scene, so the pixels are those a new render gives). Worth it where
-        states repeat (a study's noiseless trials); a cost of ~50 us per eye (the digest) where they do not."""
+        the MuJoCo scene, field by field, so the pixels are those a new render gives). Worth it where
+        states repeat (a study's noiseless trials); a cost of ~20 us per eye (reading the scene's fields) where they do not."""
         megabytes = checks.real("megabytes", megabytes, 0.0, 4096.0, hint="the memo's size; 0 turns it off")
         self._memo = FrameMemo(megabytes) if megabytes > 0 else None
 
