@@ -28,6 +28,7 @@ import importlib.util
 import json
 import os
 import shutil
+import subprocess
 import sys
 import tempfile
 import time
@@ -163,23 +164,43 @@ def _warm_stamp() -> Path:
     return Path(folder) / f"tests-warm-{key}"
 
 
-def warm_numba() -> None:
-    """Compile (or read back from numba's on-disk cache) the kernels an env episode runs: retina
-    pooling, DPFT, point and pooled remapping maps, prediction errors, the saccade and vergence
-    plans, the gaze errors (two short episodes of ``BinocularSaccade-v0`` at 32 px)."""
+#: The two short episodes of the warm-up: between them, every compiled kernel an env runs.
+WARM_EPISODES = ({"action_mode": "cell"}, {"grayscale": True, "pooled_remap": True, "vergence": True})
+
+
+def warm_episode(i: int) -> None:
+    """Episode ``i`` of ``WARM_EPISODES``: ``BinocularSaccade-v0`` at 32 px, reset and two steps."""
     import gymnasium as gym
 
     import envs  # noqa: F401  (registers the env)
 
-    for kwargs in ({"action_mode": "cell"}, {"grayscale": True, "pooled_remap": True, "vergence": True}):
-        env = gym.make("BinocularSaccade-v0", image_size=32, **kwargs)
-        try:
-            env.reset(seed=0)
-            env.action_space.seed(0)
-            for _ in range(2):
-                env.step(env.action_space.sample())
-        finally:
-            env.close()
+    env = gym.make("BinocularSaccade-v0", image_size=32, **WARM_EPISODES[i])
+    try:
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        for _ in range(2):
+            env.step(env.action_space.sample())
+    finally:
+        env.close()
+
+
+def warm_numba() -> None:
+    """Compile (or read back from numba's on-disk cache) the kernels an env episode runs: retina
+    pooling, DPFT, point and pooled remapping maps, prediction errors, the saccade and vergence
+    plans, the gaze errors. The second episode runs in a child process beside the first (about 23 ->
+    18 s cold on 2 cores: numba compiles on one thread; the kernels both touch are compiled twice,
+    and numba's cache files are replaced atomically)."""
+    here = Path(__file__).resolve().parent
+    path = os.pathsep.join([str(here.parent), str(here), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    child = subprocess.Popen([sys.executable, "-c", "import sys, conftest; conftest.warm_episode(int(sys.argv[1]))",
+                              "1"], env={**os.environ, "PYTHONPATH": path}, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE, text=True)
+    try:
+        warm_episode(0)
+    finally:
+        _, err = child.communicate()
+    if child.returncode != 0:
+        raise RuntimeError(f"the warm-up's second episode failed: {err.strip().splitlines()[-1:] or child.returncode}")
 
 
 @pytest.hookimpl(trylast=True)  # after the terminal reporter is set up
