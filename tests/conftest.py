@@ -145,8 +145,9 @@ def pytest_itemcollected(item: pytest.Item) -> None:
 
 
 def _kernel_sources() -> list[Path]:
-    """The source files of the compiled kernels (numba's cache is keyed by each file's time stamp)."""
-    names = ("conformal.kernels", "models._plan_kernels", "envs.tasks")
+    """The source files of the compiled kernels (numba's cache is keyed by each file's time stamp;
+    ``conformal.maps`` is compiled inline into ``conformal.kernels``' kernels)."""
+    names = ("conformal.kernels", "conformal.maps", "models._plan_kernels", "models.linear_tail", "envs.tasks")
     return [Path(importlib.util.find_spec(n).origin) for n in names]
 
 
