@@ -169,39 +169,60 @@ def _warm_stamp() -> Path:
 WARM_EPISODES = ({"action_mode": "cell"}, {"grayscale": True, "pooled_remap": True, "vergence": True})
 
 
-def warm_episode(i: int) -> None:
-    """Episode ``i`` of ``WARM_EPISODES``: ``BinocularSaccade-v0`` at 32 px, reset and two steps."""
-    import gymnasium as gym
+def warm_part(i: int) -> None:
+    """Part ``i`` of the warm-up: 0 and 1 the episodes of ``WARM_EPISODES`` (``BinocularSaccade-v0`` at
+    32 px, reset and two steps); 2 the batched planner's parallel plan kernels of four worlds, without
+    and with endpoint noise, and a plan's velocities."""
+    if i < len(WARM_EPISODES):
+        import gymnasium as gym
 
-    import envs  # noqa: F401  (registers the env)
+        import envs  # noqa: F401  (registers the env)
 
-    env = gym.make("BinocularSaccade-v0", image_size=32, **WARM_EPISODES[i])
-    try:
-        env.reset(seed=0)
-        env.action_space.seed(0)
-        for _ in range(2):
-            env.step(env.action_space.sample())
-    finally:
-        env.close()
+        env = gym.make("BinocularSaccade-v0", image_size=32, **WARM_EPISODES[i])
+        try:
+            env.reset(seed=0)
+            env.action_space.seed(0)
+            for _ in range(2):
+                env.step(env.action_space.sample())
+        finally:
+            env.close()
+        return
+    import numpy as np
+
+    for kw in ({}, {"endpoint_noise": 0.15}):
+        head = models.Head("dots", 16, seed=0, **kw)
+        try:
+            planner = models.BatchedPlanner(head, 4)
+            for w in range(4):
+                head.reset(seed=11 + w)
+                planner.take_reset(w)
+            plans, _ = planner.plan(np.arange(4), np.full((4, 2), 0.2), np.ones(4))
+            planner.commands(plans)
+            plan = head.plan_saccade(0.2, 0.1)
+            plan.velocities(plan.onset_ms + np.arange(5.0))
+        finally:
+            head.close()
 
 
 def warm_numba() -> None:
-    """Compile (or read back from numba's on-disk cache) the kernels an env episode runs: retina
-    pooling, DPFT, point and pooled remapping maps, prediction errors, the saccade and vergence
-    plans, the gaze errors. The second episode runs in a child process beside the first (about 23 ->
-    18 s cold on 2 cores: numba compiles on one thread; the kernels both touch are compiled twice,
-    and numba's cache files are replaced atomically)."""
+    """Compile (or read back from numba's on-disk cache) the kernels the tests run: retina pooling,
+    DPFT, point and pooled remapping maps, prediction errors, the saccade and vergence plans (single
+    and batched), the gaze errors. Parts 1 and 2 of ``warm_part`` run in child processes beside part 0
+    (numba compiles on one thread; a kernel two parts touch is compiled twice, and numba's cache
+    files are replaced atomically): about 30 s cold on 2 cores, where the kernels were otherwise
+    compiled inside the first tests that touched them, on both workers."""
     here = Path(__file__).resolve().parent
     path = os.pathsep.join([str(here.parent), str(here), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
-    child = subprocess.Popen([sys.executable, "-c", "import sys, conftest; conftest.warm_episode(int(sys.argv[1]))",
-                              "1"], env={**os.environ, "PYTHONPATH": path}, stdout=subprocess.DEVNULL,
-                             stderr=subprocess.PIPE, text=True)
+    children = [subprocess.Popen([sys.executable, "-c", "import sys, conftest; conftest.warm_part(int(sys.argv[1]))",
+                                  str(i)], env={**os.environ, "PYTHONPATH": path}, stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.PIPE, text=True) for i in (1, 2)]
     try:
-        warm_episode(0)
+        warm_part(0)
     finally:
-        _, err = child.communicate()
-    if child.returncode != 0:
-        raise RuntimeError(f"the warm-up's second episode failed: {err.strip().splitlines()[-1:] or child.returncode}")
+        errors = [(c.communicate()[1], c.returncode) for c in children]
+    for i, (err, rc) in enumerate(errors, start=1):
+        if rc != 0:
+            raise RuntimeError(f"the warm-up's part {i} failed: {err.strip().splitlines()[-1:] or rc}")
 
 
 @pytest.hookimpl(trylast=True)  # after the terminal reporter is set up
