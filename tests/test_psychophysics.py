@@ -193,6 +193,25 @@ def test_interrupted_run_resumes_to_the_same_table(tmp_path):
         run_trials(Design(amplitudes_deg=(12.0,)), CFG, part_dir, workers=1, progress=False)
 
 
+def test_a_short_run_stays_in_this_process_unless_workers_are_asked_for(tmp_path, monkeypatch):
+    """``run_trials(workers=None)`` (``run``'s default) runs a design of at most ``SMALL_RUN_TRIALS``
+    trials here, with no pool (the same table as ``workers=1``); an explicit ``workers=2`` still starts
+    one. ``run --help`` states the same number."""
+    from experiments.cli.options import AUTO_WORKERS_HELP
+    from experiments.psychophysics import runner
+
+    assert SMALL.n_trials <= runner.SMALL_RUN_TRIALS and f" {runner.SMALL_RUN_TRIALS} trials" in AUTO_WORKERS_HELP
+    pools = []
+    real = runner._make_pool
+    monkeypatch.setattr(runner, "_make_pool", lambda *a: pools.append(a) or real(*a))
+    auto = run_trials(SMALL, CFG, tmp_path / "auto", workers=None, progress=False)
+    assert pools == []
+    one = run_trials(SMALL, CFG, tmp_path / "one", workers=1, progress=False)
+    assert auto.read_bytes() == one.read_bytes()
+    run_trials(SMALL, CFG, tmp_path / "two", workers=2, progress=False, batch_size=1)
+    assert len(pools) == 1
+
+
 def test_progress_bar_counts_the_trials(tmp_path, capsys):
     d = Design(amplitudes_deg=(16.0,), flash_offsets_deg=OFFSETS[:2], flash_times_ms=(-50, 0), seed=3)
     run_trials(d, CFG, tmp_path / "bar", workers=1, progress=True)

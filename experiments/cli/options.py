@@ -118,14 +118,21 @@ def add_generator_option(p) -> None:
     p.add_argument("--generator", type=generator_file, default=None, metavar="FILE", help=GENERATOR_HELP)
 
 
-def add_workers_option(p, default: int = 2, what: str = "processes / Ray actors") -> None:
-    """``--workers N`` (1-64): ``what`` runs the trials; 1 = in this process with the local backend."""
+#: ``--workers``' default where it is None (``run``): ``psychophysics.runner.SMALL_RUN_TRIALS`` (a test
+#: checks the number; the module is not imported here, to keep ``--help`` fast).
+AUTO_WORKERS_HELP = "2, or 1 when at most 64 trials are left to do: a worker takes longer to start"
+
+
+def add_workers_option(p, default: int | None = 2, what: str = "processes / Ray actors") -> None:
+    """``--workers N`` (1-64): ``what`` runs the trials; 1 = in this process with the local backend;
+    ``default`` None: ``AUTO_WORKERS_HELP``."""
+    shown = AUTO_WORKERS_HELP if default is None else default
     p.add_argument(
         "--workers",
         type=bounded("workers"),
         default=default,
         metavar="N",
-        help=f"{what}, 1-64 (default {default}); 1 = in-process with --backend local",
+        help=f"{what}, 1-64 (default {shown}); 1 = in-process with --backend local",
     )
 
 

@@ -226,7 +226,7 @@ def add_subcommand(subparsers) -> None:
     add_generator_option(m)
     add_trial_options(m, DRIVE_FIELDS)
     r = p.add_argument_group("execution and output")
-    add_workers_option(r)
+    add_workers_option(r, default=None)
     add_backend_options(r)
     r.add_argument(
         "--formats", type=_formats, default="png,svg", help="figure formats, comma-separated (png, svg, pdf)"

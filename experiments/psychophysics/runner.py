@@ -70,6 +70,9 @@ TABLE_COLUMNS = ROW_COLUMNS + TEXT_COLUMNS + ("config_hash", "row_crc32")
 _INT_COLUMNS = ("trial_id", "repetition", "seed", "flash_time_ms", "flash_sim_ms")
 _LOCK_NAME = ".lock"
 _BATCH = Limit(1, 10_000, integer=True)  # run_trials(batch_size=...)
+#: ``run_trials(workers=None)`` runs at most this many trials in its own process: a worker process
+#: takes ~3 s to start (imports, numba's kernels read back, the head built), more than ~64 trials take.
+SMALL_RUN_TRIALS = 64
 _LIMIT = Limit(0, 10**9, integer=True)  # run_trials(limit=...)
 
 _WORKER: TrialRunner | None = None
@@ -479,7 +482,7 @@ def run_trials(
     config: TrialConfig,
     out_dir: str | os.PathLike,
     *,
-    workers: int = 2,
+    workers: int | None = 2,
     progress: bool = True,
     batch_size: int = 8,
     limit: int | None = None,
@@ -490,7 +493,8 @@ def run_trials(
 ) -> Path:
     """Run every trial of ``design`` not yet in ``out_dir/trials.csv``; returns the CSV path.
 
-    workers : processes or Ray actors (1 = in this process). backend : ``local`` (processes) or ``ray``
+    workers : processes or Ray actors (1 = in this process); None: 2, or 1 where at most
+    ``SMALL_RUN_TRIALS`` trials are left to do (starting a worker costs more than they take). backend : ``local`` (processes) or ``ray``
     (actors; a local instance, or the cluster at ``ray_address``: ``backends.ray_map``). limit : stop after this many new trials (for
     tests of resumption; the table is then left unsorted/partial, as after an interruption).
     A ``run.json`` beside the table records the design and configuration and every row carries its
@@ -508,7 +512,7 @@ def run_trials(
         raise TypeError(f"design must be a Design; got {design!r}")
     if not isinstance(config, TrialConfig):
         raise TypeError(f"config must be a TrialConfig; got {config!r}")
-    workers = check_int("workers", workers)
+    workers = None if workers is None else check_int("workers", workers)
     check_backend(backend, ray_address)
     batch_size = check_int("batch_size", batch_size, _BATCH)
     if limit is not None:
@@ -528,7 +532,7 @@ def _run_locked(
     design: Design,
     config: TrialConfig,
     out: Path,
-    workers: int,
+    workers: int | None,
     progress: bool,
     batch_size: int,
     limit: int | None,
@@ -564,6 +568,8 @@ def _run_locked(
     todo = [t for t in design.trials() if t.trial_id not in done_ids]
     if limit is not None:
         todo = todo[:limit]
+    if workers is None:
+        workers = 1 if backend == "local" and len(todo) <= SMALL_RUN_TRIALS else 2
     _write_sorted(csv_path, done, chash)  # drop torn lines before appending
     bar = None
     if progress and todo:

@@ -48,7 +48,7 @@ def run_study(
     config,
     out: Path,
     *,
-    workers: int = 2,
+    workers: int | None = 2,
     progress: bool = True,
     formats: tuple[str, ...] = ("png", "svg"),
     recording: bool = True,
