@@ -28,6 +28,7 @@ class HeadRendering:
     image_shape: tuple[int, int]
     time_ms: int
     _renderer: EyeRenderer | None
+    _frame_memo_mb: float
     _qadr: np.ndarray
     _cam_ids: list[int]
 
@@ -40,7 +41,17 @@ class HeadRendering:
         """The eye renderer (GL context created on first use)."""
         if self._renderer is None:
             self._renderer = EyeRenderer(self.model, *self.image_shape)
+            if self._frame_memo_mb > 0:
+                self._renderer.remember_frames(self._frame_memo_mb)
         return self._renderer
+
+    def remember_frames(self, megabytes: float = 64.0) -> None:
+        """``EyeRenderer.remember_frames`` for this head's renderer: now, or when the renderer is made (no
+        GL context is made here; a renderer made again after ``close`` remembers too). 0 turns it off."""
+        megabytes = checks.real("megabytes", megabytes, 0.0, 4096.0, hint="the memo's size; 0 turns it off")
+        self._frame_memo_mb = megabytes
+        if self._renderer is not None:
+            self._renderer.remember_frames(megabytes)
 
     def render(self, depth: bool = False, exposure_ms: float = 0.0, samples: int | None = None) -> StereoFrame:
         """Render both eyes now (see :mod:`models.render` for the pixel convention).

@@ -184,6 +184,7 @@ class Head(SceneObjects, HeadRendering):
         self._k_fix = _substeps(timestep_ms, "timestep_ms")
         self._k_sac = _substeps(saccade_timestep_ms, "saccade_timestep_ms")
         self._renderer: EyeRenderer | None = None
+        self._frame_memo_mb = 0.0  # HeadRendering.remember_frames
         if isinstance(image_size, (tuple, list)):
             if len(image_size) != 2:
                 raise ValueError(f"image_size must be an int or a (height, width) pair; got {image_size!r}")

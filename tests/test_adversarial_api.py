@@ -595,6 +595,8 @@ API: dict[str, Api] = {
                               bad={"height": counts(1, 4096), "width": counts(1, 4096)}, run_valid=False),
     "models.EyeRenderer.render": Api(lambda o: o.renderer.render, dict(data=Lazy(lambda o: o.head.data), time_ms=0),
                                      bad={"time_ms": {"frac": 2.5}}),
+    "models.HeadRendering.remember_frames": Api(lambda o: o.head.remember_frames, dict(megabytes=1.0),
+                                                bad={"megabytes": {"below": -1.0, "above": 5000.0}}),
     "models.EyeRenderer.remember_frames": Api(lambda o: o.renderer.remember_frames, dict(megabytes=1.0),
                                               bad={"megabytes": {"below": -1.0, "above": 5000.0}}),
     "models.EyeImage.pixel_to_plane": Api(lambda o: o.frame.left.pixel_to_plane, dict(rows=[1.0, 2.0], cols=[1.0, 2.0]),

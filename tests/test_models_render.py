@@ -249,7 +249,8 @@ def test_remembered_frames_are_the_frames_a_new_render_gives():
     of the same state by a head that remembers nothing, through flashes, opacities, moved objects,
     saccades, exposures and depth; a state seen before is not drawn again; a changed colour is."""
     a, b = Head("dots", 64), Head("dots", 64)
-    b.renderer.remember_frames(1.0)
+    b.remember_frames(1.0)
+    assert b._renderer is None  # no GL context made to remember
     memo = b.renderer.frame_memo
     assert a.renderer.frame_memo is None and memo is not None and len(memo) == 0
 
@@ -290,6 +291,8 @@ def test_remembered_frames_are_the_frames_a_new_render_gives():
     assert memo.hits == hits  # a new colour is a new scene
     b.renderer.forget_frames()
     assert len(memo) == 0
+    b.close()  # a renderer made again remembers too
+    assert b.renderer.frame_memo is not None and b.renderer.frame_memo is not memo
 
 
 def test_frame_memo_keeps_to_its_budget():
@@ -314,5 +317,6 @@ def test_frame_memo_keeps_to_its_budget():
 @pytest.mark.parametrize("bad", [-1.0, float("nan"), float("inf"), 5000.0, "64", None])
 def test_remember_frames_refuses_a_bad_size(bad):
     head = Head("dots", 32)
-    with pytest.raises((ValueError, TypeError), match="megabytes"):
-        head.renderer.remember_frames(bad)
+    for remember in (head.remember_frames, head.renderer.remember_frames):
+        with pytest.raises((ValueError, TypeError), match="megabytes"):
+            remember(bad)

@@ -81,7 +81,7 @@ _PRIMARY_EYE_BASIS = np.column_stack([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1
 
 SCREEN_DISTANCE = 1.0  # the dots scene's screen, metres ahead of the cyclopean eye
 _FLASH = "flash_00"
-#: The frames a trial runner keeps (``models.EyeRenderer.remember_frames``): ~330 frames at 256 px.
+#: The frames a trial runner keeps (``models.Head.remember_frames``): ~330 frames at 256 px.
 FRAME_MEMO_MB = 64.0
 _FLASH2 = "flash_01"  # the second flash of the separation paradigm
 #: The second flash of ``separation``: this far (azimuth, elevation deg) from the first.
@@ -387,7 +387,7 @@ class TrialRunner:
         for name in (_FLASH, _FLASH2, "target"):
             self.head.set_sphere_radius(name, SCREEN_DISTANCE * math.tan(math.radians(config.flash_radius_deg)))
         # the flash-free and post-saccadic frames recur across a study's flashes: drawn once each
-        self.head.renderer.remember_frames(FRAME_MEMO_MB)
+        self.head.remember_frames(FRAME_MEMO_MB)
         self.last: dict | None = None  # the last trial's frames and maps (for recordings)
 
     def close(self) -> None:
