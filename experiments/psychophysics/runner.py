@@ -194,6 +194,13 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
             if p.is_alive():
                 p.kill()
                 p.join(1.0)
+    # let the pool's manager thread finish (it closes its wake-up pipe): one still closing it when the
+    # interpreter exits races concurrent.futures' exit hook, which then writes to the closed pipe and
+    # prints "Exception ignored ... Bad file descriptor" under the one-line interruption message
+    manager = getattr(pool, "_executor_manager_thread", None)
+    if manager is not None:
+        with contextlib.suppress(Exception):
+            manager.join(max(1.0, deadline - time.monotonic()))
 
 
 # ---------------------------------------------------------------------------------------------- folder
