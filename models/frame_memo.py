@@ -22,9 +22,20 @@ from typing import Any
 
 import numpy as np
 
+from conformal import checks
+
 from ._gl import mujoco
 
-__all__ = ["FrameMemo", "scene_key"]
+__all__ = ["FrameMemo", "MAX_FRAME_MEMO_MB", "check_megabytes", "scene_key"]
+
+#: The largest memo ``remember_frames`` accepts (megabytes).
+MAX_FRAME_MEMO_MB = 4096.0
+
+
+def check_megabytes(megabytes: float) -> float:
+    """A memo's size in [0, ``MAX_FRAME_MEMO_MB``] megabytes (0 = no memo); ``ValueError``/``TypeError`` else."""
+    return checks.real("megabytes", megabytes, 0.0, MAX_FRAME_MEMO_MB, hint="the memo's size; 0 turns it off")
+
 
 #: Scene-wide fields that change the drawing (beside geoms, cameras and lights).
 _SCENE_FIELDS = ("flags", "framewidth", "framergb", "enabletransform", "translate", "rotate", "scale", "stereo")

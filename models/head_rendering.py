@@ -12,6 +12,7 @@ from conformal import checks
 
 from ._gl import mujoco
 from .build import _path, _write_spec
+from .frame_memo import check_megabytes
 from .render import EyeRenderer, StereoFrame
 
 __all__ = ["HeadRendering"]
@@ -48,7 +49,7 @@ class HeadRendering:
     def remember_frames(self, megabytes: float = 64.0) -> None:
         """``EyeRenderer.remember_frames`` for this head's renderer: now, or when the renderer is made (no
         GL context is made here; a renderer made again after ``close`` remembers too). 0 turns it off."""
-        megabytes = checks.real("megabytes", megabytes, 0.0, 4096.0, hint="the memo's size; 0 turns it off")
+        megabytes = check_megabytes(megabytes)
         self._frame_memo_mb = megabytes
         if self._renderer is not None:
             self._renderer.remember_frames(megabytes)

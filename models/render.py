@@ -23,7 +23,7 @@ import numpy as np
 from conformal import checks
 
 from ._gl import GLBackendError, gl_install_hint, mujoco
-from .frame_memo import FrameMemo, scene_key
+from .frame_memo import FrameMemo, check_megabytes, scene_key
 
 __all__ = ["EyeImage", "StereoFrame", "EyeRenderer", "EYES", "HIDDEN_GEOM_GROUPS", "ForkedGLContextError"]
 
@@ -238,7 +238,7 @@ class EyeRenderer:
         frame whose scene was drawn before without drawing it again (``models.frame_memo``: keyed by
         the MuJoCo scene, field by field, so the pixels are those a new render gives). Worth it where
         states repeat (a study's noiseless trials); a cost of ~20 us per eye (reading the scene's fields) where they do not."""
-        megabytes = checks.real("megabytes", megabytes, 0.0, 4096.0, hint="the memo's size; 0 turns it off")
+        megabytes = check_megabytes(megabytes)
         self._memo = FrameMemo(megabytes) if megabytes > 0 else None
 
     def forget_frames(self) -> None:

@@ -209,7 +209,7 @@ def warm_numba() -> None:
     DPFT, point and pooled remapping maps, prediction errors, the saccade and vergence plans (single
     and batched), the gaze errors. Parts 1 and 2 of ``warm_part`` run in child processes beside part 0
     (numba compiles on one thread; a kernel two parts touch is compiled twice, and numba's cache
-    files are replaced atomically): about 30 s cold on 2 cores, where the kernels were otherwise
+    files are replaced atomically): about 25 s cold on 2 cores, where the kernels were otherwise
     compiled inside the first tests that touched them, on both workers."""
     here = Path(__file__).resolve().parent
     path = os.pathsep.join([str(here.parent), str(here), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
