@@ -35,6 +35,18 @@ def _write(path, header, rows):
 GOOD = ["saccade_amplitude_deg", "flash_time_ms", "true_x_deg", "true_y_deg", "perceived_x_deg", "perceived_y_deg"]
 
 
+def test_fit_defaults_are_the_models_own_constants():
+    """A fit's start and the truth ``simulate``, ``recovery`` and ``crossval`` generate data with
+    (``Parameter.default``) are the constants the scoreboard runs with: put into a default config
+    they change nothing. (They had drifted: ``temporal_sd_ms`` 40 here, 21 in ``ObserverParams``.)"""
+    from experiments.modelfit.likelihood import FIT_MODELS
+
+    for name, m in FIT_MODELS.items():
+        base = TrialConfig(**m.config)
+        values = {p.name: p.default for p in m.parameters if not p.name.startswith("noise")}
+        assert m.trial_config(base, values) == base, name
+
+
 @pytest.mark.parametrize("header,row,match", [
     (GOOD[:-1], [20, 0, 2, 3, 4], "missing column"),
     (GOOD, [20, 0, 2, 3, "x", 1], "perceived_x_deg.*not numbers"),
