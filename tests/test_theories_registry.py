@@ -65,9 +65,9 @@ def test_registry_read_outs_are_the_previous_ones(monkeypatch):
     """Every model's read-outs of a small 64 px case (references, dark, separation, a marker without
     the target, mechanisms off; the displacement paradigm) equal those stored from the code before the
     theories moved into the registry (``tests/data/theory_readouts_64px.json``). The observer's
-    saccadic suppression and 2-D motor scatter came later, and its timing s.d. was then 40 ms (now
-    21 ms, Hirsh & Sherrick 1961): with those three as before, its read-outs are the stored ones, so
-    those repairs changed nothing else. Population's own displacement looks came later too: with
+    saccadic suppression and 2-D motor scatter came later, its timing s.d. was then 40 ms (now
+    21 ms, Hirsh & Sherrick 1961) and its prior s.d. 4 deg (now 8, set again to its ~50 % peak): with
+    those four as before, its read-outs are the stored ones, so those changes changed nothing else. Population's own displacement looks came later too: with
     no feedback (``gain_per_deg`` 0) they are the runner's, so its stored displacement read-outs
     hold (its localization read-outs keep their gain). The displacement report's noise was then drawn
     from the head's own stream (``default_rng(seed)``), now from its own: the stored one is restored here."""
@@ -78,7 +78,8 @@ def test_registry_read_outs_are_the_previous_ones(monkeypatch):
                         lambda seed, sd: float(np.random.default_rng(seed).normal(0.0, sd)) if sd else 0.0)
     from experiments.psychophysics.population import PopulationParams
 
-    old_observer = {"observer": ObserverParams(temporal_sd_ms=40.0, motor_weber=0.0, suppression_log10=0.0)}
+    old_observer = {"observer": ObserverParams(temporal_sd_ms=40.0, prior_sd_deg=4.0, motor_weber=0.0,
+                                               suppression_log10=0.0)}
     no_feedback = PopulationParams(gain_per_deg=0.0)
     want = json.loads(FIXTURE.read_text())
     got = {}
