@@ -46,10 +46,11 @@ def test_every_command_has_its_own_module():
 
 def test_no_product_package_builds_a_parser():
     """Parsers are built in ``experiments/cli/`` (and the top level's in ``__main__``); a recipe run as
-    ``python -m experiments.agents.X`` and the docs-maintenance scripts ``oculomotor.recordings`` and
-    ``oculomotor.fit_diagnosis`` keep their own ``main()``."""
+    ``python -m experiments.agents.X`` and the docs-maintenance scripts ``oculomotor.recordings``,
+    ``oculomotor.fit_diagnosis`` and ``psychophysics.timing_sweep`` keep their own ``main()``."""
     own_main = {"experiments/__main__.py", "experiments/agents/sb3_recipe.py", "experiments/agents/skrl_recipe.py",
-                "experiments/oculomotor/recordings.py", "experiments/oculomotor/fit_diagnosis.py"}
+                "experiments/oculomotor/recordings.py", "experiments/oculomotor/fit_diagnosis.py",
+                "experiments/psychophysics/timing_sweep.py"}
     found = []
     for path in EXPERIMENTS.rglob("*.py"):
         rel = path.relative_to(ROOT).as_posix()

@@ -23,10 +23,10 @@ and 0 ms); reference contrast 0.25; references only before saccade offset (``ref
 ruler: the target extinguished at onset with a marker 10 deg before it (focus), the target lit
 (target only) and the target extinguished 100 ms before onset (memory-guided); a target step during
 the saccade with and without a 250 ms blank (displacement: 13 steps of 0.5 deg from -3 to +3, 30
-repetitions each): 3,744 localization trials and 3,900 displacement trials. About 30 minutes on 2
-busy, shared cores with ``--workers 2`` (the last run: 17 min 37 s with three of the eight designs'
-observations cached); a re-run reads the cached observations and displacement tables and takes the
-read-outs' and bootstrap's time.
+repetitions each): 3,744 localization trials and 3,900 displacement trials. 4 min 8 s from nothing
+with ``--workers 2`` on 2 cores (the last run, beside light other work; it gave the committed table byte
+for byte); a run with the observations already cached, 1 min 42 s; a re-run reads the cached
+observations and displacement tables and takes the read-outs' and bootstrap's time.
 """
 
 from __future__ import annotations
