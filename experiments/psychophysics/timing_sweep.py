@@ -9,7 +9,8 @@ docs' "no timing s.d. gives both the width and the forward dark shift" was a 4 d
 40 ms and kept at 21). :func:`calibrated_prior` finds, for one timing s.d., the prior whose peak
 index is ``TARGET_PEAK`` (bisection on log prior_sd: the peak falls as the prior widens);
 :func:`sweep` then reads the scoreboard's designs out at it (``phenomena.ROWS``' definitions, the
-participant's report noise as the scoreboard adds it). Nothing here sets a constant of the model:
+participant's report noise as the scoreboard adds it), each statistic with a 95 % CI from ``BOOT``
+resamples of the trials within their design cells (``phenomena.resample_cells``). Nothing here sets a constant of the model:
 the table says what the theory gives where, and which timing s.d. would need a source.
 
 ``python -m experiments.psychophysics.timing_sweep --phenomena DIR --out FILE.csv`` reads the
@@ -29,15 +30,24 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["TARGET_PEAK", "COLUMNS", "TIMING_CSV", "calibrated_prior", "sweep", "markdown_table", "read_rows", "main"]
+__all__ = [
+    "TARGET_PEAK",
+    "STATS",
+    "COLUMNS",
+    "BOOT",
+    "TIMING_CSV",
+    "calibrated_prior",
+    "sweep",
+    "markdown_table",
+    "read_rows",
+    "main",
+]
 
 #: The calibration target of ``observer.prior_sd_deg``: the peak index of Morrone, Ross & Burr 1997's
 #: ~50 % compression (the middle of the scoreboard's 0.35-0.65 range).
 TARGET_PEAK = 0.5
-#: The columns of the sweep's CSV.
-COLUMNS = (
-    "temporal_sd_ms",
-    "prior_sd_deg",
+#: The statistics read out at each timing s.d. (``phenomena.ROWS``' definitions).
+STATS = (
     "peak",
     "peak_time_ms",
     "onset_ms",
@@ -47,6 +57,10 @@ COLUMNS = (
     "along_minus_across",
     "separation_ratio",
 )
+#: The columns of the sweep's CSV: each statistic with its 95 % bootstrap CI.
+COLUMNS = ("temporal_sd_ms", "prior_sd_deg") + tuple(f"{k}{s}" for k in STATS for s in ("", "_ci_low", "_ci_high"))
+#: Bootstrap replicates of each row (the scoreboard's resampling of the trials within their cells).
+BOOT = 500
 #: The committed sweep (256 px, the scoreboard's observations).
 TIMING_CSV = Path(__file__).resolve().parents[1] / "data" / "observer_timing.csv"
 #: The scoreboard's designs the sweep reads out.
@@ -96,13 +110,61 @@ def _readers(folder: Path, image_size: int, quick: bool, progress: bool):
     return out
 
 
+def _stats(ref: dict, dark: dict, sep: dict) -> dict[str, float]:
+    """``STATS`` of one set of the three designs' tables (``phenomena``'s definitions)."""
+    from .phenomena import _curve, _half_crossings, _mean_error_x, _near, _separation_ratio
+
+    times, curve = _curve(ref)
+    peak_t, onset, fwhm = _half_crossings(times, curve)
+    values = (
+        float(curve.max()),
+        peak_t,
+        onset,
+        fwhm,
+        _mean_error_x(dark, -50) - _mean_error_x(dark, -150),
+        _mean_error_x(dark, 50) - _mean_error_x(dark, -150),
+        _near(ref, 0) - _near(ref, 1),
+        _separation_ratio(sep),
+    )
+    return dict(zip(STATS, values))
+
+
+def _with_ci(tables: list[dict], n_boot: int, seed: int = 0) -> dict[str, tuple[float, float, float]]:
+    """Each statistic and its 95 % percentile CI over ``n_boot`` replicates of the experiment (each
+    table's reports resampled within their design cells, ``phenomena.resample_cells``); an undefined
+    replicate makes the CI undefined (NaN), not narrower, as the scoreboard's."""
+    from .phenomena import _cells, resample_cells
+
+    point = _stats(*tables)
+    rng = np.random.default_rng(seed)
+    cells = [_cells(t) for t in tables]
+    reps: dict[str, list] = {k: [] for k in STATS}
+    for _ in range(n_boot):
+        with np.errstate(all="ignore"):
+            for k, v in _stats(*(resample_cells(t, c, rng) for t, c in zip(tables, cells))).items():
+                reps[k].append(v)
+    out = {}
+    for k in STATS:
+        r = np.asarray(reps[k], float)
+        lo, hi = (np.percentile(r, 2.5), np.percentile(r, 97.5)) if np.all(np.isfinite(r)) else (math.nan, math.nan)
+        out[k] = (point[k], float(lo), float(hi))
+    return out
+
+
 def sweep(
-    timings_ms, folder: Path, *, image_size: int = 256, quick: bool = False, progress: bool = False
+    timings_ms,
+    folder: Path,
+    *,
+    image_size: int = 256,
+    quick: bool = False,
+    progress: bool = False,
+    n_boot: int = BOOT,
 ) -> list[dict]:
     """One row (``COLUMNS``) per timing s.d. of ``timings_ms``: the calibrated prior and the statistics
-    at it. ``folder``: where the observations are cached (``DIR/observations``, as ``phenomena``)."""
+    at it with their bootstrap CIs (``n_boot`` replicates). ``folder``: where the observations are
+    cached (``DIR/observations``, as ``phenomena``)."""
     from .observer import ObserverParams
-    from .phenomena import _curve, _half_crossings, _mean_error_x, _near, _separation_ratio
+    from .phenomena import _curve
 
     readers = _readers(Path(folder), image_size, quick, progress)
     rows = []
@@ -119,28 +181,11 @@ def sweep(
 
             prior = round(calibrated_prior(peak_at), 1)
             params = ObserverParams(prior_sd_deg=prior, temporal_sd_ms=float(tsd))
-            ref, dark, sep = (readers[d][0](params) for d in DESIGNS)
-            times, curve = _curve(ref)
-            peak_t, onset, fwhm = _half_crossings(times, curve)
-            rows.append(
-                dict(
-                    zip(
-                        COLUMNS,
-                        (
-                            float(tsd),
-                            prior,
-                            float(curve.max()),
-                            peak_t,
-                            onset,
-                            fwhm,
-                            _mean_error_x(dark, -50) - _mean_error_x(dark, -150),
-                            _mean_error_x(dark, 50) - _mean_error_x(dark, -150),
-                            _near(ref, 0) - _near(ref, 1),
-                            _separation_ratio(sep),
-                        ),
-                    )
-                )
-            )
+            tables = [readers[d][0](params) for d in DESIGNS]
+            row = {"temporal_sd_ms": float(tsd), "prior_sd_deg": prior}
+            for k, (v, lo, hi) in _with_ci(tables, n_boot).items():
+                row.update({k: v, f"{k}_ci_low": lo, f"{k}_ci_high": hi})
+            rows.append(row)
             if progress:
                 print(_line(rows[-1]), file=sys.stderr, flush=True)
     finally:
@@ -150,22 +195,33 @@ def sweep(
 
 
 def _line(r: dict) -> str:
-    return " ".join(f"{k}={float(r[k]):.3f}" for k in COLUMNS)
+    return " ".join(f"{k}={float(r[k]):.3f}" for k in ("temporal_sd_ms", "prior_sd_deg") + STATS)
 
 
 def markdown_table(rows: list[dict]) -> str:
-    """The docs' table of a sweep's rows (``COLUMNS``, as written to or read from its CSV)."""
+    """The docs' table of a sweep's rows (``COLUMNS``, as written to or read from its CSV): each
+    statistic with its 95 % CI."""
     head = (
         "| timing s.d. (ms) | prior s.d. (deg) | peak | peak time (ms) | onset (ms) | width (ms) | "
         "dark, −50 ms (deg) | dark, +50 ms (deg) | along − across | separation ratio |"
     )
-    lines = [head, "|" + "---|" * len(COLUMNS)]
+    fmt = {
+        "peak": ".2f",
+        "peak_time_ms": ".0f",
+        "onset_ms": ".0f",
+        "fwhm_ms": ".0f",
+        "dark_presaccadic_deg": "+.2f",
+        "dark_reversal_deg": "+.2f",
+        "along_minus_across": ".2f",
+        "separation_ratio": ".2f",
+    }
+    lines = [head, "|" + "---|" * (2 + len(STATS))]
     for r in rows:
-        v = [float(r[k]) for k in COLUMNS]
-        lines.append(
-            f"| {v[0]:g} | {v[1]:g} | {v[2]:.2f} | {v[3]:.0f} | {v[4]:.0f} | {v[5]:.0f} | {v[6]:+.2f} | "
-            f"{v[7]:+.2f} | {v[8]:.2f} | {v[9]:.2f} |"
-        )
+        cells = [f"{float(r['temporal_sd_ms']):g}", f"{float(r['prior_sd_deg']):g}"]
+        for k in STATS:
+            f = fmt[k]
+            cells.append(f"{float(r[k]):{f}} [{float(r[k + '_ci_low']):{f}}, {float(r[k + '_ci_high']):{f}}]")
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -191,13 +247,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--phenomena", type=Path, required=True, help="a `phenomena --out` folder (its observations)")
     parser.add_argument("--timing", type=_positive_ms, nargs="+", default=[21.0, 30.0, 37.0, 40.0, 45.0])
     parser.add_argument("--out", type=Path, default=None, help="write the rows to this CSV")
+    parser.add_argument("--bootstrap", type=int, default=BOOT, help=f"replicates of each row's CIs (default {BOOT})")
     add_image_size_option(parser, "pixels per side of each eye, as the phenomena run's (default 256)", default=256)
     add_quick_option(parser, "phenomena --quick's designs (8 flash positions, 2 repetitions)")
     args = parser.parse_args(argv)
     if args.phenomena.exists() and not args.phenomena.is_dir():
         parser.error(f"--phenomena {args.phenomena} is not a folder")
     try:
-        rows = sweep(args.timing, args.phenomena, image_size=args.image_size, quick=args.quick, progress=True)
+        if not 20 <= args.bootstrap <= 10_000:
+            parser.error(f"--bootstrap must be 20-10000; got {args.bootstrap}")
+        rows = sweep(
+            args.timing,
+            args.phenomena,
+            image_size=args.image_size,
+            quick=args.quick,
+            progress=True,
+            n_boot=args.bootstrap,
+        )
     except ValueError as exc:
         print(f"timing_sweep: {exc}", file=sys.stderr)
         return 1
