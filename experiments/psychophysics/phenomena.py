@@ -329,7 +329,8 @@ def _index(t: dict, sel: np.ndarray, axis: int | None = None) -> float:
     of the mean report per flash position (over its repetitions; flashes the retina missed, with no
     report, left out), the perceived spread corrected for the report noise left in those means (the
     mean within-position variance / repetitions subtracted: else noise alone would lower the index), in 2-D, or along one axis (0 =
-    along the saccade, 1 = across)."""
+    along the saccade, 1 = across). NaN where the perceived spread is not above that noise (flashes
+    collapsed within the reports' scatter: the index is not defined)."""
     cols = (("perceived_x_deg", "true_x_deg"), ("perceived_y_deg", "true_y_deg"))
     use = cols if axis is None else (cols[axis],)
     sel = sel & np.isfinite(t["perceived_x_deg"]) & np.isfinite(t["perceived_y_deg"])  # a flash not seen: no report
@@ -347,6 +348,8 @@ def _index(t: dict, sel: np.ndarray, axis: int | None = None) -> float:
 
     num = sum(spread(p) for p, _ in use)
     den = sum(spread(q) for _, q in use)
+    if not num >= 0:  # the perceived spread is not above the report noise left in the means: no index
+        return float("nan")
     return float(1 - np.sqrt(num / den))
 
 
