@@ -40,7 +40,7 @@ def test_committed_sweep_is_the_docs_table_and_holds_the_models_prior():
     sweep's prior is the model's: the calibration the scoreboard runs with is the one this finds."""
     rows = ts.read_rows()
     assert ts.markdown_table(rows) in (ROOT / "docs" / "psychophysics" / "theories.md").read_text()
-    assert all(abs(float(r["peak"]) - ts.TARGET_PEAK) <= 0.01 for r in rows), rows
+    assert all(abs(float(r["compression_peak"]) - ts.TARGET_PEAK) <= 0.01 for r in rows), rows
     own = ObserverParams()
     mine = [r for r in rows if float(r["temporal_sd_ms"]) == own.temporal_sd_ms]
     assert len(mine) == 1 and float(mine[0]["prior_sd_deg"]) == own.prior_sd_deg
@@ -63,7 +63,7 @@ def test_command_sweeps_at_64px_and_refuses_a_bad_timing(tmp_path, capsys):
     with open(out, newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert tuple(rows[0]) == ts.COLUMNS and len(rows) == 1
-    assert abs(float(rows[0]["peak"]) - ts.TARGET_PEAK) <= 0.01
+    assert abs(float(rows[0]["compression_peak"]) - ts.TARGET_PEAK) <= 0.01
     assert "| timing s.d. (ms) |" in capsys.readouterr().out
     with pytest.raises(SystemExit) as e:
         ts.main(["--phenomena", str(tmp_path), "--timing", "500"])

@@ -420,33 +420,43 @@ def _threshold_ratio(t: dict, start: dict | None = None) -> float:
     return float(fits[0]["threshold_deg"] / fits[250]["threshold_deg"])
 
 
-def statistics(tab: dict, psychometric_start: dict | None = None) -> dict[str, float]:
+def statistics(tab: dict, psychometric_start: dict | None = None, rows=None) -> dict[str, float]:
     """Every ``ROWS`` statistic of one model's tables (``psychometric_start``: as for
-    ``displacement_psychometrics``)."""
-    ref, dark = tab["references"], tab["dark"]
-    times, curve = _curve(ref)
-    peak_t, onset, fwhm = _half_crossings(times, curve)
-    amp = tab["amplitude"]
-    return {
-        "compression_peak": float(curve.max()),
-        "compression_peak_time_ms": peak_t,
-        "compression_onset_ms": onset,
-        "compression_fwhm_ms": fwhm,
-        "compression_fixation": _index(ref, ref["flash_time_ms"] == TIMES[0]),
-        "shift_with_references_deg": _mean_error_x(ref, 0) - _mean_error_x(ref, TIMES[0]),
-        "compression_amplitude_growth": _near(amp, amplitude=24.0) - _near(amp, amplitude=12.0),
-        "shift_dark_presaccadic_deg": _mean_error_x(dark, -50) - _mean_error_x(dark, -150),
-        "shift_dark_reversal_deg": _mean_error_x(dark, 50) - _mean_error_x(dark, -150),
-        "compression_needs_references": _near(ref) - _near(dark),
-        "compression_needs_postsaccadic_references": _near(ref) - _near(tab["references_before"]),
-        "compression_vs_reference_contrast": _near(ref) - _near(tab["contrast_0.25"]),
-        "compression_along_minus_across": _near(ref, 0) - _near(ref, 1),
-        "compression_across": _near(ref, 1),
-        "separation_over_localization": _separation_ratio(tab["separation"]),
-        "displacement_blank_ratio": _threshold_ratio(tab["displacement"], psychometric_start),
-        "focus_toward_reference": _focus(tab["focus"]),
-        "memory_guided_reduction": _near(tab["target_only"]) - _near(tab["memory"]),
+    ``displacement_psychometrics``); ``rows``: only these (``ROWS`` names), each reading only the
+    designs it needs (``timing_sweep`` reads three)."""
+    ref: dict = tab.get("references", {})  # (a row that needs a design the tables lack: KeyError)
+    dark: dict = tab.get("dark", {})
+    course: list = []  # the references' time course, computed once when a row asks for it
+
+    def timing(k: int) -> float:
+        if not course:
+            times, curve = _curve(ref)
+            course.extend((float(curve.max()), *_half_crossings(times, curve)))
+        return course[k]
+
+    rules = {
+        "compression_peak": lambda: timing(0),
+        "compression_peak_time_ms": lambda: timing(1),
+        "compression_onset_ms": lambda: timing(2),
+        "compression_fwhm_ms": lambda: timing(3),
+        "compression_fixation": lambda: _index(ref, ref["flash_time_ms"] == TIMES[0]),
+        "shift_with_references_deg": lambda: _mean_error_x(ref, 0) - _mean_error_x(ref, TIMES[0]),
+        "compression_amplitude_growth": lambda: (
+            _near(tab["amplitude"], amplitude=24.0) - _near(tab["amplitude"], amplitude=12.0)
+        ),
+        "shift_dark_presaccadic_deg": lambda: _mean_error_x(dark, -50) - _mean_error_x(dark, -150),
+        "shift_dark_reversal_deg": lambda: _mean_error_x(dark, 50) - _mean_error_x(dark, -150),
+        "compression_needs_references": lambda: _near(ref) - _near(dark),
+        "compression_needs_postsaccadic_references": lambda: _near(ref) - _near(tab["references_before"]),
+        "compression_vs_reference_contrast": lambda: _near(ref) - _near(tab["contrast_0.25"]),
+        "compression_along_minus_across": lambda: _near(ref, 0) - _near(ref, 1),
+        "compression_across": lambda: _near(ref, 1),
+        "separation_over_localization": lambda: _separation_ratio(tab["separation"]),
+        "displacement_blank_ratio": lambda: _threshold_ratio(tab["displacement"], psychometric_start),
+        "focus_toward_reference": lambda: _focus(tab["focus"]),
+        "memory_guided_reduction": lambda: _near(tab["target_only"]) - _near(tab["memory"]),
     }
+    return {k: rules[k]() for k in (rules if rows is None else rows)}
 
 
 #: Reported columns of a localization table, resampled by ``resample_cells`` (the rest describe the stimulus).
@@ -491,26 +501,29 @@ def resample_cells(t: dict, cells: np.ndarray, rng: np.random.Generator) -> dict
     return out
 
 
-def bootstrap(tab: dict, n: int = BOOT, seed: int = 0) -> dict[str, tuple[float, float]]:
-    """95 % percentile CIs of ``statistics``: the experiment repeated -- each localization design's
-    reports resampled within its cells (``resample_cells``), the displacement reports within each
-    step and blank."""
+def bootstrap(tab: dict, n: int = BOOT, seed: int = 0, rows=None) -> dict[str, tuple[float, float]]:
+    """95 % percentile CIs of ``statistics`` (``rows``: only these): the experiment repeated -- each
+    localization design's reports resampled within its cells (``resample_cells``), the displacement
+    reports (when ``tab`` has them) within each step and blank."""
     from . import displacement_psychometrics
 
     rng = np.random.default_rng(seed)
-    start = {b: (r["pse_deg"], r["threshold_deg"]) for b, r in displacement_psychometrics(tab["displacement"]).items()}
-    cells = {name: _cells(t) for name, t in tab.items() if name != "displacement"}
-    disp = tab["displacement"]
+    disp = tab.get("displacement")
+    start = None
     groups: dict = {}
-    for i, c in enumerate(zip(disp["flash_dx_deg"], disp["flash_time_ms"])):
-        groups.setdefault(c, []).append(i)
-    samples: dict[str, list] = {k: [] for k in ROWS}
+    if disp is not None:
+        start = {b: (r["pse_deg"], r["threshold_deg"]) for b, r in displacement_psychometrics(disp).items()}
+        for i, c in enumerate(zip(disp["flash_dx_deg"], disp["flash_time_ms"])):
+            groups.setdefault(c, []).append(i)
+    cells = {name: _cells(t) for name, t in tab.items() if name != "displacement"}
+    samples: dict[str, list] = {k: [] for k in (ROWS if rows is None else rows)}
     for _ in range(n):
         sub = {name: resample_cells(t, cells[name], rng) for name, t in tab.items() if name != "displacement"}
-        idx = np.concatenate([rng.choice(v, size=len(v), replace=True) for v in groups.values()])
-        sub["displacement"] = {k: v[idx] for k, v in disp.items()}
+        if disp is not None:
+            idx = np.concatenate([rng.choice(v, size=len(v), replace=True) for v in groups.values()])
+            sub["displacement"] = {k: v[idx] for k, v in disp.items()}
         with np.errstate(all="ignore"):
-            for k, v in statistics(sub, start).items():
+            for k, v in statistics(sub, start, tuple(samples)).items():
                 samples[k].append(v)
     out = {}
     for k, values in samples.items():

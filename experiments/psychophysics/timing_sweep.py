@@ -9,8 +9,8 @@ docs' "no timing s.d. gives both the width and the forward dark shift" was a 4 d
 40 ms and kept at 21). :func:`calibrated_prior` finds, for one timing s.d., the prior whose peak
 index is ``TARGET_PEAK`` (bisection on log prior_sd: the peak falls as the prior widens);
 :func:`sweep` then reads the scoreboard's designs out at it (``phenomena.ROWS``' definitions, the
-participant's report noise as the scoreboard adds it), each statistic with a 95 % CI from ``BOOT``
-resamples of the trials within their design cells (``phenomena.resample_cells``). Nothing here sets a constant of the model:
+participant's report noise as the scoreboard adds it), each statistic with its 95 % CI from ``BOOT``
+resamples, as the scoreboard's (``phenomena.statistics`` and ``phenomena.bootstrap`` of these rows). Nothing here sets a constant of the model:
 the table says what the theory gives where, and which timing s.d. would need a source.
 
 ``python -m experiments.psychophysics.timing_sweep --phenomena DIR --out FILE.csv`` reads the
@@ -46,16 +46,16 @@ __all__ = [
 #: The calibration target of ``observer.prior_sd_deg``: the peak index of Morrone, Ross & Burr 1997's
 #: ~50 % compression (the middle of the scoreboard's 0.35-0.65 range).
 TARGET_PEAK = 0.5
-#: The statistics read out at each timing s.d. (``phenomena.ROWS``' definitions).
+#: The scoreboard's rows read out at each timing s.d. (``phenomena.ROWS``, ``phenomena.statistics``).
 STATS = (
-    "peak",
-    "peak_time_ms",
-    "onset_ms",
-    "fwhm_ms",
-    "dark_presaccadic_deg",
-    "dark_reversal_deg",
-    "along_minus_across",
-    "separation_ratio",
+    "compression_peak",
+    "compression_peak_time_ms",
+    "compression_onset_ms",
+    "compression_fwhm_ms",
+    "shift_dark_presaccadic_deg",
+    "shift_dark_reversal_deg",
+    "compression_along_minus_across",
+    "separation_over_localization",
 )
 #: The columns of the sweep's CSV: each statistic with its 95 % bootstrap CI.
 COLUMNS = ("temporal_sd_ms", "prior_sd_deg") + tuple(f"{k}{s}" for k in STATS for s in ("", "_ci_low", "_ci_high"))
@@ -110,47 +110,6 @@ def _readers(folder: Path, image_size: int, quick: bool, progress: bool):
     return out
 
 
-def _stats(ref: dict, dark: dict, sep: dict) -> dict[str, float]:
-    """``STATS`` of one set of the three designs' tables (``phenomena``'s definitions)."""
-    from .phenomena import _curve, _half_crossings, _mean_error_x, _near, _separation_ratio
-
-    times, curve = _curve(ref)
-    peak_t, onset, fwhm = _half_crossings(times, curve)
-    values = (
-        float(curve.max()),
-        peak_t,
-        onset,
-        fwhm,
-        _mean_error_x(dark, -50) - _mean_error_x(dark, -150),
-        _mean_error_x(dark, 50) - _mean_error_x(dark, -150),
-        _near(ref, 0) - _near(ref, 1),
-        _separation_ratio(sep),
-    )
-    return dict(zip(STATS, values))
-
-
-def _with_ci(tables: list[dict], n_boot: int, seed: int = 0) -> dict[str, tuple[float, float, float]]:
-    """Each statistic and its 95 % percentile CI over ``n_boot`` replicates of the experiment (each
-    table's reports resampled within their design cells, ``phenomena.resample_cells``); an undefined
-    replicate makes the CI undefined (NaN), not narrower, as the scoreboard's."""
-    from .phenomena import _cells, resample_cells
-
-    point = _stats(*tables)
-    rng = np.random.default_rng(seed)
-    cells = [_cells(t) for t in tables]
-    reps: dict[str, list] = {k: [] for k in STATS}
-    for _ in range(n_boot):
-        with np.errstate(all="ignore"):
-            for k, v in _stats(*(resample_cells(t, c, rng) for t, c in zip(tables, cells))).items():
-                reps[k].append(v)
-    out = {}
-    for k in STATS:
-        r = np.asarray(reps[k], float)
-        lo, hi = (np.percentile(r, 2.5), np.percentile(r, 97.5)) if np.all(np.isfinite(r)) else (math.nan, math.nan)
-        out[k] = (point[k], float(lo), float(hi))
-    return out
-
-
 def sweep(
     timings_ms,
     folder: Path,
@@ -164,7 +123,7 @@ def sweep(
     at it with their bootstrap CIs (``n_boot`` replicates). ``folder``: where the observations are
     cached (``DIR/observations``, as ``phenomena``)."""
     from .observer import ObserverParams
-    from .phenomena import _curve
+    from .phenomena import _curve, bootstrap, statistics
 
     readers = _readers(Path(folder), image_size, quick, progress)
     rows = []
@@ -175,16 +134,16 @@ def sweep(
             def peak_at(prior, tsd=tsd):
                 # a time whose flashes all collapse onto the prior has no index (its perceived spread is
                 # below the report noise's): left out, as it lies on the far side of the target
-                with np.errstate(invalid="ignore"):
-                    curve = _curve(read_ref(ObserverParams(prior_sd_deg=prior, temporal_sd_ms=tsd)))[1]
+                curve = _curve(read_ref(ObserverParams(prior_sd_deg=prior, temporal_sd_ms=tsd)))[1]
                 return float(np.nanmax(curve)) if np.isfinite(curve).any() else math.nan
 
             prior = round(calibrated_prior(peak_at), 1)
             params = ObserverParams(prior_sd_deg=prior, temporal_sd_ms=float(tsd))
-            tables = [readers[d][0](params) for d in DESIGNS]
+            tab = {d: readers[d][0](params) for d in DESIGNS}
             row = {"temporal_sd_ms": float(tsd), "prior_sd_deg": prior}
-            for k, (v, lo, hi) in _with_ci(tables, n_boot).items():
-                row.update({k: v, f"{k}_ci_low": lo, f"{k}_ci_high": hi})
+            ci = bootstrap(tab, n_boot, rows=STATS)
+            for k, v in statistics(tab, rows=STATS).items():
+                row.update({k: v, f"{k}_ci_low": ci[k][0], f"{k}_ci_high": ci[k][1]})
             rows.append(row)
             if progress:
                 print(_line(rows[-1]), file=sys.stderr, flush=True)
@@ -205,16 +164,7 @@ def markdown_table(rows: list[dict]) -> str:
         "| timing s.d. (ms) | prior s.d. (deg) | peak | peak time (ms) | onset (ms) | width (ms) | "
         "dark, −50 ms (deg) | dark, +50 ms (deg) | along − across | separation ratio |"
     )
-    fmt = {
-        "peak": ".2f",
-        "peak_time_ms": ".0f",
-        "onset_ms": ".0f",
-        "fwhm_ms": ".0f",
-        "dark_presaccadic_deg": "+.2f",
-        "dark_reversal_deg": "+.2f",
-        "along_minus_across": ".2f",
-        "separation_ratio": ".2f",
-    }
+    fmt = dict(zip(STATS, (".2f", ".0f", ".0f", ".0f", "+.2f", "+.2f", ".2f", ".2f")))
     lines = [head, "|" + "---|" * (2 + len(STATS))]
     for r in rows:
         cells = [f"{float(r['temporal_sd_ms']):g}", f"{float(r['prior_sd_deg']):g}"]
@@ -237,6 +187,7 @@ def _positive_ms(text: str) -> float:
 
 def main(argv: list[str] | None = None) -> int:
     from ..cli.options import add_image_size_option, add_quick_option
+    from ..cli.parsing import int_in
     from ..folders import write_csv
 
     parser = argparse.ArgumentParser(
@@ -247,15 +198,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--phenomena", type=Path, required=True, help="a `phenomena --out` folder (its observations)")
     parser.add_argument("--timing", type=_positive_ms, nargs="+", default=[21.0, 30.0, 37.0, 40.0, 45.0])
     parser.add_argument("--out", type=Path, default=None, help="write the rows to this CSV")
-    parser.add_argument("--bootstrap", type=int, default=BOOT, help=f"replicates of each row's CIs (default {BOOT})")
+    parser.add_argument(
+        "--bootstrap",
+        type=int_in(20, 10_000),
+        default=BOOT,
+        help=f"replicates of each row's CIs (20-10000, default {BOOT})",
+    )
     add_image_size_option(parser, "pixels per side of each eye, as the phenomena run's (default 256)", default=256)
     add_quick_option(parser, "phenomena --quick's designs (8 flash positions, 2 repetitions)")
     args = parser.parse_args(argv)
     if args.phenomena.exists() and not args.phenomena.is_dir():
         parser.error(f"--phenomena {args.phenomena} is not a folder")
     try:
-        if not 20 <= args.bootstrap <= 10_000:
-            parser.error(f"--bootstrap must be 20-10000; got {args.bootstrap}")
         rows = sweep(
             args.timing,
             args.phenomena,
