@@ -33,6 +33,7 @@ from typing import Any
 __all__ = [
     "Interrupted",
     "interruptible",
+    "swallowing_context",
     "LockBusyError",
     "path_lock",
     "atomic_write_text",
@@ -280,24 +281,73 @@ class Interrupted(KeyboardInterrupt):
         self.signum = signum
 
 
+# Where an exception raised by a signal handler is lost or changed: a finaliser (``__del__``: "Exception
+# ignored in"), a ctypes callback (llvmlite's object cache: "Exception ignored on calling ctypes callback
+# function"), a C library's import or call that turns it into another error (mujoco's module init gives
+# "ImportError: initialization failed", a ctypes argument's conversion "ArgumentError"). Seen with numba
+# compiling and the GL context starting while ``train`` was interrupted: the run went on and exited 0.
+_SWALLOWING_PACKAGES = ("llvmlite", "numba", "mujoco", "OpenGL", "ctypes", "importlib")
+_REDELIVER_S = 0.02
+
+
+def _package(filename: str) -> str:
+    """The top-level package of a source file: the folder after ``site-packages`` (or
+    ``dist-packages``), else (the standard library) the file's own folder."""
+    parts = filename.replace("\\", "/").split("/")
+    for i, p in enumerate(parts[:-1]):
+        if p in ("site-packages", "dist-packages"):
+            return parts[i + 1]
+    return parts[-2] if len(parts) > 1 else ""
+
+
+def swallowing_context(frame: Any) -> bool:
+    """True if an exception raised in ``frame`` (a signal handler's second argument) could be lost or
+    turned into another error on its way out: some frame of its stack is a finaliser, or runs in one of
+    the packages above (a C library's callback, conversion or module initialisation)."""
+    while frame is not None:
+        code = frame.f_code
+        if code.co_name == "__del__" or code.co_filename.startswith("<frozen importlib"):
+            return True
+        if _package(code.co_filename) in _SWALLOWING_PACKAGES:
+            return True
+        frame = frame.f_back
+    return False
+
+
 @contextlib.contextmanager
 def interruptible() -> Iterator[None]:
     """SIGINT and SIGTERM raise :class:`Interrupted` in the main thread (so ``finally`` blocks run:
     workers are stopped, what was written stays); a second signal is ignored while the first one's
-    clean-up runs."""
+    clean-up runs. A signal that arrives where the exception would be lost (:func:`swallowing_context`:
+    numba compiling, a finaliser, a C library's callback) is sent again to the main thread every 20 ms
+    until it lands where it propagates; one still pending when the block ends is raised there."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     sigs = (signal.SIGINT, signal.SIGTERM)
+    main = threading.get_ident()
+    pending: list[int] = []
 
     def handler(signum, frame):
+        if swallowing_context(frame):
+            if not pending:
+                pending.append(signum)
+            t = threading.Timer(_REDELIVER_S, signal.pthread_kill, (main, pending[0]))
+            t.daemon = True
+            t.start()
+            return
         for s in sigs:
             signal.signal(s, signal.SIG_IGN)
+        pending.clear()
         raise Interrupted(signum)
 
     old = {s: signal.signal(s, handler) for s in sigs}
     try:
         yield
+        if pending:  # sent again, but the block ended first
+            for s in sigs:
+                signal.signal(s, signal.SIG_IGN)
+            raise Interrupted(pending[0])
     finally:
         for s, h in old.items():
             signal.signal(s, h)

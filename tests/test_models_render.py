@@ -165,10 +165,15 @@ def test_ten_thousand_renders_do_not_grow_memory():
     h = Head("dots", image_size=16)
     for _ in range(1000):
         h.render()
-    before = rss_kb()
-    for _ in range(5000):  # two eyes each: 10,000 renders
-        h.render()
-    assert rss_kb() - before < 4096
+    growth = []  # KB per window of 1,500 head renders (3,000 eye renders): 4 windows, 12,000 renders
+    for _ in range(4):
+        before = rss_kb()
+        for _ in range(1500):
+            h.render()
+        growth.append(rss_kb() - before)
+    # a leak grows every window (>= ~700 bytes a render shows as >= 1 MB each); the allocator's one-off
+    # growth (an arena extended once: 4.8 MB seen once in CI) shows in one window only
+    assert sorted(growth)[1] < 1024, growth
     h.close()
     h.close()  # idempotent
     assert h._renderer is None

@@ -316,3 +316,50 @@ def test_a_missing_table_is_an_error_not_an_empty_table(tmp_path):
     with pytest.raises(FileNotFoundError, match="no trials table there"):
         read_table(missing)
     assert len(read_table(missing, partial=True)["trial_id"]) == 0
+
+
+class _SignalInFinaliser:
+    """Sends ``sig`` to the main thread from its ``__del__``: the handler then runs inside the
+    finaliser, where a raised exception is printed as "Exception ignored" and lost."""
+
+    def __init__(self, sig: int) -> None:
+        self.sig = sig
+
+    def __del__(self) -> None:
+        import threading
+
+        signal.pthread_kill(threading.get_ident(), self.sig)
+        for _ in range(1000):  # bytecode: the handler runs here, inside the finaliser
+            pass
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_caught_in_a_finaliser_still_interrupts(sig):
+    """Seen in CI: ``train`` interrupted while numba compiled (llvmlite's finalisers and ctypes
+    callbacks) ran on and exited 0. The handler defers such a signal and sends it again."""
+    from experiments.folders import Interrupted, interruptible, swallowing_context
+
+    with pytest.raises(Interrupted) as e:
+        with interruptible():
+            bomb = _SignalInFinaliser(sig)
+            del bomb
+            time.sleep(10)  # the re-sent signal interrupts this (within ~20 ms)
+    assert e.value.signum == sig
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # handlers restored
+
+    class Probe:
+        def __del__(self):
+            Probe.seen = swallowing_context(sys._getframe())
+
+    Probe()
+    assert Probe.seen and not swallowing_context(sys._getframe())
+
+
+def test_a_signal_deferred_to_the_end_of_the_block_is_raised_there():
+    """A deferred signal whose block ends before it is sent again is raised on the way out."""
+    from experiments.folders import Interrupted, interruptible
+
+    with pytest.raises(Interrupted):
+        with interruptible():
+            bomb = _SignalInFinaliser(signal.SIGTERM)
+            del bomb
