@@ -327,12 +327,21 @@ def interruptible() -> Iterator[None]:
     sigs = (signal.SIGINT, signal.SIGTERM)
     main = threading.get_ident()
     pending: list[int] = []
+    lock, state = threading.Lock(), {"active": True, "sent": 0}
+
+    def resend(signum: int) -> None:  # a timer thread: never after the block has ended
+        with lock:
+            if state["active"]:
+                state["sent"] += 1
+                signal.pthread_kill(main, signum)
 
     def handler(signum, frame):
+        if not state["active"]:  # a re-sent signal that arrived while the block ends: already acted on
+            return
         if swallowing_context(frame):
             if not pending:
                 pending.append(signum)
-            t = threading.Timer(_REDELIVER_S, signal.pthread_kill, (main, pending[0]))
+            t = threading.Timer(_REDELIVER_S, resend, (pending[0],))
             t.daemon = True
             t.start()
             return
@@ -349,5 +358,10 @@ def interruptible() -> Iterator[None]:
                 signal.signal(s, signal.SIG_IGN)
             raise Interrupted(pending[0])
     finally:
+        with lock:
+            state["active"] = False
+            sent = state["sent"]
+        if sent:  # a signal re-sent before now is delivered on this sleep's return, to this block's handler
+            time.sleep(0.002)
         for s, h in old.items():
             signal.signal(s, h)

@@ -105,8 +105,8 @@ def _one_thread() -> Iterator[None]:
     import numba
     from threadpoolctl import threadpool_limits
 
+    prev = numba.get_num_threads()  # first: numba's first call starts its OpenMP pool at every core
     with threadpool_limits(limits=1):
-        prev = numba.get_num_threads()
         numba.set_num_threads(1)
         try:
             yield
