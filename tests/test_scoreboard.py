@@ -179,7 +179,7 @@ def test_calibrated_gains_still_give_their_target_in_the_committed_scoreboard():
     gain, paper's peak gain) was set from Morrone, Ross & Burr 1997's ~50 % peak compression. A
     constant set from a published number must still give it after the model's other constants moved:
     the observer's prior, set when its timing s.d. was 40 ms, gave 0.74 once that s.d. was re-read as
-    21 ms, and was set again (4 -> 8 deg)."""
+    21 ms, and was set again (4 -> 8 deg; 10 with the landmark prior, which counts target and ruler as two cues)."""
     peaks = {r["model"]: r for r in _committed() if r["phenomenon"] == "compression_peak"}
     assert set(peaks) == set(MODELS)
     for model in set(MODELS) - {"baseline"}:

@@ -67,7 +67,10 @@ def test_registry_read_outs_are_the_previous_ones(monkeypatch):
     theories moved into the registry (``tests/data/theory_readouts_64px.json``). The observer's
     saccadic suppression and 2-D motor scatter came later, its timing s.d. was then 40 ms (now
     21 ms, Hirsh & Sherrick 1961) and its prior s.d. 4 deg (now 8, set again to its ~50 % peak): with
-    those four as before, its read-outs are the stored ones, so those changes changed nothing else. Population's own displacement looks came later too: with
+    those four as before, its read-outs are the stored ones, so those changes changed nothing else.
+    Its prior then became the landmark prior (eq. 2, issue 34): its entries with references (references,
+    separation, nosmear) were stored again from that code; those without (dark, the marker unseen at
+    64 px, displacement) are the registry's first. Population's own displacement looks came later too: with
     no feedback (``gain_per_deg`` 0) they are the runner's, so its stored displacement read-outs
     hold (its localization read-outs keep their gain). The displacement report's noise was then drawn
     from the head's own stream (``default_rng(seed)``), now from its own: the stored one is restored here."""

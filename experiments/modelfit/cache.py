@@ -35,10 +35,12 @@ import numpy as np
 
 __all__ = ["FORMAT", "save", "load"]
 
-FORMAT = 2
+FORMAT = 3  # 3: the references' landmarks (``ref_landmark_z``, ``ref_landmark_cov``)
 _PLAN_FIELDS = ("start_angles", "end_angles", "intended_end_angles", "signal_start_angles")
 _PLAN_OPTIONAL = ("target", "intended_target")
 _CHECK_POINTS = 16  # times at which a rebuilt plan must reproduce the stored trajectory
+#: Landmarks stored per eye (NaN-padded); a trial whose references show more cannot be cached.
+MAX_LANDMARKS = 16
 
 
 def _checksum(arrays: dict[str, np.ndarray]) -> str:
@@ -77,6 +79,8 @@ def _pack(observations: list) -> dict[str, np.ndarray]:
             "ref_z",
             "ref_activity",
             "ref_on_ms",
+            "ref_landmark_z",
+            "ref_landmark_cov",
         )
     }
     per_flash: dict[str, list] = {
@@ -110,6 +114,16 @@ def _pack(observations: list) -> dict[str, np.ndarray]:
         a["ref_z"].append(np.array(o.ref_z if o.ref_z is not None else [np.nan] * 2, complex))
         a["ref_activity"].append(np.asarray(o.ref_activity if o.ref_activity is not None else [0.0, 0.0], float))
         a["ref_on_ms"].append(float(o.ref_on_ms))
+        lz, lc = np.full((2, MAX_LANDMARKS), np.nan, complex), np.full((2, MAX_LANDMARKS, 2, 2), np.nan)
+        for e, (z, c) in enumerate(o.ref_landmarks or ()):
+            if len(z) > MAX_LANDMARKS:
+                raise ValueError(
+                    f"trial {t.trial_id}: the references show {len(z)} landmarks to one eye; at most "
+                    f"{MAX_LANDMARKS} can be cached"
+                )
+            lz[e, : len(z)], lc[e, : len(z)] = z, c
+        a["ref_landmark_z"].append(lz)
+        a["ref_landmark_cov"].append(lc)
         for f, fl in enumerate(o.flashes):
             a[f"flash{f}_head"].append(fl["head"])
             a[f"flash{f}_true_deg"].append(fl["true_deg"])
@@ -239,6 +253,11 @@ def _unpack(a: dict, n_flash: int, trials: list, runner) -> list:
                 ref_z=[complex(z) for z in a["ref_z"][i]],
                 ref_activity=np.array(a["ref_activity"][i]),
                 ref_on_ms=float(a["ref_on_ms"][i]),
+                ref_landmarks=[
+                    (a["ref_landmark_z"][i][e][keep], a["ref_landmark_cov"][i][e][keep])
+                    for e in range(2)
+                    for keep in [np.isfinite(a["ref_landmark_z"][i][e].real)]
+                ],
             )
         )
     return out

@@ -35,6 +35,7 @@ _EXPORTS = {
     "TargetCentredMap": "targetmap",
     "CentredSamples": "targetmap",
     "activity_centroid": "decode",
+    "activity_covariance": "decode",
     "DEFAULT_THRESHOLD": "decode",
     "run_trials": "runner",
     "read_table": "runner",

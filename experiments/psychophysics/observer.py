@@ -11,9 +11,14 @@ perceived head-centred position of a flash is the posterior mean of its position
 2. an eye-position signal (eqs. 1, 1b) from the efference copy ``c`` at an uncertain flash time
    ``t' ~ N(t, temporal_sd_ms^2)``: ``e_hat = E[c(t')]``, ``Sigma_e = Cov[c(t')]`` (Gauss-Hermite),
    plus the eye's motor scatter ``motor_weber^2 E[|c(t') - c_0|^2] I`` (Kowler & Blaser 1995);
-3. a prior (eq. 2) centred on the post-saccadic references ``rho`` of precision
-   ``lambda = A / (prior_sd_deg^2 * reference_unit) * min(on_ms, integration_ms) / integration_ms``
-   (``A``: the retina's activity of the references; Bloch's law);
+3. a prior (eq. 2) from the landmarks the post-saccadic references show (each connected part of the
+   eye's picture of them: the target dot, the ruler, a marker): each is a cue that a flash lies
+   near it, ``N(x_i, prior_sd_deg^2 + s_i^2)`` per axis, ``x_i`` its position and ``s_i^2`` its own
+   extent (the variance of its activity: a dot's is ~0, a 40 deg ruler's 133 deg^2 along it); the
+   cues combine as independent Gaussians, ``lambda = T sum_i 1 / (prior_sd_deg^2 + s_i^2)``,
+   ``rho = sum_i lambda_i x_i / lambda``, with ``T = min(on_ms, integration_ms) / integration_ms``
+   (Bloch's law). A seen marker is as much a landmark as the target; a landmark's contrast does not
+   grade it once the eye sees it;
 and for k simultaneous flashes, per axis (eq. 3): ``h = (Lambda + C^-1)^-1 (Lambda rho 1 + C^-1 m)``,
    ``C = diag(sigma_r^2) + sigma_e^2 1 1^T``, ``Lambda = lambda I``.
 
@@ -39,7 +44,7 @@ __all__ = [
     "motor_cov",
     "suppression_log10",
     "posterior_mean",
-    "prior_precision",
+    "landmark_prior",
     "sensory_sd_deg",
 ]
 
@@ -49,11 +54,10 @@ class ObserverParams:
     """Free constants of the ``observer`` model (sources: ``OBSERVER_SOURCES``)."""
 
     temporal_sd_ms: float = 21.0
-    prior_sd_deg: float = 8.0
+    prior_sd_deg: float = 10.0
     weber: float = 0.05
     floor_deg: float = 0.1
     integration_ms: float = 100.0
-    reference_unit: float = 8.4e-3
     motor_weber: float = 0.05
     suppression_log10: float = 1.0
     suppression_lead_ms: float = 50.0
@@ -79,8 +83,9 @@ OBSERVER_SOURCES = {
         "calibrated",
         "peak compression ~50 % for 20 deg saccades with references "
         "(Morrone, Ross & Burr 1997): phenomenon compression_peak. Set with every other constant "
-        "at its value: the scoreboard's peak index is 0.495 at 8 deg (256 px; 0.74 at the 4 deg "
-        "kept from before temporal_sd_ms was re-read as 21 ms)",
+        "at its value: the scoreboard's peak index is ~0.50 at 10 deg (256 px; the landmark prior of "
+        "eq. (2) has two cues, target and ruler, where the activity-graded one had ~one at 8 deg; "
+        "0.74 at the 4 deg kept from before temporal_sd_ms was re-read as 21 ms)",
     ),
     "weber": (
         "assumed",
@@ -89,12 +94,6 @@ OBSERVER_SOURCES = {
     ),
     "floor_deg": ("assumed", "foveal positional acuity ~0.1 deg (Levi, Klein & Aitsebaomo 1985)"),
     "integration_ms": ("assumed", "Bloch's law: complete temporal summation up to ~100 ms (Barlow 1958)"),
-    "reference_unit": (
-        "assumed",
-        "the unit of reference activity: the retina's summed response (image-plane "
-        "area x intensity) to the default references (target dot + ruler at full "
-        "contrast), measured at 256 px (tests/test_perception_theories.py)",
-    ),
     "motor_weber": (
         "assumed",
         "saccade endpoint s.d. ~5 % of amplitude (Kowler & Blaser 1995), horizontal and "
@@ -168,11 +167,21 @@ def sensory_sd_deg(eccentricity_deg: float | np.ndarray, p: ObserverParams, supp
     return (p.floor_deg + p.weber * np.abs(np.asarray(eccentricity_deg, float))) * gain
 
 
-def prior_precision(activity: float, on_ms: float, p: ObserverParams) -> float:
-    """Eq. (2): the references' prior precision (1/deg^2) from their retinal activity and on-time."""
-    a = max(float(activity), 0.0) if np.isfinite(activity) else 0.0
+def landmark_prior(
+    positions_deg: np.ndarray, extents_deg2: np.ndarray, on_ms: float, p: ObserverParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. (2): the prior's centre ``rho`` (2,) and precision ``lambda`` (2,) (1/deg^2, azimuth and
+    elevation) from landmarks at ``positions_deg`` (L, 2) with extents ``extents_deg2`` (L, 2) (their
+    activity's variance per axis), on for ``on_ms`` after the saccade; ``lambda`` 0 (and ``rho`` 0)
+    without landmarks."""
+    x = np.asarray(positions_deg, float).reshape(-1, 2)
+    s2 = np.asarray(extents_deg2, float).reshape(-1, 2)
     temporal = min(max(float(on_ms), 0.0), p.integration_ms) / p.integration_ms
-    return a / p.reference_unit * temporal / p.prior_sd_deg**2
+    if len(x) == 0 or temporal == 0.0:
+        return np.zeros(2), np.zeros(2)
+    lam_i = temporal / (p.prior_sd_deg**2 + s2)
+    lam = lam_i.sum(axis=0)
+    return (lam_i * x).sum(axis=0) / lam, lam
 
 
 def posterior_mean(m: np.ndarray, sensory_var: np.ndarray, eye_var: float, rho: float, lam: float) -> np.ndarray:

@@ -41,7 +41,7 @@ import envs
 import models
 
 from .bounds import check_int, check_real
-from .decode import activity_centroid
+from .decode import activity_centroid, activity_covariance
 from .design import Trial
 from .mechanisms import CONDITIONS, MECHANISMS, MODELS, PARADIGMS
 from .observer import ObserverParams
@@ -341,6 +341,9 @@ class Observation:
     ref_z: list | None = None  #: each eye's retinal centroid (image plane) of the post-saccadic references' activity
     ref_activity: np.ndarray | None = None  #: (2,) each eye's summed activity of them (image-plane area x intensity)
     ref_on_ms: float = 0.0  #: how long they were on after saccade offset
+    #: each eye's landmarks among them (the connected parts of its picture of them): (z (L,) complex
+    #: image-plane centroids, cov (L, 2, 2) image-plane covariances of their activity)
+    ref_landmarks: list | None = None
     frame: object = None
     reference: object = None
     scene: dict | None = None  #: the MuJoCo scene with the (first) flash shown, and its world position (recordings)
@@ -434,9 +437,11 @@ class TrialRunner:
         for i in range(MAX_MARKERS):
             head.set_opacity(f"marker_{i:02d}", alpha if post_on and i < len(cfg.markers) else 0.0)
 
-    def _references_seen(self, plan: models.SaccadePlan) -> tuple[list[complex], np.ndarray]:
+    def _references_seen(self, plan: models.SaccadePlan) -> tuple[list[complex], np.ndarray, list]:
         """Each eye's retinal centroid and summed activity of the post-saccadic references as they
-        are shown after saccade offset (rendered with them minus without them), at the current time."""
+        are shown after saccade offset (rendered with them minus without them), at the current time;
+        and each eye's landmarks: the connected parts of its picture of them (8-connected pixels the
+        references brighten), each one's centroid and covariance (``decode.activity_covariance``)."""
         head = self.head
         t = float(head.time_ms)
         self._show(t, plan, references=True)
@@ -444,7 +449,7 @@ class TrialRunner:
         self._show(t, plan, references=False)
         unlit = head.render()
         self._show(t, plan)
-        zs, act = [], []
+        zs, act, landmarks = [], [], []
         areas = self.retina_grid.cell_areas()[:, None]
         for a, b in ((lit.left, unlit.left), (lit.right, unlit.right)):
             diff = np.clip(a.image.astype(float) - b.image.astype(float), 0, None) / 255.0
@@ -453,7 +458,35 @@ class TrialRunner:
             per = np.where(view.mask, view.periphery.sum(axis=-1), 0.0)
             fov = np.where(view.fovea_mask, view.fovea.sum(axis=-1), 0.0)
             act.append(float((per * areas).sum() + fov.sum() * self.retina_grid.fovea_spacing**2))
-        return zs, np.array(act)
+            landmarks.append(self._landmarks(diff))
+        return zs, np.array(act), landmarks
+
+    def _landmarks(self, diff: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The connected parts of a picture of increments (H, W, 3): each one's retinal centroid (L,)
+        and activity covariance (L, 2, 2) in the image plane; parts the retina does not sample (off
+        its field) are left out."""
+        from scipy import ndimage
+
+        labels, n = ndimage.label(diff.mean(axis=-1) > 0, structure=np.ones((3, 3), bool))
+        zs, covs = [], []
+        for k in range(1, n + 1):
+            view = self.vision.see(np.where((labels == k)[..., None], diff, 0.0))
+            # all of its light (threshold 0): a picture's samples do not ring as a remapped map does, and
+            # a cut at a share of the peak would drop a long thin landmark's dim peripheral cells
+            z = self._centroid(view, self.retina_grid, threshold=0.0)
+            if np.isfinite(z.real):
+                zs.append(z)
+                covs.append(
+                    activity_covariance(
+                        view.periphery,
+                        view.fovea,
+                        self.retina_grid,
+                        mask=view.mask,
+                        fovea_mask=view.fovea_mask,
+                        threshold=0.0,
+                    )
+                )
+        return np.array(zs, complex), np.array(covs, float).reshape(-1, 2, 2)
 
     @overload
     def _centroid(
@@ -587,7 +620,7 @@ class TrialRunner:
                 eyes.append((view, self.map.sample(view.coeffs, view.fovea, z_t), z_t))
             flashes.append({"eyes": eyes, "head": head.to_head(w), "true_deg": head_angles_deg(head, w)[0]})
         seen_z, t_post = self._seen_target_retina(plan)
-        ref_z, ref_act = self._references_seen(plan)
+        ref_z, ref_act, landmarks = self._references_seen(plan)
         return Observation(
             trial=trial,
             plan=plan,
@@ -604,6 +637,7 @@ class TrialRunner:
             reference=ref,
             ref_z=ref_z,
             ref_activity=ref_act,
+            ref_landmarks=landmarks,
             ref_on_ms=float(min(cfg.reference_ms, 1000)),
             scene=scene,
         )

@@ -8,11 +8,15 @@ import math
 
 import numpy as np
 
-from ..observer import eye_estimate, motor_cov, posterior_mean, prior_precision, sensory_sd_deg, suppression_log10
+from ..observer import eye_estimate, landmark_prior, motor_cov, posterior_mean, sensory_sd_deg, suppression_log10
 from . import register
 from .base import ConstantsTheory
 
 __all__ = ["Observer"]
+
+#: Image-plane step of the finite-difference Jacobian that carries a landmark's extent to degrees
+#: (1e-4 of the focal length: ~0.006 deg).
+_JACOBIAN_STEP = 1e-4
 
 
 class Observer(ConstantsTheory):
@@ -28,19 +32,7 @@ class Observer(ConstantsTheory):
         e_cov = e_cov + motor_cov(plan, obs.t_mid, p.temporal_sd_ms, p.motor_weber)
         supp = suppression_log10(plan, obs.t_mid, p)
         axes, origins = runner._pose(e_mean)
-        lam, rho = 0.0, np.zeros(2)
-        if obs.ref_z is not None:
-            r_mean, _ = eye_estimate(plan, float(obs.t_post), p.temporal_sd_ms)
-            r_axes, r_origins = runner._pose(r_mean)
-            seen = [
-                runner._ray_to_screen_deg(r_origins[e], r_axes[e], z)
-                for e, z in enumerate(obs.ref_z)
-                if np.isfinite(z.real)
-            ]
-            if seen:
-                rho = np.mean(seen, axis=0)
-                act = float(np.mean([a for a, z in zip(obs.ref_activity, obs.ref_z) if np.isfinite(z.real)]))
-                lam = prior_precision(act, obs.ref_on_ms, p)
+        rho, lam = self.prior(runner, plan, obs, p)
         (ta, to) = true_pose
         meas, cf, var = [], [], []  # (flash, eye, axis)
         maps = [runner.plain_maps(f, cfg.threshold) for f in obs.flashes]
@@ -63,16 +55,42 @@ class Observer(ConstantsTheory):
             ok = np.isfinite(meas[:, e, 0])
             for ax in range(2):
                 if ok.any():
-                    post[ok, e, ax] = posterior_mean(meas[ok, e, ax], var[ok, e], e_cov[ax, ax], rho[ax], lam)
+                    post[ok, e, ax] = posterior_mean(meas[ok, e, ax], var[ok, e], e_cov[ax, ax], rho[ax], lam[ax])
                 post_cf[:, e, ax] = posterior_mean(
-                    cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg**2), e_cov[ax, ax], rho[ax], lam
+                    cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg**2), e_cov[ax, ax], rho[ax], lam[ax]
                 )
         # the flash's (map 0's) sensory variance, mean over the eyes that saw it; none when neither did (the
         # row's perceived position is then NaN too: the flash was not seen)
         v0 = float(np.nanmean(var[0])) if not np.isnan(var[0]).all() else math.nan
-        weight_x = lam / (lam + 1.0 / (v0 + e_cov[0, 0])) if lam > 0 else 0.0
+        weight_x = lam[0] / (lam[0] + 1.0 / (v0 + e_cov[0, 0])) if lam[0] > 0 else 0.0
         reads = [([post[k, 0], post[k, 1]], [post_cf[k, 0], post_cf[k, 1]], maps[k]) for k in range(len(maps))]
         return reads, float(weight_x), 0.0
+
+    @staticmethod
+    def prior(runner, plan, obs, p) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. (2) from each eye's landmarks, seen after the saccade at ``obs.t_post`` through the eye
+        estimate then: each landmark's screen position and extent (its image-plane covariance carried
+        to degrees by the local Jacobian of the eye's ray-to-screen map); the eyes' centres and
+        precisions averaged over the eyes that saw any. ``rho``, ``lam`` (2,) each."""
+        per_eye = []
+        if obs.ref_landmarks is not None:
+            r_mean, _ = eye_estimate(plan, float(obs.t_post), p.temporal_sd_ms)
+            r_axes, r_origins = runner._pose(r_mean)
+            for e, (zs, covs) in enumerate(obs.ref_landmarks):
+                if len(zs) == 0:
+                    continue
+                o, ax = r_origins[e], r_axes[e]
+                xs, s2 = [], []
+                for z, cov in zip(zs, covs):
+                    x = runner._ray_to_screen_deg(o, ax, z)
+                    h = _JACOBIAN_STEP
+                    jac = np.column_stack([(runner._ray_to_screen_deg(o, ax, z + d) - x) / h for d in (h, 1j * h)])
+                    xs.append(x)
+                    s2.append(np.diag(jac @ cov @ jac.T))
+                per_eye.append(landmark_prior(np.array(xs), np.array(s2), obs.ref_on_ms, p))
+        if not per_eye:
+            return np.zeros(2), np.zeros(2)
+        return np.mean([r for r, _ in per_eye], axis=0), np.mean([lam for _, lam in per_eye], axis=0)
 
     def look(self, runner, plan, t_ms: float, zs: list, cfg) -> tuple[np.ndarray, float]:
         """The head-centred estimate (deg) of the target seen at ``t_ms`` at the retinal points ``zs``
