@@ -277,8 +277,12 @@ def test_batch_equals_worlds_one_at_a_time(case, scene):
 
 
 def test_no_cross_talk_and_chunks(case, scene):
-    """Other worlds' pictures and rotations leave a world's results bit for bit unchanged (same batch
-    shape); so do chunks of any size (here one world's eyes at a time)."""
+    """Other worlds' pictures and rotations leave a world's results unchanged (same batch shape): its
+    samples, coefficients and validity bit for bit, its predictions within the float32 error bound of
+    their series (torch's matrix product may block its sums differently with another thread count, as
+    a test before it in the process may set: seen once in CI, bit-unequal); so do chunks of any size
+    (here one world's eyes at a time). Cross-talk would move world 0's values by the other worlds'
+    inverted pictures: far beyond the bound."""
     tv, dev = case.tv, case.device
     images = torch.as_tensor(scene.images, device=dev).clone()
     rotations = torch.as_tensor(scene.rotations, device=dev).clone()
@@ -287,12 +291,13 @@ def test_no_cross_talk_and_chunks(case, scene):
     frame = tv.see(images)
     values, valid = tv.predict(frame, rotations, REMAP_MODELS)
     assert torch.equal(frame.samples[0], case.frame.samples[0]) and torch.equal(frame.coeffs[0], case.frame.coeffs[0])
-    assert torch.equal(values[0], case.values[0]) and torch.equal(valid[0], case.valid[0])
+    tol = max(_series_tolerance(case.vis, r.frame.coeffs) for r in case.cpu)
+    assert torch.equal(valid[0], case.valid[0])
+    torch.testing.assert_close(values[0], case.values[0], rtol=0, atol=tol)
     chunked = TorchVision(case.vis, dev, chunk_bytes=1 << 16)
     v2, m2 = chunked.predict(case.frame, torch.as_tensor(scene.rotations, device=dev), REMAP_MODELS)
     assert torch.equal(m2, case.valid)
-    torch.testing.assert_close(v2, case.values, rtol=0,
-                               atol=max(_series_tolerance(case.vis, r.frame.coeffs) for r in case.cpu))
+    torch.testing.assert_close(v2, case.values, rtol=0, atol=tol)
 
 
 def test_128px_against_cpu():
