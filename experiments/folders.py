@@ -26,6 +26,7 @@ import sys
 import tempfile
 import threading
 import time
+import types
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -326,41 +327,41 @@ def interruptible() -> Iterator[None]:
         return
     sigs = (signal.SIGINT, signal.SIGTERM)
     main = threading.get_ident()
-    pending: list[int] = []
-    lock, state = threading.Lock(), {"active": True, "sent": 0}
+    # pending: the deferred signal (None: none); sent: re-sends made; active: False once the block ends
+    lock, state = threading.Lock(), types.SimpleNamespace(active=True, sent=0, pending=None)
 
     def resend(signum: int) -> None:  # a timer thread: never after the block has ended
         with lock:
-            if state["active"]:
-                state["sent"] += 1
+            if state.active:
+                state.sent += 1
                 signal.pthread_kill(main, signum)
 
     def handler(signum, frame):
-        if not state["active"]:  # a re-sent signal that arrived while the block ends: already acted on
+        if not state.active:  # a re-sent signal that arrived while the block ends: already acted on
             return
         if swallowing_context(frame):
-            if not pending:
-                pending.append(signum)
-            t = threading.Timer(_REDELIVER_S, resend, (pending[0],))
+            if state.pending is None:
+                state.pending = signum
+            t = threading.Timer(_REDELIVER_S, resend, (state.pending,))
             t.daemon = True
             t.start()
             return
         for s in sigs:
             signal.signal(s, signal.SIG_IGN)
-        pending.clear()
+        state.pending = None
         raise Interrupted(signum)
 
     old = {s: signal.signal(s, handler) for s in sigs}
     try:
         yield
-        if pending:  # sent again, but the block ended first
+        if state.pending is not None:  # sent again, but the block ended first
             for s in sigs:
                 signal.signal(s, signal.SIG_IGN)
-            raise Interrupted(pending[0])
+            raise Interrupted(state.pending)
     finally:
         with lock:
-            state["active"] = False
-            sent = state["sent"]
+            state.active = False
+            sent = state.sent
         if sent:  # a signal re-sent before now is delivered on this sleep's return, to this block's handler
             time.sleep(0.002)
         for s, h in old.items():
