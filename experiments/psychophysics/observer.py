@@ -7,7 +7,9 @@ perceived head-centred position of a flash is the posterior mean of its position
 1. the retinal evidence ``r`` with sensory s.d. (eq. 0)
    ``sigma_r = (floor_deg + weber * eccentricity) * 10^(acuity_contrast_exponent * S(t))``, ``S(t)``
    the log10 loss of saccadic suppression (White, Levi & Aitsebaomo 1992; Diamond, Ross & Morrone
-   2000; Bradley & Skottun 1987);
+   2000; Bradley & Skottun 1987); of that s.d., the part each of k simultaneous flashes has on its
+   own (what their separation sees) grows only as ``10^(separation_contrast_exponent * S(t))``, the
+   rest is shared by them (eq. 0b; Westheimer, Brincat & Wehrhahn 1999);
 2. an eye-position signal (eqs. 1, 1b) from the efference copy ``c`` at an uncertain flash time
    ``t' ~ N(t, temporal_sd_ms^2)``: ``e_hat = E[c(t')]``, ``Sigma_e = Cov[c(t')]`` (Gauss-Hermite),
    plus the eye's motor scatter ``motor_weber^2 E[|c(t') - c_0|^2] I`` (Kowler & Blaser 1995);
@@ -20,7 +22,8 @@ perceived head-centred position of a flash is the posterior mean of its position
    (Bloch's law). A seen marker is as much a landmark as the target; a landmark's contrast does not
    grade it once the eye sees it;
 and for k simultaneous flashes, per axis (eq. 3): ``h = (Lambda + C^-1)^-1 (Lambda rho 1 + C^-1 m)``,
-   ``C = diag(sigma_r^2) + sigma_e^2 1 1^T``, ``Lambda = lambda I``.
+   ``C = diag(sigma_i^2) + s s^T + sigma_e^2 1 1^T``, ``Lambda = lambda I``, ``sigma_i`` each flash's own
+   s.d. and ``s_k^2 = sigma_r,k^2 - sigma_i,k^2`` the suppression's shared part (eq. 0b).
 
 One eye-position signal for every condition and no branch on condition, paradigm or blank:
 references, blanks and markers act only through what the eyes see and when. The equations in full,
@@ -63,9 +66,18 @@ class ObserverParams:
     suppression_lead_ms: float = 50.0
     suppression_lag_ms: float = 50.0
     acuity_contrast_exponent: float = 0.8
+    separation_contrast_exponent: float = 0.2
 
     def __post_init__(self) -> None:
-        check_constants(self, may_be_zero=("floor_deg", "motor_weber", "suppression_log10"))
+        check_constants(
+            self, may_be_zero=("floor_deg", "motor_weber", "suppression_log10", "separation_contrast_exponent")
+        )
+        if self.separation_contrast_exponent > self.acuity_contrast_exponent:
+            raise ValueError(
+                "ObserverParams.separation_contrast_exponent must be <= acuity_contrast_exponent (a flash's own "
+                f"share of its positional noise cannot exceed the whole); got {self.separation_contrast_exponent} "
+                f"> {self.acuity_contrast_exponent}"
+            )
 
 
 #: name -> (role, source): ``calibrated`` constants were set from the named published number (which
@@ -117,6 +129,13 @@ OBSERVER_SOURCES = {
         "vernier thresholds scale as contrast^-0.8 (Bradley & Skottun 1987, "
         "abstract): the positional cost of the lost sensitivity",
     ),
+    "separation_contrast_exponent": (
+        "assumed",
+        "separation discrimination thresholds rise only ~2-fold as contrast falls from near 1 to 0.03 "
+        "(vernier and orientation: 5-6-fold; Westheimer, Brincat & Wehrhahn 1999, Vision Res 39:1631, "
+        "abstract): log10(2) / log10(1 / 0.03) = 0.20, the exponent of each flash's own share of its "
+        "noise, eq. (0b)",
+    ),
 }
 
 # Gauss-Hermite nodes for E[f(t')], t' ~ N(t, s^2): t' = t + sqrt(2) s x_k, weights w_k / sqrt(pi)
@@ -160,10 +179,17 @@ def suppression_log10(plan, t_ms: float, p: ObserverParams) -> float:
     return p.suppression_log10 * min(max(frac, 0.0), 1.0)
 
 
-def sensory_sd_deg(eccentricity_deg: float | np.ndarray, p: ObserverParams, suppression: float = 0.0) -> np.ndarray:
+def sensory_sd_deg(
+    eccentricity_deg: float | np.ndarray, p: ObserverParams, suppression: float = 0.0, *, own: bool = False
+) -> np.ndarray:
     """Eq. (0): the retinal evidence's s.d. (deg) at an eccentricity (deg), at a log10 sensitivity
-    loss ``suppression`` (``suppression_log10``; 0: fixation)."""
-    gain = 10.0 ** (p.acuity_contrast_exponent * float(suppression))
+    loss ``suppression`` (``suppression_log10``; 0: fixation). ``own``: eq. (0b), the part of it a
+    flash has on its own, apart from the flashes shown with it -- the precision of their separation,
+    which suppression degrades only as ``10^(separation_contrast_exponent S)`` (Westheimer, Brincat &
+    Wehrhahn 1999); the rest of the variance, ``sigma_r^2 - sigma_i^2``, is shared by them. Equal in
+    fixation."""
+    exponent = p.separation_contrast_exponent if own else p.acuity_contrast_exponent
+    gain = 10.0 ** (exponent * float(suppression))
     return (p.floor_deg + p.weber * np.abs(np.asarray(eccentricity_deg, float))) * gain
 
 
@@ -184,12 +210,23 @@ def landmark_prior(
     return (lam_i * x).sum(axis=0) / lam, lam
 
 
-def posterior_mean(m: np.ndarray, sensory_var: np.ndarray, eye_var: float, rho: float, lam: float) -> np.ndarray:
+def posterior_mean(
+    m: np.ndarray,
+    sensory_var: np.ndarray,
+    eye_var: float,
+    rho: float,
+    lam: float,
+    shared_var: np.ndarray | None = None,
+) -> np.ndarray:
     """Eq. (3) on one axis: the posterior mean positions of k flashes measured at ``m`` (k,) with
-    independent sensory variances (k,), a shared eye-position variance and the prior N(rho, 1/lam)
-    on each (``lam`` = 0: flat)."""
+    sensory variances (k,), of which ``shared_var`` (k,; default none) is the suppression's part
+    common to the flashes (eq. 0b: perfectly correlated between them), a shared eye-position
+    variance and the prior N(rho, 1/lam) on each (``lam`` = 0: flat). One flash: the same for any
+    ``shared_var``."""
     m = np.asarray(m, float)
-    C = np.diag(np.asarray(sensory_var, float)) + float(eye_var) * np.ones((m.size, m.size))
+    v = np.asarray(sensory_var, float)
+    s = np.zeros_like(v) if shared_var is None else np.sqrt(np.clip(np.asarray(shared_var, float), 0.0, v))
+    C = np.diag(v - s * s) + np.outer(s, s) + float(eye_var) * np.ones((m.size, m.size))
     P = np.linalg.inv(C)
     A = lam * np.eye(m.size) + P
     b = P @ m + (lam * rho if lam > 0 else 0.0)

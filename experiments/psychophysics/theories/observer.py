@@ -34,10 +34,10 @@ class Observer(ConstantsTheory):
         axes, origins = runner._pose(e_mean)
         rho, lam = self.prior(runner, plan, obs, p)
         (ta, to) = true_pose
-        meas, cf, var = [], [], []  # (flash, eye, axis)
+        meas, cf, var, own = [], [], [], []  # (flash, eye, axis); var and own (flash, eye)
         maps = [runner.plain_maps(f, cfg.threshold) for f in obs.flashes]
         for f, f_maps in zip(obs.flashes, maps):
-            m_e, c_e, v_e = [], [], []
+            m_e, c_e, v_e, o_e = [], [], [], []
             for e, (_, _, _, z_t, z_rel) in enumerate(f_maps):
                 z = z_t + z_rel
                 xf = ta[e].T @ (f["head"] - to[e])
@@ -48,16 +48,25 @@ class Observer(ConstantsTheory):
                 c_e.append(runner._ray_to_screen_deg(origins[e], axes[e], z_true))
                 ecc = math.degrees(math.atan(abs(z))) if np.isfinite(z.real) else np.nan
                 v_e.append(float(sensory_sd_deg(ecc, p, supp)) ** 2)
-            meas.append(m_e), cf.append(c_e), var.append(v_e)
+                o_e.append(float(sensory_sd_deg(ecc, p, supp, own=True)) ** 2)
+            meas.append(m_e), cf.append(c_e), var.append(v_e), own.append(o_e)
         meas, cf, var = np.array(meas), np.array(cf), np.array(var)
+        shared = var - np.array(own)  # eq. (0b): the suppression's part of each variance, common to the flashes
         post, post_cf = np.full_like(meas, np.nan), np.full_like(cf, np.nan)
         for e in range(2):
             ok = np.isfinite(meas[:, e, 0])
             for ax in range(2):
                 if ok.any():
-                    post[ok, e, ax] = posterior_mean(meas[ok, e, ax], var[ok, e], e_cov[ax, ax], rho[ax], lam[ax])
+                    post[ok, e, ax] = posterior_mean(
+                        meas[ok, e, ax], var[ok, e], e_cov[ax, ax], rho[ax], lam[ax], shared[ok, e]
+                    )
                 post_cf[:, e, ax] = posterior_mean(
-                    cf[:, e, ax], np.where(ok, var[:, e], p.floor_deg**2), e_cov[ax, ax], rho[ax], lam[ax]
+                    cf[:, e, ax],
+                    np.where(ok, var[:, e], p.floor_deg**2),
+                    e_cov[ax, ax],
+                    rho[ax],
+                    lam[ax],
+                    np.where(ok, shared[:, e], 0.0),
                 )
         # the flash's (map 0's) sensory variance, mean over the eyes that saw it; none when neither did (the
         # row's perceived position is then NaN too: the flash was not seen)
