@@ -13,6 +13,7 @@ from .options import (
     add_no_progress_option,
     add_workers_option,
     check_backend_options,
+    digits_in,
     prepare_out,
 )
 from .parsing import guarded, out_dir
@@ -90,6 +91,18 @@ def add_common_options(p: argparse.ArgumentParser) -> None:
     add_max_evals_option(p, 300)
     add_no_progress_option(p, "no progress bars")
     add_forward_model_options(p, "the data's sidecar, else run's defaults")
+    from ..modelfit.forward import MAX_MOTOR_DRAWS
+
+    p.add_argument(
+        "--motor-draws",
+        type=digits_in(0, MAX_MOTOR_DRAWS),
+        default=0,
+        metavar="K",
+        help=f"with motor noise (--endpoint-noise > 0): observe each trial with K landing errors of its own "
+        f"(2-{MAX_MOTOR_DRAWS}) and fit their mean, their variance added to the report noise's -- the motor "
+        "noise marginalised, as a person's data need; 0 (default): replay each row's seed (a simulation's "
+        "own landing errors)",
+    )
 
 
 def prepare(args):
@@ -105,7 +118,7 @@ def prepare(args):
     except DataFormatError as e:
         parser.error(f"argument --data: {e}")
     try:
-        forward = forward_model(data, observing(args))
+        forward = forward_model(data, observing(args), motor_draws=args.motor_draws)
     except ForwardModelError as e:
         parser.error(f"argument --data: {e}")
     prepare_out(args)

@@ -101,27 +101,33 @@ def prepare(
     progress: bool = False,
 ):
     """The unique trials behind the data rows, observed once per condition under the forward model
-    ``fwd`` (default: ``forward_model(data)``): (runners, observations, row_trial)."""
+    ``fwd`` (default: ``forward_model(data)``): (runners, observations, row_trial). ``row_trial`` is
+    (R,): each row's trial; or (R, K) with ``fwd.motor_draws`` K: the row's design cell under each of
+    its K landing errors (``forward.draw_seed``)."""
     from dataclasses import replace
 
     from ..psychophysics import Trial, TrialRunner
+    from .forward import draw_seed
 
     fwd = fwd or forward_model(data)
     noisy = fwd.config.endpoint_noise > 0  # only then do trials differ by seed
+    draws = fwd.motor_draws
     runners, observations = {}, {}
-    row_trial = np.zeros(len(data), int)
+    row_trial = np.zeros((len(data), draws) if draws else len(data), int)
     for cond in sorted(set(data.condition)):
         rows = np.flatnonzero(data.condition == cond)
         keys: dict = {}
         for r in rows:
-            k = (
+            cell = (
                 float(data.amplitude_deg[r]),
                 int(data.flash_time_ms[r]),
                 round(float(fwd.offset_deg[r, 0]), 6),
                 round(float(fwd.offset_deg[r, 1]), 6),
-                int(fwd.seed[r]) if noisy else 0,
             )
-            row_trial[r] = keys.setdefault(k, len(keys))
+            if draws:
+                row_trial[r] = [keys.setdefault((*cell, draw_seed(*cell, k)), len(keys)) for k in range(draws)]
+            else:
+                row_trial[r] = keys.setdefault((*cell, int(fwd.seed[r]) if noisy else 0), len(keys))
         trials = [
             Trial(
                 trial_id=i,

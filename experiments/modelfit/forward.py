@@ -11,6 +11,13 @@ parameters may differ. Where that configuration comes from, in order:
 2. else the defaults of ``TrialConfig`` (those of ``run``: 256 px, 90 deg);
 3. then the command line's options (``--image-size`` ...), which override either, with a note.
 
+With motor noise (``endpoint_noise`` > 0) a row's trial is replayed with the row's ``seed`` -- the
+very landing error that made it, which only a simulation knows -- or, with ``motor_draws`` K >= 2
+(``--motor-draws``), observed K times with K landing errors of its own (seeds from the design cell:
+``draw_seed``): the prediction is then the mean of the K read-outs and the likelihood adds their
+variance to the report noise's (``likelihood.Evaluator``), the motor noise marginalised as real data
+need (a person's landing errors are unknown).
+
 Per row, the data may also carry ``seed`` (used when endpoint noise makes trials differ by seed),
 ``flash_dx_deg``/``flash_dy_deg`` (the flash's offset from the target as designed; otherwise it is
 ``true - target``) and ``paradigm``; data of the ``separation`` or ``displacement`` paradigm are
@@ -31,11 +38,31 @@ import numpy as np
 if TYPE_CHECKING:
     from ..psychophysics import TrialConfig
 
-__all__ = ["ForwardModel", "forward_model", "config_from_fingerprint", "ForwardModelError", "OBSERVING_OPTIONS"]
+__all__ = [
+    "ForwardModel",
+    "forward_model",
+    "config_from_fingerprint",
+    "draw_seed",
+    "ForwardModelError",
+    "OBSERVING_OPTIONS",
+    "MAX_MOTOR_DRAWS",
+]
 
 #: Options of ``fit``/``compare`` that set the observing configuration (``TrialConfig`` fields).
 OBSERVING_OPTIONS = ("image_size", "fovy_deg", "fovea_deg", "saccade_model", "endpoint_noise", "generator")
 _ROW_COLUMNS = ("seed", "flash_dx_deg", "flash_dy_deg", "paradigm", "config_hash")
+#: The most landing errors a trial is observed with (``motor_draws``): each is a rendered trial.
+MAX_MOTOR_DRAWS = 64
+
+
+def draw_seed(amplitude_deg: float, flash_time_ms: int, dx_deg: float, dy_deg: float, k: int) -> int:
+    """The trial seed of landing error ``k`` of a design cell (``motor_draws``): a CRC-32 of the cell and
+    ``k`` -- the same cell gets the same K draws in every data set (the observations cache is shared),
+    and different cells independent ones."""
+    import zlib
+
+    text = f"{float(amplitude_deg)!r},{int(flash_time_ms)},{round(float(dx_deg), 6)!r},{round(float(dy_deg), 6)!r},{k}"
+    return zlib.crc32(text.encode()) & 0x7FFFFFFF
 
 
 class ForwardModelError(ValueError):
@@ -46,12 +73,15 @@ class ForwardModelError(ValueError):
 @dataclasses.dataclass(frozen=True)
 class ForwardModel:
     """What the fit re-runs: ``config`` (a ``TrialConfig``; its condition is set per row) and per
-    row its designed flash offset ``offset_deg`` (R, 2) and trial ``seed`` (R,)."""
+    row its designed flash offset ``offset_deg`` (R, 2) and trial ``seed`` (R,); ``motor_draws``: 0,
+    each row's trial replayed with its seed, or K >= 2 landing errors per trial, marginalised (the
+    module docstring)."""
 
     config: TrialConfig
     offset_deg: np.ndarray
     seed: np.ndarray
     source: str
+    motor_draws: int = 0
 
     def fingerprint(self) -> dict:
         from ..psychophysics import Design, config_fingerprint
@@ -59,7 +89,10 @@ class ForwardModel:
         cfg = config_fingerprint(
             Design(amplitudes_deg=(1.0,), flash_offsets_deg=((0.0, 0.0),), flash_times_ms=(0,)), self.config
         )["config"]
-        return {k: v for k, v in cfg.items() if k != "condition"}
+        out = {k: v for k, v in cfg.items() if k != "condition"}
+        if self.motor_draws:  # (absent at 0: the fits and their keys from before the option stay valid)
+            out["motor_draws"] = int(self.motor_draws)
+        return out
 
 
 def config_from_fingerprint(cfg: dict):
@@ -138,11 +171,26 @@ def _sidecar(path: Path, cols: dict) -> tuple[dict | None, str]:
     return meta["config"], str(meta_path)
 
 
-def forward_model(data, overrides: dict | None = None, *, note: bool = True) -> ForwardModel:
+def forward_model(
+    data, overrides: dict | None = None, *, note: bool = True, motor_draws: int | None = None
+) -> ForwardModel:
     """The forward model of ``data`` (a ``LocalizationData`` read from ``data.source``) with the
     command line's ``overrides`` (``OBSERVING_OPTIONS`` -> value; ``None`` = not given). ``note``: say
-    on stderr which overrides change the data's sidecar (off where the caller sets them by design)."""
+    on stderr which overrides change the data's sidecar (off where the caller sets them by design).
+    ``motor_draws``: 0/None (replay the rows' seeds) or 2..``MAX_MOTOR_DRAWS`` landing errors per trial
+    (needs ``endpoint_noise`` > 0)."""
     from ..psychophysics import TrialConfig
+
+    draws = 0 if motor_draws is None else motor_draws
+    if (
+        isinstance(draws, bool)
+        or not isinstance(draws, (int, np.integer))
+        or not (draws == 0 or 2 <= draws <= MAX_MOTOR_DRAWS)
+    ):
+        raise ForwardModelError(
+            f"motor_draws must be 0 (replay each row's seed) or a whole number from 2 to {MAX_MOTOR_DRAWS} "
+            f"(landing errors per trial: one gives no variance); got {motor_draws!r}"
+        )
 
     path = Path(data.source) if data.source else None
     cols = _row_columns(path, len(data)) if path is not None and path.is_file() else {}
@@ -189,6 +237,12 @@ def forward_model(data, overrides: dict | None = None, *, note: bool = True) -> 
                 "by more than 0.05 deg; fix the columns or remove flash_dx_deg/flash_dy_deg"
             )
         offset = designed
+    if draws and not config.endpoint_noise > 0:
+        raise ForwardModelError(
+            f"--motor-draws {draws} marginalises the saccades' motor noise, but the forward model has none "
+            f"(endpoint_noise {config.endpoint_noise:g}, from {source or 'the TrialConfig defaults'}): give "
+            "--endpoint-noise (e.g. 0.05, Kowler & Blaser 1995) or leave --motor-draws out"
+        )
     seed = np.zeros(len(data), np.int64)
     if "seed" in cols:
         try:
@@ -202,10 +256,12 @@ def forward_model(data, overrides: dict | None = None, *, note: bool = True) -> 
                 f"{', '.join(str(i + 2) for i in np.flatnonzero(~ok)[:5])}"
             )
         seed = s.astype(np.int64)
-    elif config.endpoint_noise > 0:
+    elif config.endpoint_noise > 0 and not draws:
         print(
             f"note: endpoint noise {config.endpoint_noise:g} but {data.source} has no seed column: every trial "
-            "is observed with seed 0",
+            "is observed with seed 0 (one landing error); --motor-draws K marginalises over K of them",
             file=sys.stderr,
         )
-    return ForwardModel(config=config, offset_deg=offset, seed=seed, source=source or "TrialConfig defaults")
+    return ForwardModel(
+        config=config, offset_deg=offset, seed=seed, source=source or "TrialConfig defaults", motor_draws=int(draws)
+    )

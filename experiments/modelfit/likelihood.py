@@ -118,20 +118,37 @@ NESTED = {"mechanistic/no_command_remap": ("mechanistic", 1, True)}
 
 class Evaluator:
     """Log-likelihood of ``data`` under a model for parameter values, reading the cached
-    observations (``observations[condition][k]`` for unique trial ``k``) with ``runner.readout``."""
+    observations (``observations[condition][k]`` for unique trial ``k``) with ``runner.readout``.
+
+    ``row_trial`` (R,): each row's trial. Or (R, K): the row's design cell under K landing errors
+    (``ForwardModel.motor_draws``): the row's prediction is the mean of the K read-outs (NaN unless
+    at least two saw the flash) and their variance ``v`` (ddof 1) is the motor noise's share of
+    a report's: a row of n reports has variance ``(noise^2 + v) / n``, and its reports' sample
+    variance ``s^2`` gives ``(n - 1) s^2 / (noise^2 + v) ~ chi2(n - 1)``."""
 
     def __init__(self, model: FitModel, data, runners: dict, observations: dict, row_trial: np.ndarray):
         self.model, self.data, self.runners, self.observations = model, data, runners, observations
-        self.row_trial = row_trial  # (R,) index into the unique trials of each row's condition
+        self.row_trial = row_trial  # (R,) or (R, K): index into the unique trials of each row's condition
         self.evaluations = 0
         self._memo: dict = {}
 
     def predict(self, values: dict) -> np.ndarray:
         """Perceived positions (R, 2) of every data row for parameter ``values``."""
+        return self.predict_with_variance(values)[0]
+
+    def motor_variance(self, values: dict) -> np.ndarray:
+        """The motor noise's variance (R, 2) of each row's read-out: 0 without draws (``row_trial`` 1-D)."""
+        if np.ndim(self.row_trial) == 1:
+            return np.zeros((len(self.data), 2))
+        return self.predict_with_variance(values)[1]
+
+    def predict_with_variance(self, values: dict) -> tuple[np.ndarray, np.ndarray]:
+        """``predict`` and the motor noise's variance (R, 2) of each row's read-out (0 without draws)."""
         key = tuple(round(values[p.name], 12) for p in self.model.parameters if not p.name.startswith("noise"))
         if key in self._memo:
             return self._memo[key]
         pred = np.empty((len(self.data), 2))
+        var = np.zeros((len(self.data), 2))
         for cond, obs_list in self.observations.items():
             runner = self.runners[cond]
             cfg = self.model.trial_config(runner.config, values)
@@ -139,17 +156,48 @@ class Evaluator:
                 [[r["perceived_x_deg"], r["perceived_y_deg"]] for r in (runner.readout(o, cfg) for o in obs_list)]
             )
             rows = self.data.condition == cond
-            pred[rows] = per_trial[self.row_trial[rows]]
+            got = per_trial[self.row_trial[rows]]  # (r, 2) or (r, K, 2)
+            if got.ndim == 2:
+                pred[rows] = got
+                continue
+            seen = np.isfinite(got).sum(axis=1)  # (r, 2)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                mean = np.nansum(got, axis=1) / seen
+                dev = np.where(np.isfinite(got), got - mean[:, None], 0.0)
+                v = np.sum(dev**2, axis=1) / (seen - 1)
+            enough = seen >= 2
+            pred[rows] = np.where(enough, mean, np.nan)
+            var[rows] = np.where(enough, v, 0.0)
         self.evaluations += 1
         if len(self._memo) > 64:
             self._memo.clear()
-        self._memo[key] = pred
-        return pred
+        self._memo[key] = (pred, var)
+        return pred, var
+
+    def _axis_log_likelihood(self, sd: float, axis: int, resid: np.ndarray, motor_var: np.ndarray) -> float:
+        """One axis' log-likelihood at report-noise s.d. ``sd``, given the rows' residuals and motor variances."""
+        d = self.data
+        m = d.measured[:, axis]
+        n = d.n.astype(float)
+        total = sd**2 + motor_var[:, axis]
+        var = total / n
+        r = np.where(m, resid[:, axis], 0.0)
+        ll = float(np.sum(np.where(m, -0.5 * (np.log(2 * np.pi * var) + r**2 / var), 0.0)))
+        has_sd = np.isfinite(d.sd_deg[:, axis]) & (n >= 2) & m
+        if has_sd.any():  # (n-1) s^2 / total ~ chi2(n-1), as a density of s^2
+            from scipy.stats import chi2
+
+            k = np.where(has_sd, n - 1, 2.0)
+            scale = total / k
+            s2 = np.where(has_sd, d.sd_deg[:, axis] ** 2, 1.0)
+            ll += float(np.sum(np.where(has_sd, chi2.logpdf(s2 / scale, k) - np.log(scale), 0.0)))
+        return ll
 
     def noise_mle(self, values: dict) -> dict:
         """The report-noise s.d. per axis that maximizes the likelihood for the other ``values``
-        (closed form: (sum n r^2 + sum (n-1) s^2) / (rows + sum (n-1)) per axis)."""
-        pred = self.predict(values)
+        (closed form without motor draws: (sum n r^2 + sum (n-1) s^2) / (rows + sum (n-1)) per axis;
+        with them a bounded 1-D maximization per axis)."""
+        pred, motor_var = self.predict(values), self.motor_variance(values)
         d = self.data
         n = d.n[:, None].astype(float)
         m = d.measured
@@ -163,18 +211,37 @@ class Evaluator:
             s = np.sqrt(num / den)
         lo, hi = NOISE[0].lo, NOISE[0].hi
         s = np.clip(np.where(np.isfinite(s), s, hi), lo, hi)
+        if np.any(motor_var > 0) and np.all(np.isfinite(pred[m])):
+            from scipy.optimize import minimize_scalar
+
+            for ax in range(2):
+                if den[ax] > 0 and np.any(motor_var[m[:, ax], ax] > 0):
+                    res = minimize_scalar(
+                        lambda sd, ax=ax: -self._axis_log_likelihood(sd, ax, resid, motor_var),
+                        bounds=(lo, hi),
+                        method="bounded",
+                        options={"xatol": 1e-7},
+                    )
+                    s[ax] = float(res.x)
         s = np.where(den > 0, s, [p.default for p in NOISE])  # no data on an axis: not identified
         return {**values, "noise_x_deg": float(s[0]), "noise_y_deg": float(s[1])}
 
     def log_likelihood(self, values: dict) -> float:
-        pred = self.predict(values)
+        pred, motor_var = self.predict(values), self.motor_variance(values)
         d = self.data
-        sig = np.array([values["noise_x_deg"], values["noise_y_deg"]])
-        n = d.n[:, None].astype(float)
         m = d.measured
         if not np.all(np.isfinite(pred[m])):
             return -math.inf  # a flash lost by the read-out under these parameters
         resid = np.where(m, d.perceived_deg - pred, 0.0)
+        if np.any(motor_var > 0):
+            return sum(
+                self._axis_log_likelihood(values[name], ax, resid, motor_var)
+                for ax, name in enumerate(("noise_x_deg", "noise_y_deg"))
+            )
+        # no motor variance: the same sums as _axis_log_likelihood's, both axes at once (the fits made
+        # before the draws existed evaluate to the same bits)
+        sig = np.array([values["noise_x_deg"], values["noise_y_deg"]])
+        n = d.n[:, None].astype(float)
         var = sig**2 / n
         ll = float(np.sum(np.where(m, -0.5 * (np.log(2 * np.pi * var) + resid**2 / var), 0.0)))
         has_sd = np.isfinite(d.sd_deg) & (n >= 2) & m
@@ -183,7 +250,8 @@ class Evaluator:
 
             k = (n - 1) * np.ones((1, 2))
             s2 = d.sd_deg**2
-            scale = sig**2 / k
+            with np.errstate(divide="ignore"):  # rows of one report (k 0) are masked out below
+                scale = sig**2 / k
             ll += float(
                 np.sum(
                     np.where(
