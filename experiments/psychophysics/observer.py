@@ -6,24 +6,18 @@ perceived head-centred position of a flash is the posterior mean of its position
 
 1. the retinal evidence ``r`` with sensory s.d. (eq. 0)
    ``sigma_r = (floor_deg + weber * eccentricity) * 10^(acuity_contrast_exponent * S(t))``, ``S(t)``
-   the log10 loss of saccadic suppression (White, Levi & Aitsebaomo 1992; Diamond, Ross & Morrone
-   2000; Bradley & Skottun 1987); of that s.d., the part each of k simultaneous flashes has on its
-   own (what their separation sees) grows only as ``10^(separation_contrast_exponent * S(t))``, the
-   rest is shared by them (eq. 0b; Westheimer, Brincat & Wehrhahn 1999);
+   the log10 loss of saccadic suppression; of it, each of k simultaneous flashes has on its own only
+   ``sigma_i`` (eq. 0b, exponent ``separation_contrast_exponent``), the rest shared by them;
 2. an eye-position signal (eqs. 1, 1b) from the efference copy ``c`` at an uncertain flash time
    ``t' ~ N(t, temporal_sd_ms^2)``: ``e_hat = E[c(t')]``, ``Sigma_e = Cov[c(t')]`` (Gauss-Hermite),
-   plus the eye's motor scatter ``motor_weber^2 E[|c(t') - c_0|^2] I`` (Kowler & Blaser 1995);
+   plus the eye's motor scatter ``motor_weber^2 E[|c(t') - c_0|^2] I``;
 3. a prior (eq. 2) from the landmarks the post-saccadic references show (each connected part of the
-   eye's picture of them: the target dot, the ruler, a marker): each is a cue that a flash lies
-   near it, ``N(x_i, prior_sd_deg^2 + s_i^2)`` per axis, ``x_i`` its position and ``s_i^2`` its own
-   extent (the variance of its activity: a dot's is ~0, a 40 deg ruler's 133 deg^2 along it); the
-   cues combine as independent Gaussians, ``lambda = T sum_i 1 / (prior_sd_deg^2 + s_i^2)``,
-   ``rho = sum_i lambda_i x_i / lambda``, with ``T = min(on_ms, integration_ms) / integration_ms``
-   (Bloch's law). A seen marker is as much a landmark as the target; a landmark's contrast does not
-   grade it once the eye sees it;
+   eye's picture of them: the target dot, the ruler, a marker), each a cue
+   ``N(x_i, prior_sd_deg^2 + s_i^2)`` per axis (``s_i^2`` its own extent), combined as independent
+   Gaussians into ``N(rho, 1/lambda)``, weighted by Bloch's law over ``integration_ms``;
 and for k simultaneous flashes, per axis (eq. 3): ``h = (Lambda + C^-1)^-1 (Lambda rho 1 + C^-1 m)``,
-   ``C = diag(sigma_i^2) + s s^T + sigma_e^2 1 1^T``, ``Lambda = lambda I``, ``sigma_i`` each flash's own
-   s.d. and ``s_k^2 = sigma_r,k^2 - sigma_i,k^2`` the suppression's shared part (eq. 0b).
+   ``C = diag(sigma_i^2) + s s^T + sigma_e^2 1 1^T``, ``Lambda = lambda I``, ``s_k^2 = sigma_r,k^2 -
+   sigma_i,k^2``. Each constant's source: ``OBSERVER_SOURCES``.
 
 One eye-position signal for every condition and no branch on condition, paradigm or blank:
 references, blanks and markers act only through what the eyes see and when. The equations in full,
