@@ -196,7 +196,9 @@ def main(argv: list[str] | None = None) -> int:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--phenomena", type=Path, required=True, help="a `phenomena --out` folder (its observations)")
-    parser.add_argument("--timing", type=_positive_ms, nargs="+", default=[21.0, 30.0, 37.0, 40.0, 45.0])
+    parser.add_argument(
+        "--timing", type=_positive_ms, nargs="+", default=[21.0, 30.0, 37.0, 40.0, 45.0, 60.0, 80.0, 100.0]
+    )
     parser.add_argument("--out", type=Path, default=None, help="write the rows to this CSV")
     parser.add_argument(
         "--bootstrap",
