@@ -69,6 +69,28 @@ def test_score_matches_a_direct_sum():
     assert s1["rmse_deg"][0] == pytest.approx(math.sqrt(np.mean(d[:, 1] ** 2)), rel=1e-12)
 
 
+def test_score_of_two_flashes_per_trial_matches_a_direct_sum():
+    """Separation: each report row names its flash (column 8) and is scored against that flash's
+    prediction; a trial with either flash lost is left out whole."""
+    from scipy.stats import norm
+
+    rng = np.random.default_rng(4)
+    pred = rng.normal(0, 5, (5, 2, 2))
+    pred[3, 1] = np.nan  # the second flash of trial 3 lost
+    trial = np.repeat(np.arange(5), 4)
+    flash = np.tile([0, 1], 10)
+    rows = np.zeros((len(trial), 9))
+    rows[:, 6], rows[:, 8] = trial, flash
+    rows[:, 4:6] = np.nan_to_num(pred[trial, flash]) + rng.normal(0, 1.2, (len(trial), 2))
+    s = score(rows, pred, (1.0, 1.5), (0, 1), np.random.default_rng(0))
+    keep = trial != 3
+    d = rows[keep, 4:6] - pred[trial[keep], flash[keep]]
+    assert s["n"] == 16 and s["lost"] == 1
+    ll = norm.logpdf(d[:, 0], scale=1.0) + norm.logpdf(d[:, 1], scale=1.5)
+    assert s["loglik_per_report"][0] == pytest.approx(ll.mean(), rel=1e-12)
+    assert set(s["per_trial"]) == {0, 1, 2, 4} and all(c == 4 for _, c in s["per_trial"].values())
+
+
 def test_paired_difference_matches_a_direct_sum():
     """The paired difference per report over the trials both theories predict; its interval
     brackets it; a constant lead has a zero-width interval at that lead."""
@@ -99,6 +121,7 @@ def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
     n = trials x reports; nothing lost at the defaults; the figure and summary exist; the data files
     load through ``fit``'s reader; the same command again changes nothing."""
     from experiments.modelfit import read_data
+    from experiments.modelfit.forward import ForwardModelError, forward_model
 
     out, ref = reference
     rows = _rows(out)
@@ -111,12 +134,14 @@ def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
     for r in rows:
         v, lo, hi = float(r["value"]), float(r["ci_low"]), float(r["ci_high"])
         assert lo <= v <= hi, r
-        assert int(r["n"]) == 4 * 4 * 2 and int(r["lost"]) == 0, r  # 4 flashes x 4 times x 2 reports
+        # 4 flashes x 4 times x 2 reports (separation: each report gives both flashes)
+        assert int(r["n"]) == 4 * 4 * 2 * (2 if r["condition"] == "separation" else 1) and int(r["lost"]) == 0, r
         assert (v > 0) if r["metric"] == "rmse_deg" else math.isfinite(v)
-    assert {r["role"] for r in rows if r["condition"] in ("dark", "marker", "references (y)")} == {"held-out"}
+    assert {r["role"] for r in rows if r["condition"] in ("dark", "marker", "separation", "references (y)")} == {
+        "held-out"}
     # the paired comparison: best minus runner-up, as the table's own values say
     pairs = list(csv.DictReader((out / "crossval_pairs.csv").open()))
-    assert list(pairs[0]) == PAIR_COLUMNS and len(pairs) == len(theories) * 3
+    assert list(pairs[0]) == PAIR_COLUMNS and len(pairs) == len(theories) * 4
     ll = {(r["data"], r["condition"], r["theory"]): float(r["value"]) for r in rows
           if r["metric"] == "loglik_per_report" and r["role"] == "held-out"}
     for p in pairs:
@@ -128,12 +153,17 @@ def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
         assert p["separated"] == str(float(p["ci_low"]) > 0)
     assert (out / "crossval.png").stat().st_size > 5000
     text = (out / "summary.txt").read_text()
-    assert "not predicted: separation" in text and "simulated observers" in text
+    assert "not predicted: displacement" in text and "separation is predicted, not fitted" in text
+    assert "simulated observers" in text
     cfg = json.loads((out / "crossval.json").read_text())
     assert cfg["settings"]["theories"] == theories and cfg["settings"]["quick"] is True
     for gen in theories:
         for cond in ("references", "dark", "marker"):
             assert len(read_data(out / "data" / gen / f"{cond}.csv")) == 32
+        sep = read_data(out / "data" / gen / "separation.csv")  # both flashes of each report, fit refuses it
+        assert len(sep) == 64
+        with pytest.raises(ForwardModelError, match="separation paradigm"):
+            forward_model(sep)
     assert main(["crossval", "--out", str(out), *QUICK]) == 0
     assert (out / "crossval.csv").read_bytes() == ref
     assert not (out / ".lock").exists()
@@ -143,8 +173,8 @@ def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
 def test_each_theory_predicts_its_own_held_out_conditions_best(reference):
     """Ground truth by construction: data simulated by theory G (motor and report noise; no fitted
     theory reads out the observations the data came from). Fitted on the references condition, G
-    predicts the held-out dark and marker conditions with a higher log-likelihood per report than the
-    theory of another kind; fitted on x alone, the paper's curve predicts its own y errors best. At
+    predicts the held-out dark, marker and separation conditions with a higher log-likelihood per report
+    than the theory of another kind; fitted on x alone, the paper's curve predicts its own y errors best. At
     this quick scale (16 trials x 2 reports, 15 evaluations) the observer fitted on x alone is not
     identified -- its prior and timing s.d. run to their bounds (0.5 deg, 5 ms; the x-likelihood at
     its own defaults is ~10 lower than there) -- so its x -> y case is checked at full scale, in the
@@ -152,7 +182,9 @@ def test_each_theory_predicts_its_own_held_out_conditions_best(reference):
     out, _ = reference
     rows = [r for r in _rows(out) if r["role"] == "held-out" and r["metric"] == "loglik_per_report"]
     by = {(r["data"], r["condition"], r["theory"]): float(r["value"]) for r in rows}
-    cases = [(g, o, c) for g, o in (("observer", "paper"), ("paper", "observer")) for c in ("dark", "marker")]
+    cases = [
+        (g, o, c) for g, o in (("observer", "paper"), ("paper", "observer")) for c in ("dark", "marker", "separation")
+    ]
     for gen, other, cond in cases + [("paper", "observer", "references (y)")]:
         mine, theirs = by[f"simulated:{gen}", cond, gen], by[f"simulated:{gen}", cond, other]
         assert mine > theirs, (gen, cond, mine, theirs)
@@ -160,7 +192,7 @@ def test_each_theory_predicts_its_own_held_out_conditions_best(reference):
 
 def test_committed_table_ranks_each_generating_theory_first():
     """The committed full-scale run (``experiments/data/crossval.csv``: 128 px, 8 x 8 trials x 2
-    reports, 120 evaluations per fit): in each of its 12 held-out cases the theory that generated the
+    reports, 120 evaluations per fit): in each of its 16 held-out cases the theory that generated the
     data predicts them best (ground truth by construction)."""
     root = Path(__file__).resolve().parents[1]
     rows = [r for r in csv.DictReader(open(root / "experiments/data/crossval.csv"))
@@ -168,7 +200,7 @@ def test_committed_table_ranks_each_generating_theory_first():
     cases: dict = {}
     for r in rows:
         cases.setdefault((r["data"], r["condition"]), {})[r["theory"]] = float(r["value"])
-    assert len(cases) == 12
+    assert len(cases) == 16
     for (data, cond), scores in cases.items():
         assert max(scores, key=scores.get) == data.split(":", 1)[1], (data, cond, scores)
 
@@ -280,6 +312,6 @@ def test_docs_table_is_rendered_from_the_committed_csv():
     pairs = list(csv.DictReader(open(root / "experiments/data/crossval_pairs.csv")))
     assert markdown_table(rows) in (root / "docs/psychophysics/crossval.md").read_text()
     wins = winners(rows)
-    assert len(wins) == 12 and all(w["best"] == w["data"].split(":", 1)[1] for w in wins)
+    assert len(wins) == 16 and all(w["best"] == w["data"].split(":", 1)[1] for w in wins)
     assert {(p["data"], p["condition"], p["best"]) for p in pairs} == {
         (w["data"], w["condition"], w["best"]) for w in wins}

@@ -4,10 +4,11 @@ Cross-validation by condition (Wilson & Collins 2019, eLife 8:e49547, rule 9): f
 each theory is fitted by maximum likelihood (``fitting``'s optimizer and resume, report noise
 profiled) on one *fit set* and predicts *held-out* conditions with those parameters (``HELDOUT``):
 fitted on ``references``, it predicts ``dark`` and ``marker`` (Zimmermann, Morrone & Burr 2014's
-design, ``phenomena.MARKER``); fitted on the error along the saccade alone (``references (x)``,
-1-D data), it predicts the error across it (``references (y)``). The training set is scored too
-(role ``training``). Separation (two flashes per trial) and displacement (a two-alternative
-report) need likelihoods the fit does not have; ``forward_model`` refuses both.
+design, ``phenomena.MARKER``) and ``separation`` (two flashes 4 deg apart at once, each reported: the
+design's flash and one ``SEPARATION_DEG`` beside it); fitted on the error along the saccade alone
+(``references (x)``, 1-D data), it predicts the error across it (``references (y)``). The training
+set is scored too (role ``training``). Displacement (a two-alternative report) needs a likelihood
+the fit does not have; ``forward_model`` refuses it (and fitting on separation data).
 
 **Data.** No condition-level published data set is in the repository
 (``experiments/data/published/README.md``), so the data are *simulated observers*: each
@@ -55,8 +56,8 @@ __all__ = [
 THEORIES = ("observer", "population", "paper", "mechanistic")
 MOTOR_NOISE = 0.05  # saccade endpoint s.d., fraction of amplitude (van Beers 2007: ~5-10 %), as recovery
 N_BOOT = 1000
-#: Version of the folder's files: part of the configuration key.
-FORMAT = 1
+#: Version of the folder's files: part of the configuration key (2: the separation condition).
+FORMAT = 2
 
 
 def _marker() -> tuple[float, float]:
@@ -71,13 +72,18 @@ def conditions() -> dict[str, dict]:
         "references": dict(condition="references"),
         "dark": dict(condition="dark"),
         "marker": dict(condition="references", target_off_ms=0, markers=(_marker(),), ruler=False),
+        "separation": dict(condition="references", paradigm="separation"),
     }
 
 
-CONDITIONS = ("references", "dark", "marker")
+CONDITIONS = ("references", "dark", "marker", "separation")
 #: fit set -> (the condition it is fitted on, axes fitted (0 = x, 1 = y), [(held-out name, condition, axes)])
 HELDOUT: dict[str, tuple[str, tuple[int, ...], list[tuple[str, str, tuple[int, ...]]]]] = {
-    "references": ("references", (0, 1), [("dark", "dark", (0, 1)), ("marker", "marker", (0, 1))]),
+    "references": (
+        "references",
+        (0, 1),
+        [("dark", "dark", (0, 1)), ("marker", "marker", (0, 1)), ("separation", "separation", (0, 1))],
+    ),
     "references (x)": ("references", (0,), [("references (y)", "references", (1,))]),
 }
 COLUMNS = ["data", "theory", "fit_set", "condition", "role", "metric", "value", "ci_low", "ci_high", "n", "lost"]
@@ -221,9 +227,10 @@ def _observe(name: str, design, cfg: dict, out: Path, options: dict) -> tuple[_C
 
 
 def _simulate(gen: str, cond: _Condition, noisy_obs: list, noisy_runner, cfg: dict, g: int, c: int) -> np.ndarray:
-    """Rows (amplitude, time, true x, true y, perceived x, perceived y, trial index, seed) of ``gen``'s
-    reports in ``cond``: its read-out of the noisy observations plus report noise (seeded by the
-    data set and the condition, so the order of work does not matter)."""
+    """Rows (amplitude, time, true x, true y, perceived x, perceived y, trial index, seed, flash) of
+    ``gen``'s reports in ``cond``: its read-out of the noisy observations plus report noise (seeded by
+    the data set and the condition, so the order of work does not matter); ``flash`` 0, or 1 for the
+    second flash of the separation paradigm (each report of a trial gives both, each with its noise)."""
     from .fitting import FitError
     from .likelihood import FIT_MODELS
 
@@ -231,45 +238,54 @@ def _simulate(gen: str, cond: _Condition, noisy_obs: list, noisy_runner, cfg: di
     values = {p.name: p.default for p in m.parameters}
     rcfg = m.trial_config(noisy_runner.config, values)
     rng = np.random.default_rng([cfg["seed"], g, c])
+    prefixes = ("", "second_") if cond.config.paradigm == "separation" else ("",)
     rows = []
     for k, (t, o) in enumerate(zip(cond.trials, noisy_obs)):
         r = noisy_runner.readout(o, rcfg)
-        if not (math.isfinite(r["perceived_x_deg"]) and math.isfinite(r["perceived_y_deg"])):
-            raise FitError(
-                f"{gen} loses the flash of trial {t.trial_id} ({cond.name}: offset ({t.flash_dx_deg:g}, "
-                f"{t.flash_dy_deg:g}) deg, {t.flash_time_ms} ms): no report can be simulated"
-            )
-        for _ in range(cfg["reports"]):
-            rows.append(
-                (
-                    r["saccade_amplitude_deg"],
-                    r["flash_time_ms"],
-                    r["true_x_deg"],
-                    r["true_y_deg"],
-                    r["perceived_x_deg"] + rng.normal(0, cfg["noise_deg"]),
-                    r["perceived_y_deg"] + rng.normal(0, cfg["noise_deg"]),
-                    k,
-                    t.seed,
+        for f, pre in enumerate(prefixes):
+            if not (math.isfinite(r[f"{pre}perceived_x_deg"]) and math.isfinite(r[f"{pre}perceived_y_deg"])):
+                raise FitError(
+                    f"{gen} loses {'the second' if f else 'the'} flash of trial {t.trial_id} ({cond.name}: offset "
+                    f"({t.flash_dx_deg:g}, {t.flash_dy_deg:g}) deg, {t.flash_time_ms} ms): no report can be simulated"
                 )
-            )
+        for _ in range(cfg["reports"]):
+            for f, pre in enumerate(prefixes):
+                rows.append(
+                    (
+                        r["saccade_amplitude_deg"],
+                        r["flash_time_ms"],
+                        r[f"{pre}true_x_deg"],
+                        r[f"{pre}true_y_deg"],
+                        r[f"{pre}perceived_x_deg"] + rng.normal(0, cfg["noise_deg"]),
+                        r[f"{pre}perceived_y_deg"] + rng.normal(0, cfg["noise_deg"]),
+                        k,
+                        t.seed,
+                        f,
+                    )
+                )
     return np.array(rows, float)
 
 
 def _write_data(path: Path, rows: np.ndarray, cond: _Condition, design, gen: str, cfg: dict) -> None:
-    """``rows`` in ``fit``'s format (``simulate``'s columns), with the sidecar ``fit`` reads."""
+    """``rows`` in ``fit``'s format (``simulate``'s columns), with the sidecar ``fit`` reads; separation
+    data add ``paradigm`` and ``flash`` (0 the design's flash, 1 the one beside it), which ``fit``
+    refuses by name (it models one flash per trial)."""
     import csv
     import io
 
     from ..folders import atomic_write_text, write_json
     from ..psychophysics import config_fingerprint
+    from ..psychophysics.trial import SEPARATION_DEG
     from .fitting import SIMULATED_COLUMNS
 
+    two = cond.config.paradigm == "separation"
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(SIMULATED_COLUMNS)
+    w.writerow(SIMULATED_COLUMNS + (("paradigm", "flash") if two else ()))
     label = cond.config.condition
     for r in rows:
         t = cond.trials[int(r[6])]
+        f = int(r[8])
         w.writerow(
             [
                 f"{r[0]:g}",
@@ -277,9 +293,10 @@ def _write_data(path: Path, rows: np.ndarray, cond: _Condition, design, gen: str
                 *(f"{round(v, 9) + 0.0:.10g}" for v in r[2:6]),
                 label,
                 int(r[7]),
-                f"{t.flash_dx_deg:g}",
-                f"{t.flash_dy_deg:g}",
+                f"{t.flash_dx_deg + f * SEPARATION_DEG[0]:g}",
+                f"{t.flash_dy_deg + f * SEPARATION_DEG[1]:g}",
             ]
+            + (["separation", f] if two else [])
         )
     fp = config_fingerprint(design, dataclasses.replace(cond.config, endpoint_noise=cfg["motor_noise"]))
     fp["config"].pop("condition", None)
@@ -323,26 +340,31 @@ def _localization(rows: np.ndarray, label: str, axes: tuple, source: str):
 
 # ---------------------------------------------------------------------------------------------- scoring
 def _predict(theory: str, params: dict, cond: _Condition) -> np.ndarray:
-    """(trials, 2) predicted positions of ``cond``'s trials (NaN where the flash is lost)."""
+    """(trials, flashes, 2) predicted positions of each flash of ``cond``'s trials (one flash, or two in
+    the separation paradigm; NaN where a flash is lost)."""
     from .likelihood import FIT_MODELS
 
     rcfg = FIT_MODELS[theory].trial_config(cond.runner.config, params)
+    prefixes = ("", "second_") if cond.config.paradigm == "separation" else ("",)
     out = []
     for o in cond.observations:
         r = cond.runner.readout(o, rcfg)
-        out.append((r["perceived_x_deg"], r["perceived_y_deg"]))
+        out.append([(r[f"{p}perceived_x_deg"], r[f"{p}perceived_y_deg"]) for p in prefixes])
     return np.array(out, float)
 
 
 def score(rows: np.ndarray, pred: np.ndarray, noise: tuple[float, float], axes: tuple, rng) -> dict:
-    """The metrics of reports ``rows`` (their trial index in column 6) against per-trial predictions
-    ``pred``: {metric: (value, ci_low, ci_high)}, with ``n`` (reports scored) and ``lost`` (trials
-    not predicted). Log-density per report: the sum over ``axes`` of log N(report; prediction,
-    noise[axis]); RMSE over the axes. CIs: percentile bootstrap over trials."""
+    """The metrics of reports ``rows`` (their trial index in column 6, their flash in column 8 where
+    present) against per-trial predictions ``pred`` ((trials, 2), or (trials, flashes, 2)): {metric:
+    (value, ci_low, ci_high)}, with ``n`` (reports scored) and ``lost`` (trials not predicted: a
+    flash of theirs lost). Log-density per report: the sum over ``axes`` of log N(report; prediction,
+    noise[axis]); RMSE over the axes. CIs: percentile bootstrap over trials (a trial's flashes together)."""
+    pred = pred[:, None, :] if pred.ndim == 2 else pred
     trial = rows[:, 6].astype(int)
-    ok_trial = np.isfinite(pred[:, list(axes)]).all(axis=1)
+    flash = rows[:, 8].astype(int) if rows.shape[1] > 8 else np.zeros(len(rows), int)
+    ok_trial = np.isfinite(pred[:, :, list(axes)]).all(axis=(1, 2))
     keep = ok_trial[trial]
-    r, p = rows[keep], pred[trial[keep]]
+    r, p = rows[keep], pred[trial[keep], flash[keep]]
     lost = int(np.sum(~ok_trial[np.unique(trial)]))
     if not len(r):
         return {
@@ -675,8 +697,8 @@ def summary(rows: list[dict], cfg: dict, pairs: list[dict] | None = None) -> str
         )
     lines += [
         "",
-        "not predicted: separation (two flashes per trial; the likelihood models one report of one "
-        "flash), displacement (a direction report; the fit has no binomial likelihood)",
+        "not predicted: displacement (a direction report; the fit has no binomial likelihood); separation is "
+        "predicted, not fitted (two flashes per trial: the fit models one report of one flash)",
     ]
     return "\n".join(lines) + "\n"
 
