@@ -91,6 +91,27 @@ def test_score_of_two_flashes_per_trial_matches_a_direct_sum():
     assert set(s["per_trial"]) == {0, 1, 2, 4} and all(c == 4 for _, c in s["per_trial"].values())
 
 
+def test_binary_score_matches_a_direct_sum():
+    """Displacement: each forward/backward report's Bernoulli log-likelihood under its cell's predicted
+    probability (scipy's normal CDF of perceived step over report s.d.), averaged; the CI brackets it."""
+    from scipy.stats import bernoulli, norm
+
+    from experiments.modelfit.crossval import score_binary
+
+    rng = np.random.default_rng(5)
+    z = np.array([-2.0, -0.5, 0.0, 0.7, 3.0])
+    cell = np.repeat(np.arange(5), 6)
+    reported = rng.random(len(cell)) < norm.cdf(z[cell])
+    rows = np.zeros((len(cell), 6))
+    rows[:, 3], rows[:, 4] = reported, cell
+    logp = np.column_stack([norm.logcdf(z), norm.logcdf(-z)])
+    s = score_binary(rows, logp, np.random.default_rng(0))
+    want = bernoulli.logpmf(reported.astype(int), norm.cdf(z[cell])).mean()
+    assert s["loglik_per_report"][0] == pytest.approx(want, rel=1e-12)
+    v, lo, hi = s["loglik_per_report"]
+    assert lo <= v <= hi and lo < hi and s["n"] == 30 and all(math.isnan(x) for x in s["rmse_deg"])
+
+
 def test_paired_difference_matches_a_direct_sum():
     """The paired difference per report over the trials both theories predict; its interval
     brackets it; a constant lead has a zero-width interval at that lead."""
@@ -132,16 +153,22 @@ def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
     keys = [(r["data"], r["theory"], r["fit_set"], r["condition"], r["metric"]) for r in rows]
     assert len(set(keys)) == len(keys)
     for r in rows:
+        if r["condition"] == "displacement":  # 4 steps x 2 blanks x 2 repetitions, one report each; at 64 px
+            # the 3 deg step seen at landing (blank 0) is lost by every theory: those 2 reports are counted out
+            assert int(r["n"]) == 14 and int(r["lost"]) == 2, r
+            if r["metric"] == "rmse_deg":  # a direction report has no position error
+                assert r["value"] == r["ci_low"] == r["ci_high"] == "", r
+                continue
+        else:  # 4 flashes x 4 times x 2 reports (separation: each report gives both flashes)
+            assert int(r["n"]) == 4 * 4 * 2 * (2 if r["condition"] == "separation" else 1) and int(r["lost"]) == 0, r
         v, lo, hi = float(r["value"]), float(r["ci_low"]), float(r["ci_high"])
         assert lo <= v <= hi, r
-        # 4 flashes x 4 times x 2 reports (separation: each report gives both flashes)
-        assert int(r["n"]) == 4 * 4 * 2 * (2 if r["condition"] == "separation" else 1) and int(r["lost"]) == 0, r
         assert (v > 0) if r["metric"] == "rmse_deg" else math.isfinite(v)
-    assert {r["role"] for r in rows if r["condition"] in ("dark", "marker", "separation", "references (y)")} == {
-        "held-out"}
+    assert {r["role"] for r in rows if r["condition"] in (
+        "dark", "marker", "separation", "displacement", "references (y)")} == {"held-out"}
     # the paired comparison: best minus runner-up, as the table's own values say
     pairs = list(csv.DictReader((out / "crossval_pairs.csv").open()))
-    assert list(pairs[0]) == PAIR_COLUMNS and len(pairs) == len(theories) * 4
+    assert list(pairs[0]) == PAIR_COLUMNS and len(pairs) == len(theories) * 5
     ll = {(r["data"], r["condition"], r["theory"]): float(r["value"]) for r in rows
           if r["metric"] == "loglik_per_report" and r["role"] == "held-out"}
     for p in pairs:
@@ -153,7 +180,7 @@ def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
         assert p["separated"] == str(float(p["ci_low"]) > 0)
     assert (out / "crossval.png").stat().st_size > 5000
     text = (out / "summary.txt").read_text()
-    assert "not predicted: displacement" in text and "separation is predicted, not fitted" in text
+    assert "predicted, never fitted: separation" in text and "displacement" in text
     assert "simulated observers" in text
     cfg = json.loads((out / "crossval.json").read_text())
     assert cfg["settings"]["theories"] == theories and cfg["settings"]["quick"] is True
@@ -164,6 +191,8 @@ def test_table_is_consistent_and_a_rerun_is_a_no_op(reference):
         assert len(sep) == 64
         with pytest.raises(ForwardModelError, match="separation paradigm"):
             forward_model(sep)
+        disp = list(csv.DictReader((out / "data" / gen / "displacement.csv").open()))
+        assert len(disp) == 16 and {r["reported_forward"] for r in disp} == {"0", "1"}
     assert main(["crossval", "--out", str(out), *QUICK]) == 0
     assert (out / "crossval.csv").read_bytes() == ref
     assert not (out / ".lock").exists()
@@ -192,17 +221,22 @@ def test_each_theory_predicts_its_own_held_out_conditions_best(reference):
 
 def test_committed_table_ranks_each_generating_theory_first():
     """The committed full-scale run (``experiments/data/crossval.csv``: 128 px, 8 x 8 trials x 2
-    reports, 120 evaluations per fit): in each of its 16 held-out cases the theory that generated the
-    data predicts them best (ground truth by construction)."""
+    reports, 120 evaluations per fit): in 18 of its 20 held-out cases the theory that generated the
+    data predicts them best (ground truth by construction); the two others are displacement cases whose
+    leader's lead is not separated from 0 (another theory's direction reports, as the docs say)."""
     root = Path(__file__).resolve().parents[1]
     rows = [r for r in csv.DictReader(open(root / "experiments/data/crossval.csv"))
             if r["role"] == "held-out" and r["metric"] == "loglik_per_report"]
     cases: dict = {}
     for r in rows:
         cases.setdefault((r["data"], r["condition"]), {})[r["theory"]] = float(r["value"])
-    assert len(cases) == 16
+    assert len(cases) == 20
+    pairs = {(p["data"], p["condition"]): p for p in csv.DictReader(open(root / "experiments/data/crossval_pairs.csv"))}
     for (data, cond), scores in cases.items():
-        assert max(scores, key=scores.get) == data.split(":", 1)[1], (data, cond, scores)
+        if max(scores, key=scores.get) != data.split(":", 1)[1]:
+            # the docs' exceptions: displacement reports another theory predicts as well, its lead not separated
+            assert cond == "displacement" and pairs[data, cond]["separated"] == "False", (data, cond, scores)
+    assert sum(max(s, key=s.get) == d.split(":", 1)[1] for (d, _), s in cases.items()) == 18
 
 
 @pytest.mark.slow
@@ -312,6 +346,6 @@ def test_docs_table_is_rendered_from_the_committed_csv():
     pairs = list(csv.DictReader(open(root / "experiments/data/crossval_pairs.csv")))
     assert markdown_table(rows) in (root / "docs/psychophysics/crossval.md").read_text()
     wins = winners(rows)
-    assert len(wins) == 16 and all(w["best"] == w["data"].split(":", 1)[1] for w in wins)
+    assert len(wins) == 20 and sum(w["best"] == w["data"].split(":", 1)[1] for w in wins) == 18
     assert {(p["data"], p["condition"], p["best"]) for p in pairs} == {
         (w["data"], w["condition"], w["best"]) for w in wins}

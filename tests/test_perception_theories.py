@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from experiments.psychophysics import Design, TrialConfig, TrialRunner
+from experiments.psychophysics import Design, Trial, TrialConfig, TrialRunner
 from experiments.psychophysics import observer as obs_mod
 from experiments.psychophysics import population as pop_mod
 
@@ -606,6 +606,30 @@ def test_psychometric_fit_flags_non_monotonic_data_and_has_cis():
                                        "reported_forward": fwd}, n_boot=200)[0]
     assert good["monotone_p"] > 0.05
     assert good["pse_ci"][0] < 0.5 < good["pse_ci"][1] and good["threshold_ci"][0] < 1.2 < good["threshold_ci"][1]
+
+
+def test_a_lost_target_gives_no_displacement_report():
+    """A trial whose target a theory loses after the saccade (perceived step NaN) reports nothing --
+    ``reported_forward`` NaN, not "backward" -- and the psychometric fit leaves it out and counts it:
+    the same fit as without that trial."""
+    from experiments.psychophysics import displacement_psychometrics
+
+    steps = np.repeat(np.arange(-2.0, 3.0), 4)
+    fwd = (np.arange(steps.size) % 4 < np.repeat([0, 1, 2, 3, 4], 4)).astype(float)
+    table = {"flash_dx_deg": steps, "flash_time_ms": np.zeros(steps.size), "reported_forward": fwd}
+    lost = dict(table, reported_forward=np.where(np.arange(steps.size) == 19, np.nan, fwd))
+    kept = {k: v[:19] for k, v in table.items()}
+    a, b = displacement_psychometrics(lost)[0], displacement_psychometrics(kept)[0]
+    assert a["lost"] == 1 and b["lost"] == 0
+    np.testing.assert_array_equal(a["p_forward"], b["p_forward"])
+    assert a["pse_deg"] == b["pse_deg"] and a["threshold_deg"] == b["threshold_deg"]
+    # a real one: at 64 px the 3 deg step seen at landing (no blank) falls where no theory reads activity
+    r = TrialRunner(TrialConfig(image_size=64, condition="dark", paradigm="displacement", model="paper"))
+    try:
+        row = r.run(Trial(0, 20.0, 3.0, 0.0, 0, 0, 0))
+    finally:
+        r.close()
+    assert math.isnan(row["perceived_step_deg"]) and math.isnan(row["reported_forward"])
 
 
 @pytest.mark.parametrize("model", ["population", "mechanistic", "paper"])

@@ -7,8 +7,11 @@ fitted on ``references``, it predicts ``dark`` and ``marker`` (Zimmermann, Morro
 design, ``phenomena.MARKER``) and ``separation`` (two flashes 4 deg apart at once, each reported: the
 design's flash and one ``SEPARATION_DEG`` beside it); fitted on the error along the saccade alone
 (``references (x)``, 1-D data), it predicts the error across it (``references (y)``). The training
-set is scored too (role ``training``). Displacement (a two-alternative report) needs a likelihood
-the fit does not have; ``forward_model`` refuses it (and fitting on separation data).
+set is scored too (role ``training``), and ``displacement`` (Deubel, Schneider & Bridgeman 1996: the
+target steps during the saccade, blanked 0 or 250 ms; a forward/backward report) is predicted as the
+probability of "forward", ``Phi(perceived step / the theory's report s.d.)``, each report scored by its
+Bernoulli log-likelihood (no RMSE). Neither separation nor displacement is ever fitted: ``fit``
+models one position report of one flash, and ``forward_model`` refuses both.
 
 **Data.** No condition-level published data set is in the repository
 (``experiments/data/published/README.md``), so the data are *simulated observers*: each
@@ -50,13 +53,17 @@ __all__ = [
     "PAIR_COLUMNS",
     "paired_difference",
     "score",
+    "score_binary",
+    "DISPLACEMENT_STEPS_DEG",
+    "DISPLACEMENT_BLANKS_MS",
 ]
 
 #: The theories fitted, and by default the ones that generate the data.
 THEORIES = ("observer", "population", "paper", "mechanistic")
 MOTOR_NOISE = 0.05  # saccade endpoint s.d., fraction of amplitude (van Beers 2007: ~5-10 %), as recovery
 N_BOOT = 1000
-#: Version of the folder's files: part of the configuration key (2: the separation condition).
+#: Version of the folder's files: part of the configuration key (2: the separation and displacement
+#: conditions).
 FORMAT = 2
 
 
@@ -77,12 +84,22 @@ def conditions() -> dict[str, dict]:
 
 
 CONDITIONS = ("references", "dark", "marker", "separation")
+#: The displacement held-out condition's design: steps (deg along the saccade) x blanks (ms) x repetitions
+#: (each repetition its own landing error and report noise); ``phenomena``'s quick grid (``--quick``:
+#: every other step, 2 repetitions).
+DISPLACEMENT_STEPS_DEG = (-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0)
+DISPLACEMENT_BLANKS_MS = (0, 250)
 #: fit set -> (the condition it is fitted on, axes fitted (0 = x, 1 = y), [(held-out name, condition, axes)])
 HELDOUT: dict[str, tuple[str, tuple[int, ...], list[tuple[str, str, tuple[int, ...]]]]] = {
     "references": (
         "references",
         (0, 1),
-        [("dark", "dark", (0, 1)), ("marker", "marker", (0, 1)), ("separation", "separation", (0, 1))],
+        [
+            ("dark", "dark", (0, 1)),
+            ("marker", "marker", (0, 1)),
+            ("separation", "separation", (0, 1)),
+            ("displacement", "displacement", ()),
+        ],
     ),
     "references (x)": ("references", (0,), [("references (y)", "references", (1,))]),
 }
@@ -338,6 +355,152 @@ def _localization(rows: np.ndarray, label: str, axes: tuple, source: str):
     )
 
 
+# ---------------------------------------------------------------------------------------------- displacement
+def _displacement_steps(quick: bool) -> tuple[float, ...]:
+    return DISPLACEMENT_STEPS_DEG[::2] if quick else DISPLACEMENT_STEPS_DEG
+
+
+def _displacement_design(quick: bool, seed: int):
+    from ..psychophysics import Design
+
+    return Design(
+        amplitudes_deg=(20.0,),
+        flash_offsets_deg=tuple((s, 0.0) for s in _displacement_steps(quick)),
+        flash_times_ms=DISPLACEMENT_BLANKS_MS,
+        repetitions=2 if quick else 8,
+        seed=seed,
+        name="crossval-displacement",
+    )
+
+
+def _displacement_cells(quick: bool) -> list[tuple[float, int]]:
+    """The (step, blank) cells of the displacement design, in the order of the predictions' rows."""
+    return [(s, b) for s in _displacement_steps(quick) for b in DISPLACEMENT_BLANKS_MS]
+
+
+def _displacement_config(theory: str, params: dict, cfg: dict, motor_noise: float):
+    """The displacement paradigm's ``TrialConfig`` read out by ``theory`` at ``params`` (as ``phenomena``:
+    20 deg saccades in the dark)."""
+    from ..psychophysics import TrialConfig
+    from .likelihood import FIT_MODELS
+
+    base = TrialConfig(
+        image_size=cfg["image_size"], condition="dark", paradigm="displacement", endpoint_noise=motor_noise
+    )
+    return FIT_MODELS[theory].trial_config(base, params)
+
+
+def _simulate_displacement(gen: str, design, cfg: dict) -> np.ndarray:
+    """Rows (amplitude, blank ms, step deg, reported forward (0/1), cell index, seed) of ``gen``'s
+    displacement reports: one per trial, each with its own landing error and report noise (the trial's
+    seed), read out by ``gen`` at its defaults; a trial whose target ``gen`` loses gives no report
+    (no row)."""
+    from ..psychophysics import TrialRunner
+    from .likelihood import FIT_MODELS
+
+    values = {p.name: p.default for p in FIT_MODELS[gen].parameters}
+    runner = TrialRunner(_displacement_config(gen, values, cfg, cfg["motor_noise"]))
+    cells = {c: k for k, c in enumerate(_displacement_cells(cfg["quick"]))}
+    rows = []
+    try:
+        for t in design.trials():
+            r = runner.run(t)
+            if not math.isfinite(r["reported_forward"]):
+                continue
+            rows.append(
+                (
+                    t.amplitude_deg,
+                    t.flash_time_ms,
+                    t.flash_dx_deg,
+                    r["reported_forward"],
+                    cells[t.flash_dx_deg, t.flash_time_ms],
+                    t.seed,
+                )
+            )
+    finally:
+        runner.close()
+    return np.array(rows, float)
+
+
+def _predict_displacement(theory: str, params: dict, cfg: dict) -> np.ndarray:
+    """(cells, 2): log P(forward) and log P(backward) of each (step, blank) cell under ``theory`` at
+    ``params``, without motor noise: ``Phi(+-perceived step / report s.d.)`` (the theory's own s.d.
+    where it has one, ``TrialRunner.last``)."""
+    from scipy.stats import norm
+
+    from ..psychophysics import Trial, TrialRunner
+
+    runner = TrialRunner(_displacement_config(theory, params, cfg, 0.0))
+    out = []
+    try:
+        for k, (step, blank) in enumerate(_displacement_cells(cfg["quick"])):
+            r = runner.run(Trial(k, 20.0, step, 0.0, blank, 0, 0))
+            z = float(r["perceived_step_deg"]) / float(runner.last["report_sd_deg"])
+            out.append((norm.logcdf(z), norm.logcdf(-z)))
+    finally:
+        runner.close()
+    return np.array(out, float)
+
+
+def score_binary(rows: np.ndarray, logp: np.ndarray, rng) -> dict:
+    """``score`` for forward/backward reports: ``rows`` (``_simulate_displacement``'s: report in column
+    3, cell in column 4) against each cell's (log P(forward), log P(backward)) ``logp``. Log-likelihood
+    per report (Bernoulli) with a percentile bootstrap over reports (each its own trial); no RMSE.
+    Reports in a cell whose target the theory loses (NaN) are left out and counted (``lost``)."""
+    cell_all = rows[:, 4].astype(int)
+    ok = np.isfinite(logp[cell_all]).all(axis=1)
+    keys = np.flatnonzero(ok)
+    fwd, cell = rows[ok, 3] > 0.5, cell_all[ok]
+    ll = np.where(fwd, logp[cell, 0], logp[cell, 1])
+    if not len(ll):
+        return {
+            "n": 0,
+            "lost": int(np.sum(~ok)),
+            "loglik_per_report": (math.nan,) * 3,
+            "rmse_deg": (math.nan,) * 3,
+            "per_trial": {},
+        }
+    point = float(ll.mean())
+    draws = rng.integers(0, len(ll), size=(N_BOOT, len(ll)))
+    lo, hi = np.percentile(ll[draws].mean(axis=1), [2.5, 97.5])
+    return {
+        "n": int(len(ll)),
+        "lost": int(np.sum(~ok)),
+        "loglik_per_report": (point, float(lo), float(hi)),
+        "rmse_deg": (math.nan,) * 3,
+        "per_trial": {int(k): (float(v), 1.0) for k, v in zip(keys, ll)},
+    }
+
+
+def _write_displacement(path: Path, rows: np.ndarray, gen: str, cfg: dict) -> None:
+    """The displacement reports as CSV (not ``fit``'s format: a direction report per trial), with a sidecar."""
+    import csv
+    import io
+
+    from ..folders import atomic_write_text, write_json
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["saccade_amplitude_deg", "blank_ms", "step_deg", "reported_forward", "seed", "paradigm"])
+    for r in rows:
+        w.writerow([f"{r[0]:g}", int(r[1]), f"{r[2]:g}", int(r[3]), int(r[5]), "displacement"])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_json(
+        path.with_suffix(".json"),
+        {
+            "generated_by": "python -m experiments crossval",
+            "model": gen,
+            "crossval_condition": "displacement",
+            "note": "a simulated observer's forward/backward reports of a target step during a 20 deg saccade "
+            "in the dark, blanked blank_ms after it (the theory at its defaults, motor noise, its report noise)",
+            "motor_noise": cfg["motor_noise"],
+            "seed": cfg["seed"],
+            "rows": len(rows),
+        },
+    )
+    atomic_write_text(path, buf.getvalue())
+
+
 # ---------------------------------------------------------------------------------------------- scoring
 def _predict(theory: str, params: dict, cond: _Condition) -> np.ndarray:
     """(trials, flashes, 2) predicted positions of each flash of ``cond``'s trials (one flash, or two in
@@ -503,6 +666,10 @@ def crossvalidate(
                         _write_data(out / "data" / gen / f"{name}.csv", data[gen, name], cond, design, gen, cfg)
                 finally:
                     noisy_runner.close()
+            displacement = _displacement_design(cfg["quick"], cfg["seed"])
+            for gen in cfg["data_from"]:
+                data[gen, "displacement"] = _simulate_displacement(gen, displacement, cfg)
+                _write_displacement(out / "data" / gen / "displacement.csv", data[gen, "displacement"], gen, cfg)
             n_fits = len(cfg["data_from"]) * len(HELDOUT) * len(cfg["theories"])
             if progress:
                 from tqdm import tqdm
@@ -542,9 +709,11 @@ def crossvalidate(
                         scored = [(cname if 1 in axes else f"{cname} (x)", cname, axes, "training")]
                         scored += [(h, hc, hax, "held-out") for h, hc, hax in heldout]
                         for label, hc, hax, role in scored:
-                            pred = _predict(theory, params, conds[hc])
                             rng = np.random.default_rng([cfg["seed"], g, len(rows)])
-                            s = score(data[gen, hc], pred, noise, hax, rng)
+                            if hc == "displacement":  # a direction report: a binary likelihood
+                                s = score_binary(data[gen, hc], _predict_displacement(theory, params, cfg), rng)
+                            else:
+                                s = score(data[gen, hc], _predict(theory, params, conds[hc]), noise, hax, rng)
                             per_trial[f"simulated:{gen}", fit_set, label, theory] = s["per_trial"]
                             for metric in ("loglik_per_report", "rmse_deg"):
                                 v, lo, hi = s[metric]
@@ -697,8 +866,8 @@ def summary(rows: list[dict], cfg: dict, pairs: list[dict] | None = None) -> str
         )
     lines += [
         "",
-        "not predicted: displacement (a direction report; the fit has no binomial likelihood); separation is "
-        "predicted, not fitted (two flashes per trial: the fit models one report of one flash)",
+        "predicted, never fitted: separation (two flashes per trial) and displacement (a direction report, "
+        "scored by its Bernoulli likelihood): the fit models one position report of one flash",
     ]
     return "\n".join(lines) + "\n"
 

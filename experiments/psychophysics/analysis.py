@@ -113,20 +113,22 @@ def displacement_psychometrics(
     step and a cumulative-Gaussian fit by maximum likelihood (2 % lapses): ``pse_deg`` (the step
     seen as none) and ``threshold_deg`` (its s.d.: the step from 50 % to 84 % "forward"), and
     ``monotonic``: False when P("forward") falls between neighbouring steps by more than two
-    binomial standard errors (a threshold is then not meaningful). With ``n_boot`` > 0, 95 %
+    binomial standard errors (a threshold is then not meaningful); ``lost``: trials without a report
+    (the target lost after the saccade: ``reported_forward`` NaN), left out. With ``n_boot`` > 0, 95 %
     bootstrap CIs (``pse_ci``, ``threshold_ci``: reports resampled within each step). ``start``:
     {blank: (pse, s.d.)} to start each fit from (one start instead of four)."""
     out = {}
     steps, blank, fwd = table["flash_dx_deg"], table["flash_time_ms"], table["reported_forward"]
     rng = np.random.default_rng(seed)
     for b in np.unique(blank):
-        sel = blank == b
+        sel = (blank == b) & np.isfinite(fwd)  # no report where the target was lost (``lost``: how many)
         x, y = steps[sel], fwd[sel]
         pse, sd = _probit_fit(x, y, None if start is None else start.get(int(b)))
         levels = np.unique(x)
         p = np.array([y[x == v].mean() for v in levels])
         n = np.array([(x == v).sum() for v in levels])
         r = {
+            "lost": int(np.sum((blank == b) & ~np.isfinite(fwd))),
             "steps_deg": levels,
             "p_forward": p,
             "pse_deg": pse,

@@ -839,7 +839,7 @@ class TrialRunner:
         target = head_angles_deg(head, tgt_w)[0]
         err = post - true
         eye_h = np.degrees(head.eye_angles[:, 0])
-        self.last = dict(plan=plan)
+        self.last = dict(plan=plan, report_sd_deg=float(sd))  # the report's s.d. (crossval's P(forward))
         return {
             "trial_id": trial.trial_id,
             "repetition": trial.repetition,
@@ -875,7 +875,8 @@ class TrialRunner:
             "second_perceived_x_deg": float("nan"),
             "second_perceived_y_deg": float("nan"),
             "perceived_step_deg": step,
-            "reported_forward": float(step + noise > 0),
+            # a target the theory lost after the saccade (no activity to read out) gives no report, not "backward"
+            "reported_forward": float(step + noise > 0) if math.isfinite(step) else float("nan"),
             **self._stimulus_columns(cfg, None),
         }
 
