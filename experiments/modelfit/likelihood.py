@@ -174,23 +174,34 @@ class Evaluator:
         self._memo[key] = (pred, var)
         return pred, var
 
-    def _axis_log_likelihood(self, sd: float, axis: int, resid: np.ndarray, motor_var: np.ndarray) -> float:
-        """One axis' log-likelihood at report-noise s.d. ``sd``, given the rows' residuals and motor variances."""
+    def _log_likelihood(self, sig: np.ndarray, resid: np.ndarray, motor_var: np.ndarray, axes: slice) -> float:
+        """The log-likelihood summed over the rows and the ``axes`` (a slice of x, y) at report-noise s.d.
+        ``sig`` (2,): each row's mean report ~ N(prediction, (sig^2 + v) / n), and a row that gives its
+        reports' s.d. s adds the density of s^2, (n-1) s^2 / (sig^2 + v) ~ chi2(n-1)."""
         d = self.data
-        m = d.measured[:, axis]
-        n = d.n.astype(float)
-        total = sd**2 + motor_var[:, axis]
+        m = d.measured[:, axes]
+        n = d.n[:, None].astype(float)
+        total = np.asarray(sig, float)[axes] ** 2 + motor_var[:, axes]
         var = total / n
-        r = np.where(m, resid[:, axis], 0.0)
+        r = resid[:, axes]
         ll = float(np.sum(np.where(m, -0.5 * (np.log(2 * np.pi * var) + r**2 / var), 0.0)))
-        has_sd = np.isfinite(d.sd_deg[:, axis]) & (n >= 2) & m
+        has_sd = np.isfinite(d.sd_deg[:, axes]) & (n >= 2) & m
         if has_sd.any():  # (n-1) s^2 / total ~ chi2(n-1), as a density of s^2
             from scipy.stats import chi2
 
-            k = np.where(has_sd, n - 1, 2.0)
-            scale = total / k
-            s2 = np.where(has_sd, d.sd_deg[:, axis] ** 2, 1.0)
-            ll += float(np.sum(np.where(has_sd, chi2.logpdf(s2 / scale, k) - np.log(scale), 0.0)))
+            k = (n - 1) * np.ones((1, m.shape[1]))
+            s2 = d.sd_deg[:, axes] ** 2
+            with np.errstate(divide="ignore"):  # rows of one report (k 0) are masked out below
+                scale = total / k
+            ll += float(
+                np.sum(
+                    np.where(
+                        has_sd,
+                        chi2.logpdf(np.where(has_sd, s2, 1.0) / scale, np.where(has_sd, k, 2.0)) - np.log(scale),
+                        0.0,
+                    )
+                )
+            )
         return ll
 
     def noise_mle(self, values: dict) -> dict:
@@ -217,7 +228,9 @@ class Evaluator:
             for ax in range(2):
                 if den[ax] > 0 and np.any(motor_var[m[:, ax], ax] > 0):
                     res = minimize_scalar(
-                        lambda sd, ax=ax: -self._axis_log_likelihood(sd, ax, resid, motor_var),
+                        lambda sd, ax=ax: (
+                            -self._log_likelihood(np.array([sd, sd]), resid, motor_var, slice(ax, ax + 1))
+                        ),
                         bounds=(lo, hi),
                         method="bounded",
                         options={"xatol": 1e-7},
@@ -233,32 +246,5 @@ class Evaluator:
         if not np.all(np.isfinite(pred[m])):
             return -math.inf  # a flash lost by the read-out under these parameters
         resid = np.where(m, d.perceived_deg - pred, 0.0)
-        if np.any(motor_var > 0):
-            return sum(
-                self._axis_log_likelihood(values[name], ax, resid, motor_var)
-                for ax, name in enumerate(("noise_x_deg", "noise_y_deg"))
-            )
-        # no motor variance: the same sums as _axis_log_likelihood's, both axes at once (the fits made
-        # before the draws existed evaluate to the same bits)
         sig = np.array([values["noise_x_deg"], values["noise_y_deg"]])
-        n = d.n[:, None].astype(float)
-        var = sig**2 / n
-        ll = float(np.sum(np.where(m, -0.5 * (np.log(2 * np.pi * var) + resid**2 / var), 0.0)))
-        has_sd = np.isfinite(d.sd_deg) & (n >= 2) & m
-        if has_sd.any():  # (n-1) s^2 / sigma^2 ~ chi2(n-1), as a density of s^2
-            from scipy.stats import chi2
-
-            k = (n - 1) * np.ones((1, 2))
-            s2 = d.sd_deg**2
-            with np.errstate(divide="ignore"):  # rows of one report (k 0) are masked out below
-                scale = sig**2 / k
-            ll += float(
-                np.sum(
-                    np.where(
-                        has_sd,
-                        chi2.logpdf(np.where(has_sd, s2, 1.0) / scale, np.where(has_sd, k, 2.0)) - np.log(scale),
-                        0.0,
-                    )
-                )
-            )
-        return ll
+        return self._log_likelihood(sig, resid, motor_var, slice(0, 2))
