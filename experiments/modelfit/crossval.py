@@ -228,6 +228,12 @@ class _Condition:
     runner: Any  # the fits' TrialRunner
 
 
+def _flash_prefixes(config) -> tuple[str, ...]:
+    """The read-out columns' prefixes of a trial's flashes: the flash, and in the separation paradigm
+    the second one (``second_``)."""
+    return ("", "second_") if config.paradigm == "separation" else ("",)
+
+
 def _observe(name: str, design, cfg: dict, out: Path, options: dict) -> tuple[_Condition, list, Any]:
     from ..psychophysics import TrialConfig, TrialRunner
     from .observe import observe_trials
@@ -255,7 +261,7 @@ def _simulate(gen: str, cond: _Condition, noisy_obs: list, noisy_runner, cfg: di
     values = {p.name: p.default for p in m.parameters}
     rcfg = m.trial_config(noisy_runner.config, values)
     rng = np.random.default_rng([cfg["seed"], g, c])
-    prefixes = ("", "second_") if cond.config.paradigm == "separation" else ("",)
+    prefixes = _flash_prefixes(cond.config)
     rows = []
     for k, (t, o) in enumerate(zip(cond.trials, noisy_obs)):
         r = noisy_runner.readout(o, rcfg)
@@ -508,7 +514,7 @@ def _predict(theory: str, params: dict, cond: _Condition) -> np.ndarray:
     from .likelihood import FIT_MODELS
 
     rcfg = FIT_MODELS[theory].trial_config(cond.runner.config, params)
-    prefixes = ("", "second_") if cond.config.paradigm == "separation" else ("",)
+    prefixes = _flash_prefixes(cond.config)
     out = []
     for o in cond.observations:
         r = cond.runner.readout(o, rcfg)
