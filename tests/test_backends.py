@@ -63,7 +63,8 @@ def test_ray_backend_writes_the_local_table(tmp_path):
 @pytest.mark.slow
 def test_baselines_on_two_processes_writes_the_in_process_table(tmp_path, capsys):
     """CEM x 2 seeds trained one after the other and on 2 spawned processes: the same held-out numbers
-    and the same table rows (wall times aside)."""
+    and the same table rows (wall times aside). CEM alone (no PPO or SAC) still writes the
+    ``curves.png`` that ``--help`` promises: its validation curve, IQM over the seeds (issue 37)."""
     import json
 
     common = ["baselines", "--task", "fixate", "--agents", "cem", "--seeds", "0", "1", "--quick", "--image-size",
@@ -77,3 +78,4 @@ def test_baselines_on_two_processes_writes_the_in_process_table(tmp_path, capsys
     one, two = ([line.rsplit("|", 2)[0] for line in (tmp_path / d / "table.md").read_text().splitlines()]
                 for d in ("one", "two"))  # the last column, the wall time, left out
     assert one == two
+    assert all((tmp_path / d / "curves.png").stat().st_size > 1000 for d in ("one", "two"))

@@ -99,7 +99,7 @@ def test_parameters_and_model_are_recovered(simulated, tmp_path):
     its 95 % interval, and a comparison with the paper model and the nested no-remap variant prefers
     the generating model by AIC and rejects the restriction by the likelihood-ratio test."""
     rows = compare(simulated, ["mechanistic", "mechanistic/no_command_remap", "paper"], tmp_path, max_evals=120,
-                   workers=2)
+                   workers=1)
     assert rows[0]["model"] == "mechanistic", rows
     fitted = json.loads((tmp_path / "mechanistic" / "fit.json").read_text())
     assert fitted["hessian_ok"]

@@ -135,37 +135,6 @@ def test_config_refuses_unknown_names():
 
 
 @pytest.mark.slow
-def test_phenomena_command_writes_the_report(tmp_path):
-    """``python -m experiments phenomena`` (``--quick`` at 64 px, 100 resamples: the command's
-    machinery, not its numbers): one row per (phenomenon, model) with the published range and its
-    source, the simulated value and its bootstrap CI, and verdicts that keep the scoreboard's rules
-    (``scoring.check_scoreboard``: role from the calibration table, CI inside the range, diagnostic
-    against the baseline); a second run reads the cached observations and gives the same report."""
-    import csv
-
-    from experiments.__main__ import main
-    from experiments.psychophysics.phenomena import COLUMNS, ROWS, THEORIES
-    from experiments.psychophysics.scoring import check_scoreboard
-
-    args = ["phenomena", "--out", str(tmp_path), "--no-progress", "--image-size", "64", "--bootstrap", "100",
-            "--workers", "1", "--quick"]
-    assert main(args) == 0
-    with open(tmp_path / "phenomena.csv", newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    assert list(rows[0]) == COLUMNS
-    assert {(r["phenomenon"], r["model"]) for r in rows} == {(p, m) for p in ROWS for m in THEORIES}
-    assert {r["role"] for r in rows} == {"calibrated", "predicted"}
-    assert check_scoreboard(rows) == []
-    # the baseline (all mechanisms off) has no compression and no shift before the saccade: the retina alone
-    base = {r["phenomenon"]: float(r["simulated"]) for r in rows if r["model"] == "baseline"}
-    assert abs(base["shift_dark_presaccadic_deg"]) < 0.5 and abs(base["compression_needs_references"]) < 0.1
-    assert len(list(tmp_path.glob("*.png"))) == 3
-    before = (tmp_path / "phenomena.csv").read_text()
-    assert main(args) == 0
-    assert (tmp_path / "phenomena.csv").read_text() == before
-
-
-@pytest.mark.slow
 def test_displacement_paradigm_blank_restores_detection(tmp_path):
     """Saccadic suppression of displacement, as the ``observer`` predicts it: without a
     post-saccadic blank a target step during the saccade is harder to report (the eye estimate is

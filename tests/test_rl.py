@@ -611,20 +611,6 @@ def test_skrl_recipe_trains_the_cortical_cell_policy_on_cpu(tmp_path):
 
 
 @pytest.mark.slow
-def test_baselines_with_cem_alone_writes_its_curves(tmp_path, capsys):
-    """The quick example of docs/rl.md (``--agents cem``, no PPO or SAC) writes the ``curves.png`` that
-    ``--help`` promises: CEM's validation curve, IQM over the seeds (issue 37, the first hour). Here one
-    seed at 32 px (the docs block itself runs two at 48 px)."""
-    from experiments.__main__ import main
-
-    out = tmp_path / "b"
-    assert main(["baselines", "--task", "fixate", "--agents", "cem", "--seeds", "0", "--out", str(out),
-                 "--quick", "--image-size", "32", "--episodes", "2"]) == 0
-    assert "CEM" in capsys.readouterr().out
-    assert (out / "curves.png").stat().st_size > 1000
-
-
-@pytest.mark.slow
 @_needs_sb3
 def test_baselines_command_trains_evaluates_aggregates_and_resumes(tmp_path, capsys):
     """``baselines --quick`` (PPO and CEM x 2 seeds, 48 px, 3 held-out episodes): every run's held-out

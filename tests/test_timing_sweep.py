@@ -4,7 +4,6 @@ model's own timing s.d. holds the model's own prior."""
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
@@ -51,21 +50,3 @@ def test_read_rows_refuses_other_columns(tmp_path):
     bad.write_text("a,b\n1,2\n")
     with pytest.raises(ValueError, match="columns must be temporal_sd_ms"):
         ts.read_rows(bad)
-
-
-@pytest.mark.slow
-def test_command_sweeps_at_64px_and_refuses_a_bad_timing(tmp_path, capsys):
-    """The docs-maintenance command end to end on phenomena --quick's designs at 64 px: the prior it finds
-    gives the target peak at that size too, and the CSV has the sweep's columns."""
-    out = tmp_path / "timing.csv"
-    assert ts.main(["--phenomena", str(tmp_path / "ph"), "--timing", "21", "--quick", "--image-size", "64",
-                    "--out", str(out)]) == 0
-    with open(out, newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    assert tuple(rows[0]) == ts.COLUMNS and len(rows) == 1
-    assert abs(float(rows[0]["compression_peak"]) - ts.TARGET_PEAK) <= 0.01
-    assert "| timing s.d. (ms) |" in capsys.readouterr().out
-    with pytest.raises(SystemExit) as e:
-        ts.main(["--phenomena", str(tmp_path), "--timing", "500"])
-    assert e.value.code == 2
-    assert "a timing s.d. must be 1-150 ms" in capsys.readouterr().err
