@@ -73,3 +73,36 @@ def test_peak_velocity_at_500_hz_within_10_percent_of_sample_to_sample():
     ~0.8x at 500 Hz."""
     sg, s2s = peak_ratios(500, 0.03)
     assert np.all(np.abs(sg / s2s - 1.0) < 0.10), sg / s2s
+
+
+@pytest.mark.parametrize("rate", [200.0, 500.0, 2000.0])
+def test_batched_measure_is_the_one_by_one_measure_to_the_bit(rate):
+    """``measure_saccades`` (columns measured together, what the generator fit's forward model runs) gives
+    exactly what ``measure_saccade`` gives one trace at a time at its peak, including the traces it cannot
+    measure: a crossing meets a NaN, a side never falls below threshold, a peak at the first or last sample,
+    a flat top (no parabola), and ``velocity`` of a (n, c) array is its columns' velocities."""
+    dt = 1000.0 / rate
+    t = np.arange(160) * dt + 3.0
+    rng = np.random.default_rng(int(rate))
+    c = 40
+    centre = rng.uniform(40, 120, c) * dt
+    width = rng.uniform(3, 30, c)
+    x = 10.0 / (1 + np.exp(-(t[:, None] - centre) / width * 4)) + rng.normal(0, 0.01, (len(t), c))
+    x[rng.integers(0, len(t), 6), rng.integers(0, c, 6)] = np.nan  # lost samples, some on a crossing's walk
+    x[:, 0] = np.linspace(0, 40, len(t))  # never below threshold: no crossing on either side
+    x[:, 1] = 10 * (t / t[-1]) ** 2  # fastest at the last sample
+    x[:, 2] = 10 * (1 - t / t[-1]) ** 2  # fastest at the first sample
+    v = K.velocity(x, dt)
+    for j in range(c):
+        np.testing.assert_array_equal(v[:, j], K.velocity(x[:, j], dt))
+    s = np.abs(v)
+    s[:, 3] = np.where(np.isfinite(s[:, 3]), 0.0, np.nan)
+    s[70:73, 3] = 200.0  # a flat top: no parabola through it
+    got = K.measure_saccades(t, s, rate)
+    for j in range(c):
+        if np.isnan(s[:, j]).all():
+            continue
+        one = K.measure_saccade(t, s[:, j], int(np.nanargmax(s[:, j])), rate)
+        want = np.full(5, np.nan) if one is None else np.array(one, float)
+        np.testing.assert_array_equal(got[:, j], want, err_msg=f"column {j}")
+    assert np.isnan(got[:, :3]).all() and np.isfinite(got[:4]).any()

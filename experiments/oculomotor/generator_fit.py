@@ -158,31 +158,52 @@ def _traces(generator, amplitudes_deg, rate_hz: float):
 
 def _measure(t_grid, p, k, rate_hz: float, noise_deg: float, rng, phases: np.ndarray) -> np.ndarray:
     """Measure each saccade ``j`` of the traces ``p`` (K, n) sampled from grid step ``phases[j]`` on
-    (every ``k``-th grid point), with Gaussian tracker noise ``noise_deg`` per axis drawn from ``rng``,
-    as a recording is measured (``eyetracking.measure_saccade``). Returns (4, n): measured amplitude,
-    peak velocity, duration, skewness (NaN where the measure fails)."""
-    from .eyetracking import POST_WINDOW_MS, PRE_WINDOW_MS, measure_saccade, speed_deg_s
+    (every ``k``-th grid point), with Gaussian tracker noise ``noise_deg`` per axis drawn from ``rng``
+    (saccade by saccade, along then across), as a recording is measured (``kinematics.speed_deg_s``
+    and ``kinematics.measure_saccades``: the saccades sampled at one phase are measured together).
+    Returns (4, n): measured amplitude, peak velocity, duration, skewness (NaN where the measure
+    fails)."""
+    from .eyetracking import POST_WINDOW_MS, PRE_WINDOW_MS
+    from .kinematics import measure_saccades, speed_deg_s
 
     n = p.shape[1]
+    phases = np.asarray(phases, int)
     out = np.full((4, n), np.nan)
     sdt = 1000.0 / rate_hz
-    for j in range(n):
-        idx = np.arange(int(phases[j]), p.shape[0], k)
-        t, trace = t_grid[idx], p[idx, j]
+    idx = [np.arange(int(ph), p.shape[0], k) for ph in phases]
+    draws = []  # the noise in the order the saccades are listed: each saccade's along, then its across
+    if noise_deg > 0:
+        for j in range(n):
+            draws.append((rng.normal(0.0, noise_deg, idx[j].shape), rng.normal(0.0, noise_deg, idx[j].shape)))
+    for ph in np.unique(phases):
+        cols = np.flatnonzero(phases == ph)
+        rows = idx[cols[0]]
+        t, trace = t_grid[rows], p[np.ix_(rows, cols)]
         ortho = None
         if noise_deg > 0:
-            trace = trace + rng.normal(0.0, noise_deg, trace.shape)
-            ortho = rng.normal(0.0, noise_deg, trace.shape)
-        s = speed_deg_s(trace, ortho, sdt)
-        m = measure_saccade(t, s, int(np.nanargmax(s)), rate_hz)
-        if m is None:
-            continue
-        on, off, pk, tp, skew = m
-        pre = (t >= on - PRE_WINDOW_MS[0]) & (t <= on - PRE_WINDOW_MS[1])
-        post = (t >= off + POST_WINDOW_MS[0]) & (t <= off + POST_WINDOW_MS[1])
-        if pre.any() and post.any():
-            out[:, j] = (float(np.median(trace[post]) - np.median(trace[pre])), pk, off - on, skew)
+            trace = trace + np.stack([draws[j][0] for j in cols], axis=1)
+            ortho = np.stack([draws[j][1] for j in cols], axis=1)
+        m = measure_saccades(t, speed_deg_s(trace, ortho, sdt), rate_hz)
+        on, off = m[0], m[1]
+        with np.errstate(invalid="ignore"):
+            pre = (t[:, None] >= on - PRE_WINDOW_MS[0]) & (t[:, None] <= on - PRE_WINDOW_MS[1])
+            post = (t[:, None] >= off + POST_WINDOW_MS[0]) & (t[:, None] <= off + POST_WINDOW_MS[1])
+        ok = np.isfinite(on) & pre.any(axis=0) & post.any(axis=0)
+        amp = _masked_median(trace, post) - _masked_median(trace, pre)
+        out[:, cols[ok]] = np.stack([amp, m[2], off - on, m[4]])[:, ok]
     return out
+
+
+def _masked_median(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Per column, ``np.median(x[mask[:, j], j])`` (NaN where the mask is empty): the middle value, or
+    the mean of the two middle ones, as ``np.median`` computes them."""
+    v = np.sort(np.where(mask, x, np.inf), axis=0)
+    cnt = mask.sum(axis=0)
+    c = np.arange(x.shape[1])
+    hi = np.clip(cnt // 2, 0, len(x) - 1)
+    lo = np.clip((cnt - 1) // 2, 0, len(x) - 1)
+    med = np.where(cnt % 2 == 1, v[hi, c], (v[lo, c] + v[hi, c]) / 2)
+    return np.where(cnt > 0, med, np.nan)
 
 
 def predict(generator, amplitudes_deg, rate_hz: float, noise_deg: float = 0.0, phases: int | None = None) -> dict:

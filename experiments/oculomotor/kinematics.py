@@ -37,6 +37,7 @@ __all__ = [
     "speed_deg_s",
     "crossing",
     "measure_saccade",
+    "measure_saccades",
     "engbert_kliegl",
     "SKEWNESS_MIN_RATE_HZ",
 ]
@@ -65,31 +66,39 @@ def steps_ok(times_ms: np.ndarray, dt_ms: float, block: np.ndarray | None = None
 
 
 def _window_all(flags: np.ndarray, lo: int, hi: int, n: int) -> np.ndarray:
-    """out[i] = all(flags[i + lo : i + hi]) for i in [0, n) (False where the window leaves ``flags``)."""
-    c = np.concatenate([[0], np.cumsum(~flags)])
+    """out[i] = all(flags[i + lo : i + hi]) for i in [0, n) (False where the window leaves ``flags``);
+    along the first axis of (len, c) flags, column by column."""
+    c = np.concatenate([np.zeros((1, *flags.shape[1:]), np.int64), np.cumsum(~flags, axis=0)])
     i = np.arange(n)
     a, b = i + lo, i + hi
     inside = (a >= 0) & (b <= len(flags))
-    out = np.zeros(n, bool)
+    out = np.zeros((n, *flags.shape[1:]), bool)
     out[inside] = (c[b[inside]] - c[a[inside]]) == 0
     return out
 
 
 def velocity(a: np.ndarray, dt_ms: float, ok_steps: np.ndarray | None = None) -> np.ndarray:
     """Savitzky--Golay first derivative (units of ``a`` per second; module docstring); NaN where the
-    window holds a NaN, leaves the trace or spans a step that ``ok_steps`` marks False."""
+    window holds a NaN, leaves the trace or spans a step that ``ok_steps`` marks False. ``a`` is one
+    trace (n,) or several sampled together, one per column (n, c)."""
     a = np.asarray(a, float)
     n = len(a)
     m = sg_half_window(dt_ms)
     k = np.arange(-m, m + 1)
     w = k / float((k * k).sum()) / (dt_ms / 1000.0)
-    v = np.full(n, np.nan)
+    v = np.full(a.shape, np.nan)
     if n < 2 * m + 1:
         return v
-    v[m : n - m] = np.correlate(np.nan_to_num(a), w, mode="valid")
+    z = np.nan_to_num(a)
+    if a.ndim == 1:
+        v[m : n - m] = np.correlate(z, w, mode="valid")
+    else:  # the same 1-D product per column (bit-identical to one trace at a time)
+        for j in range(a.shape[1]):
+            v[m : n - m, j] = np.correlate(np.ascontiguousarray(z[:, j]), w, mode="valid")
     good = _window_all(np.isfinite(a), -m, m + 1, n)
     if ok_steps is not None:
-        good &= _window_all(np.asarray(ok_steps, bool), -m, m, n)
+        steps = _window_all(np.asarray(ok_steps, bool), -m, m, n)
+        good &= steps if a.ndim == 1 else steps[:, None]
     v[~good] = np.nan
     return v
 
@@ -134,6 +143,51 @@ def measure_saccade(
             tp += 0.5 * (a - c) / den * (t[i_peak + 1] - t[i_peak])
     skew = (tp - on) / (off - on) if rate_hz >= SKEWNESS_MIN_RATE_HZ else math.nan
     return on, off, pk, tp, skew
+
+
+def measure_saccades(t: np.ndarray, s: np.ndarray, rate_hz: float) -> np.ndarray:
+    """:func:`measure_saccade` of each column of the speed traces ``s`` (n, c), sampled together at
+    times ``t`` (n,), at that column's peak (``nanargmax``), all at once: (5, c) rows onset, offset,
+    peak velocity, peak time, skewness, NaN where :func:`measure_saccade` gives None. The same
+    arithmetic, so the same numbers to the bit (``tests/test_oculomotor_kinematics.py``)."""
+    t = np.asarray(t, float)
+    s = np.asarray(s, float)
+    n, c = s.shape
+    cols = np.arange(c)
+    ip = np.nanargmax(s, axis=0)
+    rows = np.arange(n)[:, None]
+    with np.errstate(invalid="ignore"):
+        stop = ~np.isfinite(s) | (s < THRESHOLD_DEG_S)  # where a walk from the peak ends
+    # the first stop on each side of the peak: a NaN there is no crossing, a sample below threshold is one
+    k_on = np.where(stop & (rows < ip), rows, -1).max(axis=0)
+    k_off = np.where(stop & (rows > ip), rows, n).min(axis=0)
+    out = np.full((5, c), np.nan)
+    ok = (k_on >= 0) & (k_off < n)
+    ok[ok] &= np.isfinite(s[k_on[ok], cols[ok]]) & np.isfinite(s[k_off[ok], cols[ok]])
+    if not ok.any():
+        return out
+    c_ok = cols[ok]
+    ko, kf, i = k_on[ok], k_off[ok], ip[ok]
+    jo, jf = ko + 1, kf - 1
+    so, sf = s[jo, c_ok], s[jf, c_ok]
+    on = t[jo] + (t[ko] - t[jo]) * (so - THRESHOLD_DEG_S) / (so - s[ko, c_ok])
+    off = t[jf] + (t[kf] - t[jf]) * (sf - THRESHOLD_DEG_S) / (sf - s[kf, c_ok])
+    pk = s[i, c_ok]
+    tp = t[i].copy()
+    inner = (i > 0) & (i < n - 1)
+    lo_, hi_ = np.clip(i - 1, 0, n - 1), np.clip(i + 1, 0, n - 1)
+    a, b, cc = s[lo_, c_ok], s[i, c_ok], s[hi_, c_ok]
+    fin = inner & np.isfinite(a) & np.isfinite(b) & np.isfinite(cc)
+    den = a - 2 * b + cc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shift = 0.5 * (a - cc) / den * (t[hi_] - t[i])
+    bend = fin & (den < 0)
+    tp[bend] += shift[bend]
+    good = off > on
+    skew = (tp - on) / np.where(good, off - on, 1.0) if rate_hz >= SKEWNESS_MIN_RATE_HZ else np.full(len(on), np.nan)
+    keep = c_ok[good]
+    out[:, keep] = np.stack([on, off, pk, tp, skew])[:, good]
+    return out
 
 
 def engbert_kliegl(times_ms, x, y, dt_ms: float, ok_steps=None) -> list[tuple[float, float]]:
