@@ -67,8 +67,10 @@ def test_baselines_on_two_processes_writes_the_in_process_table(tmp_path, capsys
     ``curves.png`` that ``--help`` promises: its validation curve, IQM over the seeds (issue 37)."""
     import json
 
+    tiny = tmp_path / "cem.yml"  # a tiny CEM (--cem-hyperparams): what is compared is where the runs train
+    tiny.write_text("fixate: {iterations: 2, population: 4, episodes: 1, eval_episodes: 2}\n")
     common = ["baselines", "--task", "fixate", "--agents", "cem", "--seeds", "0", "1", "--quick", "--image-size",
-              "32", "--episodes", "2"]
+              "32", "--episodes", "2", "--cem-hyperparams", str(tiny)]
     assert main([*common, "--out", str(tmp_path / "one")]) == 0
     assert main([*common, "--out", str(tmp_path / "two"), "--workers", "2"]) == 0
     capsys.readouterr()
@@ -79,3 +81,33 @@ def test_baselines_on_two_processes_writes_the_in_process_table(tmp_path, capsys
                 for d in ("one", "two"))  # the last column, the wall time, left out
     assert one == two
     assert all((tmp_path / d / "curves.png").stat().st_size > 1000 for d in ("one", "two"))
+    import yaml
+
+    from experiments.agents.cem import CEMConfig
+
+    for s in (0, 1):  # the file's config is the one trained, and it is part of the runs' settings
+        a = json.loads((tmp_path / "one" / f"cem_s{s}" / "heldout.json").read_text())
+        assert CEMConfig(**a["hyperparams"]) == CEMConfig.from_mapping(yaml.safe_load(tiny.read_text())["fixate"])
+        assert len((tmp_path / "one" / f"cem_s{s}" / "training_log.csv").read_text().splitlines()) == 1 + 2
+    tiny.write_text("fixate: {iterations: 3, population: 4, episodes: 1, eval_episodes: 2}\n")
+    assert main([*common, "--out", str(tmp_path / "one")]) == 2  # other hyper-parameters: refused, not mixed
+    assert "other cem hyper-parameters" in capsys.readouterr().err
+
+
+@pytest.mark.adversarial
+@pytest.mark.parametrize("text, says", [
+    ("fixate: {iters: 2}\n", "unknown CEM hyper-parameter(s) iters"),
+    ("fixate: {iterations: 2.5}\n", "iterations must be a whole number"),
+    ("fixate: {init_std: .inf}\n", "init_std must be a finite number"),
+    ("fixate: {population: 0}\n", "population must be >= 1"),
+    ("search: {iterations: 2}\n", "no entry for task 'fixate'"),
+])
+def test_bad_cem_hyperparams_are_refused_before_training(tmp_path, capsys, text, says):
+    bad = tmp_path / "cem.yml"
+    bad.write_text(text)
+    out = tmp_path / "b"
+    rc = main(["baselines", "--task", "fixate", "--agents", "cem", "--quick", "--cem-hyperparams", str(bad),
+               "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc != 0 and says in err and "Traceback" not in err, err
+    assert not any(out.glob("cem_s*"))

@@ -623,8 +623,10 @@ def test_baselines_command_trains_evaluates_aggregates_and_resumes(tmp_path, cap
     from experiments.agents.stats import summarize_runs
 
     out = tmp_path / "b"
+    tiny = tmp_path / "cem.yml"  # a small CEM: its part here is the table's other agent
+    tiny.write_text("fixate: {iterations: 2, population: 4, episodes: 1, eval_episodes: 2}\n")
     args = ["baselines", "--task", "fixate", "--agents", "ppo", "cem", "--seeds", "0", "1", "--out", str(out),
-            "--quick", "--image-size", "48", "--episodes", "3", "--eval-seed", "2"]
+            "--quick", "--image-size", "48", "--episodes", "3", "--eval-seed", "2", "--cem-hyperparams", str(tiny)]
     assert main(args) == 0
     first = capsys.readouterr()
     table = first.out
@@ -668,7 +670,7 @@ def test_baselines_command_trains_evaluates_aggregates_and_resumes(tmp_path, cap
     assert again["deterministic"] == held[("cem", 1)]["deterministic"]
     assert (out / "ppo_s0" / "heldout.json").stat().st_mtime_ns == stamps[out / "ppo_s0" / "heldout.json"]
     # another study in the same folder is refused, and so is a run made with other hyper-parameters
-    assert main([*args[:-2], "--eval-seed", "5"]) == 2
+    assert main([*args, "--eval-seed", "5"]) == 2  # (the last --eval-seed counts)
     assert "another baselines study" in capsys.readouterr().err
     hp = tmp_path / "ppo.yml"
     hp.write_text("fixate: {policy: cortical-cell, env_kwargs: {action_mode: vector}, gamma: 0.8}\n")

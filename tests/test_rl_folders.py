@@ -88,12 +88,14 @@ def test_planted_pickles_never_run(tmp_path, capsys):
     ppo, base = tmp_path / "ppo", tmp_path / "base"
     train_ppo = ["train", "--algo", "ppo", "--quick", "--image-size", "32", "--seed", "0", "--no-progress"]
     assert _main([*train_ppo, "--out", str(ppo)], capsys)[0] == 0
+    tiny = tmp_path / "cem.yml"  # TINY_CEM as a --cem-hyperparams file
+    tiny.write_text("fixate: {iterations: 3, population: 4, episodes: 1, eval_episodes: 2}\n")
     base_args = ["baselines", "--task", "fixate", "--agents", "cem", "--seeds", "0", "--quick", "--image-size", "32",
-                 "--episodes", "2", "--eval-seed", "1"]
+                 "--episodes", "2", "--eval-seed", "1", "--cem-hyperparams", str(tiny)]
     assert _main([*base_args, "--out", str(base)], capsys)[0] == 0
     cem = base / "cem_s0"
-    train_cem = ["train", "--algo", "cem", "--quick", "--image-size", "32", "--seed", "0", "--no-progress"]
-    # the CEM run of the baselines is the run `train --quick --image-size 32` makes: train reports it, finished
+    train_cem = ["train", "--algo", "cem", "--quick", "--image-size", "32", "--seed", "0", "--no-progress", *TINY_CEM]
+    # the CEM run of the baselines is the run `train` makes with the same settings: train reports it, finished
     rc, err = _main([*train_cem, "--out", str(cem)], capsys)
     assert rc == 0, err
 

@@ -91,7 +91,7 @@ def _train_one(
         _, meta = train_cem(
             run,
             task=task,
-            config=CEMConfig.quick() if quick else CEMConfig(),
+            config=CEMConfig(**hp) if hp else CEMConfig.quick() if quick else CEMConfig(),
             seed=seed,
             env_kwargs={"image_size": image_size},
             progress=False,
@@ -139,8 +139,10 @@ def run_baselines(
     """Train and evaluate ``agents`` x ``seeds`` on ``task`` into ``out`` (see the module docstring),
     resuming a folder of the same study; returns the table's rows. ``timesteps`` overrides the PPO/SAC
     budget, ``quick`` shrinks every run (tests), ``image_size`` overrides the env's (96 by default),
-    ``hyperparams`` maps ``ppo``/``sac`` to YAML files other than ``experiments/hyperparams/<algo>.yml``.
-    ``workers``, ``backend``, ``ray_address``: the runs to train at once, on local processes or Ray actors."""
+    ``hyperparams`` maps ``ppo``/``sac`` to YAML files other than ``experiments/hyperparams/<algo>.yml``,
+    and ``cem`` to a YAML file whose ``task`` entry sets ``CEMConfig``'s fields (instead of its defaults,
+    or ``CEMConfig.quick()`` with ``quick``). ``workers``, ``backend``, ``ray_address``: the runs to train
+    at once, on local processes or Ray actors."""
     from .hyperparams import load_hyperparams
 
     agents, seeds = tuple(agents), tuple(int(s) for s in seeds)
@@ -159,12 +161,20 @@ def run_baselines(
     hyperparams = dict(hyperparams or {})
     hps: dict[str, dict] = {}
     for a in agents:
-        if a != "cem":
+        if a == "cem":
+            if hyperparams.get("cem") is not None:
+                from dataclasses import asdict
+
+                from .cem import CEMConfig
+
+                entry = load_hyperparams("cem", task, hyperparams["cem"])
+                hps[a] = asdict(CEMConfig.from_mapping(entry, f"{hyperparams['cem']}, entry {task!r}"))
+        else:
             hp = load_hyperparams(a, task, hyperparams.get(a))
             if image_size:
                 hp["env_kwargs"] = {**hp.get("env_kwargs", {}), "image_size": image_size}
             hps[a] = quick_hyperparams(a, hp) if quick else hp
-    if hps:
+    if set(hps) - {"cem"}:
         try:
             import stable_baselines3  # noqa: F401  (imported only to check that it is installed)
         except ImportError:

@@ -12,10 +12,12 @@ so an interrupted run loses at most one iteration and resumes to the same weight
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -56,6 +58,30 @@ class CEMConfig:
     @classmethod
     def quick(cls) -> CEMConfig:
         return cls(iterations=5, population=12, episodes=4, eval_episodes=16)
+
+    @classmethod
+    def from_mapping(cls, entry: dict, source: str = "CEM hyper-parameters") -> CEMConfig:
+        """A validated config from a mapping of field names (a YAML entry, as ``baselines
+        --cem-hyperparams`` reads); the fields it leaves out keep their defaults."""
+        known = set(cls.__dataclass_fields__)
+        bad = sorted(map(str, set(entry) - known))
+        if bad:
+            raise ValueError(
+                f"{source}: unknown CEM hyper-parameter(s) {', '.join(bad)}; known: {', '.join(sorted(known))}"
+            )
+        whole = ("iterations", "population", "episodes", "eval_episodes")
+        values = asdict(cls(**entry))
+        for k, v in values.items():
+            number = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            if not number or (k in whole and v != int(v)):
+                raise ValueError(f"{source}: {k} must be a {'whole' if k in whole else 'finite'} number; got {v!r}")
+        typed: dict[str, Any] = {k: int(v) if k in whole else float(v) for k, v in values.items()}
+        config = cls(**typed)
+        try:
+            config.validate()
+        except ValueError as err:
+            raise ValueError(f"{source}: {err}") from None
+        return config
 
     def validate(self) -> None:
         for name in ("iterations", "population", "episodes", "eval_episodes"):

@@ -54,6 +54,12 @@ def add_subcommand(subparsers) -> None:
     add_image_size_option(b, "pixels per side of each eye's image (default 96)")
     b.add_argument("--ppo-hyperparams", type=Path, help="a YAML file instead of experiments/hyperparams/ppo.yml")
     b.add_argument("--sac-hyperparams", type=Path, help="a YAML file instead of experiments/hyperparams/sac.yml")
+    b.add_argument(
+        "--cem-hyperparams",
+        type=Path,
+        help="a YAML file whose entry for --task sets CEM's iterations, population, episodes, elite_frac, "
+        "init_std, ring_std, extra_std, eval_episodes (default: CEMConfig's, or --quick's)",
+    )
     add_workers_option(b, default=1, what="runs trained at once (processes / Ray actors)")
     add_backend_options(b, "where the runs train")
     b.set_defaults(func=run, _parser=b)
@@ -65,7 +71,11 @@ def run(args: argparse.Namespace) -> int:
     from ..folders import LockBusyError
 
     check_backend_options(args, args._parser)
-    hyper = {k: v for k, v in (("ppo", args.ppo_hyperparams), ("sac", args.sac_hyperparams)) if v is not None}
+    hyper = {
+        k: v
+        for k, v in (("ppo", args.ppo_hyperparams), ("sac", args.sac_hyperparams), ("cem", args.cem_hyperparams))
+        if v is not None
+    }
     unused = [f"--{k}-hyperparams" for k in hyper if k not in args.agents]
     if args.timesteps is not None and not {"ppo", "sac"} & set(args.agents):
         unused.append("--timesteps")

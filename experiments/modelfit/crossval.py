@@ -396,11 +396,11 @@ def _displacement_config(theory: str, params: dict, cfg: dict, motor_noise: floa
     return FIT_MODELS[theory].trial_config(base, params)
 
 
-def _simulate_displacement(gen: str, design, cfg: dict) -> np.ndarray:
+def _simulate_displacement(gen: str, design, cfg: dict, bar=None) -> np.ndarray:
     """Rows (amplitude, blank ms, step deg, reported forward (0/1), cell index, seed) of ``gen``'s
     displacement reports: one per trial, each with its own landing error and report noise (the trial's
     seed), read out by ``gen`` at its defaults; a trial whose target ``gen`` loses gives no report
-    (no row)."""
+    (no row). ``bar``: a progress bar advanced by one per trial."""
     from ..psychophysics import TrialRunner
     from .likelihood import FIT_MODELS
 
@@ -411,6 +411,8 @@ def _simulate_displacement(gen: str, design, cfg: dict) -> np.ndarray:
     try:
         for t in design.trials():
             r = runner.run(t)
+            if bar is not None:
+                bar.update(1)
             if not math.isfinite(r["reported_forward"]):
                 continue
             rows.append(
@@ -673,9 +675,17 @@ def crossvalidate(
                 finally:
                     noisy_runner.close()
             displacement = _displacement_design(cfg["quick"], cfg["seed"])
+            if progress:
+                from tqdm import tqdm
+
+                n_disp = len(cfg["data_from"]) * len(displacement.trials())
+                bar = tqdm(total=n_disp, desc="crossval: displacement reports", unit="trial")
             for gen in cfg["data_from"]:
-                data[gen, "displacement"] = _simulate_displacement(gen, displacement, cfg)
+                data[gen, "displacement"] = _simulate_displacement(gen, displacement, cfg, bar)
                 _write_displacement(out / "data" / gen / "displacement.csv", data[gen, "displacement"], gen, cfg)
+            if bar is not None:
+                bar.close()
+                bar = None
             n_fits = len(cfg["data_from"]) * len(HELDOUT) * len(cfg["theories"])
             if progress:
                 from tqdm import tqdm
