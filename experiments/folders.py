@@ -321,14 +321,17 @@ def interruptible() -> Iterator[None]:
     workers are stopped, what was written stays); a second signal is ignored while the first one's
     clean-up runs. A signal that arrives where the exception would be lost (:func:`swallowing_context`:
     numba compiling, a finaliser, a C library's callback) is sent again to the main thread every 20 ms
-    until it lands where it propagates; one still pending when the block ends is raised there."""
+    until it lands where it propagates; one still pending when the block ends is raised there. An
+    error that leaves the block after the signal's ``Interrupted`` was raised is that interruption (a C
+    extension turned it into another exception) and leaves as ``Interrupted``."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     sigs = (signal.SIGINT, signal.SIGTERM)
     main = threading.get_ident()
-    # pending: the deferred signal (None: none); sent: re-sends made; active: False once the block ends
-    lock, state = threading.Lock(), types.SimpleNamespace(active=True, sent=0, pending=None)
+    # pending: the deferred signal (None: none); sent: re-sends made; active: False once the block ends;
+    # raised: the signal whose Interrupted the handler raised
+    lock, state = threading.Lock(), types.SimpleNamespace(active=True, sent=0, pending=None, raised=None)
 
     def resend(signum: int) -> None:  # a timer thread: never after the block has ended
         with lock:
@@ -349,11 +352,19 @@ def interruptible() -> Iterator[None]:
         for s in sigs:
             signal.signal(s, signal.SIG_IGN)
         state.pending = None
+        state.raised = signum
         raise Interrupted(signum)
 
     old = {s: signal.signal(s, handler) for s in sigs}
     try:
-        yield
+        try:
+            yield
+        except Exception as exc:
+            # raised inside a C extension's call (pybind11 converting an argument: mujoco's specs), the
+            # Interrupted comes out as another error ("incompatible function arguments"): it is the signal's
+            if state.raised is not None:
+                raise Interrupted(state.raised) from exc
+            raise
         if state.pending is not None:  # sent again, but the block ended first
             for s in sigs:
                 signal.signal(s, signal.SIG_IGN)

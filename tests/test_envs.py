@@ -481,10 +481,10 @@ def test_remapped_observation_predicts_the_next_cortical_one():
 
 
 @pytest.mark.slow
-def test_memory_does_not_grow_over_two_thousand_steps():
-    """Resident memory (C allocations included) and Python objects stay flat over 2,000 steps: a
+def test_memory_does_not_grow_over_1750_steps():
+    """Resident memory (C allocations included) and Python objects stay flat over 1,750 steps: a
     step's buffers are reused. A leak of a step's smallest buffer (one eye's 32 px image, 3 kB)
-    would add 6 MB here."""
+    would add 5 MB here (1.2 MB in each window of 400 steps)."""
     e = envs.BinocularSaccadeEnv(image_size=32, fixation_ms=0)
     e.reset(seed=0)
     rng = np.random.default_rng(0)
@@ -495,15 +495,15 @@ def test_memory_does_not_grow_over_two_thousand_steps():
             if term or trunc:
                 e.reset()
 
-    run(300)  # warm up caches and allocator
-    growth = []  # kB per window of 550 steps (2,000 steps in all with the ones below)
+    run(200)  # warm up caches and allocator
+    growth = []  # kB per window of 400 steps (1,750 steps in all with the ones below)
     for _ in range(3):
         gc.collect()
         before = rss_kb()
-        run(550)
+        run(400)
         gc.collect()
         growth.append(rss_kb() - before)
-    # a leak grows every window (a 3 kB-a-step leak: 1.6 MB each); the allocator's one-off growth
+    # a leak grows every window (a 3 kB-a-step leak: 1.2 MB each); the allocator's one-off growth
     # (an arena extended once) shows in one window only: two of the three must stay under 1 MB
     assert sorted(growth)[1] < 1024, growth
     tracemalloc.start()

@@ -8,6 +8,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 import zlib
 from pathlib import Path
@@ -354,6 +355,33 @@ def test_a_signal_caught_in_a_finaliser_still_interrupts(sig):
 
     Probe()
     assert Probe.seen and not swallowing_context(sys._getframe())
+
+
+def _c_extension_call(sig: int) -> None:
+    """What pybind11 does when a signal's exception is raised while it converts an argument (seen in CI:
+    ``train`` sent SIGTERM while the scene's MuJoCo spec was built): the exception is dropped and another
+    one, "incompatible function arguments", raised instead."""
+    try:
+        signal.pthread_kill(threading.get_ident(), sig)
+        for _ in range(1000):  # bytecode: the handler runs here
+            pass
+    except BaseException:
+        raise TypeError("add_geom(): incompatible function arguments") from None
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_turned_into_another_error_still_interrupts(sig):
+    """The error a C extension made of the signal's ``Interrupted`` leaves the block as that
+    ``Interrupted`` (exit 128 + signal, one line), while the same error without a signal is itself."""
+    from experiments.folders import Interrupted, interruptible
+
+    with pytest.raises(Interrupted) as e:
+        with interruptible():
+            _c_extension_call(sig)
+    assert e.value.signum == sig and isinstance(e.value.__cause__, TypeError)
+    with pytest.raises(TypeError, match="incompatible"):
+        with interruptible():
+            raise TypeError("add_geom(): incompatible function arguments")
 
 
 def test_a_signal_deferred_to_the_end_of_the_block_is_raised_there():
