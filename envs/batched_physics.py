@@ -180,6 +180,10 @@ class WarpHeads:
             d = self.data
             # the run's starting state, to step it again with the solver where a joint reached its range
             self._saved = [(a, wp.empty_like(a)) for a in (d.qpos, d.qvel, d.act, d.qacc_warmstart, d.time)]
+            # the closed form's starting state, to step only that stretch again where a joint would reach
+            # its range in it (the stepped part before it already ran with the solver, or unflagged)
+            self._tail_saved = [(a, wp.empty_like(a)) for a, _ in self._saved]
+            self._tail_left = wp.zeros(1, dtype=wp.int32)
         # the same arrays seen with no room for constraints: MuJoCo Warp's solve() then sets qacc to
         # qacc_smooth, and qacc_smooth is computed (both need njmax == 0)
         self._free_data = dataclasses.replace(self.data, njmax=0)
@@ -209,6 +213,10 @@ class WarpHeads:
         self.linear_tail = forces is not None
         self._pending: tuple[int, int] | None = None
         self._tail_ran = False
+        self._tail_start = 0
+        #: runs stepped again with the solver: whole (a joint reached its range in a solver-free step) and
+        #: from the closed form's start only (a joint would have reached it in the closed form)
+        self.reruns = {"whole": 0, "closed_form": 0}
         #: milliseconds of physics taken in closed form so far (the rest were stepped)
         self.closed_form_ms = 0
         if forces is not None:
@@ -352,8 +360,10 @@ class WarpHeads:
         if self._pending is not None:
             self._run_tail(*self._pending)
             self._pending = None
-        if self._stepped and int(self._left.numpy()[0]) and (self.skip_solver or self._tail_ran):
+        if self._stepped and self.skip_solver and int(self._left.numpy()[0]):
             self._rerun_with_solver()
+        elif self._tail_ran and int(self._tail_left.numpy()[0]):
+            self._rerun_closed_form_with_solver()
         self._tail_ran = False
 
     # ------------------------------------------------------------------ the slow stretch in closed form
@@ -388,7 +398,10 @@ class WarpHeads:
                     t += 1
                 self._handoff_to_torch()
             if total - t >= _tail.MIN_STEPS:
-                self._tail_ran = True
+                self._tail_ran, self._tail_start = True, t
+                for a, saved in self._tail_saved:
+                    wp.copy(saved, a)
+                self._tail_left.zero_()
                 self._closed_form(t, total)
                 self.closed_form_ms += total - t
             else:
@@ -402,7 +415,7 @@ class WarpHeads:
         """Every world from ms ``t`` to ``total`` by the ``implicitfast`` step's linear map
         (``models.linear_tail.step_matrices`` with each world's mass matrix), made again every
         :data:`TAIL_CHUNK_MS` after one exact step; flags ``_left`` where a limited joint would reach its
-        range (``wait`` then steps the run again with the solver)."""
+        range (``wait`` then steps this stretch again with the solver)."""
         torch, wp = self._torch, self._wp
         n, nv, dt = self.num_worlds, self.qpos.shape[1], self._dt
         K, D, G = self._forces
@@ -438,7 +451,7 @@ class WarpHeads:
                 dim=n,
                 inputs=[wp.from_torch(A.contiguous()), wp.from_torch(W.contiguous()), xw, yw]
                 + [self._lim_adr_wp, self._lim_lo_wp, self._lim_hi_wp],
-                outputs=[self._left],
+                outputs=[self._tail_left],
             )
             self._handoff_to_torch()
             x = wp.to_torch(xw)
@@ -467,6 +480,30 @@ class WarpHeads:
                 self._physics_step(solver=True)
             mjw.forward(self.model, self.data)
         self._stepped = 0
+        self.reruns["whole"] += 1
+        self._handoff_to_torch()
+
+    def _rerun_closed_form_with_solver(self) -> None:
+        """Step the closed form's stretch again from its starting state with MuJoCo Warp's full ``step``:
+        a limited joint would have reached its range in it, where the limit's constraint acts. What was
+        stepped before it stands (it ran with the solver, or a solver-free step that reached a range
+        sent the whole run back). On CUDA the captured graph (``chunk_ms`` steps) is replayed where it
+        steps with the solver; the milliseconds past its last whole chunk are launched one by one."""
+        wp, mjw = self._wp, self._mjw
+        t0, total = self._tail_start, self._stepped
+        with wp.ScopedDevice(self.device):
+            for a, saved in self._tail_saved:
+                wp.copy(a, saved)
+            self._step.fill_(t0)
+            k = total - t0
+            if self._graph not in (None, False) and not self.skip_solver:
+                for _ in range(k // self.chunk_ms):
+                    wp.capture_launch(self._graph)
+                k %= self.chunk_ms
+            for _ in range(k):
+                self._physics_step(solver=True)
+            mjw.forward(self.model, self.data)
+        self.reruns["closed_form"] += 1
         self._handoff_to_torch()
 
     def _capture(self):

@@ -82,7 +82,8 @@ def test_the_slow_stretch_in_closed_form_follows_the_reference(drive):
 
     env = envs.BatchedBinocularSaccade(N, device=DEVICE, image_size=16, eye_drive=drive)
     try:
-        fast, ref = env.physics, WarpHeads(env.head, N, DEVICE, linear_tail=False)
+        fast = env.physics if env.physics.linear_tail else WarpHeads(env.head, N, DEVICE, linear_tail=True)
+        ref = WarpHeads(env.head, N, DEVICE, linear_tail=False)
         assert fast.linear_tail and not ref.linear_tail
         for seed in (0, 1):
             table, lengths, n_ms = _saccades(env, seed)
@@ -123,6 +124,34 @@ def test_a_joint_at_its_range_is_stepped_with_the_solver(pair):
     hi = np.degrees(env.head.model.jnt_range[env.head.model.joint("left_eye_h").id, 1])
     assert int(fast._left.numpy()[0]) == 1  # the range was reached
     assert out[1][0, 0, 0] < hi + 1.0  # the limit held the reference's eye (the command is at 60)
+    assert np.abs(out[0] - out[1]).max() < TOLERANCE_DEG
+
+
+@pytest.mark.slow
+def test_a_range_reached_in_the_closed_form_steps_that_stretch_again(pair):
+    """The closed form with the solver kept (CUDA's default): world 0's eye is taken fast to 44 deg, then
+    slowly (4 deg/s) past its 45 deg range, inside the stretch taken in closed form. That stretch alone
+    is stepped again with the solver from its start, not the whole run, and the eyes end where the 1 ms
+    reference with the solver leaves them (the limit holding the eye)."""
+    from envs.batched_physics import WarpHeads
+
+    env, _, ref = pair
+    fast = WarpHeads(env.head, N, DEVICE, skip_solver=False, linear_tail=True)
+    table, _, _ = _saccades(env, 0)
+    T = 400
+    cmd = np.repeat(table[:, :1], T, axis=1)
+    t = np.arange(T)
+    cmd[0, :, 0] = np.deg2rad(np.where(t < 44, t, 44.0 + 0.004 * (t - 44)))  # 1 deg/ms, then 4 deg/s
+    lens = np.full(N, T)
+    out = []
+    for ph in (fast, ref):
+        _load(ph, env)
+        assert ph.run(cmd, lens, T) == T
+        out.append(_eyes_deg(ph))
+    hi = np.degrees(env.head.model.jnt_range[env.head.model.joint("left_eye_h").id, 1])
+    assert np.degrees(cmd[0, -1, 0]) > hi + 0.3  # the command ends past the range
+    assert fast.reruns == {"whole": 0, "closed_form": 1}
+    assert out[1][0, 0, 0] < hi + 0.2  # the limit held the reference's eye
     assert np.abs(out[0] - out[1]).max() < TOLERANCE_DEG
 
 
