@@ -30,7 +30,7 @@ DEFAULT_CSV = ROOT / "experiments" / "data" / "rl_results.csv"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from tables import RL_COLUMNS  # noqa: E402  (the renderer's column list is the writer's: one home)
 
-__all__ = ["rows_from_baselines", "merge", "main"]
+__all__ = ["rows_from_baselines", "rows_from_train", "wilson_interval", "merge", "main"]
 
 _KEY = ("agent", "task", "engine", "device", "actions")
 _TABLE = ("agent", "actions", "seeds", "iqm", "ci_low", "ci_high", "per_seed", "mean_return", "env_steps", "wall_s")
@@ -98,6 +98,57 @@ def rows_from_baselines(folder: str | os.PathLike, engine: str, device: str, cod
     ]
 
 
+def wilson_interval(successes: int, n: int) -> tuple[float, float]:
+    """The Wilson score 95 % interval of a binomial proportion (Wilson 1927, JASA 22:209), by scipy."""
+    from scipy.stats import binomtest
+
+    if n <= 0 or not 0 <= successes <= n:
+        raise ValueError(f"need 0 <= successes <= n and n > 0, got {successes} of {n}")
+    ci = binomtest(successes, n).proportion_ci(confidence_level=0.95, method="wilson")
+    return float(ci.low), float(ci.high)
+
+
+def rows_from_train(folder: str | os.PathLike, code: str, note: str = "") -> list[dict]:
+    """The RL results row of one finished ``python -m experiments train --engine batched`` folder (its
+    ``ppo.json``): one seed, so the interval is the Wilson 95 % interval over its held-out episodes (said
+    in the note), not a bootstrap over seeds. Raises ValueError naming the file where it is not one."""
+    folder = Path(folder)
+    try:
+        meta = json.loads((folder / "ppo.json").read_text())
+        held = meta["heldout_batched"]
+        k = round(float(held["success_rate"]) * int(held["episodes"]))
+        row = {
+            "agent": "PPO batched (cortical conv, cell action)",
+            "task": meta["task"],
+            "engine": meta["engine"],
+            "device": meta.get("device_name") or meta["device"],
+            "actions": "deterministic" if held.get("deterministic", True) else "stochastic",
+            "env_steps": str(int(meta["env_steps"])),
+            "wall_s": f"{float(meta['wall_s']):.0f}",
+            "seeds": str(int(meta["seed"])),
+            "heldout_success_iqm": f"{float(held['success_rate']):.4g}",
+            "per_seed": f"{float(held['success_rate']):.2f}",
+            "mean_return": f"{float(held['mean_reward']):.4g}",
+        }
+        lo, hi = wilson_interval(k, int(held["episodes"]))
+    except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
+        raise ValueError(
+            f"{folder}/ppo.json is not a finished `python -m experiments train --engine batched` run: {e!r}"
+        ) from None
+    if meta["engine"] != "batched":
+        raise ValueError(f"{folder}/ppo.json is a {meta['engine']!r} run; rl_results reads batched train folders")
+    one_seed = f"one seed: 95 % Wilson interval over its {int(held['episodes'])} held-out episodes"
+    return [
+        {
+            **row,
+            "ci_low": f"{lo:.2f}",
+            "ci_high": f"{hi:.2f}",
+            "code": code,
+            "note": f"{one_seed}; {note}" if note else one_seed,
+        }
+    ]
+
+
 def merge(csv_path: str | os.PathLike, rows: list[dict]) -> list[dict]:
     """Replace ``csv_path``'s rows of the same agent, task, engine, device and actions by ``rows`` (appending
     new ones), write it atomically, and return the table."""
@@ -124,7 +175,11 @@ def merge(csv_path: str | os.PathLike, rows: list[dict]) -> list[dict]:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("folders", nargs="+", help="finished `python -m experiments baselines` folders")
+    ap.add_argument(
+        "folders",
+        nargs="+",
+        help="finished `python -m experiments baselines` folders, or `train --engine batched` folders (ppo.json)",
+    )
     ap.add_argument("--engine", default="single", help="the env engine trained on: single or batched (default single)")
     ap.add_argument("--device", default="cpu", help="the device trained on, e.g. cpu or an H100 (default cpu)")
     ap.add_argument("--code", help="the commit measured (default: this checkout's, with + where it has edits)")
@@ -135,7 +190,15 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     try:
         code = args.code or _code()
-        rows = [r for d in args.folders for r in rows_from_baselines(d, args.engine, args.device, code, args.note)]
+        rows = [
+            r
+            for d in args.folders
+            for r in (
+                rows_from_train(d, code, args.note)
+                if (Path(d) / "ppo.json").exists() and not (Path(d) / "study.json").exists()
+                else rows_from_baselines(d, args.engine, args.device, code, args.note)
+            )
+        ]
         table = merge(args.csv, rows)
     except ValueError as e:
         ap.error(str(e))

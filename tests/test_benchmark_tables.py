@@ -4,6 +4,8 @@ renderer reads a CSV as written (numbers, the device, the code measured) or says
 from __future__ import annotations
 
 import importlib.util
+import json
+import math
 from pathlib import Path
 
 import pytest
@@ -141,3 +143,45 @@ def test_rl_results_refuses_a_csv_of_other_columns_and_bad_words(tmp_path):
     bad.write_text(bad.read_text().replace("0.5,0.25", "nan,0.25"))
     with pytest.raises(ValueError, match="not a finite number"):
         tables.render(bad)
+
+
+def _train_folder(folder, success=0.14, episodes=100, engine="batched"):
+    """The keys of a ``train --engine batched`` folder's ppo.json that the results row reads."""
+    folder.mkdir()
+    meta = {"task": "search", "engine": engine, "device": "cuda", "device_name": "NVIDIA H200", "seed": 0,
+            "env_steps": 786432, "wall_s": 125.3, "final": {"success_rate": 0.19},
+            "heldout_batched": {"success_rate": success, "mean_reward": -0.3095, "episodes": episodes,
+                                "seed": 0, "deterministic": True}}
+    (folder / "ppo.json").write_text(json.dumps(meta))
+    return folder
+
+
+def test_a_batched_train_folder_is_one_seeds_row_with_a_wilson_interval(tmp_path):
+    """One seed: the interval is the Wilson score interval over its held-out episodes, computed here from
+    Wilson's (1927) closed form: (p + z^2/2n -/+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n)."""
+    rl = _rl_results()
+    (row,) = rl.rows_from_train(_train_folder(tmp_path / "t"), "abc123", "an H200")
+    p, n, z = 0.14, 100, 1.959963984540054
+    centre, half = p + z * z / (2 * n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    lo, hi = (centre - half) / (1 + z * z / n), (centre + half) / (1 + z * z / n)
+    assert (row["ci_low"], row["ci_high"]) == (f"{lo:.2f}", f"{hi:.2f}") == ("0.09", "0.22")
+    assert (row["seeds"], row["heldout_success_iqm"], row["engine"], row["device"]) == ("0", "0.14", "batched",
+                                                                                      "NVIDIA H200")
+    assert row["note"].startswith("one seed: 95 % Wilson interval over its 100 held-out episodes; an H200")
+    table = rl.merge(tmp_path / "rl.csv", [row])
+    assert "| `search` | PPO batched (cortical conv, cell action) | batched | NVIDIA H200 |" in tables.render(
+        tmp_path / "rl.csv")
+    assert len(table) == 1
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda d: d.mkdir(), "not a finished `python -m experiments train --engine batched` run"),
+    (lambda d: (_train_folder(d), (d / "ppo.json").write_text('{"task": "search"}')), "KeyError"),
+    (lambda d: _train_folder(d, success=1.5), "successes <= n"),
+    (lambda d: _train_folder(d, engine="single"), "reads batched train folders"),
+])
+def test_rl_results_refuses_what_is_not_a_batched_train_folder(tmp_path, make, message):
+    rl = _rl_results()
+    make(tmp_path / "t")
+    with pytest.raises(ValueError, match=message):
+        rl.rows_from_train(tmp_path / "t", "abc")
