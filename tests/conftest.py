@@ -14,6 +14,8 @@ each means and which command leaves which out. A test over ~2 s on 2 cores carri
 * **numba.** Before any worker starts, the compiled kernels an env episode runs are compiled once
   into numba's on-disk cache (or read back from it), so their compilation (about 30 s cold) is
   not charged to whichever test first touches a kernel, nor paid by every worker.
+* **Collection.** A file whose module mark (``pytestmark = pytest.mark.warp``) the ``-m`` expression
+  excludes whatever else its tests carry is not imported (``deselects_whole_file``).
 * **Adversarial counts.** Every hostile-input test (NaN, inf, wrong types and shapes, zero,
   negative, huge and non-integer values, corrupt files, bad CLI options) is marked
   ``@pytest.mark.adversarial``; a test that tries many hostile calls in one item (the public-API
@@ -26,7 +28,9 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import json
+import itertools
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -139,6 +143,48 @@ def pytest_itemcollected(item: pytest.Item) -> None:
     if " at 0x" in item.nodeid:
         raise pytest.UsageError(f"{item.nodeid}: a test id holds a memory address, which differs between "
                                 "pytest-xdist workers; give the parametrization ids without it")
+
+
+# ------------------------------------------------------------------------------------------- collection
+
+#: the markers ``pyproject.toml`` declares
+MARKERS = ("slow", "install", "warp", "readme", "adversarial")
+_MODULE_MARK = re.compile(r"^pytestmark\s*=\s*(.*)$", re.M)
+
+
+def deselects_whole_file(source: str, markexpr: str) -> bool:
+    """Whether ``-m markexpr`` leaves out every test of a file whose source is ``source``: true where the
+    file marks all its tests (``pytestmark = pytest.mark.warp``) and the expression is false for those
+    marks together with any combination of the other declared ones."""
+    if not markexpr:
+        return False
+    line = _MODULE_MARK.search(source)
+    marks = set(re.findall(r"pytest\.mark\.(\w+)", line.group(1))) if line else set()
+    if not marks:
+        return False
+    from _pytest.mark.expression import Expression
+
+    expr = Expression.compile(markexpr)
+    others = [m for m in MARKERS if m not in marks]
+    for extra in itertools.product((False, True), repeat=len(others)):
+        on = marks | {m for m, o in zip(others, extra) if o}
+        if expr.evaluate(lambda name, /, **kw: name in on):
+            return False
+    return True
+
+
+def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
+    """A test file every test of which ``-m`` leaves out by its module mark is not imported: the fast
+    subset (``-m "not slow and not install and not warp and not readme"``) does not pay the gpu extra's
+    imports (MuJoCo Warp, Warp, torch: ~4 s in every worker) only to deselect those files' tests."""
+    name = collection_path.name
+    if not (name.startswith("test_") and name.endswith(".py")):
+        return None
+    try:
+        source = collection_path.read_text()
+    except OSError:
+        return None
+    return True if deselects_whole_file(source, config.getoption("markexpr") or "") else None
 
 
 # ------------------------------------------------------------------------------------------------ numba

@@ -18,6 +18,7 @@ pytest.importorskip("mujoco_warp")
 
 import envs  # noqa: E402
 
+pytestmark = pytest.mark.warp  # needs the gpu extra (Warp, MuJoCo Warp, torch): see the README's "Tests"
 DEVICE = os.environ.get("CONFORMAL_TEST_DEVICE", "cpu")
 N = 3
 #: issue 38: a cheaper physics must keep the eye angles within 1e-4 deg of the 1 ms reference

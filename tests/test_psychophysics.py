@@ -193,6 +193,7 @@ def test_interrupted_run_resumes_to_the_same_table(tmp_path):
         run_trials(Design(amplitudes_deg=(12.0,)), CFG, part_dir, workers=1, progress=False)
 
 
+@pytest.mark.slow  # starts a pool of two processes (~5 s)
 def test_a_short_run_stays_in_this_process_unless_workers_are_asked_for(tmp_path, monkeypatch):
     """``run_trials(workers=None)`` (``run``'s default) runs a design of at most ``SMALL_RUN_TRIALS``
     trials here, with no pool (the same table as ``workers=1``); an explicit ``workers=2`` still starts
