@@ -15,9 +15,9 @@ import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -55,6 +55,9 @@ class CEMConfig:
     extra_std: float = 1.0  # added noise, decaying linearly to 0 at half the iterations
     eval_episodes: int = 40  # validation episodes per iteration (and for the baselines)
 
+    #: the fields that count something (whole numbers >= 1)
+    COUNTS: ClassVar[tuple[str, ...]] = ("iterations", "population", "episodes", "eval_episodes")
+
     @classmethod
     def quick(cls) -> CEMConfig:
         return cls(iterations=5, population=12, episodes=4, eval_episodes=16)
@@ -63,13 +66,13 @@ class CEMConfig:
     def from_mapping(cls, entry: dict, source: str = "CEM hyper-parameters") -> CEMConfig:
         """A validated config from a mapping of field names (a YAML entry, as ``baselines
         --cem-hyperparams`` reads); the fields it leaves out keep their defaults."""
-        known = set(cls.__dataclass_fields__)
+        known = {f.name for f in fields(cls)}
         bad = sorted(map(str, set(entry) - known))
         if bad:
             raise ValueError(
                 f"{source}: unknown CEM hyper-parameter(s) {', '.join(bad)}; known: {', '.join(sorted(known))}"
             )
-        whole = ("iterations", "population", "episodes", "eval_episodes")
+        whole = cls.COUNTS
         values = asdict(cls(**entry))
         for k, v in values.items():
             number = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
@@ -84,7 +87,7 @@ class CEMConfig:
         return config
 
     def validate(self) -> None:
-        for name in ("iterations", "population", "episodes", "eval_episodes"):
+        for name in self.COUNTS:
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"{name} must be >= 1; got {getattr(self, name)!r}")
         if not 0 < self.elite_frac <= 1 or round(self.elite_frac * self.population) < 1:

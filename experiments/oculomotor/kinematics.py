@@ -109,6 +109,25 @@ def speed_deg_s(x: np.ndarray, y: np.ndarray | None, dt_ms: float, ok_steps: np.
     return np.abs(vx) if y is None else np.hypot(vx, velocity(y, dt_ms, ok_steps))
 
 
+def _threshold_time(t_in, t_out, s_in, s_out):
+    """The time where the speed crosses ``THRESHOLD_DEG_S`` between a sample above it (``t_in``, ``s_in``)
+    and the next one below (``t_out``, ``s_out``), linearly interpolated (scalars or arrays)."""
+    return t_in + (t_out - t_in) * (s_in - THRESHOLD_DEG_S) / (s_in - s_out)
+
+
+def _parabola_shift(a, b, c, dt):
+    """The vertex of the parabola through three equally spaced speeds ``a, b, c`` (b the peak) as an
+    offset from b's time (``dt`` the spacing); meaningful where ``a - 2 b + c < 0``."""
+    return 0.5 * (a - c) / (a - 2 * b + c) * dt
+
+
+def _skewness(tp, on, off, rate_hz: float):
+    """The peak's place in the saccade, (peak time - onset) / duration; NaN below ``SKEWNESS_MIN_RATE_HZ``."""
+    if rate_hz < SKEWNESS_MIN_RATE_HZ:
+        return np.full(np.shape(on), math.nan) if np.ndim(on) else math.nan
+    return (tp - on) / (off - on)
+
+
 def crossing(t, s, i, step) -> float | None:
     """Walk from the peak index ``i`` by ``step`` to the first sample below threshold; the crossing
     time interpolated linearly; None if the walk leaves the data or meets a NaN (missing data)."""
@@ -119,7 +138,7 @@ def crossing(t, s, i, step) -> float | None:
         if not np.isfinite(s[k]):
             return None
         if s[k] < THRESHOLD_DEG_S:
-            return float(t[j] + (t[k] - t[j]) * (s[j] - THRESHOLD_DEG_S) / (s[j] - s[k]))
+            return float(_threshold_time(t[j], t[k], s[j], s[k]))
         j = k
     return None
 
@@ -138,11 +157,9 @@ def measure_saccade(
     tp = float(t[i_peak])
     if 0 < i_peak < len(s) - 1 and np.all(np.isfinite(s[i_peak - 1 : i_peak + 2])):
         a, b, c = s[i_peak - 1], s[i_peak], s[i_peak + 1]
-        den = a - 2 * b + c
-        if den < 0:
-            tp += 0.5 * (a - c) / den * (t[i_peak + 1] - t[i_peak])
-    skew = (tp - on) / (off - on) if rate_hz >= SKEWNESS_MIN_RATE_HZ else math.nan
-    return on, off, pk, tp, skew
+        if a - 2 * b + c < 0:
+            tp += _parabola_shift(a, b, c, t[i_peak + 1] - t[i_peak])
+    return on, off, pk, tp, _skewness(tp, on, off, rate_hz)
 
 
 def measure_saccades(t: np.ndarray, s: np.ndarray, rate_hz: float) -> np.ndarray:
@@ -170,21 +187,20 @@ def measure_saccades(t: np.ndarray, s: np.ndarray, rate_hz: float) -> np.ndarray
     ko, kf, i = k_on[ok], k_off[ok], ip[ok]
     jo, jf = ko + 1, kf - 1
     so, sf = s[jo, c_ok], s[jf, c_ok]
-    on = t[jo] + (t[ko] - t[jo]) * (so - THRESHOLD_DEG_S) / (so - s[ko, c_ok])
-    off = t[jf] + (t[kf] - t[jf]) * (sf - THRESHOLD_DEG_S) / (sf - s[kf, c_ok])
+    on = _threshold_time(t[jo], t[ko], so, s[ko, c_ok])
+    off = _threshold_time(t[jf], t[kf], sf, s[kf, c_ok])
     pk = s[i, c_ok]
     tp = t[i].copy()
     inner = (i > 0) & (i < n - 1)
     lo_, hi_ = np.clip(i - 1, 0, n - 1), np.clip(i + 1, 0, n - 1)
     a, b, cc = s[lo_, c_ok], s[i, c_ok], s[hi_, c_ok]
     fin = inner & np.isfinite(a) & np.isfinite(b) & np.isfinite(cc)
-    den = a - 2 * b + cc
     with np.errstate(invalid="ignore", divide="ignore"):
-        shift = 0.5 * (a - cc) / den * (t[hi_] - t[i])
-    bend = fin & (den < 0)
+        shift = _parabola_shift(a, b, cc, t[hi_] - t[i])
+    bend = fin & (a - 2 * b + cc < 0)
     tp[bend] += shift[bend]
     good = off > on
-    skew = (tp - on) / np.where(good, off - on, 1.0) if rate_hz >= SKEWNESS_MIN_RATE_HZ else np.full(len(on), np.nan)
+    skew = _skewness(tp, on, np.where(good, off, on + 1.0), rate_hz)
     keep = c_ok[good]
     out[:, keep] = np.stack([on, off, pk, tp, skew])[:, good]
     return out
