@@ -48,3 +48,8 @@ def test_the_gpu_files_carry_their_module_mark():
         source = path.read_text()
         if 'importorskip("mujoco_warp")' in source.split("\ndef ")[0]:
             assert deselects_whole_file(source, FAST), path.name
+
+
+def test_a_bad_expression_leaves_the_files_to_pytest():
+    """A malformed ``-m`` is pytest's usage error to report; the rule then imports every file."""
+    assert deselects_whole_file(WARP_FILE, "not (warp") is False
