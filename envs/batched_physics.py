@@ -414,7 +414,7 @@ class WarpHeads:
     def _closed_form(self, t: int, total: int) -> None:
         """Every world from ms ``t`` to ``total`` by the ``implicitfast`` step's linear map
         (``models.linear_tail.step_matrices`` with each world's mass matrix), made again every
-        :data:`TAIL_CHUNK_MS` after one exact step; flags ``_left`` where a limited joint would reach its
+        :data:`TAIL_CHUNK_MS` after one exact step; flags ``_tail_left`` where a limited joint would reach its
         range (``wait`` then steps this stretch again with the solver)."""
         torch, wp = self._torch, self._wp
         n, nv, dt = self.num_worlds, self.qpos.shape[1], self._dt
