@@ -147,15 +147,14 @@ def pytest_itemcollected(item: pytest.Item) -> None:
 
 # ------------------------------------------------------------------------------------------- collection
 
-#: the markers ``pyproject.toml`` declares
-MARKERS = ("slow", "install", "warp", "readme", "adversarial")
 _MODULE_MARK = re.compile(r"^pytestmark\s*=\s*(.*)$", re.M)
 
 
 def deselects_whole_file(source: str, markexpr: str) -> bool:
     """Whether ``-m markexpr`` leaves out every test of a file whose source is ``source``: true where the
     file marks all its tests (``pytestmark = pytest.mark.warp``) and the expression is false for those
-    marks together with any combination of the other declared ones."""
+    marks together with any combination of the other marks the expression names (no other mark can
+    change its value)."""
     if not markexpr:
         return False
     line = _MODULE_MARK.search(source)
@@ -168,7 +167,8 @@ def deselects_whole_file(source: str, markexpr: str) -> bool:
         expr = Expression.compile(markexpr)
     except Exception:  # noqa: BLE001 - a bad -m is pytest's to report (its usage error), not this hook's
         return False
-    others = [m for m in MARKERS if m not in marks]
+    named = set(re.findall(r"[A-Za-z_]\w*", markexpr)) - {"and", "or", "not", "True", "False"}
+    others = sorted(named - marks)
     for extra in itertools.product((False, True), repeat=len(others)):
         on = marks | {m for m, o in zip(others, extra) if o}
         if expr.evaluate(lambda name, /, **kw: name in on):

@@ -1,12 +1,13 @@
 """The suite's collection rule (``tests/conftest.py``): a file is left unimported only where ``-m``
-excludes every test it could hold, judged from its module mark and every combination of the others."""
+excludes every test it could hold, judged from its module mark and every combination of the other marks
+the expression names."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
-from conftest import MARKERS, deselects_whole_file
+from conftest import deselects_whole_file
 
 WARP_FILE = "import pytest\n\npytestmark = pytest.mark.warp  # needs the gpu extra\n\ndef test_x(): pass\n"
 FAST = "not slow and not install and not warp and not readme"
@@ -26,18 +27,12 @@ FAST = "not slow and not install and not warp and not readme"
         ("pytestmark = [pytest.mark.warp, pytest.mark.slow]\n", "warp and not slow", True),
         ("pytestmark = pytest.mark.adversarial\n", "adversarial or readme", False),
         ("pytestmark = pytest.mark.readme\n", "not readme and not warp", True),
+        (WARP_FILE, "warp and cuda_only", False),  # a mark the expression names may be on some test
+        (WARP_FILE, "cuda_only and not warp", True),
     ],
 )
 def test_a_file_is_left_unimported_only_where_no_test_of_it_can_be_selected(source, expr, left_out):
     assert deselects_whole_file(source, expr) is left_out
-
-
-def test_the_rule_knows_the_declared_markers():
-    """The combinations tried are the markers ``pyproject.toml`` declares."""
-    text = (Path(__file__).resolve().parent.parent / "pyproject.toml").read_text()
-    declared = {line.strip().split(":")[0].strip('"') for line in text.split("markers = [")[1].split("]")[0].splitlines()
-                if ":" in line}
-    assert declared == set(MARKERS)
 
 
 def test_the_gpu_files_carry_their_module_mark():
