@@ -664,6 +664,8 @@ def crossvalidate(
         _claim_folder(out, cfg)
         _warm_up(cfg, design, progress)
         conds, data, bar, per_trial = {}, {}, None, {}
+        if progress:
+            from tqdm import tqdm
         try:
             for c, name in enumerate(CONDITIONS):
                 cond, noisy_obs, noisy_runner = _observe(name, design, cfg, out, options)
@@ -676,8 +678,6 @@ def crossvalidate(
                     noisy_runner.close()
             displacement = _displacement_design(cfg["quick"], cfg["seed"])
             if progress:
-                from tqdm import tqdm
-
                 n_disp = len(cfg["data_from"]) * len(displacement.trials())
                 bar = tqdm(total=n_disp, desc="crossval: displacement reports", unit="trial")
             for gen in cfg["data_from"]:
@@ -688,8 +688,6 @@ def crossvalidate(
                 bar = None
             n_fits = len(cfg["data_from"]) * len(HELDOUT) * len(cfg["theories"])
             if progress:
-                from tqdm import tqdm
-
                 bar = tqdm(total=n_fits, desc="crossval: fits", unit="fit")
             for g, gen in enumerate(cfg["data_from"]):
                 for fit_set, (cname, axes, heldout) in HELDOUT.items():
