@@ -7,7 +7,8 @@ vergence dynamics, the per-eye mix ``start + version s_plant + vergence r`` snap
 the settle time, Listing torsion, their rates, and the eye-position signal (the intended profile's
 increments spread by a Gaussian's CDF). The scalar formulas shared with numpy code (Listing torsion,
 the vergence fraction and its rate, the legacy main sequence) are written once, as plain functions
-compiled here both inline for the kernels and as numpy ufuncs (``numba.vectorize``).
+compiled here both inline for the kernels and as elementwise loops over broadcast arrays (cached on
+disk like the kernels: ``numba.vectorize``'s ufuncs are built again in every process, ~0.5 s).
 
 No fast-math: results are reproducible to the last bit between calls. Cached on disk as
 ``conformal.kernels``' kernels are. Saccades run in parallel over numba's threads, one thread per
@@ -25,6 +26,7 @@ import math
 from collections.abc import Iterator
 
 import numba as nb
+import numpy as np
 
 from conformal.kernels import DISK_CACHE
 
@@ -96,8 +98,19 @@ def _par(f):
     return call
 
 
-def _ufunc(f):
-    return nb.vectorize(cache=DISK_CACHE)(f)
+def _elementwise(loop):
+    """``loop`` (``(*inputs, out)``, one float64 result per element of flat inputs), called numpy-style: the
+    inputs broadcast and cast to float64, the result shaped as they are (a 0-d input: a numpy float)."""
+    kernel = nb.njit(cache=DISK_CACHE, nogil=True)(loop)
+
+    @functools.wraps(loop)
+    def call(*args):
+        arrays = np.broadcast_arrays(*(np.asarray(a, np.float64) for a in args))
+        out = np.empty(arrays[0].shape)
+        kernel(*(np.ascontiguousarray(a).reshape(-1) for a in arrays), out.reshape(-1))
+        return out if out.ndim else out[()]
+
+    return call
 
 
 # ------------------------------------------------------------------------------ scalar formulas
@@ -206,15 +219,45 @@ def _legacy_rate(t, amp, m0, vpk):
     return vpk / (1.0 - math.exp(x) / math.expm1(-amp / m0))
 
 
-listing_torsion = _ufunc(_listing_torsion)
-vergence_fraction = _ufunc(_vergence_fraction)
-vergence_rate = _ufunc(_vergence_rate)
-legacy_position = _ufunc(_legacy_position)
-legacy_rate = _ufunc(_legacy_rate)
 _listing = _inline(_listing_torsion)
 _vrate = _inline(_vergence_rate)
 _lpos = _inline(_legacy_position)
 _lrate = _inline(_legacy_rate)
+
+
+@_elementwise
+def listing_torsion(h, v, out):
+    """:func:`_listing_torsion` element by element."""
+    for i in range(out.size):
+        out[i] = _listing(h[i], v[i])
+
+
+@_elementwise
+def vergence_fraction(t, offset, speedup, tau, latency, out):
+    """:func:`_vergence_fraction` element by element."""
+    for i in range(out.size):
+        out[i] = _vfrac(t[i], offset[i], speedup[i], tau[i], latency[i])
+
+
+@_elementwise
+def vergence_rate(t, offset, speedup, tau, latency, out):
+    """:func:`_vergence_rate` element by element."""
+    for i in range(out.size):
+        out[i] = _vrate(t[i], offset[i], speedup[i], tau[i], latency[i])
+
+
+@_elementwise
+def legacy_position(t, amp, m0, vpk, out):
+    """:func:`_legacy_position` element by element."""
+    for i in range(out.size):
+        out[i] = _lpos(t[i], amp[i], m0[i], vpk[i])
+
+
+@_elementwise
+def legacy_rate(t, amp, m0, vpk, out):
+    """:func:`_legacy_rate` element by element."""
+    for i in range(out.size):
+        out[i] = _lrate(t[i], amp[i], m0[i], vpk[i])
 
 
 # ------------------------------------------------------------------------------ profiles

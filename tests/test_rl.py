@@ -705,7 +705,7 @@ def test_training_keeps_one_torch_thread_whatever_ran_before(tmp_path):
             "    from experiments.agents.rollout import make_env\n"
             "    e = make_env('search', image_size=48); e.reset(seed=1); e.step(3); e.close()\n"
             "hp = load_hyperparams('ppo', 'search'); hp['env_kwargs']['image_size'] = 48\n"
-            "train_sb3(sys.argv[2], 'ppo', 'search', quick_hyperparams('ppo', hp), seed=0, timesteps=192, log=lambda m: None)\n"
+            "train_sb3(sys.argv[2], 'ppo', 'search', quick_hyperparams('ppo', hp), seed=0, timesteps=64, log=lambda m: None)\n"
             "import numpy as np\n"
             "z = np.load(sys.argv[2] + '/ppo.npz', allow_pickle=False)\n"
             "w = b''.join(z[k].tobytes() for k in sorted(z.files) if k != '__meta__')\n"
