@@ -632,6 +632,29 @@ def test_a_lost_target_gives_no_displacement_report():
     assert math.isnan(row["perceived_step_deg"]) and math.isnan(row["reported_forward"])
 
 
+def test_a_blank_whose_every_target_is_lost_has_no_fit_and_says_so():
+    """Every trial of one blank lost (``phenomena --image-size 48`` did this and crashed in ``np.ptp``):
+    that blank's proportions, fit and CIs are NaN with its trials counted as lost, the other blank is
+    fitted as alone, and the scoreboard's note names the blank instead of calling the data non-monotone."""
+    from experiments.psychophysics import displacement_psychometrics
+    from experiments.psychophysics.phenomena import _note
+
+    steps = np.tile(np.repeat(np.arange(-2.0, 3.0), 4), 2)
+    blank = np.repeat([0.0, 250.0], 20)
+    fwd = np.tile((np.arange(20) % 4 < np.repeat([0, 1, 2, 3, 4], 4)).astype(float), 2)
+    fwd[20:] = np.nan  # blank 250 ms: the target lost in every trial
+    table = {"flash_dx_deg": steps, "flash_time_ms": blank, "reported_forward": fwd}
+    fits = displacement_psychometrics(table, n_boot=20)
+    alone = displacement_psychometrics({k: v[:20] for k, v in table.items()})[0]
+    assert fits[0]["pse_deg"] == alone["pse_deg"] and fits[0]["threshold_deg"] == alone["threshold_deg"]
+    lost = fits[250]
+    assert lost["lost"] == 20 and np.isnan(lost["p_forward"]).all() and len(lost["steps_deg"]) == 5
+    assert math.isnan(lost["pse_deg"]) and math.isnan(lost["threshold_deg"]) and math.isnan(lost["pse_ci"][0])
+    note = _note("displacement_blank_ratio", "observer", {"displacement": table}, float("nan"), (np.nan, np.nan))
+    assert "blank 250 ms: the target lost in all 20 trials (no reports): no fit" in note
+    assert "not monotone" not in note
+
+
 @pytest.mark.parametrize("model", ["population", "mechanistic", "paper"])
 def test_other_models_rows_that_count_against_published_values(model):
     """The committed scoreboard's rows that count (predicted, diagnostic, tested) for the other

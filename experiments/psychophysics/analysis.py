@@ -106,6 +106,24 @@ def _monotone_p(p: np.ndarray, n: np.ndarray) -> float:
     return float(chi2.sf(max(0.0, 2 * (ll(p) - ll(iso))), pooled))
 
 
+def _no_reports(levels: np.ndarray, lost: int, n_boot: int) -> dict:
+    """``displacement_psychometrics``' entry for a blank whose every trial lost the target: no
+    proportions and no fit (NaN), ``monotonic`` False, ``monotone_p`` NaN."""
+    nan = float("nan")
+    r = {
+        "lost": lost,
+        "steps_deg": levels,
+        "p_forward": np.full(len(levels), nan),
+        "pse_deg": nan,
+        "threshold_deg": nan,
+        "monotonic": False,
+        "monotone_p": nan,
+    }
+    if n_boot:
+        r["pse_ci"] = r["threshold_ci"] = (nan, nan)
+    return r
+
+
 def displacement_psychometrics(
     table: dict[str, np.ndarray], n_boot: int = 0, seed: int = 0, start: dict | None = None
 ) -> dict[int, dict]:
@@ -115,7 +133,8 @@ def displacement_psychometrics(
     ``monotonic``: False when P("forward") falls between neighbouring steps by more than two
     binomial standard errors (a threshold is then not meaningful); ``lost``: trials without a report
     (the target lost after the saccade: ``reported_forward`` NaN), left out. With ``n_boot`` > 0, 95 %
-    bootstrap CIs (``pse_ci``, ``threshold_ci``: reports resampled within each step). ``start``:
+    bootstrap CIs (``pse_ci``, ``threshold_ci``: reports resampled within each step). A blank with no
+    report at all: NaN proportions, fit and CIs (``lost`` = its trials). ``start``:
     {blank: (pse, s.d.)} to start each fit from (one start instead of four)."""
     out = {}
     steps, blank, fwd = table["flash_dx_deg"], table["flash_time_ms"], table["reported_forward"]
@@ -123,6 +142,9 @@ def displacement_psychometrics(
     for b in np.unique(blank):
         sel = (blank == b) & np.isfinite(fwd)  # no report where the target was lost (``lost``: how many)
         x, y = steps[sel], fwd[sel]
+        if not sel.any():  # the target lost in every trial: nothing to fit (NaN, not a crash)
+            out[int(b)] = _no_reports(np.unique(steps[blank == b]), int(np.sum(blank == b)), n_boot)
+            continue
         pse, sd = _probit_fit(x, y, None if start is None else start.get(int(b)))
         levels = np.unique(x)
         p = np.array([y[x == v].mean() for v in levels])
