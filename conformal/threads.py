@@ -35,12 +35,35 @@ def _blas_controller() -> ThreadpoolController:
         return _controller
 
 
+class _BlasLimit(AbstractContextManager):
+    """At most ``n`` threads in each of ``libraries`` (threadpoolctl's controllers) inside the block,
+    each library's own setting again after it: threadpoolctl's ``limit`` without its bookkeeping
+    (~12 us a use instead of ~35 us, for the two OpenBLAS copies numpy and scipy load)."""
+
+    __slots__ = ("_libraries", "_n", "_previous")
+
+    def __init__(self, libraries, n: int) -> None:
+        self._libraries, self._n, self._previous = libraries, n, ()
+
+    def __enter__(self) -> _BlasLimit:
+        self._previous = tuple(lib.num_threads for lib in self._libraries)
+        for lib, before in zip(self._libraries, self._previous):
+            if before > self._n:
+                lib.set_num_threads(self._n)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for lib, before in zip(self._libraries, self._previous):
+            if before > self._n:
+                lib.set_num_threads(before)
+
+
 def blas_threads(n: int = 1) -> AbstractContextManager:
     """A context manager in which the process's BLAS libraries use at most ``n`` threads.
 
-    The limit is lifted on exit (threadpoolctl restores each library's previous setting). Costs
-    about 10 us per use. ``n`` must be a positive integer.
+    Each library's previous setting is restored on exit. Costs about 12 us per use. ``n`` must be a
+    positive integer.
     """
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"n must be a positive integer number of threads; got {n!r}")
-    return _blas_controller().limit(limits=n)
+    return _BlasLimit(_blas_controller().lib_controllers, n)

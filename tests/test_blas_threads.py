@@ -1,0 +1,30 @@
+"""``conformal.blas_threads``: the BLAS libraries at most n threads inside the block, each library's own
+setting again after it (an error inside, a nested block), read back through threadpoolctl itself."""
+
+import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
+
+import conformal as C
+
+
+def _blas() -> list[int]:
+    return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+
+def test_limit_inside_and_each_setting_restored():
+    if not _blas():
+        pytest.skip("no BLAS library loaded")
+    with threadpool_limits(limits=2, user_api="blas"):  # a known setting to return to (a user's own)
+        before = _blas()
+        with C.blas_threads(1):
+            assert _blas() == [1] * len(before)
+            with C.blas_threads(1):
+                assert _blas() == [1] * len(before)
+            assert _blas() == [1] * len(before)  # the inner block restores what it found: the outer limit
+        assert _blas() == before
+        with pytest.raises(RuntimeError, match="inside"):
+            with C.blas_threads(1):
+                raise RuntimeError("inside")
+        assert _blas() == before
+        with C.blas_threads(64):  # a limit above the setting leaves it as it is
+            assert _blas() == before
