@@ -77,6 +77,8 @@ def report_noise(seed: int, sd: float) -> float:
 
 #: Eye-frame axes (x1 up, x2 optical axis, x3 right) in the head frame (x forward, y left, z up)
 #: at zero Fick angles (the README's eye frame; ``models.oculomotor``'s primary position).
+#: Poses ``TrialRunner._pose`` remembers before it starts again (a few hundred kB).
+_POSE_CACHE = 4096
 _PRIMARY_EYE_BASIS = np.column_stack([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 SCREEN_DISTANCE = 1.0  # the dots scene's screen, metres ahead of the cyclopean eye
@@ -379,6 +381,8 @@ class TrialRunner:
         # each eye's nodal point relative to its rotation centre, in the eye's own frame (constant)
         states = self.head.eye_states()
         self._centres = self.head.eye_centres_head
+        self._poses: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # _pose's results by the angles' bytes
+        self._cyclopean: tuple[bytes, np.ndarray | None] = (b"", None)  # _ray_to_screen_deg's, by head pose
         R = [models.fick_matrix(*a) for a in self.head.eye_angles]
         self._nodal = [R[e].T @ (self.head.to_head(states[e].camera_position) - self._centres[e]) for e in range(2)]
         h, w = self.head.image_shape
@@ -398,15 +402,31 @@ class TrialRunner:
 
     # ------------------------------------------------------------------ geometry helpers
     def _pose(self, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Head-frame eye axes (2, 3, 3) (columns x1, x2, x3) and nodal points (2, 3) for Fick angles (2, 3)."""
-        R = models.fick_matrix(angles[:, 0], angles[:, 1], angles[:, 2])
-        origins = np.stack([self._centres[e] + R[e] @ self._nodal[e] for e in range(2)])
-        return R @ _PRIMARY_EYE_BASIS, origins
+        """Head-frame eye axes (2, 3, 3) (columns x1, x2, x3) and nodal points (2, 3) for Fick angles (2, 3)
+        (read-only arrays, remembered by the angles' bytes: a fit reads the same trials' poses out at
+        every evaluation)."""
+        a = np.asarray(angles, np.float64)
+        key = a.tobytes()
+        pose = self._poses.get(key)
+        if pose is None:
+            R = models.fick_matrix(a[:, 0], a[:, 1], a[:, 2])
+            origins = np.stack([self._centres[e] + R[e] @ self._nodal[e] for e in range(2)])
+            pose = (R @ _PRIMARY_EYE_BASIS, origins)
+            for arr in pose:
+                arr.setflags(write=False)
+            if len(self._poses) >= _POSE_CACHE:
+                self._poses.clear()
+            self._poses[key] = pose
+        return pose
 
     def _ray_to_screen_deg(self, origin_head: np.ndarray, axes: np.ndarray, z: complex) -> np.ndarray:
         """Head-centred angles (deg) where the ray of image point z (eye axes ``axes``) meets the screen."""
         d = axes @ np.array([z.imag, 1.0, z.real])
-        c = self.head.to_head(self.head.cyclopean_position)
+        x, R = self.head.head_pose()
+        key = x.tobytes() + R.tobytes()
+        if self._cyclopean[0] != key:  # the cyclopean eye in the head frame, for this head pose
+            self._cyclopean = (key, self.head.to_head(self.head.cyclopean_position))
+        c = self._cyclopean[1]
         s = (c[0] + SCREEN_DISTANCE - origin_head[0]) / d[0]
         p = origin_head + s * d - c
         return np.degrees([math.atan2(-p[1], p[0]), math.atan2(p[2], p[0])])

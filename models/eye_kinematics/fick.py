@@ -43,12 +43,21 @@ _Z = np.array([0.0, 0.0, 1.0])
 PRIMARY_EYE_BASIS = np.column_stack([_Z, _X, -_Y])
 
 
+_I3 = np.eye(3)
+_SKEW: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # each axis' cross-product matrix K and K @ K
+
+
 def _rot(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """Rotation matrices about a fixed unit ``axis`` by ``angle`` (any shape) -> (..., 3, 3)."""
+    """Rotation matrices about a fixed unit ``axis`` by ``angle`` (any shape) -> (..., 3, 3):
+    Rodrigues' ``I + sin(a) K + (1 - cos(a)) K^2``, K and K^2 made once per axis."""
     angle = np.asarray(angle, dtype=float)
     c, s = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + s * k + (1 - c) * (k @ k)
+    key = np.asarray(axis, float).tobytes()  # by bytes: -0.0 and 0.0 make different K (signed zeros)
+    kk = _SKEW.get(key)
+    if kk is None:
+        k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        kk = _SKEW.setdefault(key, (k, k @ k))
+    return _I3 + s * kk[0] + (1 - c) * kk[1]
 
 
 def _angles(**named) -> list[np.ndarray]:
