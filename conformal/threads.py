@@ -43,7 +43,8 @@ class _BlasLimit(AbstractContextManager):
     __slots__ = ("_libraries", "_n", "_previous")
 
     def __init__(self, libraries, n: int) -> None:
-        self._libraries, self._n, self._previous = libraries, n, ()
+        self._libraries, self._n = libraries, n
+        self._previous: tuple[int, ...] = ()
 
     def __enter__(self) -> _BlasLimit:
         self._previous = tuple(lib.num_threads for lib in self._libraries)

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import overload
+from typing import cast, overload
 
 import numpy as np
 
@@ -426,7 +426,7 @@ class TrialRunner:
         key = x.tobytes() + R.tobytes()
         if self._cyclopean[0] != key:  # the cyclopean eye in the head frame, for this head pose
             self._cyclopean = (key, self.head.to_head(self.head.cyclopean_position))
-        c = self._cyclopean[1]
+        c = cast(np.ndarray, self._cyclopean[1])
         s = (c[0] + SCREEN_DISTANCE - origin_head[0]) / d[0]
         p = origin_head + s * d - c
         return np.degrees([math.atan2(-p[1], p[0]), math.atan2(p[2], p[0])])
