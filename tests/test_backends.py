@@ -47,17 +47,40 @@ def test_check_backend_refuses_what_it_cannot_run():
 
 
 @pytest.mark.slow
-def test_ray_backend_writes_the_local_table(tmp_path):
+def test_ray_backend_writes_the_local_table_and_observations(tmp_path):
     """The same design run in this process and on a local Ray instance (2 actors): byte-identical
-    trials.csv (rows sorted, each with its configuration hash and checksum)."""
-    pytest.importorskip("ray")
+    trials.csv (rows sorted, each with its configuration hash and checksum); and the same trials
+    observed for a fit (``modelfit.observe_trials``) on it: identical read-outs. One instance serves
+    both (``ray_map`` uses a running one); ``ray_map`` starting and stopping its own is exercised by
+    ``tests/test_adversarial_fit.py``'s kill -9 of a Ray fit, through the command line."""
+    ray = pytest.importorskip("ray")
+    from experiments.modelfit import observe_trials
+    from experiments.psychophysics import Trial, TrialRunner
+
     design = Design(amplitudes_deg=(20.0,), flash_offsets_deg=FIG11_OFFSETS_DEG[:2], flash_times_ms=(-50, 25),
                     name="backends")
     cfg = TrialConfig(image_size=64)
+    trials = [Trial(trial_id=i, amplitude_deg=20.0, flash_dx_deg=dx, flash_dy_deg=dy, flash_time_ms=t,
+                    repetition=0, seed=0)
+              for i, ((dx, dy), t) in enumerate(zip(FIG11_OFFSETS_DEG[:4], (-50, 0, 25, 100)))]
     local = run_trials(design, cfg, tmp_path / "local", workers=1, progress=False, batch_size=1)
-    remote = run_trials(design, cfg, tmp_path / "ray", workers=2, progress=False, batch_size=1, backend="ray")
+    observed = observe_trials(trials, cfg, backend="local", workers=1)
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        remote = run_trials(design, cfg, tmp_path / "ray", workers=2, progress=False, batch_size=1, backend="ray")
+        assert ray.is_initialized()  # ray_map used the running instance and left it running
+        observed_remote = observe_trials(trials, cfg, backend="ray", workers=2)
+    finally:
+        ray.shutdown()
     assert local.read_bytes() == remote.read_bytes()
     assert len(local.read_text().splitlines()) == 1 + design.n_trials
+    runner = TrialRunner(cfg)
+    try:
+        for a, b in zip(observed, observed_remote, strict=True):
+            ra, rb = runner.readout(a), runner.readout(b)
+            assert ra["perceived_x_deg"] == rb["perceived_x_deg"] and ra["perceived_y_deg"] == rb["perceived_y_deg"]
+    finally:
+        runner.close()
 
 
 @pytest.mark.slow

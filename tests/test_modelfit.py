@@ -13,9 +13,9 @@ import json
 import numpy as np
 import pytest
 
-from experiments.modelfit import DataFormatError, observe_trials, read_data, simulate_data
+from experiments.modelfit import DataFormatError, read_data, simulate_data
 from experiments.modelfit.fitting import compare, fit
-from experiments.psychophysics import Design, Trial, TrialConfig, TrialRunner
+from experiments.psychophysics import Design, TrialConfig
 
 OFFSETS = ((-8.0, 3.0), (8.0, -3.0), (-4.0, -6.0), (4.0, 6.0), (-12.0, 3.0), (2.0, -4.0))
 DESIGN = Design(amplitudes_deg=(20.0,), flash_offsets_deg=OFFSETS, flash_times_ms=(-150, -100, -50, -25, 0, 25, 50, 100))
@@ -116,24 +116,6 @@ def test_parameters_and_model_are_recovered(simulated, tmp_path):
     with open(tmp_path / "lrt.csv", newline="") as fh:
         lrt = list(csv.DictReader(fh))
     assert lrt[0]["restricted"] == "mechanistic/no_command_remap" and float(lrt[0]["p_value"]) < 1e-3
-
-
-@pytest.mark.slow
-def test_ray_backend_gives_the_local_observations(tmp_path):
-    """The same trials observed on a local Ray instance (2 actors) and in-process: identical read-outs."""
-    pytest.importorskip("ray")
-    trials = [Trial(trial_id=i, amplitude_deg=20.0, flash_dx_deg=dx, flash_dy_deg=dy, flash_time_ms=t, repetition=0,
-                    seed=0) for i, ((dx, dy), t) in enumerate(zip(OFFSETS[:4], (-50, 0, 25, 100)))]
-    cfg = TrialConfig(image_size=64)
-    local = observe_trials(trials, cfg, backend="local", workers=1)
-    remote = observe_trials(trials, cfg, backend="ray", workers=2)
-    runner = TrialRunner(cfg)
-    try:
-        for a, b in zip(local, remote):
-            ra, rb = runner.readout(a), runner.readout(b)
-            assert ra["perceived_x_deg"] == rb["perceived_x_deg"] and ra["perceived_y_deg"] == rb["perceived_y_deg"]
-    finally:
-        runner.close()
 
 
 @pytest.mark.slow

@@ -336,15 +336,18 @@ def _index(t: dict, sel: np.ndarray, axis: int | None = None) -> float:
     sel = sel & np.isfinite(t["perceived_x_deg"]) & np.isfinite(t["perceived_y_deg"])  # a flash not seen: no report
     if not sel.any():
         return float("nan")
-    key = (t["flash_dx_deg"] + 1j * t["flash_dy_deg"] + 1e3 * t["saccade_amplitude_deg"])[sel]
+    key = t["flash_dx_deg"][sel] + 1j * t["flash_dy_deg"][sel] + 1e3 * t["saccade_amplitude_deg"][sel]
     _, cell = np.unique(key, return_inverse=True)
     n = np.bincount(cell)
+    dof = np.maximum(n - 1, 1)
 
-    def spread(col: str) -> float:
+    def spread(col: str) -> float:  # (sum / size: np.mean's own arithmetic, without its per-call checks)
         v = t[col][sel]
         m = np.bincount(cell, v) / n
-        within = np.bincount(cell, (v - m[cell]) ** 2) / np.maximum(n - 1, 1)  # each cell's report variance
-        return float(np.mean((m - m.mean()) ** 2) - np.mean(within / n))
+        within = np.bincount(cell, (v - m[cell]) ** 2) / dof  # each cell's report variance
+        between = (m - m.sum() / m.size) ** 2
+        noise = within / n
+        return float(between.sum() / between.size - noise.sum() / noise.size)
 
     num = sum(spread(p) for p, _ in use)
     den = sum(spread(q) for _, q in use)
