@@ -11,11 +11,11 @@ remapping models and score the step. The bare loop does the same saccades and re
    and for any extra threads either starts). Each process's steps/s over its solo steps/s is the
    share of its speed it keeps. Run as the env runs (BLAS limited to one thread around its per-step
    product, ``conformal.blas_threads``; numba's parallel loops of the saccade model on one thread per
-   64 saccades, ``models.limit_plan_threads``: one thread for one head), then with each
-   limit lifted in turn, as before it. The load average is printed: other jobs on the machine lower
-   the ratios.
+   64 saccades, ``models.limit_plan_threads``: one thread for one head); with ``--lifted``, then with
+   each limit lifted in turn, as before it. The load average is printed: other jobs on the machine
+   lower the ratios.
 
-    python benchmarks/env.py [--steps 200] [--image-size 128] [--repeats 5] [--skip-contention]
+    python benchmarks/env.py [--steps 200] [--image-size 128] [--repeats 5] [--skip-contention] [--lifted]
 """
 
 from __future__ import annotations
@@ -123,6 +123,11 @@ def main() -> None:
     ap.add_argument("--image-size", type=int, default=128, help="pixels per side of each eye (default 128)")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs, alternating env and bare loop (default 5)")
     ap.add_argument("--skip-contention", action="store_true", help="only the solo comparison with the bare loop")
+    ap.add_argument(
+        "--lifted",
+        action="store_true",
+        help="contention also with each thread limit lifted in turn (numba, then BLAS), as before the limits",
+    )
     args = ap.parse_args()
     for name in ("steps", "image_size", "repeats"):
         if getattr(args, name) < (2 if name == "steps" else 1):
@@ -158,7 +163,7 @@ def main() -> None:
     )
     print(f"{'threads':32s} {'1 process':>10s} {'2 at once (each)':>18s} {'kept (each)':>14s}")
     kept_limited = None
-    for label, lifted in LIMITS:
+    for label, lifted in LIMITS if args.lifted else LIMITS[:1]:
         alone = contention(args, 1, lifted)[0]
         pair = contention(args, 2, lifted)
         kept = [p / alone for p in pair]
