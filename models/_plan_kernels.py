@@ -101,7 +101,7 @@ def _par(f):
 def _elementwise(loop):
     """``loop`` (``(*inputs, out)``, one float64 result per element of flat inputs), called numpy-style: the
     inputs broadcast and cast to float64, the result shaped as they are (a 0-d input: a numpy float)."""
-    kernel = nb.njit(cache=DISK_CACHE, nogil=True)(loop)
+    kernel = nb.njit(cache=DISK_CACHE, nogil=True, error_model="numpy")(loop)  # x / 0: inf or NaN, as a ufunc
 
     @functools.wraps(loop)
     def call(*args):

@@ -28,3 +28,26 @@ def test_limit_inside_and_each_setting_restored():
         assert _blas() == before
         with C.blas_threads(64):  # a limit above the setting leaves it as it is
             assert _blas() == before
+
+
+def test_another_python_thread_can_limit_after_this_one():
+    """OpenBLAS has one process-wide pool, which threadpoolctl lets one Python thread at a time set: a
+    limit must hand it back on exit, or a later limit in another thread silently does nothing."""
+    import threading
+
+    before = _blas()
+    if not before or max(before) < 2:
+        pytest.skip("no BLAS pool of more than one thread to limit")
+    with C.blas_threads(1):
+        pass
+    seen: list[list[int]] = []
+
+    def other() -> None:
+        with C.blas_threads(1):
+            seen.append(_blas())
+
+    t = threading.Thread(target=other)
+    t.start()
+    t.join()
+    assert seen == [[1] * len(before)]
+    assert _blas() == before
