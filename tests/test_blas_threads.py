@@ -32,22 +32,35 @@ def test_limit_inside_and_each_setting_restored():
 
 def test_another_python_thread_can_limit_after_this_one():
     """OpenBLAS has one process-wide pool, which threadpoolctl lets one Python thread at a time set: a
-    limit must hand it back on exit, or a later limit in another thread silently does nothing."""
+    limit must hand it back on exit, or a later limit in another thread silently does nothing. (The
+    pools are set to 2 threads first, and released, so that the test limits something under the
+    suite's one-thread workers too.)"""
     import threading
 
-    before = _blas()
-    if not before or max(before) < 2:
-        pytest.skip("no BLAS pool of more than one thread to limit")
-    with C.blas_threads(1):
-        pass
-    seen: list[list[int]] = []
+    from threadpoolctl import OpenBLASController, ThreadpoolController
 
-    def other() -> None:
+    libs = ThreadpoolController().select(user_api="blas").lib_controllers
+    if not libs:
+        pytest.skip("no BLAS library loaded")
+    before = [lib.num_threads for lib in libs]
+    try:
+        for lib in libs:
+            lib.set_num_threads(2)
+        OpenBLASController.clear_controlling_thread()
         with C.blas_threads(1):
-            seen.append(_blas())
+            pass
+        seen: list[list[int]] = []
 
-    t = threading.Thread(target=other)
-    t.start()
-    t.join()
-    assert seen == [[1] * len(before)]
-    assert _blas() == before
+        def other() -> None:
+            with C.blas_threads(1):
+                seen.append(_blas())
+
+        t = threading.Thread(target=other)
+        t.start()
+        t.join()
+        assert seen == [[1] * len(libs)]
+        assert _blas() == [2] * len(libs)
+    finally:
+        for lib, n in zip(libs, before):
+            lib.set_num_threads(n)
+        OpenBLASController.clear_controlling_thread()
