@@ -552,7 +552,7 @@ def _note(name: str, model: str, tab: dict, value: float, ci: tuple) -> str:
         steps = np.unique(tab["displacement"]["flash_dx_deg"])
         spacing, span = float(np.min(np.diff(steps))), float(steps[-1] - steps[0])
         for b, r in fits.items():
-            if not np.isfinite(r["pse_deg"]) and r["lost"] and not np.isfinite(r["p_forward"]).any():
+            if not np.isfinite(r["p_forward"]).any():  # no report at this blank (analysis._no_reports)
                 notes.append(f"blank {b} ms: the target lost in all {r['lost']} trials (no reports): no fit")
             elif r["threshold_deg"] < spacing:
                 notes.append(
@@ -564,7 +564,7 @@ def _note(name: str, model: str, tab: dict, value: float, ci: tuple) -> str:
                     f"blank {b} ms: PSE {r['pse_deg']:.2f}, threshold {r['threshold_deg']:.2f} deg reach "
                     f"beyond the steps ({steps[0]:g} to {steps[-1]:g} deg): extrapolated"
                 )
-        bad = [f"{b} ms" for b, r in fits.items() if not r["monotonic"] and np.isfinite(r["monotone_p"])]
+        bad = [f"{b} ms" for b, r in fits.items() if not r["monotonic"] and np.isfinite(r["p_forward"]).any()]
         if bad:
             notes.append(
                 "psychometric data not monotone at blank "

@@ -77,9 +77,9 @@ def report_noise(seed: int, sd: float) -> float:
 
 #: Eye-frame axes (x1 up, x2 optical axis, x3 right) in the head frame (x forward, y left, z up)
 #: at zero Fick angles (the README's eye frame; ``models.oculomotor``'s primary position).
+_PRIMARY_EYE_BASIS = np.column_stack([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 #: Poses ``TrialRunner._pose`` remembers before it starts again (about 2.5 MB).
 _POSE_CACHE = 4096
-_PRIMARY_EYE_BASIS = np.column_stack([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 SCREEN_DISTANCE = 1.0  # the dots scene's screen, metres ahead of the cyclopean eye
 _FLASH = "flash_00"
