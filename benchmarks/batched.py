@@ -12,6 +12,7 @@ env (``BinocularSaccadeEnv``, the classic renderer) runs the same actions in the
     python benchmarks/batched.py --device cuda --num-envs 1 64 1024 4096 --image-size 128
     python benchmarks/batched.py --device cuda --retina-rays 1    # the retina rendered along its rays
     python benchmarks/batched.py --device cuda --linear-tail on   # the slow stretch in closed form on CUDA
+    python benchmarks/batched.py --device cuda --fused on         # the physics in one kernel per step
     python benchmarks/batched.py --device cuda --csv out.csv --label "branch x"   # the table as CSV
 
 The README's tables are rendered from such CSVs in ``benchmarks/data/`` by ``benchmarks/tables.py``.
@@ -61,6 +62,7 @@ def batched(args, n: int) -> dict:
         image_size=args.image_size,
         retina_rays=args.retina_rays,
         linear_tail={"auto": None, "on": True, "off": False}[args.linear_tail],
+        fused_physics={"auto": None, "on": True, "off": False}[args.fused],
     )
     rng = np.random.default_rng(0)
     actions = [_actions(rng, n) for _ in range(args.steps)]
@@ -143,6 +145,13 @@ def main(argv=None) -> None:
         help="the slow stretch of each step's physics in closed form (models.linear_tail): auto (the env's "
         "default: on for Warp's CPU backend, off on CUDA), on or off",
     )
+    ap.add_argument(
+        "--fused",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="each step's physics in one kernel launch (envs._warp_dynamics): auto (the env's default: on "
+        "for Warp's CPU backend, off on CUDA), on or off",
+    )
     args = ap.parse_args(argv)
     import torch
     import warp as wp
@@ -158,7 +167,7 @@ def main(argv=None) -> None:
         if args.retina_rays is None
         else f"retina rays ({args.retina_rays}x{args.retina_rays} per field; the single env: {args.image_size} px)"
     )
-    print(f"device: {args.device} ({device_name}); {seen}; dots scene, fixate task; linear tail {args.linear_tail}")
+    print(f"device: {args.device} ({device_name}); {seen}; dots scene, fixate task; linear tail {args.linear_tail}; fused {args.fused}")
     single = single_env(args)
     print(
         f"single CPU env (BinocularSaccadeEnv, classic renderer): {single:.0f} steps/s (it simulates the whole "

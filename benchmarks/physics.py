@@ -1,11 +1,15 @@
-"""The batched env's physics per env step: how many 1 ms physics steps it costs, what bounds them, and
-the constraint solver's share (``envs.batched_physics.WarpHeads``, ``skip_solver``).
+"""The batched env's physics per env step: how many 1 ms physics steps it costs, what bounds them, the
+constraint solver's share and the fused step's (``envs.batched_physics.WarpHeads``: ``skip_solver``,
+``fused``).
 
 The env's own physics runs are recorded (state, command tables, milliseconds) over a few steps of
-random saccades, then replayed on fresh ``WarpHeads`` with and without MuJoCo Warp's constraint
-solver, in the same process: wall time per physics step (the ratio is the claim), kernel launches
-per physics step (the launches over a non-empty grid, counted; on a GPU a step is launch-bound) and the largest difference of the eye
-angles from the solver's run (issue 38: within 1e-4 deg).
+random saccades, then replayed on fresh ``WarpHeads`` in the same process: MuJoCo Warp's ``step``
+with its constraint solver, MuJoCo Warp without it (``skip_solver``; on the CPU backend with the slow
+stretch in closed form, its default there), and the fused kernel (one launch per run,
+``envs._warp_dynamics``). Printed: wall time per physics step (the ratios are the claim), kernel
+launches per physics step (the launches over a non-empty grid, counted; on a GPU a step is
+launch-bound) and the largest difference of the eye angles from the solver's run (issue 38: within
+1e-4 deg).
 
     python benchmarks/physics.py --device cpu --num-envs 16 --steps 4
     python benchmarks/physics.py --device cuda --num-envs 1024 4096
@@ -42,15 +46,14 @@ def record(n: int, device: str, steps: int, seed: int = 0) -> tuple[envs.Batched
     return env, runs
 
 
-def replay(env, runs: list[dict], skip_solver: bool) -> dict:
-    """Each recorded run again on a fresh WarpHeads: seconds and launches per physics step, end eye angles."""
+def replay(env, runs: list[dict], **options) -> dict:
+    """Each recorded run again on a fresh WarpHeads (``options``: its ``skip_solver``, ``fused``): seconds
+    and launches per physics step, end eye angles."""
     import warp as wp
 
     from envs.batched_physics import WarpHeads
 
-    ph = WarpHeads(
-        env.head, env.num_envs, str(env.physics.device), chunk_ms=env.physics.chunk_ms, skip_solver=skip_solver
-    )
+    ph = WarpHeads(env.head, env.num_envs, str(env.physics.device), chunk_ms=env.physics.chunk_ms, **options)
     launches = [0]
     launch = wp.launch
 
@@ -74,6 +77,7 @@ def replay(env, runs: list[dict], skip_solver: bool) -> dict:
         wall += once(r, False)
         ms += r["n_ms"]
         eyes.append(ph.eye_qpos().double().cpu().numpy())
+        r.setdefault("table", wp.to_torch(ph._cmd).double().cpu().numpy())  # the set-points as the device holds them
     if ph.device.is_cuda:  # Warp's launches are counted as they are issued: the graph's, without replay
         launches[0] = -1
     else:
@@ -84,6 +88,20 @@ def replay(env, runs: list[dict], skip_solver: bool) -> dict:
         "launches_per_ms": launches[0] / runs[0]["n_ms"] if launches[0] >= 0 else None,
         "eyes": eyes,
     }
+
+
+def reference(env, runs: list[dict]) -> list[np.ndarray]:
+    """Each recorded run stepped by MuJoCo's C ``mj_step`` in float64 (``envs.batched_physics.mujoco_replay``):
+    the eyes' angles (N, 2, 3) after each."""
+    from envs.batched_physics import mujoco_replay
+
+    qadr = np.asarray(env.physics._qadr)
+    out = []
+    for r in runs:
+        qpos, qvel, ctrl = (t.double().cpu().numpy() for t in r["state"][:3])
+        q = mujoco_replay(env.head, qpos, qvel, ctrl, r["table"], r["lengths"], r["n_ms"])
+        out.append(q[:, qadr].reshape(-1, 2, 3))
+    return out
 
 
 def main(argv=None) -> None:
@@ -101,15 +119,27 @@ def main(argv=None) -> None:
             + f" (the slowest world's plan + settle_ms {env.settle_ms}; the worlds' plans: mean "
             f"{np.mean([s.mean() for s in spans]):.0f} ms, slowest {max(s.max() for s in spans)} ms)"
         )
-        full, free = replay(env, runs, False), replay(env, runs, True)
-        diff = max(np.degrees(np.abs(a - b)).max() for a, b in zip(full["eyes"], free["eyes"]))
-        for name, r in (("with the solver", full), ("without (skip_solver)", free)):
-            lpm = "n/a (CUDA graph)" if r["launches_per_ms"] is None else f"{r['launches_per_ms']:.1f}"
-            print(f"  {name}: {r['s_per_ms'] * 1e3:.3f} ms per physics step, {lpm} launches per physics step")
-        print(
-            f"  speed-up {full['s_per_ms'] / free['s_per_ms']:.2f}x; largest eye-angle difference {diff:.2e} deg "
-            "(issue 38: within 1e-4)"
+        full = replay(env, runs, skip_solver=False, fused=False)
+        exact = reference(env, runs)
+        rows = (
+            ("MuJoCo Warp with the solver", full),
+            ("MuJoCo Warp without it (skip_solver)", replay(env, runs, skip_solver=True, fused=False)),
+            ("fused (one kernel per run)", replay(env, runs, fused=True)),
         )
+        print(
+            "\n| physics | ms per physics step | launches per physics step | speed-up | largest eye difference "
+            "from the solver's run, deg | from MuJoCo C (float64), deg |"
+        )
+        print("|---|---|---|---|---|---|")
+        for name, r in rows:
+            lpm = "n/a (CUDA graph)" if r["launches_per_ms"] is None else f"{r['launches_per_ms']:.2f}"
+            diff = max(np.degrees(np.abs(a - b)).max() for a, b in zip(full["eyes"], r["eyes"]))
+            c = max(np.degrees(np.abs(a - b)).max() for a, b in zip(exact, r["eyes"]))
+            print(
+                f"| {name} | {r['s_per_ms'] * 1e3:.3f} | {lpm} | {full['s_per_ms'] / r['s_per_ms']:.1f}x | "
+                f"{diff:.1e} | {c:.1e} |"
+            )
+        print("(issue 38: the eyes within 1e-4 deg of the solver's run)")
         env.close()
 
 

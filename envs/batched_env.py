@@ -93,8 +93,12 @@ class BatchedBinocularSaccade(VectorEnv):
         output: ``"torch"`` (observations as torch tensors on the device) or ``"numpy"``.
         chunk_ms: physics steps per captured CUDA graph (see ``envs.batched_physics.WarpHeads``).
         linear_tail: take each step's slow stretch of physics in closed form (``models.linear_tail``,
-            within 1e-4 deg of stepping); None (default): on Warp's CPU backend, off on CUDA until it is
-            measured there (``envs.batched_physics.WarpHeads``).
+            within 1e-4 deg of stepping); None (default): off where the physics is fused, off on CUDA
+            until it is measured there (``envs.batched_physics.WarpHeads``).
+        fused_physics: step each env step's physics in one Warp kernel launch (``envs._warp_dynamics``:
+            MuJoCo's ``implicitfast`` step for the head's hinges, float64, within 1e-6 deg of MuJoCo's C
+            ``mj_step``) instead of MuJoCo Warp's ~50 launches per millisecond; None (default): on
+            Warp's CPU backend, off on CUDA until it is measured there.
         autoreset_mode: ``"next_step"`` (default, gymnasium's) or ``"same_step"`` (the world is reset
             within the step that ended it; the ended episode's last observations and info are in
             ``info["final_obs"]`` / ``info["final_info"]``, masked by ``info["_final_obs"]``).
@@ -125,6 +129,7 @@ class BatchedBinocularSaccade(VectorEnv):
         retina_rays: int | None = None,
         max_episode_steps: int | None = None,
         linear_tail: bool | None = None,
+        fused_physics: bool | None = None,
         **kwargs: Any,
     ) -> None:
         from .batched_physics import WarpHeads, require_gpu_extra
@@ -137,6 +142,8 @@ class BatchedBinocularSaccade(VectorEnv):
         chunk_ms = checks.integer("chunk_ms", chunk_ms, 1, 1000)
         if linear_tail is not None:
             linear_tail = checks.flag("linear_tail", linear_tail)
+        if fused_physics is not None:
+            fused_physics = checks.flag("fused_physics", fused_physics)
         self.settle_ms = checks.integer("settle_ms", settle_ms, 0, core.MAX_FIXATION_MS)
         modes = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
         if isinstance(autoreset_mode, AutoresetMode):
@@ -191,7 +198,13 @@ class BatchedBinocularSaccade(VectorEnv):
 
             directions = field_ray_directions(env.vision.grid, retina_rays)
         self.physics = WarpHeads(
-            env.head, self.num_envs, device, chunk_ms=chunk_ms, retina_directions=directions, linear_tail=linear_tail
+            env.head,
+            self.num_envs,
+            device,
+            chunk_ms=chunk_ms,
+            retina_directions=directions,
+            linear_tail=linear_tail,
+            fused=fused_physics,
         )
         self.device = self.physics.torch_device
         self.vision = TorchVision(env.vision, self.physics.torch_device)

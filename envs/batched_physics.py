@@ -31,7 +31,7 @@ from models import linear_tail as _tail
 from models import servo_setpoints
 from models.render import EYES, HIDDEN_GEOM_GROUPS
 
-__all__ = ["WarpHeads", "require_gpu_extra", "TAIL_SETTLE_MS", "TAIL_CHUNK_MS"]
+__all__ = ["WarpHeads", "require_gpu_extra", "mujoco_replay", "TAIL_SETTLE_MS", "TAIL_CHUNK_MS"]
 
 #: Milliseconds stepped past the last fast row of any world's command before the slow stretch may be
 #: taken in closed form (the plant's short time constant and the eye's overshoot), and the stride of
@@ -54,6 +54,29 @@ def require_gpu_extra():
         ) from None
     wp.config.quiet = True
     return wp, mjw, torch
+
+
+def mujoco_replay(head: models.Head, qpos, qvel, ctrl, table: np.ndarray, lengths, n_ms: int) -> np.ndarray:
+    """A run of :class:`WarpHeads` stepped again by MuJoCo's C ``mj_step`` in float64 (the reference the
+    batched physics is measured against): from each world's joints, velocities and controls (one row per
+    world), the set-point table's row ``min(t, lengths[w] - 1)`` written into the eye actuators' controls
+    before millisecond t, as the ``servo`` kernel writes them (``table``: :meth:`WarpHeads.setpoints`, in
+    the precision the device holds it). Returns the joint angles after ``n_ms`` ms, (N, nq)."""
+    import mujoco
+
+    mjm = head.model
+    pos0, vel0, ff0 = (int(a[0]) for a in head.eye_actuator_ids)
+    d = mujoco.MjData(mjm)
+    out = np.empty((len(qpos), mjm.nq))
+    for w in range(len(qpos)):
+        mujoco.mj_resetData(mjm, d)
+        d.qpos[:], d.qvel[:], d.ctrl[:] = qpos[w], qvel[w], ctrl[w]
+        for t in range(int(n_ms)):
+            r = table[w, min(t, int(lengths[w]) - 1)]
+            d.ctrl[pos0 : pos0 + 6], d.ctrl[vel0 : vel0 + 6], d.ctrl[ff0 : ff0 + 6] = r[:6], r[6:12], r[12:18]
+            mujoco.mj_step(mjm, d)
+        out[w] = d.qpos
+    return out
 
 
 def _solver_skippable(mjm, limited: np.ndarray) -> bool:
@@ -94,8 +117,14 @@ class WarpHeads:
             MuJoCo Warp's ``step`` throughout; None (default): True on the CPU backend, False on CUDA.
         linear_tail: take each run's slow stretch in closed form (``models.linear_tail``'s map of the
             ``implicitfast`` step, on this device; see the module docstring); False steps every
-            millisecond; None (default): True on the CPU backend, False on CUDA until it is measured
-            there.
+            millisecond; None (default): True on the CPU backend where the run is not fused, False
+            on CUDA until it is measured there.
+        fused: step a whole run in one Warp kernel launch (``envs._warp_dynamics``: MuJoCo's
+            ``implicitfast`` step for a tree of hinges, one thread per world, float64) instead of
+            MuJoCo Warp's ~60 launches per millisecond; without the solver (``skip_solver``'s re-run
+            where a joint reaches its range) and every millisecond (no closed form). None (default):
+            on the CPU backend where the model is one it covers (``tree_model``) and neither
+            ``skip_solver=False`` nor ``linear_tail=True`` was asked for; off on CUDA until measured.
     """
 
     def __init__(
@@ -108,6 +137,7 @@ class WarpHeads:
         retina_directions: np.ndarray | None = None,
         skip_solver: bool | None = None,
         linear_tail: bool | None = None,
+        fused: bool | None = None,
     ) -> None:
         wp, mjw, torch = require_gpu_extra()
         self._wp, self._mjw, self._torch = wp, mjw, torch
@@ -143,6 +173,11 @@ class WarpHeads:
         self._servo, self._advance, self._beyond_range = servo, advance, beyond_range
         self._affine_run = affine_run
         limited = np.flatnonzero(mjm.jnt_limited)
+        self._tree = self._fused_tree(mjm, fused, skip_solver, linear_tail, _solver_skippable(mjm, limited))
+        #: each run stepped in one kernel launch (``envs._warp_dynamics``)
+        self.fused = self._tree is not None
+        if self.fused:
+            skip_solver, linear_tail = True, False
         if skip_solver is None:
             skip_solver = not self.device.is_cuda
         self.skip_solver = bool(skip_solver) and _solver_skippable(mjm, limited)
@@ -184,6 +219,11 @@ class WarpHeads:
             # its range in it (the stepped part before it already ran with the solver, or unflagged)
             self._tail_saved = [(a, wp.empty_like(a)) for a, _ in self._saved]
             self._tail_left = wp.zeros(1, dtype=wp.int32)
+            if self.fused:
+                from ._warp_dynamics import run_tree, scratch
+
+                self._run_tree = run_tree
+                self._scratch = scratch(n, mjm.nv, self._tree.parent.shape[0], self.device)
         # the same arrays seen with no room for constraints: MuJoCo Warp's solve() then sets qacc to
         # qacc_smooth, and qacc_smooth is computed (both need njmax == 0)
         self._free_data = dataclasses.replace(self.data, njmax=0)
@@ -236,6 +276,32 @@ class WarpHeads:
                 np.concatenate([np.arange(a, a + 6) for a in (self._pos0, self._vel0, self._ff0)]),
                 device=self.torch_device,
             )
+
+    def _fused_tree(self, mjm, fused, skip_solver, linear_tail, skippable: bool):
+        """The fused step's model (``envs._warp_dynamics.tree_model``), or None where the run is not fused
+        (``fused`` in the class docstring); a ValueError where ``fused=True`` cannot be honoured."""
+        if fused is not None and not isinstance(fused, (bool, np.bool_)):
+            raise TypeError(f"fused must be True, False or None; got {fused!r}")
+        asked = fused is not None and bool(fused)
+        if fused is None:
+            fused = not self.device.is_cuda and skip_solver is not False and linear_tail is not True
+        if not fused:
+            return None
+        if skip_solver is False or linear_tail is True:
+            raise ValueError(
+                "fused=True steps without the constraint solver and every millisecond: it cannot be "
+                "combined with skip_solver=False or linear_tail=True (leave those None)"
+            )
+        from ._warp_dynamics import tree_model
+
+        tree = tree_model(mjm, self.device) if skippable else None
+        if tree is None and asked:
+            raise ValueError(
+                "fused=True: this model is not one the fused step covers (hinge joints only, affine joint "
+                "actuators, no contacts, tendons, equalities, sensors or fluid; implicitfast); pass "
+                "fused=False or None"
+            )
+        return tree
 
     # ------------------------------------------------------------------ state
     def load(self, worlds: np.ndarray, qpos, qvel, ctrl, mocap_pos, mocap_quat) -> None:
@@ -296,7 +362,7 @@ class WarpHeads:
         return servo_setpoints(ext, dt, I, out, stiffness=K, damping=B, end=ends)  # ext[ends] = q[ends - 1]
 
     def run(self, commands: np.ndarray, lengths: np.ndarray, n_ms: int, *, wait: bool = True) -> int:
-        """Step every world ``n_ms`` ms (rounded up to whole ``chunk_ms`` on CUDA) following ``commands``
+        """Step every world ``n_ms`` ms (on CUDA, unfused: rounded up to whole ``chunk_ms``) following ``commands``
         (N, T, 6): world w's commanded angles at 0, 1, ... ``lengths[w] - 1`` ms from now, then held at
         the last (the command at rest before them). The set-points are ``models.servo_setpoints``'
         (the CPU head's servo law) at 1 ms steps with one inertia per joint. Returns the ms stepped.
@@ -325,7 +391,18 @@ class WarpHeads:
             total, n_ms = n_ms, self._stepped_prefix(T, n_ms)
             self._pending = (n_ms, total) if total > n_ms else None
             stepped = 0
-            if self.device.is_cuda and self._graph is not False:
+            if self.fused:
+                d = self.data
+                wp.launch(
+                    self._run_tree,
+                    dim=n,
+                    inputs=[self._tree, self._scratch, d.qpos, d.qvel, d.ctrl, d.time, self._cmd, self._ncmd, 0, n_ms]
+                    + [self._pos0, self._vel0, self._ff0],
+                    outputs=[self._left],
+                )
+                self._step.fill_(n_ms)
+                stepped = n_ms
+            elif self.device.is_cuda and self._graph is not False:
                 chunks = max(1, math.ceil(n_ms / self.chunk_ms))
                 todo = chunks
                 if self._graph is None:

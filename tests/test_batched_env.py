@@ -329,6 +329,9 @@ def test_step_before_reset_and_bad_arguments():
         BatchedBinocularSaccade(1, device="cpu", image_size=8)
     with pytest.raises(ValueError, match="output"):
         BatchedBinocularSaccade(1, device="cpu", output="jax")
+    for name in ("linear_tail", "fused_physics"):
+        with pytest.raises((TypeError, ValueError), match=name):
+            BatchedBinocularSaccade(1, device="cpu", **{name: "yes"})
     env = BatchedBinocularSaccade(1, device="cpu", image_size=32, fovea_deg=5.0)
     with pytest.raises(RuntimeError, match="reset"):
         env.step(np.zeros((1, 2)))

@@ -27,14 +27,16 @@ TOLERANCE_DEG = 1e-4
 
 @pytest.fixture(scope="module")
 def pair():
-    """A batched env (its physics skips the solver and takes the slow stretch in closed form) and a
-    second WarpHeads of the same head stepping every millisecond with the solver (the reference)."""
+    """A batched env, a WarpHeads of its head stepping MuJoCo Warp's ``step`` without the solver (the slow
+    stretch in closed form), one stepping each run in one fused kernel, and one stepping every
+    millisecond with the solver (the reference)."""
     from envs.batched_physics import WarpHeads
 
     env = envs.BatchedBinocularSaccade(N, device=DEVICE, image_size=16, eye_drive="plant")
-    fast = env.physics if env.physics.skip_solver else WarpHeads(env.head, N, DEVICE, skip_solver=True)
+    fast = WarpHeads(env.head, N, DEVICE, skip_solver=True, fused=False)
+    fused = WarpHeads(env.head, N, DEVICE, fused=True)
     ref = WarpHeads(env.head, N, DEVICE, skip_solver=False, linear_tail=False)
-    yield env, fast, ref
+    yield env, {"unfused": fast, "fused": fused}, ref
     env.close()
 
 
@@ -59,10 +61,12 @@ def _saccades(env, seed: int):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("kind", ["unfused", "fused"])
 @pytest.mark.parametrize("seed", [0, 1])
-def test_without_the_solver_the_eyes_follow_the_reference(pair, seed):
-    env, fast, ref = pair
-    assert fast.skip_solver and not ref.skip_solver
+def test_without_the_solver_the_eyes_follow_the_reference(pair, seed, kind):
+    env, heads, ref = pair
+    fast = heads[kind]
+    assert fast.skip_solver and not ref.skip_solver and fast.fused == (kind == "fused")
     table, lengths, n_ms = _saccades(env, seed)
     angles = []
     for ph in (fast, ref):
@@ -76,14 +80,14 @@ def test_without_the_solver_the_eyes_follow_the_reference(pair, seed):
 @pytest.mark.slow
 @pytest.mark.parametrize("drive", ["plant", "servo"])
 def test_the_slow_stretch_in_closed_form_follows_the_reference(drive):
-    """``models.linear_tail``'s map on the device (``WarpHeads(linear_tail=True)``, the default) against
+    """``models.linear_tail``'s map on the device (``WarpHeads(linear_tail=True)``) against
     stepping every millisecond, over saccades and a 250 ms fixation: eye angles within 1e-4 deg, and
     most of the run was taken in closed form."""
     from envs.batched_physics import WarpHeads
 
     env = envs.BatchedBinocularSaccade(N, device=DEVICE, image_size=16, eye_drive=drive)
     try:
-        fast = env.physics if env.physics.linear_tail else WarpHeads(env.head, N, DEVICE, linear_tail=True)
+        fast = WarpHeads(env.head, N, DEVICE, linear_tail=True)
         ref = WarpHeads(env.head, N, DEVICE, linear_tail=False)
         assert fast.linear_tail and not ref.linear_tail
         for seed in (0, 1):
@@ -109,10 +113,13 @@ def _eyes_deg_start(env) -> np.ndarray:
 
 
 @pytest.mark.slow
-def test_a_joint_at_its_range_is_stepped_with_the_solver(pair):
+@pytest.mark.parametrize("kind", ["unfused", "fused"])
+def test_a_joint_at_its_range_is_stepped_with_the_solver(pair, kind):
     """A command past the horizontal range (45 deg): the joint limit stops the eye in the reference;
     the solver-free run sees the joint reach its range and steps the run again with the solver."""
-    env, fast, ref = pair
+    env, heads, ref = pair
+    fast = heads[kind]
+    before = fast.reruns["whole"]
     table, lengths, _ = _saccades(env, 0)
     T = 120
     cmd = np.repeat(table[:, :1], T, axis=1)
@@ -126,6 +133,7 @@ def test_a_joint_at_its_range_is_stepped_with_the_solver(pair):
         out.append(_eyes_deg(ph))
     hi = np.degrees(env.head.model.jnt_range[env.head.model.joint("left_eye_h").id, 1])
     assert int(fast._left.numpy()[0]) == 1  # the range was reached
+    assert fast.reruns["whole"] == before + 1
     assert out[1][0, 0, 0] < hi + 1.0  # the limit held the reference's eye (the command is at 60)
     assert np.abs(out[0] - out[1]).max() < TOLERANCE_DEG
 
@@ -140,6 +148,7 @@ def test_a_range_reached_in_the_closed_form_steps_that_stretch_again(pair):
 
     env, _, ref = pair
     fast = WarpHeads(env.head, N, DEVICE, skip_solver=False, linear_tail=True)
+    assert not fast.fused
     table, _, _ = _saccades(env, 0)
     T = 400
     cmd = np.repeat(table[:, :1], T, axis=1)
@@ -163,7 +172,8 @@ def test_fewer_kernel_launches_per_physics_step(pair, monkeypatch):
     """The launch count of one physics step (a GPU step's cost: launch-bound), with and without the solver."""
     import warp as wp
 
-    env, fast, ref = pair
+    env, heads, ref = pair
+    fast = heads["unfused"]
     counts = {}
     launch = wp.launch
 
@@ -184,3 +194,115 @@ def test_the_solver_is_skipped_by_default_on_the_cpu_backend_only(pair):
     all-world re-run outside the captured graph measured 2.3x slower physics (an H100, 4096 worlds)."""
     env, _, _ = pair
     assert env.physics.skip_solver == (not env.physics.device.is_cuda)
+    assert env.physics.fused == (not env.physics.device.is_cuda)  # the fused step: the CPU backend's default
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gravcomp", [1.0, 0.0])
+def test_the_fused_step_is_mujocos_step(gravcomp):
+    """The fused kernel (``envs._warp_dynamics``) against MuJoCo's C ``mj_step`` in float64 (independent
+    code: ``engine_smooth.c``, ``engine_forward.c``) over 150 ms of random saccade set-points, the neck
+    driven 20-30 deg and the eyes starting at 60-290 deg/s, so that the gimbal's velocity products and the
+    neck's motion under the eyes matter; with gravity compensated (the head's bodies) and not (every
+    body's weight then loads the neck's joints). Every joint within 1e-5 deg (its float32 state's
+    rounding is ~1e-6 deg), and the runs differ from a still head by degrees."""
+    import models
+    from envs.batched_physics import WarpHeads, mujoco_replay
+
+    head = models.Head(image_size=16)
+    mjm = head.model
+    mjm.body_gravcomp[:] = gravcomp
+    ph = WarpHeads(head, N, DEVICE, fused=True)
+    assert ph.fused
+    rng = np.random.default_rng(7)
+    qpos = np.zeros((N, mjm.nq))
+    qpos[:, ph._qadr] = rng.uniform(-0.2, 0.2, (N, 6))
+    qvel = np.zeros((N, mjm.nv))
+    qvel[:, ph._vadr] = rng.uniform(-5.0, 5.0, (N, 6))
+    ctrl = np.zeros((N, mjm.nu))
+    ctrl[:, :2] = rng.uniform(0.35, 0.5, (N, 2)) * np.array([1.0, -1.0])  # the neck's set-points: it turns
+    T, lengths = 150, np.array([150, 90, 40])
+    goal = rng.uniform(-0.3, 0.3, (N, 1, 6))
+    ramp = np.clip(np.arange(T) / 30.0, 0.0, 1.0)[None, :, None]
+    commands = qpos[:, None, ph._qadr] + ramp * (goal - qpos[:, None, ph._qadr])
+    n = np.arange(N)
+    mocap = [np.repeat(a[None], N, axis=0) for a in (head.data.mocap_pos, head.data.mocap_quat)]
+    ph.load(n, qpos, qvel, ctrl, *mocap)
+    start = ph.qpos.double().cpu().numpy()
+    start_v, start_u = ph.qvel.double().cpu().numpy(), ph.ctrl.double().cpu().numpy()
+    assert ph.run(commands, lengths, T) == T
+    got = ph.qpos.double().cpu().numpy()
+    table = ph._cmd.numpy().astype(np.float64)
+    want = mujoco_replay(head, start, start_v, start_u, table, lengths, T)
+    assert np.degrees(np.abs(want - start)).max(axis=0)[:2].min() > 5.0  # the neck turned
+    assert np.degrees(np.abs(want - start)).max() > 10.0
+    assert np.degrees(np.abs(got - want)).max() < 1e-5
+    assert ph.reruns["whole"] == 0 and int(ph._left.numpy()[0]) == 0
+
+
+@pytest.mark.slow
+def test_a_fused_run_is_one_launch(pair, monkeypatch):
+    """The fused run's physics is one kernel launch (MuJoCo Warp's ``forward`` after it aside), against
+    tens per millisecond stepped."""
+    import warp as wp
+
+    env, heads, _ = pair
+    table, lengths, n_ms = _saccades(env, 0)
+    launches = {}
+    launch = wp.launch
+
+    def counting(kernel, dim, *args, **kwargs):
+        launches[key] = launches.get(key, 0) + 1
+        return launch(kernel, dim, *args, **kwargs)
+
+    monkeypatch.setattr(wp, "launch", counting)
+    for key in ("fused", "unfused"):
+        _load(heads[key], env)
+        launches[key] = 0
+        heads[key].run(table, lengths, n_ms)
+    assert launches["fused"] < 0.05 * launches["unfused"], launches
+
+
+def test_fused_arguments_are_checked():
+    """``fused`` is True, False or None; True with the solver or the closed form asked for, or on a model the
+    kernel does not cover, is a ValueError naming the way out."""
+    import models
+    from envs.batched_physics import WarpHeads
+
+    head = models.Head(image_size=16)
+    with pytest.raises(TypeError, match="fused must be True, False or None"):
+        WarpHeads(head, 1, DEVICE, fused="yes")
+    for kwargs in ({"skip_solver": False}, {"linear_tail": True}):
+        with pytest.raises(ValueError, match="cannot be combined"):
+            WarpHeads(head, 1, DEVICE, fused=True, **kwargs)
+    head.model.opt.disableflags &= ~1 << 4  # contacts on: not a model the kernel covers
+    with pytest.raises(ValueError, match="not one the fused step covers"):
+        WarpHeads(head, 1, DEVICE, fused=True)
+    assert not WarpHeads(head, 1, DEVICE).fused  # None: the stepped physics instead
+
+
+def test_tree_model_refuses_what_it_does_not_model():
+    """``tree_model`` covers hinge trees with affine joint actuators and no contacts; a free joint, a
+    tendon, a disabled gravity or an enabled contact give None (the caller steps MuJoCo Warp instead)."""
+    import mujoco
+
+    pytest.importorskip("warp")
+    from envs._warp_dynamics import tree_model
+
+    base = """<mujoco><option integrator="implicitfast"><flag {flags}/></option>
+      <worldbody><body name="a"><joint name="j0" {joint}/><geom size=".1" mass="1"/>
+      <body name="b" pos="0 0 .2"><joint name="j1" type="hinge" axis="1 0 0"/><geom size=".1" mass="1"/></body>
+      </body></worldbody>{extra}</mujoco>"""
+
+    def tree(flags='contact="disable"', joint='type="hinge" axis="0 1 0"', extra=""):
+        xml = base.format(flags=flags, joint=joint, extra=extra)
+        return tree_model(mujoco.MjModel.from_xml_string(xml), "cpu")
+
+    assert tree() is not None
+    assert tree(extra='<actuator><position joint="j1" kp="2" kv="0.1"/></actuator>') is not None
+    assert tree(joint='type="free"') is None
+    assert tree(joint='type="slide" axis="0 1 0"') is None
+    assert tree(flags='contact="disable" gravity="disable"') is None
+    assert tree(flags="") is None  # contacts on
+    assert tree(extra='<tendon><fixed name="t"><joint joint="j1" coef="1"/></fixed></tendon>') is None
+    assert tree(extra='<actuator><cylinder joint="j1"/></actuator>') is None  # an actuator with dynamics
