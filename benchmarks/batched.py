@@ -167,7 +167,9 @@ def main(argv=None) -> None:
         if args.retina_rays is None
         else f"retina rays ({args.retina_rays}x{args.retina_rays} per field; the single env: {args.image_size} px)"
     )
-    print(f"device: {args.device} ({device_name}); {seen}; dots scene, fixate task; linear tail {args.linear_tail}; fused {args.fused}")
+    print(
+        f"device: {args.device} ({device_name}); {seen}; dots scene, fixate task; linear tail {args.linear_tail}; fused {args.fused}"
+    )
     single = single_env(args)
     print(
         f"single CPU env (BinocularSaccadeEnv, classic renderer): {single:.0f} steps/s (it simulates the whole "

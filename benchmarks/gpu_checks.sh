@@ -25,18 +25,30 @@ CONFORMAL_TEST_DEVICE=cuda timeout "$TESTS_S" python -m pytest -n 0 -p no:cachep
     >"$OUT/cuda_tests.txt" 2>&1
 echo "rc=$?"; tail -5 "$OUT/cuda_tests.txt"
 
+# the physics three ways: the fused kernel, MuJoCo Warp stepped every millisecond, and with the settle in
+# closed form
 for eyes in pictures rays; do
-    for tail_mode in off on; do
-        label="${eyes}_tail_${tail_mode}"
+    for physics in fused stepped tail; do
+        label="${eyes}_${physics}"
         stage "benchmark: $label"
         extra=()
         [ "$eyes" = rays ] && extra=(--retina-rays 1)
+        case $physics in
+            fused) extra+=(--fused on --linear-tail off) ;;
+            stepped) extra+=(--fused off --linear-tail off) ;;
+            tail) extra+=(--fused off --linear-tail on) ;;
+        esac
         timeout "$BENCH_S" python benchmarks/batched.py --device cuda --num-envs 4096 --steps 8 --single-steps 5 \
-            --linear-tail "$tail_mode" "${extra[@]}" --csv "$OUT/bench_$label.csv" --label "main $CODE, $label" \
+            "${extra[@]}" --csv "$OUT/bench_$label.csv" --label "main $CODE, $label" \
             2>&1 | grep -v "load on device"
         echo "rc=${PIPESTATUS[0]}"
     done
 done
+
+stage "physics replayed three ways, beside MuJoCo C"
+timeout "$BENCH_S" python benchmarks/physics.py --device cuda --num-envs 4096 --steps 4 --reference-worlds 16 \
+    >"$OUT/physics.txt" 2>&1
+echo "rc=$?"; grep -v "load on device" "$OUT/physics.txt" | tail -8
 
 stage "host planner"
 timeout "$PLANNER_S" python benchmarks/planner.py --num-envs 4096 --steps 3 >"$OUT/planner.txt" 2>&1

@@ -8,8 +8,9 @@ uploads each world's commanded eye angles at every millisecond (``models.Saccade
 plant's torques or the servo's set-points are computed from them on the device
 (``models.servo_setpoints``, the CPU head's law, on torch tensors) and a Warp kernel writes them
 into the controls before every physics step: on CUDA a step is captured once in a graph
-(``chunk_ms`` physics steps per graph) and replayed. ``skip_solver=True`` (the default on Warp's CPU
-backend) steps without the constraint solver and re-runs with it when a joint reaches its range.
+(``chunk_ms`` physics steps per graph) and replayed. ``skip_solver=True`` steps without the constraint
+solver and re-runs with it when a joint reaches its range. ``fused=True`` (the default on Warp's CPU
+backend) steps a whole run in one kernel launch (``envs._warp_dynamics``), without the solver.
 
 By design the physics steps at 1 ms throughout (the CPU head steps saccades at 0.25 ms) and the
 feed-forward torque uses one constant inertia per joint; after the fixation the eyes rest on the
