@@ -77,7 +77,8 @@ def replay(env, runs: list[dict], **options) -> dict:
         wall += once(r, False)
         ms += r["n_ms"]
         eyes.append(ph.eye_qpos().double().cpu().numpy())
-        r.setdefault("table", wp.to_torch(ph._cmd).double().cpu().numpy())  # the set-points as the device holds them
+        if "table" not in r:  # the set-points as the device holds them (float32)
+            r["table"] = ph.setpoints(r["commands"], r["lengths"]).float().double().cpu().numpy()
     if ph.device.is_cuda:  # Warp's launches are counted as they are issued: the graph's, without replay
         launches[0] = -1
     else:
@@ -95,7 +96,7 @@ def reference(env, runs: list[dict], worlds: int) -> list[np.ndarray]:
     (``envs.batched_physics.mujoco_replay``): the eyes' angles (worlds, 2, 3) after each."""
     from envs.batched_physics import mujoco_replay
 
-    qadr = np.asarray(env.physics._qadr)
+    qadr = np.asarray(env.head.eye_joint_addresses[0])
     out = []
     for r in runs:
         qpos, qvel, ctrl = (t.double().cpu().numpy()[:worlds] for t in r["state"][:3])
