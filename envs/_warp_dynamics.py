@@ -17,13 +17,16 @@ bodies, joints, degrees of freedom and actuators once; :data:`run_tree` then ste
   armature (``mj_crb``);
 - springs, dampers (``mj_passive``) and affine joint actuators with their control and force ranges
   (``mj_fwdActuation``);
-- ``implicitfast`` (``mj_implicit``): ``(M - dt qDeriv) a = qfrc_smooth`` with ``qDeriv`` the dampers'
-  and the actuators' velocity feedback (no velocity-product derivative), by Cholesky;
-  ``v += dt a``, ``q += dt v``.
+- the joints' limits: MuJoCo's soft constraints (``mj_instantiateLimit``, ``mj_makeImpedance``: impedance
+  from ``solimp``, reference acceleration from ``solref``, ``R`` from ``dof_invweight0``) and the exact
+  minimum of its constraint solver's cost, found by active sets (each limit acts on one dof);
+- ``implicitfast`` (``mj_implicit``): ``(M - dt qDeriv) a = qfrc_smooth + qfrc_constraint`` with
+  ``qDeriv`` the dampers' and the actuators' velocity feedback (no velocity-product derivative), by
+  Cholesky; ``v += dt a``, ``q += dt v``.
 
-No constraint acts in it: ``left[0] = 1`` where a limited joint ends a step at or beyond its range
-(the caller then steps the run again with MuJoCo Warp's solver). Checked against MuJoCo's C
-``mj_step`` in ``tests/test_batched_physics.py`` (with gravity, Coriolis and ranges exercised).
+``left[0] = 1`` where a world's active set did not settle (the caller then steps the run again with
+MuJoCo Warp's solver). Checked against MuJoCo's C ``mj_step`` in ``tests/test_batched_physics.py``
+(gravity, the velocity products and the limits exercised).
 """
 
 import numpy as np
@@ -59,7 +62,8 @@ class Tree:
     dof_parent: wp.array(dtype=wp.int32)
     dof_body: wp.array(dtype=wp.int32)  # index among the moving bodies
     dof_damping: wp.array(dtype=wp.float64)
-    dof_implicit: wp.array(dtype=wp.float64)  # armature - dt qDeriv's diagonal: the matrix's additions
+    dof_armature: wp.array(dtype=wp.float64)
+    dof_implicit: wp.array(dtype=wp.float64)  # -dt qDeriv's diagonal: the implicit step's addition to M
     act_dof: wp.array(dtype=wp.int32)
     act_qadr: wp.array(dtype=wp.int32)
     act_gear: wp.array(dtype=wp.float64)
@@ -68,8 +72,13 @@ class Tree:
     act_ctrl: wp.array(dtype=wp.vec3d)  # (clamped 0/1, low, high)
     act_force: wp.array(dtype=wp.vec3d)  # (clamped 0/1, low, high)
     lim_qadr: wp.array(dtype=wp.int32)
+    lim_dof: wp.array(dtype=wp.int32)
     lim_lo: wp.array(dtype=wp.float64)
     lim_hi: wp.array(dtype=wp.float64)
+    lim_invweight: wp.array(dtype=wp.float64)  # dof_invweight0: MuJoCo's diagonal approximation
+    lim_solimp: wp.array(dtype=wp.types.vector(5, wp.float64))
+    lim_kb: wp.array(dtype=wp.vec2d)  # the reference acceleration's stiffness K and damping B
+    limits: wp.int32  # 0 where the model's limits are disabled
     dt: wp.float64
 
 
@@ -114,6 +123,7 @@ def tree_model(mjm, device) -> "Tree | None":
         or np.any(mjm.jnt_actfrclimited)
         or np.any(mjm.dof_frictionloss)
         or np.any(mjm.jnt_margin[mjm.jnt_limited.astype(bool)])
+        or np.any(mjm.jnt_solref[mjm.jnt_limited.astype(bool)] <= 0)  # the direct format: not modelled
         or np.any(mjm.actuator_trntype != mujoco.mjtTrn.mjTRN_JOINT)
         or np.any(mjm.actuator_dyntype != mujoco.mjtDyn.mjDYN_NONE)
         or np.any(mjm.actuator_gaintype != mujoco.mjtGain.mjGAIN_FIXED)
@@ -144,9 +154,24 @@ def tree_model(mjm, device) -> "Tree | None":
     act_dof = mjm.jnt_dofadr[mjm.actuator_trnid[:, 0]]
     affine = mjm.actuator_biastype == mujoco.mjtBias.mjBIAS_AFFINE
     bias = np.where(affine[:, None], mjm.actuator_biasprm[:, :3], 0.0)
-    implicit = mjm.dof_armature + dt * mjm.dof_damping
+    implicit = dt * mjm.dof_damping.copy()
     np.add.at(implicit, act_dof, -dt * gear**2 * bias[:, 2])
     limited = np.flatnonzero(mjm.jnt_limited)
+    # the joint limits' soft constraints (engine_core_constraint.c: getsolparam, mj_makeImpedance)
+    solref = mjm.jnt_solref[limited].astype(np.float64).copy()
+    if not (mjm.opt.disableflags & D.mjDSBL_REFSAFE):
+        solref[:, 0] = np.maximum(solref[:, 0], 2 * dt)
+    solimp = mjm.jnt_solimp[limited].astype(np.float64).copy()
+    solimp[:, [0, 1, 3]] = np.clip(solimp[:, [0, 1, 3]], mujoco.mjMINIMP, mujoco.mjMAXIMP)
+    solimp[:, 2] = np.maximum(solimp[:, 2], 0.0)
+    solimp[:, 4] = np.maximum(solimp[:, 4], 1.0)
+    dmax = solimp[:, 1]
+    kb = np.column_stack(
+        [
+            1.0 / np.maximum(mujoco.mjMINVAL, dmax**2 * solref[:, 0] ** 2 * solref[:, 1] ** 2),
+            2.0 / np.maximum(mujoco.mjMINVAL, dmax * solref[:, 0]),
+        ]
+    )
 
     def arr(a, dtype):
         return wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
@@ -172,13 +197,18 @@ def tree_model(mjm, device) -> "Tree | None":
     t.jnt_spring = arr(mjm.qpos_spring[mjm.jnt_qposadr], wp.float64)
     t.dof_parent, t.dof_body = arr(mjm.dof_parentid, wp.int32), arr(index[mjm.dof_bodyid], wp.int32)
     t.dof_damping, t.dof_implicit = arr(mjm.dof_damping, wp.float64), arr(implicit, wp.float64)
+    t.dof_armature = arr(mjm.dof_armature, wp.float64)
     t.act_dof, t.act_qadr = arr(act_dof, wp.int32), arr(mjm.jnt_qposadr[mjm.actuator_trnid[:, 0]], wp.int32)
     t.act_gear, t.act_gain = arr(gear, wp.float64), arr(mjm.actuator_gainprm[:, 0], wp.float64)
     t.act_bias = arr(bias, wp.vec3d)
     t.act_ctrl = arr(np.column_stack([mjm.actuator_ctrllimited, mjm.actuator_ctrlrange]), wp.vec3d)
     t.act_force = arr(np.column_stack([mjm.actuator_forcelimited, mjm.actuator_forcerange]), wp.vec3d)
-    t.lim_qadr = arr(mjm.jnt_qposadr[limited], wp.int32)
+    t.lim_qadr, t.lim_dof = arr(mjm.jnt_qposadr[limited], wp.int32), arr(mjm.jnt_dofadr[limited], wp.int32)
     t.lim_lo, t.lim_hi = arr(mjm.jnt_range[limited, 0], wp.float64), arr(mjm.jnt_range[limited, 1], wp.float64)
+    t.lim_invweight = arr(mjm.dof_invweight0[mjm.jnt_dofadr[limited]], wp.float64)
+    t.lim_solimp = arr(solimp.reshape(-1, 5), wp.types.vector(5, wp.float64))
+    t.lim_kb = arr(kb.reshape(-1, 2), wp.vec2d)
+    t.limits = wp.int32(0 if mjm.opt.disableflags & (D.mjDSBL_LIMIT | D.mjDSBL_CONSTRAINT) else 1)
     t.dt = wp.float64(dt)
     return t
 
@@ -201,14 +231,23 @@ class Scratch:
     vel_v: wp.array2d(dtype=wp.vec3d)
     frc_n: wp.array2d(dtype=wp.vec3d)
     frc_f: wp.array2d(dtype=wp.vec3d)
+    A: wp.array3d(dtype=wp.float64)  # the constraint solver's matrix and its solution
+    a: wp.array2d(dtype=wp.float64)
+    lim_on: wp.array2d(dtype=wp.int32)  # each limit: 0 off, 1 within reach (its distance < 0), 2 pushing
+    lim_sign: wp.array2d(dtype=wp.float64)  # the constraint's Jacobian on its dof (+1 lower, -1 upper)
+    lim_d: wp.array2d(dtype=wp.float64)  # D = 1 / R
+    lim_aref: wp.array2d(dtype=wp.float64)
 
 
-def scratch(num_worlds: int, nv: int, nbody: int, device) -> "Scratch":
-    """:class:`Scratch` for ``num_worlds`` worlds of ``nv`` dofs and ``nbody`` moving bodies."""
+def scratch(num_worlds: int, nv: int, nbody: int, nlimit: int, device) -> "Scratch":
+    """:class:`Scratch` for ``num_worlds`` worlds of ``nv`` dofs, ``nbody`` moving bodies and ``nlimit``
+    limited joints."""
     s = Scratch()
     with wp.ScopedDevice(device):
-        s.q, s.v, s.f = (wp.zeros((num_worlds, nv), dtype=wp.float64) for _ in range(3))
-        s.M = wp.zeros((num_worlds, nv, nv), dtype=wp.float64)
+        s.q, s.v, s.f, s.a = (wp.zeros((num_worlds, nv), dtype=wp.float64) for _ in range(4))
+        s.M, s.A = (wp.zeros((num_worlds, nv, nv), dtype=wp.float64) for _ in range(2))
+        s.lim_on = wp.zeros((num_worlds, max(nlimit, 1)), dtype=wp.int32)
+        s.lim_sign, s.lim_d, s.lim_aref = (wp.zeros((num_worlds, max(nlimit, 1)), dtype=wp.float64) for _ in range(3))
         s.xpos, s.com, s.vel_w, s.vel_v, s.frc_n, s.frc_f = (
             wp.zeros((num_worlds, nbody), dtype=wp.vec3d) for _ in range(6)
         )
@@ -230,6 +269,131 @@ def _inertia_times(m: wp.float64, c: wp.vec3d, Ic: wp.mat33d, w: wp.vec3d, v: wp
     body-fixed point at the origin): the momentum ``(n, f)``, ``f = m (v + w x c)``, ``n = Ic w + c x f``."""
     f = m * (v + wp.cross(w, c))
     return Ic @ w + wp.cross(c, f), f
+
+
+@wp.func
+def _factor(A: wp.array3d(dtype=wp.float64), w: wp.int32, n: wp.int32):
+    """World w's symmetric positive definite ``A`` (its lower triangle) -> its Cholesky factor, in place."""
+    for k in range(n):
+        d = A[w, k, k]
+        for p in range(k):
+            d = d - A[w, k, p] * A[w, k, p]
+        d = wp.sqrt(d)
+        A[w, k, k] = d
+        for i in range(k + 1, n):
+            e = A[w, i, k]
+            for p in range(k):
+                e = e - A[w, i, p] * A[w, k, p]
+            A[w, i, k] = e / d
+
+
+@wp.func
+def _solve(L: wp.array3d(dtype=wp.float64), w: wp.int32, b: wp.array2d(dtype=wp.float64), n: wp.int32):
+    """``b[w] <- (L L^T)^-1 b[w]`` with :func:`_factor`'s ``L``."""
+    for i in range(n):
+        e = b[w, i]
+        for p in range(i):
+            e = e - L[w, i, p] * b[w, p]
+        b[w, i] = e / L[w, i, i]
+    for ii in range(n):
+        i = n - 1 - ii
+        e = b[w, i]
+        for p in range(i + 1, n):
+            e = e - L[w, p, i] * b[w, p]
+        b[w, i] = e / L[w, i, i]
+
+
+@wp.func
+def _impedance(solimp: wp.types.vector(5, wp.float64), pos: wp.float64) -> wp.float64:
+    """MuJoCo's constraint impedance at distance ``pos`` (margin 0; ``getimpedance``)."""
+    d0 = solimp[0]
+    d1 = solimp[1]
+    width = solimp[2]
+    mid = solimp[3]
+    power = solimp[4]
+    one = wp.float64(1.0)
+    if d0 == d1 or width <= wp.float64(1e-15):
+        return wp.float64(0.5) * (d0 + d1)
+    x = wp.abs(pos / width)
+    if x >= one:
+        return d1
+    if x <= wp.float64(0.0):
+        return d0
+    y = x
+    if power != one:
+        if x <= mid:
+            y = wp.pow(x, power) / wp.pow(mid, power - one)
+        else:
+            y = one - wp.pow(one - x, power) / wp.pow(one - mid, power - one)
+    return d0 + y * (d1 - d0)
+
+
+@wp.func
+def _limit_forces(tree: Tree, s: Scratch, w: wp.int32, nv: wp.int32) -> wp.int32:
+    """The joint limits' constraint forces added to ``s.f[w]`` (the smooth forces): MuJoCo's soft
+    limits (``mj_instantiateLimit``, ``mj_makeImpedance``, ``mj_referenceConstraint``) and the exact
+    minimum of its constraint solver's convex cost ``0.5 (a - a0)' M (a - a0) + sum 0.5 D min(0, J a -
+    aref)^2`` by active sets (each limit's Jacobian is one dof). Returns 1 where it did not settle."""
+    nl = tree.lim_qadr.shape[0]
+    zero = wp.float64(0.0)
+    near = wp.int32(0)
+    for j in range(nl):
+        x = s.q[w, tree.lim_qadr[j]]
+        pos = x - tree.lim_lo[j]
+        sign = wp.float64(1.0)
+        if tree.lim_hi[j] - x < pos:
+            pos = tree.lim_hi[j] - x
+            sign = wp.float64(-1.0)
+        s.lim_on[w, j] = 0
+        if pos < zero:
+            imp = _impedance(tree.lim_solimp[j], pos)
+            r = wp.max(wp.float64(1e-15), (wp.float64(1.0) - imp) * tree.lim_invweight[j] / imp)
+            kb = tree.lim_kb[j]
+            s.lim_on[w, j] = 1
+            s.lim_sign[w, j] = sign
+            s.lim_d[w, j] = wp.float64(1.0) / r
+            s.lim_aref[w, j] = -kb[1] * sign * s.v[w, tree.lim_dof[j]] - kb[0] * imp * pos
+            near = near + 1
+    if near == 0:
+        return 0
+    # a0 = M^-1 f, then the active set of the pushing limits until it repeats
+    for i in range(nv):
+        s.a[w, i] = s.f[w, i]
+        for k in range(i + 1):
+            s.A[w, i, k] = s.M[w, i, k]
+    _factor(s.A, w, nv)
+    _solve(s.A, w, s.a, nv)
+    settled = wp.int32(0)
+    for _it in range(16):
+        changed = wp.int32(0)
+        for j in range(nl):
+            if s.lim_on[w, j] > 0:
+                on = 1
+                if s.lim_sign[w, j] * s.a[w, tree.lim_dof[j]] - s.lim_aref[w, j] < zero:
+                    on = 2
+                if on != s.lim_on[w, j]:
+                    changed = 1
+                s.lim_on[w, j] = on
+        if changed == 0:
+            settled = 1
+            break
+        for i in range(nv):
+            s.a[w, i] = s.f[w, i]
+            for k in range(i + 1):
+                s.A[w, i, k] = s.M[w, i, k]
+        for j in range(nl):
+            if s.lim_on[w, j] == 2:
+                dof = tree.lim_dof[j]
+                s.A[w, dof, dof] = s.A[w, dof, dof] + s.lim_d[w, j]
+                s.a[w, dof] = s.a[w, dof] + s.lim_d[w, j] * s.lim_sign[w, j] * s.lim_aref[w, j]
+        _factor(s.A, w, nv)
+        _solve(s.A, w, s.a, nv)
+    for j in range(nl):
+        if s.lim_on[w, j] == 2:
+            dof = tree.lim_dof[j]
+            force = -s.lim_d[w, j] * (s.lim_sign[w, j] * s.a[w, dof] - s.lim_aref[w, j])
+            s.f[w, dof] = s.f[w, dof] + s.lim_sign[w, j] * force
+    return 1 - settled
 
 
 @wp.kernel
@@ -346,7 +510,7 @@ def run_tree(
             b = tree.dof_body[i]
             s.f[w, i] = -(wp.dot(s.cdof_w[w, i], s.frc_n[w, b]) + wp.dot(s.cdof_v[w, i], s.frc_f[w, b]))
             s.f[w, i] = s.f[w, i] - tree.dof_damping[i] * s.v[w, i]
-            s.M[w, i, i] = s.M[w, i, i] + tree.dof_implicit[i]
+            s.M[w, i, i] = s.M[w, i, i] + tree.dof_armature[i]
         for j in range(tree.jnt_dof.shape[0]):
             dof = tree.jnt_dof[j]
             s.f[w, dof] = s.f[w, dof] - tree.jnt_stiffness[j] * (s.q[w, tree.jnt_qadr[j]] - tree.jnt_spring[j])
@@ -363,37 +527,18 @@ def run_tree(
             if fr[0] > wp.float64(0.0):
                 force = wp.clamp(force, fr[1], fr[2])
             s.f[w, dof] = s.f[w, dof] + gear * force
-        # (M - dt qDeriv) a = f by Cholesky, in place
-        for k in range(nv):
-            d = s.M[w, k, k]
-            for p in range(k):
-                d = d - s.M[w, k, p] * s.M[w, k, p]
-            d = wp.sqrt(d)
-            s.M[w, k, k] = d
-            for i in range(k + 1, nv):
-                e = s.M[w, i, k]
-                for p in range(k):
-                    e = e - s.M[w, i, p] * s.M[w, k, p]
-                s.M[w, i, k] = e / d
+        if tree.limits != 0:
+            if _limit_forces(tree, s, w, nv) != 0:
+                left[0] = 1
+        # (M - dt qDeriv) a = f + the limits' forces by Cholesky, in place (mj_implicit)
         for i in range(nv):
-            e = s.f[w, i]
-            for p in range(i):
-                e = e - s.M[w, i, p] * s.f[w, p]
-            s.f[w, i] = e / s.M[w, i, i]
-        for ii in range(nv):
-            i = nv - 1 - ii
-            e = s.f[w, i]
-            for p in range(i + 1, nv):
-                e = e - s.M[w, p, i] * s.f[w, p]
-            s.f[w, i] = e / s.M[w, i, i]
+            s.M[w, i, i] = s.M[w, i, i] + tree.dof_implicit[i]
+        _factor(s.M, w, nv)
+        _solve(s.M, w, s.f, nv)
         # implicit in velocity, then position (mj_advance; hinges: q += dt v)
         for i in range(nv):
             s.v[w, i] = s.v[w, i] + dt * s.f[w, i]
             s.q[w, i] = s.q[w, i] + dt * s.v[w, i]
-        for j in range(tree.lim_qadr.shape[0]):
-            x = s.q[w, tree.lim_qadr[j]]
-            if x <= tree.lim_lo[j] or x >= tree.lim_hi[j]:
-                left[0] = 1
     for i in range(nv):
         qpos[w, i] = wp.float32(s.q[w, i])
         qvel[w, i] = wp.float32(s.v[w, i])

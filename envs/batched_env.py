@@ -96,9 +96,9 @@ class BatchedBinocularSaccade(VectorEnv):
             within 1e-4 deg of stepping); None (default): off where the physics is fused, off on CUDA
             until it is measured there (``envs.batched_physics.WarpHeads``).
         fused_physics: step each env step's physics in one Warp kernel launch (``envs._warp_dynamics``:
-            MuJoCo's ``implicitfast`` step for the head's hinges, float64, within 1e-6 deg of MuJoCo's C
-            ``mj_step``) instead of MuJoCo Warp's ~50 launches per millisecond; None (default): on
-            Warp's CPU backend, off on CUDA until it is measured there.
+            MuJoCo's ``implicitfast`` step for the head's hinges and their limits, float64, within
+            ~1e-6 deg of MuJoCo's C ``mj_step``) instead of MuJoCo Warp's ~50 launches per millisecond;
+            None (default): on Warp's CPU backend, off on CUDA until it is measured there.
         autoreset_mode: ``"next_step"`` (default, gymnasium's) or ``"same_step"`` (the world is reset
             within the step that ended it; the ended episode's last observations and info are in
             ``info["final_obs"]`` / ``info["final_info"]``, masked by ``info["_final_obs"]``).

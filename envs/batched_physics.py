@@ -10,7 +10,7 @@ plant's torques or the servo's set-points are computed from them on the device
 into the controls before every physics step: on CUDA a step is captured once in a graph
 (``chunk_ms`` physics steps per graph) and replayed. ``skip_solver=True`` steps without the constraint
 solver and re-runs with it when a joint reaches its range. ``fused=True`` (the default on Warp's CPU
-backend) steps a whole run in one kernel launch (``envs._warp_dynamics``), without the solver.
+backend) steps a whole run in one kernel launch (``envs._warp_dynamics``), the joint limits included.
 
 By design the physics steps at 1 ms throughout (the CPU head steps saccades at 0.25 ms) and the
 feed-forward torque uses one constant inertia per joint; after the fixation the eyes rest on the
@@ -121,11 +121,11 @@ class WarpHeads:
             millisecond; None (default): True on the CPU backend where the run is not fused, False
             on CUDA until it is measured there.
         fused: step a whole run in one Warp kernel launch (``envs._warp_dynamics``: MuJoCo's
-            ``implicitfast`` step for a tree of hinges, one thread per world, float64) instead of
-            MuJoCo Warp's ~60 launches per millisecond; without the solver (``skip_solver``'s re-run
-            where a joint reaches its range) and every millisecond (no closed form). None (default):
-            on the CPU backend where the model is one it covers (``tree_model``) and neither
-            ``skip_solver=False`` nor ``linear_tail=True`` was asked for; off on CUDA until measured.
+            ``implicitfast`` step for a tree of hinges with its joint limits, one thread per world,
+            float64) instead of MuJoCo Warp's ~50 launches per millisecond, every millisecond (no closed
+            form). None (default): on the CPU backend where the model is one it covers (``tree_model``)
+            and neither ``skip_solver=False`` nor ``linear_tail=True`` was asked for; off on CUDA until
+            measured there.
     """
 
     def __init__(
@@ -177,7 +177,7 @@ class WarpHeads:
         self._tree = self._fused_tree(mjm, fused, skip_solver, linear_tail, _solver_skippable(mjm, limited))
         #: each run stepped in one kernel launch (``envs._warp_dynamics``)
         self.fused = self._tree is not None
-        if self.fused:
+        if self.fused:  # the limits in the kernel; a run whose limits' active set did not settle re-runs
             skip_solver, linear_tail = True, False
         if skip_solver is None:
             skip_solver = not self.device.is_cuda
@@ -224,7 +224,7 @@ class WarpHeads:
                 from ._warp_dynamics import run_tree, scratch
 
                 self._run_tree = run_tree
-                self._scratch = scratch(n, mjm.nv, self._tree.parent.shape[0], self.device)
+                self._scratch = scratch(n, mjm.nv, self._tree.parent.shape[0], len(limited), self.device)
         # the same arrays seen with no room for constraints: MuJoCo Warp's solve() then sets qacc to
         # qacc_smooth, and qacc_smooth is computed (both need njmax == 0)
         self._free_data = dataclasses.replace(self.data, njmax=0)
