@@ -200,9 +200,10 @@ def test_the_solver_is_skipped_by_default_on_the_cpu_backend_only(pair):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("drive", ["plant", "servo"])
 @pytest.mark.parametrize("push", [False, True])
 @pytest.mark.parametrize("gravcomp", [1.0, 0.0])
-def test_the_fused_step_is_mujocos_step(gravcomp, push):
+def test_the_fused_step_is_mujocos_step(gravcomp, push, drive):
     """The fused kernel (``envs._warp_dynamics``) against MuJoCo's C ``mj_step`` in float64 (independent
     code: ``engine_smooth.c``, ``engine_forward.c``) over 150 ms of random saccade set-points, the neck
     driven 20-30 deg and the eyes starting at 60-290 deg/s, so that the gimbal's velocity products and the
@@ -210,11 +211,12 @@ def test_the_fused_step_is_mujocos_step(gravcomp, push):
     body's weight then loads the neck's joints); and with torques that push the left eye past its
     horizontal and vertical ranges, where MuJoCo's soft joint limits and its constraint solver act.
     Every joint within 1e-5 deg (its float32 state's rounding is ~1e-6 deg), and the runs differ from a
-    still head by degrees."""
+    still head by degrees. Both eye drives: the plant's torques (feed-forward actuators) and the servo's
+    position and velocity actuators (their gains in the implicit step's matrix)."""
     import models
     from envs.batched_physics import WarpHeads, mujoco_replay
 
-    head = models.Head(image_size=16)
+    head = models.Head(image_size=16, eye_drive=drive)
     mjm = head.model
     mjm.body_gravcomp[:] = gravcomp
     ph = WarpHeads(head, N, DEVICE, fused=True)
@@ -247,7 +249,10 @@ def test_the_fused_step_is_mujocos_step(gravcomp, push):
     assert ph.reruns["whole"] == 0 and int(ph._left.numpy()[0]) == 0
     lo, hi = np.degrees(mjm.jnt_range[ph._qadr[:2]]).T
     past = (np.degrees(want[:, ph._qadr[:2]]) > hi) | (np.degrees(want[:, ph._qadr[:2]]) < lo)
-    assert past.all() == push and past.any() == push  # the limits acted (both joints, every world) or never
+    assert past.any() == push  # the limits acted, or never
+    # the plant pushes both joints past their ranges in every world; the servo's position set-points are
+    # held to the ranges by the actuators' control ranges, and its vertical joint overshoots past its own
+    assert past.all() == push if drive == "plant" else past[:, 1].all() == push
 
 
 @pytest.mark.slow
