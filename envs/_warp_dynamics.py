@@ -5,7 +5,7 @@ MuJoCo Warp's ``step`` is ~60 kernel launches per physics step; on Warp's CPU ba
 alike the launches, not the arithmetic, are its cost. :func:`tree_model` packs the compiled model's
 bodies, joints, degrees of freedom and actuators once; :data:`run_tree` then steps each world
 ``steps`` milliseconds in float64, reading the servo's set-points from the command table as
-``envs._warp_kernels.servo`` does. Each step is MuJoCo's (``engine_forward.c``, ``engine_smooth.c``):
+``envs._warp_kernels.servo`` does. Each step is MuJoCo's (``engine_forward.c``, ``engine_core_smooth.c``):
 
 - kinematics (``mj_kinematics``): each body's frame from its parent's, each hinge rotating about its
   axis through its anchor by ``qpos - qpos0`` after the body's earlier joints;
@@ -24,8 +24,8 @@ bodies, joints, degrees of freedom and actuators once; :data:`run_tree` then ste
   ``qDeriv`` the dampers' and the actuators' velocity feedback (no velocity-product derivative), by
   Cholesky; ``v += dt a``, ``q += dt v``.
 
-``left[0] = 1`` where a world's active set did not settle (the caller then steps the run again with
-MuJoCo Warp's solver). Checked against MuJoCo's C ``mj_step`` in ``tests/test_batched_physics.py``
+``left[0] = 1`` where a world's active set did not settle or its state is not finite at the end (the
+caller then steps the run again with MuJoCo Warp's solver). Checked against MuJoCo's C ``mj_step`` in ``tests/test_batched_physics.py``
 (gravity, the velocity products and the limits exercised).
 """
 
@@ -82,6 +82,17 @@ class Tree:
     dt: wp.float64
 
 
+#: model fields (MuJoCo 4) whose nonzero values change forces this kernel does not compute
+_UNMODELLED = (
+    "dof_dampingpoly",
+    "jnt_stiffnesspoly",
+    "jnt_springyield",
+    "actuator_damping",
+    "actuator_dampingpoly",
+    "actuator_armature",
+    "actuator_delay",
+)
+
 #: disable flags that change the smooth dynamics this kernel computes (it does not model them)
 _DYNAMICS_FLAGS = ("mjDSBL_GRAVITY", "mjDSBL_SPRING", "mjDSBL_DAMPER", "mjDSBL_CLAMPCTRL", "mjDSBL_ACTUATION")
 
@@ -96,10 +107,13 @@ def _mat(quat: np.ndarray) -> np.ndarray:
 
 def tree_model(mjm, device) -> "Tree | None":
     """The :class:`Tree` of a compiled ``mujoco.MjModel`` on ``device``, or None where the kernel does
-    not model it: a joint other than a hinge, an actuator other than a fixed-gain, affine-bias
-    joint actuator without dynamics, tendons, equality constraints, contacts, fluid forces, joint
-    actuator-force limits, friction loss, an integrator other than ``implicitfast``, a disabled
-    gravity/spring/damper/actuation/control clamp, or an enable flag."""
+    not model it: a joint other than a hinge, an actuator other than a fixed-gain, affine-bias joint
+    actuator without dynamics, delay, damping or armature of its own (or with a force range and
+    velocity feedback: MuJoCo then drops the feedback from ``qDeriv`` while it saturates), disabled
+    actuator groups, polynomial or yielding springs and dampers, tendons, equality constraints,
+    contacts, fluid forces, plugins, joint actuator-force limits or gravity compensation through the
+    actuators, friction loss, a moving body under a mocap body, an integrator other than
+    ``implicitfast``, a disabled gravity/spring/damper/actuation/control clamp, or an enable flag."""
     import mujoco
 
     T, D = mujoco.mjtJoint, mujoco.mjtDisableBit
@@ -128,6 +142,11 @@ def tree_model(mjm, device) -> "Tree | None":
         or np.any(mjm.actuator_dyntype != mujoco.mjtDyn.mjDYN_NONE)
         or np.any(mjm.actuator_gaintype != mujoco.mjtGain.mjGAIN_FIXED)
         or not np.all(np.isin(mjm.actuator_biastype, (mujoco.mjtBias.mjBIAS_NONE, mujoco.mjtBias.mjBIAS_AFFINE)))
+        or np.any(mjm.actuator_forcelimited.astype(bool) & (mjm.actuator_biasprm[:, 2] != 0))
+        or mjm.opt.disableactuator
+        or mjm.nplugin
+        or np.any(mjm.jnt_actgravcomp)
+        or any(np.any(getattr(mjm, name, 0)) for name in _UNMODELLED)
     ):
         return None
     # the moving bodies: a dof on their path from the world, parents before children (MuJoCo's order)
@@ -135,6 +154,11 @@ def tree_model(mjm, device) -> "Tree | None":
     for b in range(1, mjm.nbody):
         moves[b] = mjm.body_dofnum[b] > 0 or moves[mjm.body_parentid[b]]
     bodies = np.flatnonzero(moves)
+    for b in bodies:  # a mocap ancestor would move each world's tree (the parents' frames are baked)
+        while b > 0:
+            if mjm.body_mocapid[b] >= 0:
+                return None
+            b = mjm.body_parentid[b]
     index = np.full(mjm.nbody, -1)
     index[bodies] = np.arange(len(bodies))
     data = mujoco.MjData(mjm)
@@ -540,6 +564,8 @@ def run_tree(
             s.v[w, i] = s.v[w, i] + dt * s.f[w, i]
             s.q[w, i] = s.q[w, i] + dt * s.v[w, i]
     for i in range(nv):
+        if not (wp.isfinite(s.q[w, i]) and wp.isfinite(s.v[w, i])):
+            left[0] = 1  # diverged (or NaN in): MuJoCo Warp's own step decides what happens
         qpos[w, i] = wp.float32(s.q[w, i])
         qvel[w, i] = wp.float32(s.v[w, i])
     time[w] = wp.float32(wp.float64(time[w]) + wp.float64(steps) * dt)

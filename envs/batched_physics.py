@@ -174,6 +174,11 @@ class WarpHeads:
         self._servo, self._advance, self._beyond_range = servo, advance, beyond_range
         self._affine_run = affine_run
         limited = np.flatnonzero(mjm.jnt_limited)
+        for name, flag in (("skip_solver", skip_solver), ("linear_tail", linear_tail)):
+            if flag is not None and not isinstance(flag, (bool, np.bool_)):
+                raise TypeError(f"{name} must be True, False or None; got {flag!r}")
+        skip_solver = None if skip_solver is None else bool(skip_solver)
+        linear_tail = None if linear_tail is None else bool(linear_tail)
         self._tree = self._fused_tree(mjm, fused, skip_solver, linear_tail, _solver_skippable(mjm, limited))
         #: each run stepped in one kernel launch (``envs._warp_dynamics``)
         self.fused = self._tree is not None
@@ -246,10 +251,8 @@ class WarpHeads:
         self._graph = None
         # the slow stretch in closed form (models.linear_tail): the linear forces, the mass matrix's
         # sparse layout (MuJoCo's lower-triangle rows, as MuJoCo Warp stores ``M``) and the eye joints
-        if linear_tail is None:
+        if linear_tail is None:  # (checked above)
             linear_tail = not self.device.is_cuda
-        elif not isinstance(linear_tail, (bool, np.bool_)):
-            raise TypeError(f"linear_tail must be True, False or None; got {linear_tail!r}")
         forces = _tail.linear_forces(mjm) if linear_tail else None
         self.linear_tail = forces is not None
         self._pending: tuple[int, int] | None = None

@@ -290,7 +290,15 @@ def test_fused_arguments_are_checked():
     for kwargs in ({"skip_solver": False}, {"linear_tail": True}):
         with pytest.raises(ValueError, match="cannot be combined"):
             WarpHeads(head, 1, DEVICE, fused=True, **kwargs)
-    head.model.opt.disableflags &= ~1 << 4  # contacts on: not a model the kernel covers
+    import mujoco
+
+    for name, flag in (("skip_solver", np.False_), ("linear_tail", np.True_)):  # numpy's booleans are honoured
+        with pytest.raises(ValueError, match="cannot be combined"):
+            WarpHeads(head, 1, DEVICE, fused=True, **{name: flag})
+    for name in ("skip_solver", "linear_tail"):
+        with pytest.raises(TypeError, match=f"{name} must be True, False or None"):
+            WarpHeads(head, 1, DEVICE, **{name: "yes"})
+    head.model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)  # not a model the kernel covers
     with pytest.raises(ValueError, match="not one the fused step covers"):
         WarpHeads(head, 1, DEVICE, fused=True)
     assert not WarpHeads(head, 1, DEVICE).fused  # None: the stepped physics instead
@@ -321,3 +329,20 @@ def test_tree_model_refuses_what_it_does_not_model():
     assert tree(flags="") is None  # contacts on
     assert tree(extra='<tendon><fixed name="t"><joint joint="j1" coef="1"/></fixed></tendon>') is None
     assert tree(extra='<actuator><cylinder joint="j1"/></actuator>') is None  # an actuator with dynamics
+    # forces the kernel does not compute (each accepted before, and off MuJoCo by degrees: issue 38's review)
+    saturating = '<actuator><position joint="j1" kp="20" kv="2" forcerange="-0.5 0.5"/></actuator>'
+    assert tree(extra=saturating.replace(' forcerange="-0.5 0.5"', "")) is not None
+    assert tree(extra=saturating) is None  # MuJoCo drops a saturated actuator's kv from qDeriv
+    assert tree(joint='type="hinge" axis="0 1 0" damping="0.3 0.5 0.2"') is None  # polynomial damping
+    assert tree(joint='type="hinge" axis="0 1 0" stiffness="2 3 1"') is None
+    assert tree(joint='type="hinge" axis="0 1 0" stiffness="2" springyield="0.1"') is None
+    for attribute in ('damping="0.4"', 'armature="0.05"', 'delay="0.01" nsample="20"'):
+        assert tree(extra=f'<actuator><motor joint="j1" {attribute}/></actuator>') is None, attribute
+    grouped = base.format(flags='contact="disable"', joint='type="hinge"', extra='<actuator><motor joint="j1" group="1"/></actuator>')
+    assert tree_model(mujoco.MjModel.from_xml_string(grouped), "cpu") is not None
+    disabled = grouped.replace('<option integrator="implicitfast">', '<option integrator="implicitfast" actuatorgroupdisable="1">')
+    assert tree_model(mujoco.MjModel.from_xml_string(disabled), "cpu") is None  # its actuators act not
+    mocap = """<mujoco><option integrator="implicitfast"><flag contact="disable"/></option><worldbody>
+      <body name="m" mocap="true"><body name="a"><joint type="hinge"/><geom size=".1" mass="1"/></body></body>
+      </worldbody></mujoco>"""
+    assert tree_model(mujoco.MjModel.from_xml_string(mocap), "cpu") is None  # its parent's frame moves per world
