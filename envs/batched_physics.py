@@ -293,8 +293,9 @@ class WarpHeads:
             return None
         if skip_solver is False or linear_tail is True:
             raise ValueError(
-                "fused=True steps without the constraint solver and every millisecond: it cannot be "
-                "combined with skip_solver=False or linear_tail=True (leave those None)"
+                "fused=True steps every millisecond in its own kernel, the joint limits included, not with "
+                "MuJoCo Warp's solver: it cannot be combined with skip_solver=False or linear_tail=True "
+                "(leave those None)"
             )
         from ._warp_dynamics import tree_model
 
@@ -302,8 +303,8 @@ class WarpHeads:
         if tree is None and asked:
             raise ValueError(
                 "fused=True: this model is not one the fused step covers (hinge joints only, affine joint "
-                "actuators, no contacts, tendons, equalities, sensors or fluid; implicitfast); pass "
-                "fused=False or None"
+                "actuators, no contacts, tendons, equalities, sensors or fluid; implicitfast; the full list: "
+                "envs._warp_dynamics.tree_model); pass fused=False or None"
             )
         return tree
 
