@@ -32,6 +32,8 @@ caller then steps the run again with MuJoCo Warp's solver). Checked against MuJo
 import numpy as np
 import warp as wp
 
+from ._warp_kernels import write_setpoints
+
 __all__ = ["Tree", "tree_model", "run_tree"]
 
 
@@ -447,12 +449,8 @@ def run_tree(
         s.q[w, i] = wp.float64(qpos[w, i])
         s.v[w, i] = wp.float64(qvel[w, i])
     for step in range(steps):
-        # the servo's set-points (envs._warp_kernels.servo)
-        r = wp.min(first + step, ncmd[w] - 1)
-        for k in range(6):
-            ctrl[w, pos0 + k] = cmd[w, r, k]
-            ctrl[w, vel0 + k] = cmd[w, r, 6 + k]
-            ctrl[w, ff0 + k] = cmd[w, r, 12 + k]
+        for k in range(6):  # the servo's set-points, as the servo kernel writes them
+            write_setpoints(cmd, ncmd, first + step, w, k, pos0, vel0, ff0, ctrl)
         # kinematics, motion subspaces, velocities, bias forces
         for b in range(nb):
             p = tree.parent[b]

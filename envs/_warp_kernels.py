@@ -3,7 +3,28 @@ it needs warp-lang; no ``from __future__ import annotations`` here, Warp reads t
 
 import warp as wp
 
-__all__ = ["servo", "advance", "beyond_range", "affine_run"]
+__all__ = ["servo", "write_setpoints", "advance", "beyond_range", "affine_run"]
+
+
+@wp.func
+def write_setpoints(
+    u: wp.array3d(dtype=wp.float32),
+    ncmd: wp.array(dtype=wp.int32),
+    step: int,
+    w: int,
+    k: int,
+    pos0: wp.int32,
+    vel0: wp.int32,
+    ff0: wp.int32,
+    ctrl: wp.array2d(dtype=wp.float32),
+):
+    """Set-points of joint k of world w for physics step ``step``: row ``step`` of the world's table of
+    ``models.servo_setpoints`` (position, velocity, feed-forward), its last row -- the endpoint held
+    with no velocity and no feed-forward -- from then on."""
+    i = wp.min(step, ncmd[w] - 1)
+    ctrl[w, pos0 + k] = u[w, i, k]
+    ctrl[w, vel0 + k] = u[w, i, 6 + k]
+    ctrl[w, ff0 + k] = u[w, i, 12 + k]
 
 
 @wp.kernel
@@ -16,14 +37,9 @@ def servo(
     ff0: wp.int32,
     ctrl: wp.array2d(dtype=wp.float32),
 ):
-    """Set-points of joint k of world w for physics step ``step[0]``: row ``step[0]`` of the world's
-    table of ``models.servo_setpoints`` (position, velocity, feed-forward), its last row -- the
-    endpoint held with no velocity and no feed-forward -- from then on."""
+    """:func:`write_setpoints` of joint k of world w for physics step ``step[0]``."""
     w, k = wp.tid()
-    i = wp.min(step[0], ncmd[w] - 1)
-    ctrl[w, pos0 + k] = u[w, i, k]
-    ctrl[w, vel0 + k] = u[w, i, 6 + k]
-    ctrl[w, ff0 + k] = u[w, i, 12 + k]
+    write_setpoints(u, ncmd, step[0], w, k, pos0, vel0, ff0, ctrl)
 
 
 @wp.kernel
