@@ -346,3 +346,24 @@ def test_tree_model_refuses_what_it_does_not_model():
       <body name="m" mocap="true"><body name="a"><joint type="hinge"/><geom size=".1" mass="1"/></body></body>
       </worldbody></mujoco>"""
     assert tree_model(mujoco.MjModel.from_xml_string(mocap), "cpu") is None  # its parent's frame moves per world
+
+
+@pytest.mark.slow
+def test_the_fused_kernel_compiles_for_cuda(tmp_path):
+    """The fused step's kernels compile for a GPU (sm_90: H100/H200) with Warp's ahead-of-time compiler
+    and NVRTC, on a machine without one: CUDA code that only the CPU backend ever compiled could hide an
+    error until the next GPU session. Skipped where this Warp build has no NVRTC."""
+    import warp as wp
+
+    import envs._warp_dynamics as module
+
+    try:
+        out = wp.compile_aot_module(module, arch=90, module_dir=tmp_path, use_ptx=True)
+    except Exception as e:  # noqa: BLE001 - only a missing compiler skips; the message is checked
+        if "nvrtc" in str(e).lower() or "cuda toolkit" in str(e).lower():
+            pytest.skip(f"no NVRTC in this Warp build: {e}")
+        raise
+    ptx = [p for p in map(str, out) if p.endswith(".ptx")]
+    assert ptx, out
+    text = open(ptx[0], "rb").read()
+    assert b".entry" in text and b"run_tree" in text
