@@ -382,15 +382,20 @@ def _limit_forces(tree: Tree, s: Scratch, w: wp.int32, nv: wp.int32) -> wp.int32
             near = near + 1
     if near == 0:
         return 0
-    # a0 = M^-1 f, then the active set of the pushing limits until it repeats
-    for i in range(nv):
-        s.a[w, i] = s.f[w, i]
-        for k in range(i + 1):
-            s.A[w, i, k] = s.M[w, i, k]
-    _factor(s.A, w, nv)
-    _solve(s.A, w, s.a, nv)
+    # solve with the pushing limits (none at first: a0 = M^-1 f), then update which push, until they repeat
     settled = wp.int32(0)
-    for _it in range(16):
+    for _it in range(17):
+        for i in range(nv):
+            s.a[w, i] = s.f[w, i]
+            for k in range(i + 1):
+                s.A[w, i, k] = s.M[w, i, k]
+        for j in range(nl):
+            if s.lim_on[w, j] == 2:
+                dof = tree.lim_dof[j]
+                s.A[w, dof, dof] = s.A[w, dof, dof] + s.lim_d[w, j]
+                s.a[w, dof] = s.a[w, dof] + s.lim_d[w, j] * s.lim_sign[w, j] * s.lim_aref[w, j]
+        _factor(s.A, w, nv)
+        _solve(s.A, w, s.a, nv)
         changed = wp.int32(0)
         for j in range(nl):
             if s.lim_on[w, j] > 0:
@@ -403,17 +408,6 @@ def _limit_forces(tree: Tree, s: Scratch, w: wp.int32, nv: wp.int32) -> wp.int32
         if changed == 0:
             settled = 1
             break
-        for i in range(nv):
-            s.a[w, i] = s.f[w, i]
-            for k in range(i + 1):
-                s.A[w, i, k] = s.M[w, i, k]
-        for j in range(nl):
-            if s.lim_on[w, j] == 2:
-                dof = tree.lim_dof[j]
-                s.A[w, dof, dof] = s.A[w, dof, dof] + s.lim_d[w, j]
-                s.a[w, dof] = s.a[w, dof] + s.lim_d[w, j] * s.lim_sign[w, j] * s.lim_aref[w, j]
-        _factor(s.A, w, nv)
-        _solve(s.A, w, s.a, nv)
     for j in range(nl):
         if s.lim_on[w, j] == 2:
             dof = tree.lim_dof[j]

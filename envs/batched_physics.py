@@ -178,11 +178,10 @@ class WarpHeads:
         self._servo, self._advance, self._beyond_range = servo, advance, beyond_range
         self._affine_run = affine_run
         limited = np.flatnonzero(mjm.jnt_limited)
-        for name, flag in (("skip_solver", skip_solver), ("linear_tail", linear_tail)):
+        for name, flag in (("skip_solver", skip_solver), ("linear_tail", linear_tail), ("fused", fused)):
             if flag is not None and not isinstance(flag, (bool, np.bool_)):
                 raise TypeError(f"{name} must be True, False or None; got {flag!r}")
-        skip_solver = None if skip_solver is None else bool(skip_solver)
-        linear_tail = None if linear_tail is None else bool(linear_tail)
+        skip_solver, linear_tail, fused = (None if f is None else bool(f) for f in (skip_solver, linear_tail, fused))
         self._tree = self._fused_tree(mjm, fused, skip_solver, linear_tail, _solver_skippable(mjm, limited))
         #: each run stepped in one kernel launch (``envs._warp_dynamics``)
         self.fused = self._tree is not None
@@ -287,10 +286,9 @@ class WarpHeads:
 
     def _fused_tree(self, mjm, fused, skip_solver, linear_tail, skippable: bool):
         """The fused step's model (``envs._warp_dynamics.tree_model``), or None where the run is not fused
-        (``fused`` in the class docstring); a ValueError where ``fused=True`` cannot be honoured."""
-        if fused is not None and not isinstance(fused, (bool, np.bool_)):
-            raise TypeError(f"fused must be True, False or None; got {fused!r}")
-        asked = fused is not None and bool(fused)
+        (``fused`` in the class docstring); a ValueError where ``fused=True`` cannot be honoured. The
+        flags are None or bools (checked by the caller)."""
+        asked = fused is True
         if fused is None:
             fused = not self.device.is_cuda and skip_solver is not False and linear_tail is not True
         if not fused:
